@@ -1,0 +1,14 @@
+//! `caustics`: real-time caustics on wgpu, with an exact CPU reference renderer.
+//!
+//! - [`scene`]: the scene format, meshes, the validated [`scene::Scene`].
+//! - [`image_io`]: HDR images, EXR and PNG output, tone mapping.
+
+pub mod error;
+pub mod image_io;
+pub mod lightspace;
+pub mod metrics;
+pub mod reference;
+pub mod scene;
+
+pub use error::{Error, Result};
+pub use scene::Scene;

@@ -1,0 +1,140 @@
+//! Light space: how each light sees the scene. The GPU's receiver, shadow and caustic maps and
+//! the CPU reference's caustic map share this parameterization, so that the two can be compared
+//! texel by texel.
+//!
+//! - spot light (cone up to 75°): one perspective view along the spot axis, square, with a field
+//!   of view of twice the cone angle;
+//! - point light, or a spot wider than 75°: a cube of six 90° perspective views;
+//! - directional light: one orthographic view along the light direction, covering the scene's
+//!   bounds.
+//!
+//! Texel (i, j) of face f covers NDC x in [-1 + 2i/N, -1 + 2(i+1)/N] and y (top = +1) in
+//! [1 - 2(j+1)/N, 1 - 2j/N]. A caustic map stores, per texel, the caustic irradiance (W/m²) on
+//! the receiver point seen through the texel's centre.
+
+use crate::scene::{Light, Scene};
+use glam::{Mat4, Vec3, Vec4Swizzles};
+
+/// The widest spot cone drawn with one perspective view; wider ones use a cube.
+pub const MAX_SPOT_FRUSTUM_DEG: f32 = 75.0;
+
+/// One face of a light view: an eye position (or direction, for orthographic faces) and a
+/// world-to-clip matrix.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightFace {
+    pub world_to_clip: Mat4,
+    pub orthographic: bool,
+    /// Light position (perspective) or the direction light travels (orthographic).
+    pub origin_or_dir: Vec3,
+}
+
+/// How one light sees the scene: one face, or six for a cube.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LightView {
+    pub faces: Vec<LightFace>,
+    pub near: f32,
+    pub far: f32,
+}
+
+fn up_for(dir: Vec3) -> Vec3 {
+    if dir.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y }
+}
+
+impl LightView {
+    /// The light view of `light` in `scene`.
+    pub fn new(scene: &Scene, light: &Light) -> LightView {
+        let (lo, hi) = scene.bounds();
+        let center = (lo + hi) * 0.5;
+        let radius = ((hi - lo).length() * 0.5).max(1e-3);
+        match light {
+            Light::Spot { position, direction, cone_angle, .. } if cone_angle.to_degrees() <= MAX_SPOT_FRUSTUM_DEG => {
+                let far = (position.distance(center) + radius) * 1.01;
+                let near = (far * 1e-4).max(1e-3);
+                let view = Mat4::look_at_rh(*position, *position + *direction, up_for(*direction));
+                let proj = Mat4::perspective_rh(2.0 * cone_angle, 1.0, near, far);
+                LightView { faces: vec![LightFace { world_to_clip: proj * view, orthographic: false, origin_or_dir: *position }], near, far }
+            }
+            Light::Spot { position, .. } | Light::Point { position, .. } => {
+                let far = (position.distance(center) + radius) * 1.01;
+                let near = (far * 1e-4).max(1e-3);
+                let proj = Mat4::perspective_rh(std::f32::consts::FRAC_PI_2, 1.0, near, far);
+                let faces = CUBE_DIRS
+                    .iter()
+                    .map(|(d, up)| {
+                        let view = Mat4::look_at_rh(*position, *position + *d, *up);
+                        LightFace { world_to_clip: proj * view, orthographic: false, origin_or_dir: *position }
+                    })
+                    .collect();
+                LightView { faces, near, far }
+            }
+            Light::Directional { direction, .. } => {
+                let eye = center - *direction * (radius * 2.0);
+                let view = Mat4::look_at_rh(eye, center, up_for(*direction));
+                let proj = Mat4::orthographic_rh(-radius, radius, -radius, radius, radius * 0.5, radius * 3.5);
+                LightView {
+                    faces: vec![LightFace { world_to_clip: proj * view, orthographic: true, origin_or_dir: *direction }],
+                    near: radius * 0.5,
+                    far: radius * 3.5,
+                }
+            }
+        }
+    }
+
+    /// Face and texel coordinates (continuous, in texels, origin top-left) of world point `p` in a
+    /// map of `size`² texels per face; `None` outside every face.
+    pub fn project(&self, p: Vec3, size: u32) -> Option<(usize, f32, f32)> {
+        for (f, face) in self.faces.iter().enumerate() {
+            let c = face.world_to_clip * p.extend(1.0);
+            if c.w <= 0.0 {
+                continue;
+            }
+            let ndc = c.xyz() / c.w;
+            if ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0 && (0.0..=1.0).contains(&ndc.z) {
+                let s = size as f32;
+                return Some((f, (ndc.x * 0.5 + 0.5) * s, (0.5 - ndc.y * 0.5) * s));
+            }
+        }
+        None
+    }
+
+    /// The ray through texel coordinates (x, y) of face `f`: origin and unit direction.
+    pub fn texel_ray(&self, f: usize, x: f32, y: f32, size: u32) -> (Vec3, Vec3) {
+        let face = &self.faces[f];
+        let inv = face.world_to_clip.inverse();
+        let ndc_x = 2.0 * x / size as f32 - 1.0;
+        let ndc_y = 1.0 - 2.0 * y / size as f32;
+        let a = inv.project_point3(Vec3::new(ndc_x, ndc_y, 0.0));
+        let b = inv.project_point3(Vec3::new(ndc_x, ndc_y, 1.0));
+        (a, (b - a).normalize())
+    }
+
+    /// Area (m²) on a receiver, at world point `p` with unit normal `n`, that one texel of face
+    /// `f` covers. Divide a texel's flux by it to get irradiance.
+    pub fn texel_area(&self, f: usize, p: Vec3, n: Vec3, size: u32) -> f32 {
+        let face = &self.faces[f];
+        let inv = face.world_to_clip.inverse();
+        // Footprint of one texel on the plane through p facing the light, then projected onto
+        // the receiver's plane.
+        let c = face.world_to_clip * p.extend(1.0);
+        let ndc = c.xyz() / c.w;
+        let d = 2.0 / size as f32;
+        let p0 = inv.project_point3(ndc);
+        let px = inv.project_point3(ndc + Vec3::new(d, 0.0, 0.0));
+        let py = inv.project_point3(ndc + Vec3::new(0.0, d, 0.0));
+        let to_light = if face.orthographic { -face.origin_or_dir } else { (face.origin_or_dir - p).normalize() };
+        // (px - p0) and (py - p0) span a parallelogram on the plane of constant NDC depth; its
+        // area along the light ray is |cross| projected onto the ray, spread over the receiver.
+        let perp_area = (px - p0).cross(py - p0).dot(to_light).abs();
+        perp_area / n.dot(to_light).abs().max(1e-4)
+    }
+}
+
+/// Cube faces: +X, -X, +Y, -Y, +Z, -Z, each with its up vector.
+pub const CUBE_DIRS: [(Vec3, Vec3); 6] = [
+    (Vec3::X, Vec3::NEG_Y),
+    (Vec3::NEG_X, Vec3::NEG_Y),
+    (Vec3::Y, Vec3::Z),
+    (Vec3::NEG_Y, Vec3::NEG_Z),
+    (Vec3::Z, Vec3::NEG_Y),
+    (Vec3::NEG_Z, Vec3::NEG_Y),
+];

@@ -1,0 +1,1 @@
+//! The exact CPU reference renderer (in progress).
