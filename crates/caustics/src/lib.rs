@@ -4,10 +4,12 @@
 //! - [`image_io`]: HDR images, EXR and PNG output, tone mapping.
 
 pub mod error;
+pub mod gpu;
 pub mod image_io;
 pub mod lightspace;
 pub mod metrics;
 pub mod reference;
+pub mod render;
 pub mod scene;
 
 pub use error::{Error, Result};

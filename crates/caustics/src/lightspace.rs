@@ -34,6 +34,8 @@ pub struct LightView {
     pub faces: Vec<LightFace>,
     pub near: f32,
     pub far: f32,
+    /// Radius of the scene's bounding sphere (m).
+    pub scene_radius: f32,
 }
 
 fn up_for(dir: Vec3) -> Vec3 {
@@ -52,7 +54,7 @@ impl LightView {
                 let near = (far * 1e-4).max(1e-3);
                 let view = Mat4::look_at_rh(*position, *position + *direction, up_for(*direction));
                 let proj = Mat4::perspective_rh(2.0 * cone_angle, 1.0, near, far);
-                LightView { faces: vec![LightFace { world_to_clip: proj * view, orthographic: false, origin_or_dir: *position }], near, far }
+                LightView { faces: vec![LightFace { world_to_clip: proj * view, orthographic: false, origin_or_dir: *position }], near, far, scene_radius: radius }
             }
             Light::Spot { position, .. } | Light::Point { position, .. } => {
                 let far = (position.distance(center) + radius) * 1.01;
@@ -65,7 +67,7 @@ impl LightView {
                         LightFace { world_to_clip: proj * view, orthographic: false, origin_or_dir: *position }
                     })
                     .collect();
-                LightView { faces, near, far }
+                LightView { faces, near, far, scene_radius: radius }
             }
             Light::Directional { direction, .. } => {
                 let eye = center - *direction * (radius * 2.0);
@@ -75,6 +77,7 @@ impl LightView {
                     faces: vec![LightFace { world_to_clip: proj * view, orthographic: true, origin_or_dir: *direction }],
                     near: radius * 0.5,
                     far: radius * 3.5,
+                    scene_radius: radius,
                 }
             }
         }

@@ -215,9 +215,11 @@ pub fn sphere(center: Vec3, radius: f32, segments: u32) -> TriMesh {
     let mut m = TriMesh::default();
     for j in 0..=nv {
         let theta = std::f32::consts::PI * j as f32 / nv as f32;
+        // Exact poles and seam, so that the mesh is closed bit for bit.
+        let (st, ct) = if j == 0 { (0.0, 1.0) } else if j == nv { (0.0, -1.0) } else { theta.sin_cos() };
         for i in 0..=nu {
-            let phi = std::f32::consts::TAU * i as f32 / nu as f32;
-            let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
+            let phi = if i == nu { 0.0 } else { std::f32::consts::TAU * i as f32 / nu as f32 };
+            let n = Vec3::new(st * phi.cos(), ct, -st * phi.sin());
             m.positions.push(center + n * radius);
             m.normals.push(n);
         }

@@ -1,0 +1,111 @@
+// Stage: shade_receivers. Radiance of the diffuse surfaces the camera sees, for one light:
+// albedo/pi * (direct irradiance * shadow + caustic irradiance). Direct irradiance is I cos/d^2
+// (spot, point) or E cos (directional); the shadow map holds every object, casters included, so
+// light through glass arrives only as caustic. Shadows: 3x3 PCF with a normal offset. Caustics:
+// bilinear in the light-space irradiance map, over the texels whose receiver point is the
+// shaded point (so caustics do not leak onto surfaces the light cannot see).
+// Run once per light; adds into `radiance` (full) and `caustic` (caustic light only).
+
+struct ShadeParams {
+    width: u32,
+    height: u32,
+    shadow_size: u32,
+    _pad: u32,
+    camera: vec4f,
+}
+
+@group(0) @binding(0) var<uniform> light: LightGpu;
+@group(0) @binding(1) var<uniform> sp: ShadeParams;
+@group(0) @binding(2) var eye_pos: texture_2d<f32>;
+@group(0) @binding(3) var eye_nrm: texture_2d<f32>;
+@group(0) @binding(4) var shadow_map: texture_depth_2d_array;
+@group(0) @binding(5) var shadow_sampler: sampler_comparison;
+@group(0) @binding(6) var recv_pos: texture_2d_array<f32>;
+@group(0) @binding(7) var<storage, read> irradiance: array<vec4f>;
+@group(0) @binding(8) var<storage, read> materials: array<MaterialGpu>;
+@group(0) @binding(9) var<storage, read_write> radiance: array<vec4f>;
+@group(0) @binding(10) var<storage, read_write> caustic: array<vec4f>;
+
+fn face_of(p: vec3f, size: f32) -> vec4f {
+    for (var f = 0u; f < light.info.x; f++) {
+        let q = project_face(light.faces[f], p, size);
+        if (q.w > 0.5) { return vec4f(q.xyz, f32(f)); }
+    }
+    return vec4f(-1.0);
+}
+
+fn shadow(p: vec3f, n: vec3f) -> f32 {
+    let s = f32(sp.shadow_size);
+    let q0 = face_of(p, s);
+    if (q0.w < 0.0) { return 1.0; }
+    let f = u32(q0.w);
+    let l = to_light(light, p);
+    let texel = sqrt(texel_area(light.faces[f], p, l.xyz, s));
+    let po = p + n * (1.5 * texel) + l.xyz * (1.0 * texel);
+    let q = project_face(light.faces[f], po, s);
+    if (q.w < 0.5) { return 1.0; }
+    var vis = 0.0;
+    for (var y = -1; y <= 1; y++) {
+        for (var x = -1; x <= 1; x++) {
+            let uv = (q.xy + vec2f(f32(x), f32(y))) / s;
+            vis += textureSampleCompareLevel(shadow_map, shadow_sampler, uv, f, q.z);
+        }
+    }
+    return vis / 9.0;
+}
+
+fn caustic_at(p: vec3f) -> vec3f {
+    let m = light.info.w;
+    let q = face_of(p, f32(m));
+    if (q.w < 0.0) { return vec3f(0.0); }
+    let f = u32(q.w);
+    let l = to_light(light, p);
+    let texel = sqrt(texel_area(light.faces[f], p, l.xyz, f32(m)));
+    let g = q.xy - 0.5;
+    let base = vec2i(floor(g));
+    let fr = g - floor(g);
+    var acc = vec3f(0.0);
+    var wsum = 0.0;
+    for (var k = 0; k < 4; k++) {
+        let o = vec2i(k & 1, k >> 1);
+        let t = base + o;
+        if (t.x < 0 || t.y < 0 || t.x >= i32(m) || t.y >= i32(m)) { continue; }
+        let r = textureLoad(recv_pos, t, f, 0);
+        if (r.w < 0.0) { continue; }
+        // Same surface: the texel's receiver point lies within a few texels of p.
+        if (length(r.xyz - p) > 4.0 * texel) { continue; }
+        let w = select(1.0 - fr.x, fr.x, o.x == 1) * select(1.0 - fr.y, fr.y, o.y == 1);
+        acc += w * irradiance[(f * m + u32(t.y)) * m + u32(t.x)].rgb;
+        wsum += w;
+    }
+    if (wsum <= 1e-6) { return vec3f(0.0); }
+    return acc / wsum;
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3u) {
+    if (gid.x >= sp.width || gid.y >= sp.height) { return; }
+    let pw = textureLoad(eye_pos, vec2i(gid.xy), 0);
+    if (pw.w < 0.0) { return; }
+    let mat = materials[u32(pw.w)];
+    if (mat.kind.x != KIND_DIFFUSE) { return; }
+    let p = pw.xyz;
+    var n = normalize(textureLoad(eye_nrm, vec2i(gid.xy), 0).xyz);
+    if (dot(n, sp.camera.xyz - p) < 0.0) { n = -n; }
+    let l = to_light(light, p);
+    let cos_t = dot(n, l.xyz);
+    if (cos_t <= 0.0) { return; }
+    var e_direct: vec3f;
+    if (light.info.y == 2u) {
+        e_direct = light.power.rgb * cos_t;
+    } else {
+        e_direct = intensity_toward(light, -l.xyz) * cos_t / (l.w * l.w);
+    }
+    var e = vec3f(0.0);
+    if (any(e_direct > vec3f(0.0))) { e = e_direct * shadow(p, n); }
+    let ec = caustic_at(p);
+    let albedo = mat.a.rgb / PI;
+    let idx = gid.y * sp.width + gid.x;
+    radiance[idx] += vec4f(albedo * (e + ec), 0.0);
+    caustic[idx] += vec4f(albedo * ec, 0.0);
+}

@@ -1,0 +1,129 @@
+// Shared WGSL: structs the host writes (mirrored in src/gpu/types.rs, checked by a test),
+// optics (Fresnel, refraction), light-space projection and fixed-point helpers.
+// Prepended to every stage by src/gpu/shaders.rs.
+
+// One face of a light view (see src/lightspace.rs).
+struct Face {
+    world_to_clip: mat4x4f,
+    clip_to_world: mat4x4f,
+    // Light position (perspective) or the direction light travels (orthographic); w = 1 if orthographic.
+    origin: vec4f,
+}
+
+// A light view: up to 6 faces, plus the light itself.
+struct LightGpu {
+    faces: array<Face, 6>,
+    // x = face count, y = kind (0 spot, 1 point, 2 directional), z = photon grid size N, w = caustic map size M
+    info: vec4u,
+    // rgb = intensity (W/sr) or irradiance (W/m^2); a = cos of the spot cone angle
+    power: vec4f,
+    // xyz = spot axis / light direction; w = cone angle (radians)
+    axis: vec4f,
+    // x = falloff start (radians), y = fixed-point scale (units per watt), z = Gaussian sigma (texels), w = gbuffer size G
+    params: vec4f,
+    // x = bounding radius of the casters (m), y = bounding radius of the scene (m)
+    extra: vec4f,
+}
+
+// Per-object material, indexed by object id.
+struct MaterialGpu {
+    // x = kind (0 diffuse, 1 dielectric, 2 mirror, 3 conductor), y = caster (1/0)
+    kind: vec4u,
+    // diffuse: albedo; dielectric: (ior, ext_ior, -, -); mirror: reflectance; conductor: eta
+    a: vec4f,
+    // conductor: k
+    b: vec4f,
+}
+
+const KIND_DIFFUSE: u32 = 0u;
+const KIND_DIELECTRIC: u32 = 1u;
+const KIND_MIRROR: u32 = 2u;
+const KIND_CONDUCTOR: u32 = 3u;
+const INVALID: u32 = 0xffffffffu;
+const PI: f32 = 3.14159265358979;
+
+// Unpolarised Fresnel reflectance of a dielectric interface; eta = n_t / n_i.
+fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let c = clamp(cos_i, 0.0, 1.0);
+    let s2 = (1.0 - c * c) / (eta * eta);
+    if (s2 >= 1.0) { return 1.0; }
+    let ct = sqrt(1.0 - s2);
+    let rs = (c - eta * ct) / (c + eta * ct);
+    let rp = (eta * c - ct) / (eta * c + ct);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+// Unpolarised Fresnel reflectance of a conductor with complex IOR eta + i k (per channel).
+fn fresnel_conductor(cos_i: f32, eta: vec3f, k: vec3f) -> vec3f {
+    let c = clamp(cos_i, 0.0, 1.0);
+    let c2 = c * c;
+    let s2 = 1.0 - c2;
+    let e2 = eta * eta;
+    let k2 = k * k;
+    let t0 = e2 - k2 - vec3f(s2);
+    let a2b2 = sqrt(t0 * t0 + 4.0 * e2 * k2);
+    let t1 = a2b2 + vec3f(c2);
+    let a = sqrt(max(0.5 * (a2b2 + t0), vec3f(0.0)));
+    let t2 = 2.0 * c * a;
+    let rs = (t1 - t2) / (t1 + t2);
+    let t3 = c2 * a2b2 + vec3f(s2 * s2);
+    let t4 = t2 * s2;
+    let rp = rs * (t3 - t4) / (t3 + t4);
+    return 0.5 * (rp + rs);
+}
+
+// Refraction of unit d through a surface with unit normal n facing against d; eta = n_i / n_t.
+// Returns vec4(direction, 1) or vec4(0) on total internal reflection.
+fn refract_dir(d: vec3f, n: vec3f, eta: f32) -> vec4f {
+    let c = -dot(d, n);
+    let k = 1.0 - eta * eta * (1.0 - c * c);
+    if (k < 0.0) { return vec4f(0.0); }
+    return vec4f(normalize(eta * d + (eta * c - sqrt(k)) * n), 1.0);
+}
+
+// Project a world point into face f: returns (texel x, texel y, ndc depth, inside?1:0) for a
+// size x size map.
+fn project_face(face: Face, p: vec3f, size: f32) -> vec4f {
+    let c = face.world_to_clip * vec4f(p, 1.0);
+    if (c.w <= 0.0) { return vec4f(0.0, 0.0, 0.0, 0.0); }
+    let ndc = c.xyz / c.w;
+    let inside = abs(ndc.x) <= 1.0 && abs(ndc.y) <= 1.0 && ndc.z >= 0.0 && ndc.z <= 1.0;
+    return vec4f((ndc.x * 0.5 + 0.5) * size, (0.5 - ndc.y * 0.5) * size, ndc.z, select(0.0, 1.0, inside));
+}
+
+// Direction from p toward the light (unit), and distance (infinite for directional lights).
+fn to_light(light: LightGpu, p: vec3f) -> vec4f {
+    if (light.info.y == 2u) { return vec4f(-light.axis.xyz, 1e30); }
+    let o = light.faces[0].origin.xyz;
+    let v = o - p;
+    let d = length(v);
+    return vec4f(v / d, d);
+}
+
+// Radiant intensity (W/sr) of a spot or point light toward unit direction dir (from the light).
+fn intensity_toward(light: LightGpu, dir: vec3f) -> vec3f {
+    if (light.info.y == 1u) { return light.power.rgb; }
+    let angle = acos(clamp(dot(dir, light.axis.xyz), -1.0, 1.0));
+    let cone = light.axis.w;
+    let start = light.params.x;
+    var f = 1.0;
+    if (angle >= cone) { f = 0.0; } else if (angle > start) { f = (cone - angle) / (cone - start); }
+    return light.power.rgb * f;
+}
+
+// Area on a receiver (at p, unit normal n) covered by one texel of face f of an M x M map.
+fn texel_area(face: Face, p: vec3f, n: vec3f, m: f32) -> f32 {
+    let c = face.world_to_clip * vec4f(p, 1.0);
+    let ndc = c.xyz / c.w;
+    let d = 2.0 / m;
+    let q0 = face.clip_to_world * vec4f(ndc, 1.0);
+    let qx = face.clip_to_world * vec4f(ndc + vec3f(d, 0.0, 0.0), 1.0);
+    let qy = face.clip_to_world * vec4f(ndc + vec3f(0.0, d, 0.0), 1.0);
+    let p0 = q0.xyz / q0.w;
+    let px = qx.xyz / qx.w;
+    let py = qy.xyz / qy.w;
+    var tl = -face.origin.xyz;
+    if (face.origin.w < 0.5) { tl = normalize(face.origin.xyz - p); }
+    let perp = abs(dot(cross(px - p0, py - p0), tl));
+    return perp / max(abs(dot(n, tl)), 1e-4);
+}

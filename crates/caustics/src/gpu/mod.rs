@@ -1,0 +1,288 @@
+//! The GPU side: device creation, shader loading, timing and readback. Techniques live in
+//! [`crate::render`].
+
+pub mod types;
+
+use crate::error::{Error, Result};
+use std::sync::mpsc;
+
+/// Every WGSL stage, with its source. Each is prepended with `shaders/shared/common.wgsl`.
+pub const STAGES: &[(&str, &str)] = &[
+    ("raster", include_str!("../../shaders/raster.wgsl")),
+    ("photon_trace", include_str!("../../shaders/photon_trace.wgsl")),
+    ("photon_splat", include_str!("../../shaders/photon_splat.wgsl")),
+    ("caustic_resolve", include_str!("../../shaders/caustic_resolve.wgsl")),
+    ("shade_receivers", include_str!("../../shaders/shade_receivers.wgsl")),
+    ("composite", include_str!("../../shaders/composite.wgsl")),
+];
+pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
+
+/// Full source of a stage: the shared code, then the stage.
+pub fn stage_source(name: &str) -> String {
+    let src = STAGES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s).unwrap_or_else(|| panic!("no shader stage {name}"));
+    format!("{COMMON_WGSL}\n{src}")
+}
+
+/// Validate a stage with naga (the tests do this for every stage).
+pub fn validate_stage(name: &str) -> Result<naga::Module> {
+    let src = stage_source(name);
+    let module = naga::front::wgsl::parse_str(&src)
+        .map_err(|e| Error::Shader { name: name.into(), message: e.emit_to_string(&src) })?;
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+        .validate(&module)
+        .map_err(|e| Error::Shader { name: name.into(), message: format!("{e:?}") })?;
+    Ok(module)
+}
+
+/// A device and queue, and what the adapter can do.
+pub struct GpuContext {
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    /// Timestamp queries are available (pass timings are measured on the GPU).
+    pub timestamps: bool,
+}
+
+fn instance() -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    if std::env::var_os("WGPU_BACKEND").is_none() {
+        desc.backends = wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
+    }
+    wgpu::Instance::new(desc)
+}
+
+/// Every adapter wgpu can see.
+pub fn list_adapters() -> Vec<wgpu::Adapter> {
+    pollster::block_on(instance().enumerate_adapters(wgpu::Backends::all()))
+}
+
+impl GpuContext {
+    /// Open the first adapter whose name contains `name` (case-insensitive), or the default
+    /// high-performance adapter (a software one, such as lavapipe, if nothing else exists).
+    pub fn new(name: Option<&str>) -> Result<GpuContext> {
+        let inst = instance();
+        let adapters = pollster::block_on(inst.enumerate_adapters(wgpu::Backends::all()));
+        let adapter = match name {
+            Some(n) => {
+                let n = n.to_lowercase();
+                adapters.into_iter().find(|a| a.get_info().name.to_lowercase().contains(&n)).ok_or_else(|| {
+                    Error::input("<command line>", "--adapter", format!("no adapter named like \"{n}\" (see `caustics info`)"))
+                })?
+            }
+            None => {
+                let mut best = None;
+                for a in adapters {
+                    let rank = match a.get_info().device_type {
+                        wgpu::DeviceType::DiscreteGpu => 0,
+                        wgpu::DeviceType::IntegratedGpu => 1,
+                        wgpu::DeviceType::VirtualGpu => 2,
+                        wgpu::DeviceType::Cpu => 3,
+                        wgpu::DeviceType::Other => 4,
+                    };
+                    if best.as_ref().is_none_or(|(r, _)| rank < *r) {
+                        best = Some((rank, a));
+                    }
+                }
+                best.map(|(_, a)| a).ok_or_else(|| {
+                    Error::NoAdapter(
+                        "no Vulkan, Metal or DX12 adapter was found. Install a GPU driver, or Mesa's software Vulkan driver (Debian/Ubuntu: `apt-get install mesa-vulkan-drivers`), or use `--backend cpu`".into(),
+                    )
+                })?
+            }
+        };
+        let info = adapter.get_info();
+        let features = adapter.features();
+        let timestamps = features.contains(wgpu::Features::TIMESTAMP_QUERY);
+        let mut required = wgpu::Features::empty();
+        if timestamps {
+            required |= wgpu::Features::TIMESTAMP_QUERY;
+        }
+        let al = adapter.limits();
+        let limits = wgpu::Limits {
+            max_storage_buffer_binding_size: al.max_storage_buffer_binding_size,
+            max_buffer_size: al.max_buffer_size,
+            max_texture_dimension_2d: al.max_texture_dimension_2d,
+            max_compute_workgroups_per_dimension: al.max_compute_workgroups_per_dimension,
+            max_storage_buffers_per_shader_stage: al.max_storage_buffers_per_shader_stage.min(16),
+            max_sampled_textures_per_shader_stage: al.max_sampled_textures_per_shader_stage.min(16),
+            ..wgpu::Limits::default()
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("caustics"),
+            required_features: required,
+            required_limits: limits,
+            ..Default::default()
+        }))
+        .map_err(|e| Error::Device(format!("cannot open {}: {e}", info.name)))?;
+        Ok(GpuContext { adapter, device, queue, info, timestamps })
+    }
+
+    /// A compute or render shader module for a stage.
+    pub fn shader(&self, name: &str) -> wgpu::ShaderModule {
+        let src = stage_source(name);
+        self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(name),
+            source: wgpu::ShaderSource::Wgsl(src.into()),
+        })
+    }
+
+    /// A compute pipeline (layout derived from the shader) for a stage's `main`.
+    pub fn compute_pipeline(&self, name: &str) -> wgpu::ComputePipeline {
+        let module = self.shader(name);
+        self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(name),
+            layout: None,
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        })
+    }
+
+    /// Copy a buffer back to the CPU (blocking).
+    pub fn read_buffer(&self, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u8>> {
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        self.queue.submit([enc.finish()]);
+        self.map_read(&staging)
+    }
+
+    fn map_read(&self, staging: &wgpu::Buffer) -> Result<Vec<u8>> {
+        let (tx, rx) = mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+            .map_err(|e| Error::Device(format!("{e}")))?;
+        rx.recv()
+            .map_err(|e| Error::Device(e.to_string()))?
+            .map_err(|e| Error::Device(format!("readback failed: {e}")))?;
+        let data = staging.get_mapped_range(..).map_err(|e| Error::Device(format!("{e:?}")))?.to_vec();
+        staging.unmap();
+        Ok(data)
+    }
+
+    /// Copy one layer of a texture back (rows unpadded), `bpp` bytes per texel.
+    pub fn read_texture(&self, tex: &wgpu::Texture, layer: u32, bpp: u32) -> Result<Vec<u8>> {
+        let (w, h) = (tex.width(), tex.height());
+        let row = w * bpp;
+        let padded = row.div_ceil(256) * 256;
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: (padded * h) as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        enc.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: tex,
+                mip_level: 0,
+                origin: wgpu::Origin3d { x: 0, y: 0, z: layer },
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &staging,
+                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: Some(h) },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+        self.queue.submit([enc.finish()]);
+        let data = self.map_read(&staging)?;
+        let mut out = Vec::with_capacity((row * h) as usize);
+        for y in 0..h {
+            let s = (y * padded) as usize;
+            out.extend_from_slice(&data[s..s + row as usize]);
+        }
+        Ok(out)
+    }
+}
+
+/// GPU pass timer: a pair of timestamps per named pass, when the adapter supports them.
+pub struct PassTimer {
+    set: Option<wgpu::QuerySet>,
+    names: Vec<String>,
+    capacity: u32,
+}
+
+impl PassTimer {
+    pub fn new(ctx: &GpuContext, capacity: u32) -> PassTimer {
+        let set = ctx.timestamps.then(|| {
+            ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("pass timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: capacity * 2,
+            })
+        });
+        PassTimer { set, names: Vec::new(), capacity }
+    }
+
+    /// Timestamp writes for a compute pass named `name` (None when timing is off or full).
+    pub fn compute(&mut self, name: &str) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        let i = self.next(name)?;
+        Some(wgpu::ComputePassTimestampWrites {
+            query_set: self.set.as_ref()?,
+            beginning_of_pass_write_index: Some(2 * i),
+            end_of_pass_write_index: Some(2 * i + 1),
+        })
+    }
+
+    /// Timestamp writes for a render pass named `name`.
+    pub fn render(&mut self, name: &str) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
+        let i = self.next(name)?;
+        Some(wgpu::RenderPassTimestampWrites {
+            query_set: self.set.as_ref()?,
+            beginning_of_pass_write_index: Some(2 * i),
+            end_of_pass_write_index: Some(2 * i + 1),
+        })
+    }
+
+    fn next(&mut self, name: &str) -> Option<u32> {
+        self.set.as_ref()?;
+        let i = self.names.len() as u32;
+        if i >= self.capacity {
+            return None;
+        }
+        self.names.push(name.to_string());
+        Some(i)
+    }
+
+    /// Resolve and read the timings: (pass name, milliseconds), summed over passes of one name,
+    /// in first-use order. Empty when timestamps are unsupported.
+    pub fn finish(self, ctx: &GpuContext) -> Result<Vec<(String, f64)>> {
+        let Some(set) = self.set else { return Ok(Vec::new()) };
+        let n = self.names.len() as u32;
+        if n == 0 {
+            return Ok(Vec::new());
+        }
+        let buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps"),
+            size: (n * 2 * 8) as u64,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.resolve_query_set(&set, 0..n * 2, &buf, 0);
+        ctx.queue.submit([enc.finish()]);
+        let data = ctx.read_buffer(&buf, (n * 2 * 8) as u64)?;
+        let ts: &[u64] = bytemuck::cast_slice(&data);
+        let period = ctx.queue.get_timestamp_period() as f64;
+        let mut out: Vec<(String, f64)> = Vec::new();
+        for (i, name) in self.names.iter().enumerate() {
+            let ms = ts[2 * i + 1].saturating_sub(ts[2 * i]) as f64 * period * 1e-6;
+            match out.iter_mut().find(|(n, _)| n == name) {
+                Some(e) => e.1 += ms,
+                None => out.push((name.clone(), ms)),
+            }
+        }
+        Ok(out)
+    }
+}

@@ -1,0 +1,39 @@
+//! Every WGSL stage parses and validates with naga, and every GPU struct matches its WGSL
+//! declaration in size and field offsets.
+
+use caustics::gpu::{self, types::LAYOUTS};
+
+#[test]
+fn every_stage_validates() {
+    for (name, _) in gpu::STAGES {
+        if let Err(e) = gpu::validate_stage(name) {
+            panic!("{e}");
+        }
+    }
+}
+
+#[test]
+fn gpu_structs_match_wgsl() {
+    let mut checked = 0;
+    for (name, _) in gpu::STAGES {
+        let module = gpu::validate_stage(name).unwrap();
+        for (_, ty) in module.types.iter() {
+            let Some(wgsl_name) = &ty.name else { continue };
+            let naga::TypeInner::Struct { span, .. } = &ty.inner else { continue };
+            for (rust, wgsl, size) in LAYOUTS {
+                if wgsl == wgsl_name {
+                    assert_eq!(*span as usize, *size, "{rust} is {size} bytes, WGSL {wgsl} in {name} is {span}");
+                    checked += 1;
+                }
+            }
+        }
+    }
+    // Every Rust struct is declared in at least one stage.
+    for (rust, wgsl, _) in LAYOUTS {
+        let found = gpu::STAGES.iter().any(|(n, _)| {
+            gpu::validate_stage(n).unwrap().types.iter().any(|(_, t)| t.name.as_deref() == Some(*wgsl))
+        });
+        assert!(found, "{rust}: no WGSL struct {wgsl}");
+    }
+    assert!(checked >= LAYOUTS.len());
+}
