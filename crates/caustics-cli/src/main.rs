@@ -1,1 +1,297 @@
-fn main() {}
+//! `caustics`: render scenes with caustics on the GPU (or the CPU reference), compare images,
+//! list adapters. Exit codes: 0 success, 2 bad input (scene, settings, paths), 1 anything else.
+
+mod compare;
+
+use anyhow::Result;
+use caustics::render::{GpuRender, RenderSettings};
+use caustics::{Error, Scene};
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "caustics", version, about = "Real-time caustics on wgpu, with an exact CPU reference renderer")]
+#[command(after_help = "Examples:
+  caustics render                                   the built-in scene (a glass ball) to caustics.png
+  caustics render scenes/mirror_ring.json -o ring.exr --photons 2048
+  caustics render scenes/glass_bunny.json --dump dump/   also writes the light-space buffers
+  caustics render scenes/glass_sphere.json --backend cpu -o reference.exr
+  caustics compare out.exr references/a_glass_sphere_caustic.exr --mask references/a_glass_sphere_specmask.png
+  caustics info                                     adapters, features and limits")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Backend {
+    /// The GPU if an adapter exists, else the CPU reference (with a notice).
+    Auto,
+    Gpu,
+    Cpu,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Technique {
+    /// Basic caustic maps: a dense N x N photon grid per light-view face.
+    Basic,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene to PNG (tone-mapped) or EXR (linear radiance, W/(m^2 sr)).
+    Render {
+        /// Scene file (JSON, see docs/scene-format.md); the built-in glass-ball scene if omitted.
+        scene: Option<PathBuf>,
+        /// Output image (.png or .exr).
+        #[arg(short, long, default_value = "caustics.png")]
+        output: PathBuf,
+        /// Photon grid size N per light-view face (N x N photons), 16 to 8192.
+        #[arg(long, default_value_t = 1024)]
+        photons: u32,
+        /// Image size WxH, overriding the scene's camera.
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        #[arg(long, value_enum, default_value = "basic")]
+        technique: Technique,
+        #[arg(long, value_enum, default_value = "auto")]
+        backend: Backend,
+        /// Caustic map size per light-view face (texels).
+        #[arg(long, default_value_t = 1024)]
+        caustic_map: u32,
+        /// Shadow map size per light-view face (texels).
+        #[arg(long, default_value_t = 2048)]
+        shadow_map: u32,
+        /// Gaussian splat standard deviation (caustic-map texels).
+        #[arg(long, default_value_t = 1.0)]
+        splat_sigma: f32,
+        /// Memory for one batch of photons, MiB.
+        #[arg(long, default_value_t = 64)]
+        photon_memory: u64,
+        /// Write the intermediate buffers (light-space normals, depths, caustic maps) here.
+        #[arg(long)]
+        dump: Option<PathBuf>,
+        /// Also write the caustic light alone (same format as the output) to this file.
+        #[arg(long)]
+        caustic_output: Option<PathBuf>,
+        /// Adapter to use (a part of its name, see `caustics info`).
+        #[arg(long)]
+        adapter: Option<String>,
+        /// CPU backend: camera samples per pixel.
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        /// CPU backend: random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
+    /// Compare two images (EXR or PNG): RMSE, relative MSE, PSNR, FLIP, energy ratio.
+    Compare {
+        a: PathBuf,
+        b: PathBuf,
+        /// Only compare where this mask is black (e.g. a reference's *_specmask.png).
+        #[arg(long)]
+        mask: Option<PathBuf>,
+        /// Write a difference heat map (PNG).
+        #[arg(long)]
+        heatmap: Option<PathBuf>,
+    },
+    /// List GPU adapters with their features and limits.
+    Info,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WxH, e.g. 800x600")?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("bad width \"{w}\""))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("bad height \"{h}\""))?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("{w}x{h}: each side must be 1 to 16384 pixels"));
+    }
+    Ok((w, h))
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            let input = e.downcast_ref::<Error>().is_some_and(Error::is_input);
+            eprintln!("error: {e:#}");
+            ExitCode::from(if input { 2 } else { 1 })
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Info => info(),
+        Command::Compare { a, b, mask, heatmap } => Ok(compare::run(&a, &b, mask.as_deref(), heatmap.as_deref())?),
+        Command::Render {
+            scene,
+            output,
+            photons,
+            size,
+            technique: Technique::Basic,
+            backend,
+            caustic_map,
+            shadow_map,
+            splat_sigma,
+            photon_memory,
+            dump,
+            caustic_output,
+            adapter,
+            spp,
+            seed,
+        } => {
+            check_output(&output)?;
+            if let Some(c) = &caustic_output {
+                check_output(c)?;
+            }
+            let mut scene = match &scene {
+                Some(p) => Scene::load(p)?,
+                None => Scene::default_scene(),
+            };
+            for w in &scene.warnings {
+                eprintln!("warning: {w}");
+            }
+            if let Some((w, h)) = size {
+                scene.camera.width = w;
+                scene.camera.height = h;
+            }
+            let settings = RenderSettings {
+                photons,
+                caustic_map_size: caustic_map,
+                shadow_map_size: shadow_map,
+                splat_sigma,
+                photon_memory: photon_memory.saturating_mul(1 << 20),
+                ..Default::default()
+            };
+            let ctx = match backend {
+                Backend::Cpu => None,
+                Backend::Gpu => Some(caustics::gpu::GpuContext::new(adapter.as_deref())?),
+                Backend::Auto => match caustics::gpu::GpuContext::new(adapter.as_deref()) {
+                    Ok(c) => Some(c),
+                    Err(e @ Error::Input { .. }) => return Err(e.into()),
+                    Err(e) => {
+                        eprintln!("notice: {e}");
+                        eprintln!("notice: rendering with the CPU reference renderer instead");
+                        None
+                    }
+                },
+            };
+            println!("scene: {} ({}), {}x{}", scene.name, scene.source, scene.camera.width, scene.camera.height);
+            match ctx {
+                Some(ctx) => {
+                    let t0 = std::time::Instant::now();
+                    let out = caustics::render::render(&ctx, &scene, &settings, dump.as_deref())?;
+                    let wall = t0.elapsed().as_secs_f64() * 1e3;
+                    report_gpu(&out, wall);
+                    out.image.write(&output, scene.exposure)?;
+                    if let Some(c) = &caustic_output {
+                        out.caustic.write(c, scene.exposure)?;
+                    }
+                }
+                None => {
+                    let rs = caustics::reference::ReferenceSettings {
+                        photons_per_light: (photons as u64).pow(2),
+                        camera_spp: spp,
+                        seed,
+                        ..Default::default()
+                    };
+                    let t0 = std::time::Instant::now();
+                    let out = caustics::reference::render(&scene, &rs)?;
+                    println!("backend: CPU reference, {:.1} s", t0.elapsed().as_secs_f64());
+                    println!("{}", out.stats);
+                    out.image.write(&output, scene.exposure)?;
+                    if let Some(c) = &caustic_output {
+                        out.caustic.write(c, scene.exposure)?;
+                    }
+                }
+            }
+            println!("wrote {}", output.display());
+            Ok(())
+        }
+    }
+}
+
+/// Fail early, before any work, when the output cannot be written.
+fn check_output(path: &Path) -> Result<(), Error> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("png") | Some("exr")) {
+        return Err(Error::input(
+            "<command line>",
+            "--output",
+            format!("{}: the output must end in .png or .exr", path.display()),
+        ));
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(Error::input(
+            "<command line>",
+            "--output",
+            format!("{}: folder {} does not exist", path.display(), dir.display()),
+        ));
+    }
+    if path.is_dir() {
+        return Err(Error::input("<command line>", "--output", format!("{} is a folder", path.display())));
+    }
+    Ok(())
+}
+
+fn report_gpu(out: &GpuRender, wall_ms: f64) {
+    println!("adapter: {}", out.adapter);
+    println!("photons: {} traced in {} batch(es)", out.photons_traced, out.batches);
+    if out.timings.is_empty() {
+        println!("GPU pass timings: unavailable (no timestamp queries on this adapter)");
+    } else {
+        println!("{:<22} {:>10}", "pass", "GPU ms");
+        let mut total = 0.0;
+        for (name, ms) in &out.timings {
+            println!("{name:<22} {ms:>10.3}");
+            total += ms;
+        }
+        println!("{:<22} {:>10.3}", "total", total);
+        let photon_ms: f64 = out.timings.iter().filter(|(n, _)| n.starts_with("photon_")).map(|(_, ms)| ms).sum();
+        if photon_ms > 0.0 {
+            println!("photons per ms (trace + splat): {:.0}", out.photons_traced as f64 / photon_ms);
+        }
+    }
+    for (i, f) in out.flux.iter().enumerate() {
+        println!(
+            "light {i}: caustic flux {:.4} W onto casters, {:.4} W in the caustic map; lost: {:.4} W no exit, {:.4} W total internal reflection, {:.4} W no receiver, {:.4} W outside the map",
+            f.emitted, f.landed, f.lost_no_exit, f.lost_tir, f.lost_no_receiver, f.lost_outside
+        );
+    }
+    println!("wall time: {wall_ms:.0} ms");
+}
+
+fn info() -> Result<()> {
+    let adapters = caustics::gpu::list_adapters();
+    if adapters.is_empty() {
+        println!(
+            "no GPU adapter found. Install a GPU driver or Mesa's software Vulkan driver (apt-get install mesa-vulkan-drivers); `caustics render` falls back to the CPU reference."
+        );
+    }
+    for a in adapters {
+        let i = a.get_info();
+        let f = a.features();
+        let l = a.limits();
+        println!("{} ({:?}, {:?}, driver {} {})", i.name, i.backend, i.device_type, i.driver, i.driver_info);
+        for (name, feat) in [
+            ("timestamp queries", wgpu::Features::TIMESTAMP_QUERY),
+            ("timestamps inside passes", wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES),
+            ("float32 atomics", wgpu::Features::SHADER_FLOAT32_ATOMIC),
+            ("int64 atomics (min/max)", wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX),
+            ("subgroups", wgpu::Features::SUBGROUP),
+        ] {
+            println!("  {name:<26} {}", if f.contains(feat) { "yes" } else { "no" });
+        }
+        println!("  max texture 2D            {}", l.max_texture_dimension_2d);
+        println!("  max storage binding       {} MiB", l.max_storage_buffer_binding_size >> 20);
+        println!("  max buffer                {} MiB", l.max_buffer_size >> 20);
+    }
+    Ok(())
+}

@@ -55,8 +55,15 @@ impl Image {
             "exr" => write_atomically(path, |tmp| self.write_exr(tmp)),
             "png" => write_atomically(path, |tmp| {
                 let bytes: Vec<u8> = self.pixels.iter().flat_map(|p| tonemap(*p, exposure)).collect();
-                image::save_buffer_with_format(tmp, &bytes, self.width, self.height, image::ColorType::Rgb8, image::ImageFormat::Png)
-                    .map_err(|e| e.to_string())
+                image::save_buffer_with_format(
+                    tmp,
+                    &bytes,
+                    self.width,
+                    self.height,
+                    image::ColorType::Rgb8,
+                    image::ImageFormat::Png,
+                )
+                .map_err(|e| e.to_string())
             }),
             _ => Err(Error::Output { path: path.into(), message: "unknown image type (use .png or .exr)".into() }),
         }

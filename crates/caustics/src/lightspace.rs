@@ -54,7 +54,16 @@ impl LightView {
                 let near = (far * 1e-4).max(1e-3);
                 let view = Mat4::look_at_rh(*position, *position + *direction, up_for(*direction));
                 let proj = Mat4::perspective_rh(2.0 * cone_angle, 1.0, near, far);
-                LightView { faces: vec![LightFace { world_to_clip: proj * view, orthographic: false, origin_or_dir: *position }], near, far, scene_radius: radius }
+                LightView {
+                    faces: vec![LightFace {
+                        world_to_clip: proj * view,
+                        orthographic: false,
+                        origin_or_dir: *position,
+                    }],
+                    near,
+                    far,
+                    scene_radius: radius,
+                }
             }
             Light::Spot { position, .. } | Light::Point { position, .. } => {
                 let far = (position.distance(center) + radius) * 1.01;
@@ -74,7 +83,11 @@ impl LightView {
                 let view = Mat4::look_at_rh(eye, center, up_for(*direction));
                 let proj = Mat4::orthographic_rh(-radius, radius, -radius, radius, radius * 0.5, radius * 3.5);
                 LightView {
-                    faces: vec![LightFace { world_to_clip: proj * view, orthographic: true, origin_or_dir: *direction }],
+                    faces: vec![LightFace {
+                        world_to_clip: proj * view,
+                        orthographic: true,
+                        origin_or_dir: *direction,
+                    }],
                     near: radius * 0.5,
                     far: radius * 3.5,
                     scene_radius: radius,

@@ -135,8 +135,12 @@ fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation) -> Geometr
         ranges.push(start..indices.len() as u32);
         let caster = u32::from(o.caustic_caster);
         mats.push(match *scene.material_of(o) {
-            Material::Diffuse { albedo } => MaterialGpu { kind: [0, caster, 0, 0], a: albedo.extend(0.0).to_array(), b: [0.0; 4] },
-            Material::Dielectric { ior, ext_ior } => MaterialGpu { kind: [1, caster, 0, 0], a: [ior, ext_ior, 0.0, 0.0], b: [0.0; 4] },
+            Material::Diffuse { albedo } => {
+                MaterialGpu { kind: [0, caster, 0, 0], a: albedo.extend(0.0).to_array(), b: [0.0; 4] }
+            }
+            Material::Dielectric { ior, ext_ior } => {
+                MaterialGpu { kind: [1, caster, 0, 0], a: [ior, ext_ior, 0.0, 0.0], b: [0.0; 4] }
+            }
             Material::Mirror { reflectance } => {
                 MaterialGpu { kind: [2, caster, 0, 0], a: reflectance.extend(0.0).to_array(), b: [0.0; 4] }
             }
@@ -177,7 +181,11 @@ struct Raster {
 
 fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     const ATTRS: [wgpu::VertexAttribute; 3] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Uint32];
-    wgpu::VertexBufferLayout { array_stride: std::mem::size_of::<Vertex>() as u64, step_mode: wgpu::VertexStepMode::Vertex, attributes: &ATTRS }
+    wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<Vertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &ATTRS,
+    }
 }
 
 fn raster_pipelines(ctx: &GpuContext) -> Raster {
@@ -187,7 +195,11 @@ fn raster_pipelines(ctx: &GpuContext) -> Raster {
         entries: &[wgpu::BindGroupLayoutEntry {
             binding: 0,
             visibility: wgpu::ShaderStages::VERTEX,
-            ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
             count: None,
         }],
     });
@@ -236,7 +248,14 @@ fn raster_pipelines(ctx: &GpuContext) -> Raster {
     }
 }
 
-fn texture(ctx: &GpuContext, label: &str, size: u32, size_y: u32, layers: u32, format: wgpu::TextureFormat) -> wgpu::Texture {
+fn texture(
+    ctx: &GpuContext,
+    label: &str,
+    size: u32,
+    size_y: u32,
+    layers: u32,
+    format: wgpu::TextureFormat,
+) -> wgpu::Texture {
     ctx.device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
         size: wgpu::Extent3d { width: size, height: size_y, depth_or_array_layers: layers },
@@ -244,7 +263,9 @@ fn texture(ctx: &GpuContext, label: &str, size: u32, size_y: u32, layers: u32, f
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
         format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
         view_formats: &[],
     })
 }
@@ -259,7 +280,10 @@ fn layer_view(t: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
 }
 
 fn array_view(t: &wgpu::Texture) -> wgpu::TextureView {
-    t.create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::D2Array), ..Default::default() })
+    t.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(wgpu::TextureViewDimension::D2Array),
+        ..Default::default()
+    })
 }
 
 /// A geometry buffer: position + object id, normal, depth; `layers` faces.
@@ -324,7 +348,10 @@ impl DrawCtx<'_> {
                     view: n,
                     depth_slice: None,
                     resolve_target: None,
-                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
                 }),
             ],
             None => vec![],
@@ -355,7 +382,16 @@ impl DrawCtx<'_> {
 }
 
 #[expect(clippy::too_many_arguments, reason = "every field of the light's uniform")]
-fn light_gpu(view: &LightView, light: &Light, n: u32, m: u32, g: u32, sigma: f32, scale: f64, caster_radius: f32) -> LightGpu {
+fn light_gpu(
+    view: &LightView,
+    light: &Light,
+    n: u32,
+    m: u32,
+    g: u32,
+    sigma: f32,
+    scale: f64,
+    caster_radius: f32,
+) -> LightGpu {
     let mut faces = [FaceGpu { world_to_clip: [[0.0; 4]; 4], clip_to_world: [[0.0; 4]; 4], origin: [0.0; 4] }; 6];
     for (f, face) in view.faces.iter().enumerate() {
         faces[f] = FaceGpu {
@@ -365,7 +401,9 @@ fn light_gpu(view: &LightView, light: &Light, n: u32, m: u32, g: u32, sigma: f32
         };
     }
     let (kind, power, axis, cone, start) = match light {
-        Light::Spot { direction, cone_angle, falloff_start, intensity, .. } => (0, *intensity, *direction, *cone_angle, *falloff_start),
+        Light::Spot { direction, cone_angle, falloff_start, intensity, .. } => {
+            (0, *intensity, *direction, *cone_angle, *falloff_start)
+        }
         Light::Point { intensity, .. } => (1, *intensity, Vec3::Y, std::f32::consts::PI, std::f32::consts::PI),
         Light::Directional { direction, irradiance } => (2, *irradiance, *direction, 0.0, 0.0),
     };
@@ -412,7 +450,10 @@ impl RenderSettings {
         }
         let max_tex = ctx.device.limits().max_texture_dimension_2d;
         if !(16..=2048).contains(&self.caustic_map_size) || self.caustic_map_size > max_tex {
-            return cl("--caustic-map", format!("must be 16 to {} texels (got {})", max_tex.min(2048), self.caustic_map_size));
+            return cl(
+                "--caustic-map",
+                format!("must be 16 to {} texels (got {})", max_tex.min(2048), self.caustic_map_size),
+            );
         }
         if !(16..=max_tex).contains(&self.shadow_map_size) {
             return cl("--shadow-map", format!("must be 16 to {max_tex} texels (got {})", self.shadow_map_size));
@@ -424,7 +465,7 @@ impl RenderSettings {
         if c.width > max_tex || c.height > max_tex {
             return cl("--size", format!("{}x{} exceeds this adapter's texture limit {max_tex}", c.width, c.height));
         }
-        let max_bind = ctx.device.limits().max_storage_buffer_binding_size as u64;
+        let max_bind = ctx.device.limits().max_storage_buffer_binding_size;
         let faces = scene.lights.iter().map(|l| LightView::new(scene, l).faces.len() as u64).max().unwrap_or(1);
         let accum = (self.caustic_map_size as u64).pow(2) * faces * 24;
         if accum > max_bind {
@@ -488,9 +529,39 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
     let eye_recv = GBuffer::new(ctx, "eye_receivers", w, h, 1);
     let eye_front = GBuffer::new(ctx, "eye_specular_front", w, h, 1);
     let eye_back = GBuffer::new(ctx, "eye_specular_back", w, h, 1);
-    dc.pass(&mut enc, &mut timer, "eye_receivers", &raster.none, Some((&eye_recv.pos, &eye_recv.nrm)), &eye_recv.depth, 0, cam_clip, Subset::Diffuse);
-    dc.pass(&mut enc, &mut timer, "eye_specular_front", &raster.none, Some((&eye_front.pos, &eye_front.nrm)), &eye_front.depth, 0, cam_clip, Subset::Specular);
-    dc.pass(&mut enc, &mut timer, "eye_specular_back", &raster.back, Some((&eye_back.pos, &eye_back.nrm)), &eye_back.depth, 0, cam_clip, Subset::Specular);
+    dc.pass(
+        &mut enc,
+        &mut timer,
+        "eye_receivers",
+        &raster.none,
+        Some((&eye_recv.pos, &eye_recv.nrm)),
+        &eye_recv.depth,
+        0,
+        cam_clip,
+        Subset::Diffuse,
+    );
+    dc.pass(
+        &mut enc,
+        &mut timer,
+        "eye_specular_front",
+        &raster.none,
+        Some((&eye_front.pos, &eye_front.nrm)),
+        &eye_front.depth,
+        0,
+        cam_clip,
+        Subset::Specular,
+    );
+    dc.pass(
+        &mut enc,
+        &mut timer,
+        "eye_specular_back",
+        &raster.back,
+        Some((&eye_back.pos, &eye_back.nrm)),
+        &eye_back.depth,
+        0,
+        cam_clip,
+        Subset::Specular,
+    );
 
     let img_bytes = (w as u64) * (h as u64) * 16;
     let storage = |label: &str, size: u64| {
@@ -502,7 +573,11 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
         })
     };
     let uniform = |label: &str, bytes: &[u8]| {
-        dev.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytes, usage: wgpu::BufferUsages::UNIFORM })
+        dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytes,
+            usage: wgpu::BufferUsages::UNIFORM,
+        })
     };
     let radiance = storage("radiance", img_bytes);
     let caustic_rad = storage("caustic_radiance", img_bytes);
@@ -520,7 +595,7 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
     let n = s.photons;
     let g = n.min(MAX_GBUFFER);
     let photon_stride = std::mem::size_of::<Photon>() as u64;
-    let max_bind = dev.limits().max_storage_buffer_binding_size as u64;
+    let max_bind = dev.limits().max_storage_buffer_binding_size;
     let batch_cap = (s.photon_memory.min(max_bind) / photon_stride).min(65535 * 64);
     let per_face = (n as u64) * (n as u64);
     let batch = per_face.min(batch_cap).max(1);
@@ -551,25 +626,80 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
         let back = GBuffer::new(ctx, "light_caster_back", g, g, nf);
         for (f, face) in view.faces.iter().enumerate() {
             let f = f as u32;
-            dc.pass(&mut enc, &mut timer, "light_shadow", &raster.depth_only, None, &shadow, f, face.world_to_clip, Subset::All);
-            dc.pass(&mut enc, &mut timer, "light_receivers", &raster.none, Some((&recv.pos, &recv.nrm)), &recv.depth, f, face.world_to_clip, Subset::Diffuse);
-            dc.pass(&mut enc, &mut timer, "light_caster_front", &raster.none, Some((&front.pos, &front.nrm)), &front.depth, f, face.world_to_clip, Subset::Casters);
-            dc.pass(&mut enc, &mut timer, "light_caster_back", &raster.back, Some((&back.pos, &back.nrm)), &back.depth, f, face.world_to_clip, Subset::Casters);
+            dc.pass(
+                &mut enc,
+                &mut timer,
+                "light_shadow",
+                &raster.depth_only,
+                None,
+                &shadow,
+                f,
+                face.world_to_clip,
+                Subset::All,
+            );
+            dc.pass(
+                &mut enc,
+                &mut timer,
+                "light_receivers",
+                &raster.none,
+                Some((&recv.pos, &recv.nrm)),
+                &recv.depth,
+                f,
+                face.world_to_clip,
+                Subset::Diffuse,
+            );
+            dc.pass(
+                &mut enc,
+                &mut timer,
+                "light_caster_front",
+                &raster.none,
+                Some((&front.pos, &front.nrm)),
+                &front.depth,
+                f,
+                face.world_to_clip,
+                Subset::Casters,
+            );
+            dc.pass(
+                &mut enc,
+                &mut timer,
+                "light_caster_back",
+                &raster.back,
+                Some((&back.pos, &back.nrm)),
+                &back.depth,
+                f,
+                face.world_to_clip,
+                Subset::Casters,
+            );
         }
         let texels = (m as u64) * (m as u64) * nf as u64;
         let accum = storage("caustic_flux", texels * 24);
         let irradiance = storage("caustic_irradiance", texels * 16);
         let stats = storage("flux_stats", 48);
-        let (fpv, fnv, bpv, bnv, rpv, rnv) =
-            (array_view(&front.pos), array_view(&front.nrm), array_view(&back.pos), array_view(&back.nrm), array_view(&recv.pos), array_view(&recv.nrm));
+        let (fpv, fnv, bpv, bnv, rpv, rnv) = (
+            array_view(&front.pos),
+            array_view(&front.nrm),
+            array_view(&back.pos),
+            array_view(&back.nrm),
+            array_view(&recv.pos),
+            array_view(&recv.nrm),
+        );
         let trace_layout = trace_pl.get_bind_group_layout(0);
         let splat_layout = splat_pl.get_bind_group_layout(0);
         for f in 0..nf {
             let mut off = 0u64;
             while off < per_face {
                 let count = batch.min(per_face - off);
-                let tp = uniform("trace_params", bytemuck::bytes_of(&TraceParams { face: f, batch_offset: off as u32, batch_count: count as u32, _pad: 0 }));
-                let sp = uniform("splat_params", bytemuck::bytes_of(&CountParams { count: count as u32, _pad: [0; 3] }));
+                let tp = uniform(
+                    "trace_params",
+                    bytemuck::bytes_of(&TraceParams {
+                        face: f,
+                        batch_offset: off as u32,
+                        batch_count: count as u32,
+                        _pad: 0,
+                    }),
+                );
+                let sp =
+                    uniform("splat_params", bytemuck::bytes_of(&CountParams { count: count as u32, _pad: [0; 3] }));
                 let tbg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("photon_trace"),
                     layout: &trace_layout,
@@ -599,13 +729,19 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
                 });
                 let groups = (count as u32).div_ceil(64);
                 {
-                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("photon_trace"), timestamp_writes: timer.compute("photon_trace") });
+                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("photon_trace"),
+                        timestamp_writes: timer.compute("photon_trace"),
+                    });
                     cp.set_pipeline(&trace_pl);
                     cp.set_bind_group(0, &tbg, &[]);
                     cp.dispatch_workgroups(groups, 1, 1);
                 }
                 {
-                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("photon_splat"), timestamp_writes: timer.compute("photon_splat") });
+                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("photon_splat"),
+                        timestamp_writes: timer.compute("photon_splat"),
+                    });
                     cp.set_pipeline(&splat_pl);
                     cp.set_bind_group(0, &sbg, &[]);
                     cp.dispatch_workgroups(groups, 1, 1);
@@ -629,7 +765,10 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
             ],
         });
         {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("caustic_resolve"), timestamp_writes: timer.compute("caustic_resolve") });
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("caustic_resolve"),
+                timestamp_writes: timer.compute("caustic_resolve"),
+            });
             cp.set_pipeline(&resolve_pl);
             cp.set_bind_group(0, &rbg, &[]);
             cp.dispatch_workgroups((texels as u32).div_ceil(256), 1, 1);
@@ -637,7 +776,13 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
         // Shade the camera's diffuse surfaces with this light.
         let shp = uniform(
             "shade_params",
-            bytemuck::bytes_of(&ShadeParams { width: w, height: h, shadow_size: s.shadow_map_size, _pad: 0, camera: cam.position.extend(1.0).to_array() }),
+            bytemuck::bytes_of(&ShadeParams {
+                width: w,
+                height: h,
+                shadow_size: s.shadow_map_size,
+                _pad: 0,
+                camera: cam.position.extend(1.0).to_array(),
+            }),
         );
         let (erp, ern, shv) = (layer_view(&eye_recv.pos, 0), layer_view(&eye_recv.nrm, 0), array_view(&shadow));
         let shbg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -658,7 +803,10 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
             ],
         });
         {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("shade_receivers"), timestamp_writes: timer.compute("shade_receivers") });
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("shade_receivers"),
+                timestamp_writes: timer.compute("shade_receivers"),
+            });
             cp.set_pipeline(&shade_pl);
             cp.set_bind_group(0, &shbg, &[]);
             cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
@@ -680,7 +828,8 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
             _pad: [0; 2],
         }),
     );
-    let views = [&eye_recv.pos, &eye_recv.nrm, &eye_front.pos, &eye_front.nrm, &eye_back.pos, &eye_back.nrm].map(|t| layer_view(t, 0));
+    let views = [&eye_recv.pos, &eye_recv.nrm, &eye_front.pos, &eye_front.nrm, &eye_back.pos, &eye_back.nrm]
+        .map(|t| layer_view(t, 0));
     let cbg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("composite"),
         layout: &composite_pl.get_bind_group_layout(0),
@@ -700,7 +849,10 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
         ],
     });
     {
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("composite"), timestamp_writes: timer.compute("composite") });
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("composite"),
+            timestamp_writes: timer.compute("composite"),
+        });
         cp.set_pipeline(&composite_pl);
         cp.set_bind_group(0, &cbg, &[]);
         cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
@@ -716,19 +868,36 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
     for pl in &per_light {
         let texels = (m as u64) * (m as u64);
         let irr = ctx.read_buffer(&pl.irradiance, texels * pl.faces as u64 * 16)?;
-        caustic_maps.push((0..pl.faces as u64).map(|f| bytes_to_image(&irr[(f * texels * 16) as usize..((f + 1) * texels * 16) as usize], m, m)).collect());
+        caustic_maps.push(
+            (0..pl.faces as u64)
+                .map(|f| bytes_to_image(&irr[(f * texels * 16) as usize..((f + 1) * texels * 16) as usize], m, m))
+                .collect(),
+        );
         let acc = ctx.read_buffer(&pl.accum, texels * pl.faces as u64 * 24)?;
         let words: &[u32] = bytemuck::cast_slice(&acc);
         caustic_flux_bits.push(words.chunks_exact(2).map(|c| (c[1] as u64) << 32 | c[0] as u64).collect());
         let st = ctx.read_buffer(&pl.stats, 48)?;
         let sw: &[u32] = bytemuck::cast_slice(&st);
         let v = |i: usize| ((sw[i + 1] as u64) << 32 | sw[i] as u64) as f64 / pl.scale;
-        flux.push(FluxStats { emitted: v(0), landed: v(2), lost_no_exit: v(4), lost_tir: v(6), lost_no_receiver: v(8), lost_outside: v(10) });
+        flux.push(FluxStats {
+            emitted: v(0),
+            landed: v(2),
+            lost_no_exit: v(4),
+            lost_tir: v(6),
+            lost_no_receiver: v(8),
+            lost_outside: v(10),
+        });
     }
     let timings = timer.finish(ctx)?;
 
     if let Some(dir) = dump {
-        dump_buffers(ctx, dir, &per_light.iter().map(|p| (&p.recv, &p.casters, p.faces)).collect::<Vec<_>>(), &caustic_maps, scene.exposure)?;
+        dump_buffers(
+            ctx,
+            dir,
+            &per_light.iter().map(|p| (&p.recv, &p.casters, p.faces)).collect::<Vec<_>>(),
+            &caustic_maps,
+            scene.exposure,
+        )?;
     }
 
     Ok(GpuRender {
@@ -764,11 +933,13 @@ fn dump_buffers(
                 let nn: &[[f32; 4]] = bytemuck::cast_slice(&nrm);
                 let mut ni = Image::new(w, h);
                 let mut di = Image::new(w, h);
-                let valid: Vec<f32> = p.iter().filter(|q| q[3] >= 0.0).map(|q| Vec3::new(q[0], q[1], q[2]).length()).collect();
+                let valid: Vec<f32> =
+                    p.iter().filter(|q| q[3] >= 0.0).map(|q| Vec3::new(q[0], q[1], q[2]).length()).collect();
                 let (dmin, dmax) = valid.iter().fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
                 for i in 0..(w * h) as usize {
                     if p[i][3] >= 0.0 {
-                        ni.pixels[i] = [0.5 + 0.5 * nn[i][0], 0.5 + 0.5 * nn[i][1], 0.5 + 0.5 * nn[i][2]].map(|c| crate::image_io::srgb_decode(c));
+                        ni.pixels[i] = [0.5 + 0.5 * nn[i][0], 0.5 + 0.5 * nn[i][1], 0.5 + 0.5 * nn[i][2]]
+                            .map(crate::image_io::srgb_decode);
                         let d = Vec3::new(p[i][0], p[i][1], p[i][2]).length();
                         let t = 1.0 - (d - dmin) / (dmax - dmin).max(1e-6);
                         di.pixels[i] = [crate::image_io::srgb_decode(t); 3];
@@ -794,7 +965,19 @@ fn dump_buffers(
 
 fn write_linear_png(img: &Image, path: &Path) -> Result<()> {
     crate::image_io::write_atomically(path, |tmp| {
-        let bytes: Vec<u8> = img.pixels.iter().flat_map(|p| p.map(|c| (255.0 * crate::image_io::srgb_encode(c.clamp(0.0, 1.0))).round() as u8)).collect();
-        image::save_buffer_with_format(tmp, &bytes, img.width, img.height, image::ColorType::Rgb8, image::ImageFormat::Png).map_err(|e| e.to_string())
+        let bytes: Vec<u8> = img
+            .pixels
+            .iter()
+            .flat_map(|p| p.map(|c| (255.0 * crate::image_io::srgb_encode(c.clamp(0.0, 1.0))).round() as u8))
+            .collect();
+        image::save_buffer_with_format(
+            tmp,
+            &bytes,
+            img.width,
+            img.height,
+            image::ColorType::Rgb8,
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| e.to_string())
     })
 }

@@ -30,9 +30,9 @@ fn gpu_structs_match_wgsl() {
     }
     // Every Rust struct is declared in at least one stage.
     for (rust, wgsl, _) in LAYOUTS {
-        let found = gpu::STAGES.iter().any(|(n, _)| {
-            gpu::validate_stage(n).unwrap().types.iter().any(|(_, t)| t.name.as_deref() == Some(*wgsl))
-        });
+        let found = gpu::STAGES
+            .iter()
+            .any(|(n, _)| gpu::validate_stage(n).unwrap().types.iter().any(|(_, t)| t.name.as_deref() == Some(*wgsl)));
         assert!(found, "{rust}: no WGSL struct {wgsl}");
     }
     assert!(checked >= LAYOUTS.len());

@@ -19,7 +19,8 @@ pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 
 /// Full source of a stage: the shared code, then the stage.
 pub fn stage_source(name: &str) -> String {
-    let src = STAGES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s).unwrap_or_else(|| panic!("no shader stage {name}"));
+    let src =
+        STAGES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s).unwrap_or_else(|| panic!("no shader stage {name}"));
     format!("{COMMON_WGSL}\n{src}")
 }
 
@@ -67,7 +68,11 @@ impl GpuContext {
             Some(n) => {
                 let n = n.to_lowercase();
                 adapters.into_iter().find(|a| a.get_info().name.to_lowercase().contains(&n)).ok_or_else(|| {
-                    Error::input("<command line>", "--adapter", format!("no adapter named like \"{n}\" (see `caustics info`)"))
+                    Error::input(
+                        "<command line>",
+                        "--adapter",
+                        format!("no adapter named like \"{n}\" (see `caustics info`)"),
+                    )
                 })?
             }
             None => {

@@ -1,1 +1,471 @@
-//! The exact CPU reference renderer (in progress).
+//! The exact CPU reference renderer.
+//!
+//! Independent of the GPU code (its own BVH, intersection, sampling and tracers); it shares
+//! only the scene loading and the light-space parameterization ([`crate::lightspace`]) so that
+//! its caustic maps compare texel by texel with the GPU's.
+//!
+//! - [`bvh`], [`geometry`]: binned-SAH triangle BVH with watertight intersection, exact
+//!   analytic spheres, rectangles and open cylinders.
+//! - [`emit`]: photon emission with exact flux per photon.
+//! - [`trace`]: photon tracing (caustic light: deposits in light-space maps, and light tracing
+//!   to the camera) and camera path tracing (everything else).
+//! - [`sampling`]: counter-based random numbers and scrambled Sobol points: the same seed gives
+//!   the same image whatever the thread count.
+//!
+//! See `docs/reference-renderer.md`.
+
+pub mod bvh;
+pub mod emit;
+pub mod geometry;
+pub mod optics;
+pub mod sampling;
+pub mod trace;
+
+use crate::error::{Error, Result};
+use crate::image_io::Image;
+use crate::lightspace::LightView;
+use crate::scene::Scene;
+use emit::Emitter;
+use geometry::Accel;
+use glam::Vec3;
+use rayon::prelude::*;
+use sampling::{PathRng, hash, sobol_2d};
+use std::time::Instant;
+pub use trace::Deposit;
+use trace::{PhotonOut, PhotonTargets, Tracer};
+
+/// The most photons per light the reference accepts (2^40).
+pub const MAX_PHOTONS: u64 = 1 << 40;
+
+/// How much work the reference does.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReferenceSettings {
+    /// Photons emitted per light (toward the specular objects; see [`emit`]).
+    pub photons_per_light: u64,
+    /// Camera paths per pixel for the non-caustic image.
+    pub camera_spp: u32,
+    /// Most surface interactions per path (specular and diffuse).
+    pub max_depth: u32,
+    /// Seed of every random number.
+    pub seed: u64,
+    /// Texels per side of each light-space caustic map face.
+    pub caustic_map_size: u32,
+}
+
+impl Default for ReferenceSettings {
+    fn default() -> Self {
+        ReferenceSettings {
+            photons_per_light: 4_000_000,
+            camera_spp: 16,
+            max_depth: 16,
+            seed: 0,
+            caustic_map_size: 512,
+        }
+    }
+}
+
+impl ReferenceSettings {
+    /// Check the settings; errors name the command-line option.
+    pub fn validate(&self) -> Result<()> {
+        let e = |field: &str, m: String| Err(Error::input("<command line>", field, m));
+        if self.photons_per_light == 0 || self.photons_per_light > MAX_PHOTONS {
+            return e("--photons", format!("must be between 1 and 2^40 per light (got {})", self.photons_per_light));
+        }
+        if self.camera_spp == 0 || self.camera_spp > 1 << 20 {
+            return e("--spp", format!("must be between 1 and 1048576 (got {})", self.camera_spp));
+        }
+        if self.max_depth == 0 || self.max_depth > 1024 {
+            return e("--max-depth", format!("must be between 1 and 1024 (got {})", self.max_depth));
+        }
+        if self.caustic_map_size == 0 || self.caustic_map_size > 16384 {
+            return e(
+                "--caustic-map-size",
+                format!("must be between 1 and 16384 texels (got {})", self.caustic_map_size),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Work done and speed.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReferenceStats {
+    /// Photon paths traced (all lights).
+    pub photon_paths: u64,
+    /// Camera paths traced.
+    pub camera_paths: u64,
+    /// Rays cast (closest-hit and shadow/visibility rays) in photon and camera passes.
+    pub rays: u64,
+    /// Rays of the photon pass alone.
+    pub photon_rays: u64,
+    pub threads: usize,
+    pub triangles: usize,
+    pub bvh_seconds: f64,
+    pub photon_seconds: f64,
+    pub camera_seconds: f64,
+    /// Wall-clock seconds, everything included.
+    pub seconds: f64,
+    /// Rays per second over the photon and camera passes.
+    pub rays_per_second: f64,
+    /// Photon paths per second in the photon pass.
+    pub photon_paths_per_second: f64,
+}
+
+impl std::fmt::Display for ReferenceStats {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let t = self.threads.max(1) as f64;
+        write!(
+            f,
+            "CPU reference: {} photon paths in {:.2} s ({:.2} M paths/s, {:.2} M/s per thread), {} camera paths in {:.2} s; \
+             {} rays ({:.2} M rays/s, {:.2} M/s per thread); {} threads, {} triangles (BVH {:.3} s); {:.2} s in all",
+            self.photon_paths,
+            self.photon_seconds,
+            self.photon_paths_per_second / 1e6,
+            self.photon_paths_per_second / 1e6 / t,
+            self.camera_paths,
+            self.camera_seconds,
+            self.rays,
+            self.rays_per_second / 1e6,
+            self.rays_per_second / 1e6 / t,
+            self.threads,
+            self.triangles,
+            self.bvh_seconds,
+            self.seconds
+        )
+    }
+}
+
+/// A complete reference rendering.
+#[derive(Debug, Clone)]
+pub struct ReferenceOutput {
+    /// `caustic + nocaustic`, radiance W/(m² sr).
+    pub image: Image,
+    /// Caustic light only (light tracing), W/(m² sr).
+    pub caustic: Image,
+    /// Everything else (camera paths), W/(m² sr).
+    pub nocaustic: Image,
+    /// Per pixel and channel: the estimated variance of `caustic`'s value (the variance of the
+    /// mean over [`CAUSTIC_BATCHES`] independent batches of photons), (W/(m² sr))².
+    pub caustic_variance: Image,
+    /// Per pixel and channel: the estimated variance of `nocaustic`'s value (sample variance
+    /// of the camera paths / spp; an over-estimate, since the paths are stratified).
+    pub nocaustic_variance: Image,
+    /// Per light, per light-view face: N×N caustic irradiance (W/m²).
+    pub caustic_maps: Vec<Vec<Image>>,
+    pub stats: ReferenceStats,
+}
+
+/// The photons of each light are traced in this many batches (consecutive index ranges); the
+/// spread between batches gives the caustic variance estimate.
+pub const CAUSTIC_BATCHES: u64 = 16;
+const CHUNK: u64 = 8192;
+const WAVE: u64 = 64;
+
+fn check_scene(scene: &Scene) -> Result<()> {
+    if scene.medium.is_some() {
+        return Err(Error::input(
+            &scene.source,
+            "medium",
+            "the CPU reference renderer does not render participating media (yet); remove the medium or use the GPU backend",
+        ));
+    }
+    Ok(())
+}
+
+/// Render the full reference image, its caustic and non-caustic parts, and the light-space
+/// caustic maps.
+pub fn render(scene: &Scene, settings: &ReferenceSettings) -> Result<ReferenceOutput> {
+    settings.validate()?;
+    check_scene(scene)?;
+    let t0 = Instant::now();
+    let accel = Accel::new(scene);
+    let bvh_seconds = t0.elapsed().as_secs_f64();
+    let tracer = Tracer::new(scene, &accel, settings.max_depth);
+    let photons = photon_pass(scene, &tracer, settings, true, true)?;
+    let t1 = Instant::now();
+    let (nocaustic, nocaustic_variance, camera_rays) = camera_pass(scene, &tracer, settings);
+    let camera_seconds = t1.elapsed().as_secs_f64();
+    let mut image = nocaustic.clone();
+    for (p, c) in image.pixels.iter_mut().zip(&photons.caustic.pixels) {
+        for k in 0..3 {
+            p[k] += c[k];
+        }
+    }
+    let (w, h) = (scene.camera.width as u64, scene.camera.height as u64);
+    let rays = photons.rays + camera_rays;
+    let busy = photons.seconds + camera_seconds;
+    let stats = ReferenceStats {
+        photon_paths: photons.paths,
+        camera_paths: w * h * settings.camera_spp as u64,
+        rays,
+        photon_rays: photons.rays,
+        threads: rayon::current_num_threads(),
+        triangles: accel.triangle_count(),
+        bvh_seconds,
+        photon_seconds: photons.seconds,
+        camera_seconds,
+        seconds: t0.elapsed().as_secs_f64(),
+        rays_per_second: rays as f64 / busy.max(1e-9),
+        photon_paths_per_second: photons.paths as f64 / photons.seconds.max(1e-9),
+    };
+    Ok(ReferenceOutput {
+        image,
+        caustic: photons.caustic,
+        nocaustic,
+        caustic_variance: photons.variance,
+        nocaustic_variance,
+        caustic_maps: photons.maps,
+        stats,
+    })
+}
+
+/// Only the light-space caustic maps (no camera image): per light, per face, N×N W/m².
+pub fn caustic_maps(scene: &Scene, settings: &ReferenceSettings) -> Result<Vec<Vec<Image>>> {
+    settings.validate()?;
+    check_scene(scene)?;
+    let accel = Accel::new(scene);
+    let tracer = Tracer::new(scene, &accel, settings.max_depth);
+    Ok(photon_pass(scene, &tracer, settings, false, true)?.maps)
+}
+
+/// The first diffuse hit of every caustic photon of light `light` (tests and tools; memory
+/// grows with the photon count).
+pub fn caustic_deposits(scene: &Scene, settings: &ReferenceSettings, light: usize) -> Result<Vec<Deposit>> {
+    settings.validate()?;
+    check_scene(scene)?;
+    if light >= scene.lights.len() {
+        return Err(Error::input(
+            &scene.source,
+            "lights",
+            format!("no light {light} (the scene has {})", scene.lights.len()),
+        ));
+    }
+    let accel = Accel::new(scene);
+    let tracer = Tracer::new(scene, &accel, settings.max_depth);
+    let Some(emitter) = caustic_emitter(scene, light) else { return Ok(Vec::new()) };
+    let targets = PhotonTargets { camera: false, map: None, record_deposits: true };
+    let n = settings.photons_per_light;
+    let chunks: Vec<u64> = (0..n.div_ceil(CHUNK)).collect();
+    let outs: Vec<PhotonOut> = chunks
+        .par_iter()
+        .map(|&c| trace_range(&tracer, &emitter, settings, light, c * CHUNK..((c + 1) * CHUNK).min(n), &targets))
+        .collect();
+    Ok(outs.into_iter().flat_map(|o| o.deposits).collect())
+}
+
+/// Bounding sphere of the specular objects (those that can start a caustic path).
+fn specular_sphere(scene: &Scene) -> Option<(Vec3, f32)> {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    let mut any = false;
+    for o in &scene.objects {
+        if scene.material_of(o).is_specular() {
+            let (a, b) = o.shape.bounds();
+            lo = lo.min(a);
+            hi = hi.max(b);
+            any = true;
+        }
+    }
+    any.then(|| ((lo + hi) * 0.5, (hi - lo).length() * 0.5 * 1.001 + 1e-6))
+}
+
+/// The emitter of caustic photons of light `li`: toward the specular objects only.
+fn caustic_emitter(scene: &Scene, li: usize) -> Option<Emitter> {
+    let (c, r) = specular_sphere(scene)?;
+    let (lo, hi) = scene.bounds();
+    let sc = (lo + hi) * 0.5;
+    let sr = (hi - lo).length() * 0.5 * 1.001 + 1e-6;
+    Some(Emitter::toward(&scene.lights[li], c, r, sc, sr))
+}
+
+/// Trace photons `range` of light `li`.
+fn trace_range(
+    tracer: &Tracer,
+    emitter: &Emitter,
+    settings: &ReferenceSettings,
+    li: usize,
+    range: std::ops::Range<u64>,
+    targets: &PhotonTargets,
+) -> PhotonOut {
+    let mut out = PhotonOut::default();
+    let scramble = hash(&[settings.seed, li as u64, 0x5048_4f54_4f4e]);
+    let inv_n = 1.0 / settings.photons_per_light as f64;
+    // Trace the chunk's photons in Morton order of their emission samples: neighbouring
+    // photons then take neighbouring paths, which keeps the BVH in cache. The order is fixed
+    // by the samples alone, so results still do not depend on the thread count.
+    let mut todo: Vec<(u32, u64, glam::Vec2)> = range
+        .map(|i| {
+            let u = sobol_2d(i, scramble);
+            (morton(u), i, u)
+        })
+        .collect();
+    todo.sort_unstable_by_key(|&(m, i, _)| (m, i));
+    for (_, i, u) in todo {
+        let Some(e) = emitter.sample(u) else { continue };
+        let mut rng = PathRng::new(hash(&[settings.seed, li as u64, i, 0x7061_7468]));
+        let flux = (e.flux_n.as_dvec3() * inv_n).as_vec3();
+        tracer.trace_photon(e.origin, e.dir, flux, &mut rng, targets, &mut out);
+    }
+    out
+}
+
+struct PhotonResult {
+    caustic: Image,
+    variance: Image,
+    maps: Vec<Vec<Image>>,
+    paths: u64,
+    rays: u64,
+    seconds: f64,
+}
+
+fn photon_pass(
+    scene: &Scene,
+    tracer: &Tracer,
+    settings: &ReferenceSettings,
+    camera: bool,
+    maps: bool,
+) -> Result<PhotonResult> {
+    let t0 = Instant::now();
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let npix = (w * h) as usize;
+    let size = settings.caustic_map_size;
+    let views: Vec<LightView> = scene.lights.iter().map(|l| LightView::new(scene, l)).collect();
+    let mut map_acc: Vec<Vec<Vec<Vec3>>> = views
+        .iter()
+        .map(|v| if maps { vec![vec![Vec3::ZERO; (size * size) as usize]; v.faces.len()] } else { Vec::new() })
+        .collect();
+    let emitters: Vec<Option<Emitter>> = (0..scene.lights.len()).map(|li| caustic_emitter(scene, li)).collect();
+    let n = settings.photons_per_light;
+    let batches = CAUSTIC_BATCHES.min(n);
+    let mut sum = vec![glam::DVec3::ZERO; if camera { npix } else { 0 }];
+    let mut sumsq = sum.clone();
+    let mut batch_img = vec![Vec3::ZERO; sum.len()];
+    let (mut paths, mut rays) = (0u64, 0u64);
+    for b in 0..batches {
+        batch_img.iter_mut().for_each(|p| *p = Vec3::ZERO);
+        for (li, em) in emitters.iter().enumerate() {
+            let Some(em) = em else { continue };
+            let targets = PhotonTargets { camera, map: maps.then_some((&views[li], size)), record_deposits: false };
+            let (start, end) = (n * b / batches, n * (b + 1) / batches);
+            paths += end - start;
+            let nchunks = (end - start).div_ceil(CHUNK);
+            let mut c0 = 0;
+            while c0 < nchunks {
+                let c1 = (c0 + WAVE).min(nchunks);
+                let outs: Vec<PhotonOut> = (c0..c1)
+                    .into_par_iter()
+                    .map(|c| {
+                        let r = start + c * CHUNK..(start + (c + 1) * CHUNK).min(end);
+                        trace_range(tracer, em, settings, li, r, &targets)
+                    })
+                    .collect();
+                // Applied in chunk order: the sums do not depend on the thread count.
+                for o in outs {
+                    rays += o.rays;
+                    for (pix, v) in o.cam {
+                        batch_img[pix as usize] += v;
+                    }
+                    for (f, t, v) in o.map {
+                        map_acc[li][f as usize][t as usize] += v;
+                    }
+                }
+                c0 = c1;
+            }
+        }
+        // A batch is 1/B of the photons: B × its sum estimates the image.
+        let bf = batches as f64;
+        for ((s, q), v) in sum.iter_mut().zip(sumsq.iter_mut()).zip(&batch_img) {
+            let x = v.as_dvec3() * bf;
+            *s += x;
+            *q += x * x;
+        }
+    }
+    let bf = batches as f64;
+    let mut caustic = Image::new(w, h);
+    let mut variance = Image::new(w, h);
+    if camera {
+        for i in 0..npix {
+            let mean = sum[i] / bf;
+            let var = if batches > 1 {
+                ((sumsq[i] - sum[i] * mean) / (bf * (bf - 1.0))).max(glam::DVec3::ZERO)
+            } else {
+                glam::DVec3::ZERO
+            };
+            caustic.pixels[i] = mean.as_vec3().to_array();
+            variance.pixels[i] = var.as_vec3().to_array();
+        }
+    }
+    let maps = map_acc
+        .into_iter()
+        .map(|faces| {
+            faces
+                .into_iter()
+                .map(|f| Image { width: size, height: size, pixels: f.into_iter().map(|v| v.to_array()).collect() })
+                .collect()
+        })
+        .collect();
+    Ok(PhotonResult { caustic, variance, maps, paths, rays, seconds: t0.elapsed().as_secs_f64() })
+}
+
+/// The non-caustic image: `camera_spp` camera paths per pixel, stratified in the pixel; and
+/// the variance of each pixel's value.
+fn camera_pass(scene: &Scene, tracer: &Tracer, settings: &ReferenceSettings) -> (Image, Image, u64) {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let spp = settings.camera_spp;
+    type Row = (Vec<[f32; 3]>, Vec<[f32; 3]>, u64);
+    let rows: Vec<Row> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut row = Vec::with_capacity(w as usize);
+            let mut var = Vec::with_capacity(w as usize);
+            let mut rays = 0;
+            for x in 0..w {
+                let pix = (y * w + x) as u64;
+                let scramble = hash(&[settings.seed, 0xCA3E, pix]);
+                let mut acc = glam::DVec3::ZERO;
+                let mut acc2 = glam::DVec3::ZERO;
+                for s in 0..spp as u64 {
+                    let u = sobol_2d(s, scramble);
+                    let mut rng = PathRng::new(hash(&[settings.seed, 0xCA3F, pix, s]));
+                    let (l, r) = tracer.trace_camera(x as f32 + u.x, y as f32 + u.y, &mut rng);
+                    rays += r;
+                    let l = l.as_dvec3();
+                    acc += l;
+                    acc2 += l * l;
+                }
+                let n = spp as f64;
+                let mean = acc / n;
+                let v = if spp > 1 {
+                    ((acc2 - acc * mean) / (n * (n - 1.0))).max(glam::DVec3::ZERO)
+                } else {
+                    glam::DVec3::ZERO
+                };
+                row.push(mean.as_vec3().to_array());
+                var.push(v.as_vec3().to_array());
+            }
+            (row, var, rays)
+        })
+        .collect();
+    let mut img = Image::new(w, h);
+    let mut vimg = Image::new(w, h);
+    let mut rays = 0;
+    for (y, (row, var, r)) in rows.into_iter().enumerate() {
+        rays += r;
+        img.pixels[y * w as usize..(y + 1) * w as usize].copy_from_slice(&row);
+        vimg.pixels[y * w as usize..(y + 1) * w as usize].copy_from_slice(&var);
+    }
+    (img, vimg, rays)
+}
+
+/// Morton code of a point of the unit square (16 bits per axis).
+fn morton(u: glam::Vec2) -> u32 {
+    fn spread(x: u32) -> u32 {
+        let mut x = x & 0xffff;
+        x = (x | (x << 8)) & 0x00ff_00ff;
+        x = (x | (x << 4)) & 0x0f0f_0f0f;
+        x = (x | (x << 2)) & 0x3333_3333;
+        (x | (x << 1)) & 0x5555_5555
+    }
+    let q = |v: f32| ((v * 65536.0) as u32).min(65535);
+    spread(q(u.x)) | (spread(q(u.y)) << 1)
+}

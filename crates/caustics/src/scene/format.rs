@@ -3,8 +3,8 @@
 //! These structs mirror the file one to one (serde, unknown fields rejected); `super::load`
 //! validates them and resolves them into a [`super::Scene`].
 
-use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
+use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use std::collections::BTreeMap;
 use std::fmt;
 
@@ -32,9 +32,7 @@ impl<'de> Deserialize<'de> for Rgb {
             fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Rgb, A::Error> {
                 let mut c = [0.0f32; 3];
                 for (i, x) in c.iter_mut().enumerate() {
-                    *x = seq
-                        .next_element()?
-                        .ok_or_else(|| de::Error::invalid_length(i, &self))?;
+                    *x = seq.next_element()?.ok_or_else(|| de::Error::invalid_length(i, &self))?;
                 }
                 if seq.next_element::<f32>()?.is_some() {
                     return Err(de::Error::invalid_length(4, &self));

@@ -22,8 +22,7 @@ pub fn load_obj(path: &Path) -> Result<TriMesh, String> {
     let mut text = String::new();
     {
         use std::io::Read;
-        let r: Box<dyn Read> =
-            if gz { Box::new(flate2::read::GzDecoder::new(file)) } else { Box::new(file) };
+        let r: Box<dyn Read> = if gz { Box::new(flate2::read::GzDecoder::new(file)) } else { Box::new(file) };
         BufReader::new(r).read_to_string(&mut text).map_err(|e| format!("cannot read: {e}"))?;
     }
     check_obj_indices(&text)?;
@@ -80,9 +79,8 @@ fn check_obj_indices(text: &str) -> Result<(), String> {
                         if part.is_empty() || k == 1 {
                             continue;
                         }
-                        let idx: i64 = part
-                            .parse()
-                            .map_err(|_| format!("line {}: bad face index \"{part}\"", lineno + 1))?;
+                        let idx: i64 =
+                            part.parse().map_err(|_| format!("line {}: bad face index \"{part}\"", lineno + 1))?;
                         let count = if k == 0 { nv } else { nn };
                         let ok = if idx > 0 { idx <= count } else { idx < 0 && -idx <= count };
                         if !ok {
@@ -103,9 +101,9 @@ fn check_obj_indices(text: &str) -> Result<(), String> {
 
 impl TriMesh {
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        self.positions.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), p| {
-            (a.min(*p), b.max(*p))
-        })
+        self.positions
+            .iter()
+            .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), p| (a.min(*p), b.max(*p)))
     }
 
     /// Unnormalised face normal (length = twice the area).
@@ -216,7 +214,13 @@ pub fn sphere(center: Vec3, radius: f32, segments: u32) -> TriMesh {
     for j in 0..=nv {
         let theta = std::f32::consts::PI * j as f32 / nv as f32;
         // Exact poles and seam, so that the mesh is closed bit for bit.
-        let (st, ct) = if j == 0 { (0.0, 1.0) } else if j == nv { (0.0, -1.0) } else { theta.sin_cos() };
+        let (st, ct) = if j == 0 {
+            (0.0, 1.0)
+        } else if j == nv {
+            (0.0, -1.0)
+        } else {
+            theta.sin_cos()
+        };
         for i in 0..=nu {
             let phi = if i == nu { 0.0 } else { std::f32::consts::TAU * i as f32 / nu as f32 };
             let n = Vec3::new(st * phi.cos(), ct, -st * phi.sin());

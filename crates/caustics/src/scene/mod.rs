@@ -143,11 +143,25 @@ impl Material {
 /// Geometry of an object, in world space.
 #[derive(Debug, Clone)]
 pub enum Shape {
-    Sphere { center: Vec3, radius: f32 },
+    Sphere {
+        center: Vec3,
+        radius: f32,
+    },
     /// A rectangle spanning `size.x` along `u` and `size.y` along `v = normal × u`.
-    Rectangle { center: Vec3, normal: Vec3, u: Vec3, v: Vec3, size: Vec2 },
+    Rectangle {
+        center: Vec3,
+        normal: Vec3,
+        u: Vec3,
+        v: Vec3,
+        size: Vec2,
+    },
     /// An open tube (no caps) from `base_center` along unit `axis`.
-    Cylinder { base_center: Vec3, axis: Vec3, radius: f32, height: f32 },
+    Cylinder {
+        base_center: Vec3,
+        axis: Vec3,
+        radius: f32,
+        height: f32,
+    },
     /// A triangle mesh, already transformed to world space.
     Mesh(Arc<TriMesh>),
 }
@@ -319,11 +333,7 @@ impl Ctx<'_> {
         Error::input(self.file, field, msg)
     }
     fn finite3(&self, field: &str, a: [f32; 3]) -> Result<Vec3> {
-        if a.iter().all(|x| x.is_finite()) {
-            Ok(v3(a))
-        } else {
-            Err(self.err(field, "must be finite numbers"))
-        }
+        if a.iter().all(|x| x.is_finite()) { Ok(v3(a)) } else { Err(self.err(field, "must be finite numbers")) }
     }
     fn dir(&self, field: &str, a: [f32; 3]) -> Result<Vec3> {
         let v = self.finite3(field, a)?;
@@ -358,7 +368,9 @@ impl Ctx<'_> {
 fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
     let cx = Ctx { file };
     if d.schema_version != 1 {
-        return Err(cx.err("schema_version", format!("unsupported version {} (this program reads 1)", d.schema_version)));
+        return Err(
+            cx.err("schema_version", format!("unsupported version {} (this program reads 1)", d.schema_version))
+        );
     }
     if d.name.trim().is_empty() {
         return Err(cx.err("name", "must not be empty (it is the output file stem)"));
@@ -406,7 +418,10 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                 }
                 let start = falloff_start_deg.unwrap_or(0.75 * cone);
                 if !(start >= 0.0 && start <= cone) {
-                    return Err(cx.err(f("falloff_start_deg"), format!("must lie in [0, cone_angle_deg = {cone}] (got {start})")));
+                    return Err(cx.err(
+                        f("falloff_start_deg"),
+                        format!("must lie in [0, cone_angle_deg = {cone}] (got {start})"),
+                    ));
                 }
                 Light::Spot {
                     position: cx.finite3(&f("position"), *position)?,
@@ -499,7 +514,9 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                     Some(Scale(s)) => {
                         for (k, x) in s.iter().enumerate() {
                             if !(x.is_finite() && *x > 0.0) {
-                                return Err(cx.err(f(&format!("transform.scale[{k}]")), format!("must be positive (got {x})")));
+                                return Err(
+                                    cx.err(f(&format!("transform.scale[{k}]")), format!("must be positive (got {x})"))
+                                );
                             }
                         }
                         v3(s)
@@ -512,9 +529,8 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                 }
                 let translate = cx.finite3(&f("transform.translate"), t.map_or([0.0; 3], |t| t.translate))?;
                 let full = resolve_path(base, path);
-                let mut m = mesh::load_obj(&full).map_err(|msg| {
-                    cx.err(f("path"), format!("mesh {}: {msg}", full.display()))
-                })?;
+                let mut m = mesh::load_obj(&full)
+                    .map_err(|msg| cx.err(f("path"), format!("mesh {}: {msg}", full.display())))?;
                 let dropped = m.drop_degenerate();
                 if dropped > 0 {
                     warnings.push(format!(

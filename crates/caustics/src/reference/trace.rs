@@ -1,0 +1,325 @@
+//! The two tracers: photons from the lights (caustic light) and paths from the camera
+//! (everything else).
+//!
+//! Split of the light transport, as in the references: a photon whose first surface after the
+//! light is specular is caustic light; the camera paths add up direct lighting (next-event
+//! estimation to the delta lights, with shadow rays that stop at any surface, glass included)
+//! at every diffuse vertex, which is exactly the light whose first bounce is diffuse. So the
+//! two parts never overlap and together are the whole image, except caustics seen through a
+//! specular chain from the camera (specular → diffuse → specular → camera), which neither
+//! renders (the references lack them too: the specular mask marks those pixels).
+
+use super::geometry::{Accel, spawn};
+use super::optics::{fresnel_conductor, fresnel_dielectric, reflect, refract};
+use super::sampling::{PathRng, cosine_hemisphere};
+use crate::lightspace::LightView;
+use crate::scene::{Camera, Light, Material, Scene};
+use glam::Vec3;
+use std::f32::consts::PI;
+
+/// Pinhole projection of world points to pixels.
+#[derive(Clone, Debug)]
+pub struct CamProj {
+    pub pos: Vec3,
+    fwd: Vec3,
+    right: Vec3,
+    up: Vec3,
+    tan_x: f32,
+    tan_y: f32,
+    w: u32,
+    h: u32,
+    /// Area of one pixel on the image plane at distance 1.
+    pix_area: f32,
+}
+
+impl CamProj {
+    pub fn new(c: &Camera) -> Self {
+        let tan_y = (c.fov_y_deg.to_radians() * 0.5).tan();
+        let tan_x = tan_y * c.aspect();
+        CamProj {
+            pos: c.position,
+            fwd: c.forward(),
+            right: c.right(),
+            up: c.true_up(),
+            tan_x,
+            tan_y,
+            w: c.width,
+            h: c.height,
+            pix_area: (2.0 * tan_x / c.width as f32) * (2.0 * tan_y / c.height as f32),
+        }
+    }
+
+    /// Pixel index and cos θ (to the optical axis) of the ray from the camera along unit `d`.
+    #[inline]
+    pub fn project(&self, d: Vec3) -> Option<(u32, f32)> {
+        let z = d.dot(self.fwd);
+        if z <= 1e-6 {
+            return None;
+        }
+        let sx = d.dot(self.right) / z / self.tan_x;
+        let sy = d.dot(self.up) / z / self.tan_y;
+        let x = (sx + 1.0) * 0.5 * self.w as f32;
+        let y = (1.0 - sy) * 0.5 * self.h as f32;
+        if !(x >= 0.0 && y >= 0.0 && x < self.w as f32 && y < self.h as f32) {
+            return None;
+        }
+        let (xi, yi) = ((x as u32).min(self.w - 1), (y as u32).min(self.h - 1));
+        Some((yi * self.w + xi, z))
+    }
+}
+
+/// A caustic photon's first diffuse hit (for tests and tools).
+#[derive(Clone, Copy, Debug)]
+pub struct Deposit {
+    pub position: Vec3,
+    /// Geometric normal, facing the side the photon came from.
+    pub normal: Vec3,
+    /// Direction the photon travelled.
+    pub dir: Vec3,
+    /// Flux (W) the photon carries.
+    pub flux: Vec3,
+    /// Specular interactions before it.
+    pub specular_bounces: u32,
+    pub object: u32,
+}
+
+/// What tracing a batch of photons produces.
+#[derive(Default)]
+pub struct PhotonOut {
+    /// (pixel, radiance contribution).
+    pub cam: Vec<(u32, Vec3)>,
+    /// (face, texel, irradiance contribution).
+    pub map: Vec<(u32, u32, Vec3)>,
+    pub deposits: Vec<Deposit>,
+    pub rays: u64,
+}
+
+/// Where photon results go.
+pub struct PhotonTargets<'a> {
+    pub camera: bool,
+    pub map: Option<(&'a LightView, u32)>,
+    pub record_deposits: bool,
+}
+
+pub struct Tracer<'a> {
+    pub scene: &'a Scene,
+    pub accel: &'a Accel,
+    mats: Vec<Material>,
+    pub max_depth: u32,
+    pub cam: CamProj,
+}
+
+impl<'a> Tracer<'a> {
+    pub fn new(scene: &'a Scene, accel: &'a Accel, max_depth: u32) -> Self {
+        let mats = scene.objects.iter().map(|o| scene.materials[o.material]).collect();
+        Tracer { scene, accel, mats, max_depth, cam: CamProj::new(&scene.camera) }
+    }
+
+    /// Trace one photon with flux `flux` (W) from `o` along `d`.
+    pub fn trace_photon(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        flux: Vec3,
+        rng: &mut PathRng,
+        t: &PhotonTargets,
+        out: &mut PhotonOut,
+    ) {
+        let (mut o, mut d, mut flux) = (o, d, flux);
+        let mut spec = 0u32;
+        let mut diffuse_seen = 0u32;
+        for depth in 0..self.max_depth {
+            out.rays += 1;
+            let Some(h) = self.accel.intersect(o, d, f32::INFINITY) else { break };
+            let front = d.dot(h.ng) < 0.0;
+            let (ng, ns) = if front { (h.ng, h.ns) } else { (-h.ng, -h.ns) };
+            match self.mats[h.object as usize] {
+                Material::Diffuse { albedo } => {
+                    if depth == 0 {
+                        break; // direct light: not caustic
+                    }
+                    if diffuse_seen == 0 {
+                        if t.record_deposits {
+                            out.deposits.push(Deposit {
+                                position: h.p,
+                                normal: ng,
+                                dir: d,
+                                flux,
+                                specular_bounces: spec,
+                                object: h.object,
+                            });
+                        }
+                        if let Some((view, size)) = t.map
+                            && let Some((f, x, y)) = view.project(h.p, size)
+                        {
+                            let (xi, yi) = ((x as u32).min(size - 1), (y as u32).min(size - 1));
+                            let area = view.texel_area(f, h.p, ng, size);
+                            if area > 0.0 && area.is_finite() {
+                                out.map.push((f as u32, yi * size + xi, flux / area));
+                            }
+                        }
+                    }
+                    if t.camera {
+                        self.connect_camera(h.p, ng, ns, albedo, flux, out);
+                    }
+                    diffuse_seen += 1;
+                    if depth + 1 >= self.max_depth {
+                        break;
+                    }
+                    let q = albedo.max_element().min(1.0);
+                    if q <= 0.0 || rng.next_f32() >= q {
+                        break;
+                    }
+                    flux *= albedo / q;
+                    d = cosine_hemisphere(rng.next_2d(), ng);
+                    o = spawn(h.p, h.ng, d);
+                    continue;
+                }
+                m => {
+                    let Some((nd, w)) = scatter_specular(m, d, ng, ns, front, rng) else { break };
+                    spec += 1;
+                    flux *= w;
+                    d = nd;
+                    o = spawn(h.p, h.ng, d);
+                }
+            }
+            if flux.max_element() <= 0.0 {
+                break;
+            }
+        }
+    }
+
+    /// Light tracing: splat the radiance that the diffuse point `p` sends to the camera.
+    fn connect_camera(&self, p: Vec3, ng: Vec3, ns: Vec3, albedo: Vec3, flux: Vec3, out: &mut PhotonOut) {
+        let to = self.cam.pos - p;
+        let dist2 = to.length_squared();
+        let dist = dist2.sqrt();
+        let dir = to / dist;
+        if dir.dot(ng) <= 0.0 {
+            return; // camera on the other side: a Lambertian reflector sends nothing there
+        }
+        let cos_x = dir.dot(ns).max(0.0);
+        let Some((pix, cos_c)) = self.cam.project(-dir) else { return };
+        out.rays += 1;
+        if self.accel.occluded(spawn(p, ng, dir), dir, dist * (1.0 - 1e-5)) {
+            return;
+        }
+        let g = cos_x / (dist2 * self.cam.pix_area * cos_c * cos_c * cos_c);
+        out.cam.push((pix, flux * albedo * (g / PI)));
+    }
+
+    /// Radiance along the camera ray through image point (x, y), without caustic light.
+    /// Returns (radiance, rays traced).
+    pub fn trace_camera(&self, x: f32, y: f32, rng: &mut PathRng) -> (Vec3, u64) {
+        let mut o = self.cam.pos;
+        let mut d = self.scene.camera.ray_dir(x, y);
+        let mut beta = Vec3::ONE;
+        let mut l = Vec3::ZERO;
+        let mut rays = 0u64;
+        for depth in 0..self.max_depth {
+            rays += 1;
+            let Some(h) = self.accel.intersect(o, d, f32::INFINITY) else { break };
+            let front = d.dot(h.ng) < 0.0;
+            let (ng, ns) = if front { (h.ng, h.ns) } else { (-h.ng, -h.ns) };
+            match self.mats[h.object as usize] {
+                Material::Diffuse { albedo } => {
+                    let (e, r) = self.direct_irradiance(h.p, h.ng, ng, ns);
+                    rays += r;
+                    l += beta * albedo * e / PI;
+                    if depth + 1 >= self.max_depth {
+                        break;
+                    }
+                    let q = albedo.max_element().min(1.0);
+                    if q <= 0.0 || rng.next_f32() >= q {
+                        break;
+                    }
+                    beta *= albedo / q;
+                    d = cosine_hemisphere(rng.next_2d(), ng);
+                    o = spawn(h.p, h.ng, d);
+                }
+                m => {
+                    let Some((nd, w)) = scatter_specular(m, d, ng, ns, front, rng) else { break };
+                    beta *= w;
+                    d = nd;
+                    o = spawn(h.p, h.ng, d);
+                    if beta.max_element() <= 0.0 {
+                        break;
+                    }
+                }
+            }
+        }
+        (l, rays)
+    }
+
+    /// Irradiance (W/m²) at `p` straight from the lights, on the side of `ng` (shading cosine
+    /// with `ns`), with shadow rays. Returns (irradiance, rays).
+    fn direct_irradiance(&self, p: Vec3, ng_raw: Vec3, ng: Vec3, ns: Vec3) -> (Vec3, u64) {
+        let mut e = Vec3::ZERO;
+        let mut rays = 0;
+        for light in &self.scene.lights {
+            let (dir, dist, incident) = match light {
+                Light::Spot { position, .. } | Light::Point { position, .. } => {
+                    let to = *position - p;
+                    let d2 = to.length_squared();
+                    let dist = d2.sqrt();
+                    let dir = to / dist;
+                    (dir, dist * (1.0 - 1e-5), light.intensity_toward(-dir) / d2)
+                }
+                Light::Directional { direction, irradiance } => (-*direction, f32::INFINITY, *irradiance),
+            };
+            if dir.dot(ng) <= 0.0 || incident.max_element() <= 0.0 {
+                continue;
+            }
+            let cos = dir.dot(ns).max(0.0);
+            rays += 1;
+            if self.accel.occluded(spawn(p, ng_raw, dir), dir, dist) {
+                continue;
+            }
+            e += incident * cos;
+        }
+        (e, rays)
+    }
+}
+
+/// Scatter off a specular surface: new direction and throughput weight. `ng`, `ns` face the
+/// incoming side; `front` says whether the ray arrived from the side the normal points to
+/// (outside, for a dielectric). Dielectrics choose reflection with probability F (unbiased,
+/// weight 1).
+#[inline]
+fn scatter_specular(m: Material, d: Vec3, ng: Vec3, ns: Vec3, front: bool, rng: &mut PathRng) -> Option<(Vec3, Vec3)> {
+    let reflect_checked = |n: Vec3| {
+        let r = reflect(d, n);
+        if r.dot(ng) > 0.0 { r } else { reflect(d, ng) }
+    };
+    match m {
+        Material::Mirror { reflectance } => Some((reflect_checked(ns), reflectance)),
+        Material::Conductor { eta, k } => {
+            let cos_i = (-d.dot(ns)).clamp(0.0, 1.0);
+            Some((reflect_checked(ns), fresnel_conductor(cos_i, eta, k)))
+        }
+        Material::Dielectric { ior, ext_ior } => {
+            let eta = if front { ior / ext_ior } else { ext_ior / ior };
+            let mut n = ns;
+            let mut cos_i = -d.dot(n);
+            if cos_i <= 0.0 {
+                n = ng;
+                cos_i = -d.dot(n);
+            }
+            let (f, cos_t) = fresnel_dielectric(cos_i, eta);
+            if f >= 1.0 || rng.next_f32() < f {
+                Some((reflect_checked(n), Vec3::ONE))
+            } else {
+                let t = refract(d, n, eta, cos_t);
+                if t.dot(ng) < 0.0 {
+                    Some((t, Vec3::ONE))
+                } else {
+                    // Shading normal sent the refracted ray back out: refract about the
+                    // geometric normal instead.
+                    let (_, ct) = fresnel_dielectric(-d.dot(ng), eta);
+                    Some((refract(d, ng, eta, ct), Vec3::ONE))
+                }
+            }
+        }
+        Material::Diffuse { .. } => None,
+    }
+}
