@@ -57,9 +57,10 @@ enum Command {
         technique: Technique,
         #[arg(long, value_enum, default_value = "auto")]
         backend: Backend,
-        /// Caustic map size per light-view face (texels).
-        #[arg(long, default_value_t = 1024)]
-        caustic_map: u32,
+        /// Caustic map size per light-view face (texels); default 1024, or the largest that
+        /// fits the adapter (point lights need six faces).
+        #[arg(long)]
+        caustic_map: Option<u32>,
         /// Shadow map size per light-view face (texels).
         #[arg(long, default_value_t = 2048)]
         shadow_map: u32,
@@ -158,9 +159,9 @@ fn run(cli: Cli) -> Result<()> {
                 scene.camera.width = w;
                 scene.camera.height = h;
             }
-            let settings = RenderSettings {
+            let mut settings = RenderSettings {
                 photons,
-                caustic_map_size: caustic_map,
+                caustic_map_size: caustic_map.unwrap_or(1024),
                 shadow_map_size: shadow_map,
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),
@@ -182,6 +183,9 @@ fn run(cli: Cli) -> Result<()> {
             println!("scene: {} ({}), {}x{}", scene.name, scene.source, scene.camera.width, scene.camera.height);
             match ctx {
                 Some(ctx) => {
+                    if caustic_map.is_none() {
+                        settings.caustic_map_size = RenderSettings::fitting_caustic_map_size(&ctx, &scene, 1024);
+                    }
                     let t0 = std::time::Instant::now();
                     let out = caustics::render::render(&ctx, &scene, &settings, dump.as_deref())?;
                     let wall = t0.elapsed().as_secs_f64() * 1e3;

@@ -5,12 +5,6 @@
 // depend on the order photons arrive in: bit-identical maps run to run.
 // Layout of `accum`: per face, per texel, per channel (r, g, b): (lo, hi).
 
-struct Photon {
-    pos: vec2f,
-    face: u32,
-    _pad: u32,
-    flux: vec4f,
-}
 
 struct SplatParams {
     count: u32,

@@ -36,6 +36,8 @@ pub struct LightView {
     pub far: f32,
     /// Radius of the scene's bounding sphere (m).
     pub scene_radius: f32,
+    /// tan of half the field of view of the perspective faces (0 for orthographic views).
+    pub tan_half_fov: f32,
 }
 
 fn up_for(dir: Vec3) -> Vec3 {
@@ -63,6 +65,7 @@ impl LightView {
                     near,
                     far,
                     scene_radius: radius,
+                    tan_half_fov: cone_angle.tan(),
                 }
             }
             Light::Spot { position, .. } | Light::Point { position, .. } => {
@@ -76,7 +79,7 @@ impl LightView {
                         LightFace { world_to_clip: proj * view, orthographic: false, origin_or_dir: *position }
                     })
                     .collect();
-                LightView { faces, near, far, scene_radius: radius }
+                LightView { faces, near, far, scene_radius: radius, tan_half_fov: 1.0 }
             }
             Light::Directional { direction, .. } => {
                 let eye = center - *direction * (radius * 2.0);
@@ -91,6 +94,7 @@ impl LightView {
                     near: radius * 0.5,
                     far: radius * 3.5,
                     scene_radius: radius,
+                    tan_half_fov: 0.0,
                 }
             }
         }

@@ -413,7 +413,7 @@ fn light_gpu(
         power: power.extend(cone.cos()).to_array(),
         axis: axis.extend(cone).to_array(),
         params: [start, scale as f32, sigma, g as f32],
-        extra: [caster_radius, view.scene_radius, 0.0, 0.0],
+        extra: [caster_radius, view.scene_radius, view.tan_half_fov, 0.0],
     }
 }
 
@@ -442,6 +442,19 @@ fn bytes_to_image(data: &[u8], w: u32, h: u32) -> Image {
 }
 
 impl RenderSettings {
+    /// The largest caustic map (power of two, at most `preferred`) whose accumulation buffer
+    /// fits this adapter's storage-binding limit for every light of `scene` (a point light's
+    /// cube has six faces).
+    pub fn fitting_caustic_map_size(ctx: &GpuContext, scene: &Scene, preferred: u32) -> u32 {
+        let max_bind = ctx.device.limits().max_storage_buffer_binding_size;
+        let faces = scene.lights.iter().map(|l| LightView::new(scene, l).faces.len() as u64).max().unwrap_or(1);
+        let mut m = preferred.next_power_of_two().min(2048);
+        while m > 16 && (m as u64).pow(2) * faces * 24 > max_bind {
+            m /= 2;
+        }
+        m
+    }
+
     /// Check the settings against the adapter's limits; errors name the command-line option.
     pub fn validate(&self, ctx: &GpuContext, scene: &Scene) -> Result<()> {
         let cl = |f: &str, m: String| Err(Error::input("<command line>", f, m));

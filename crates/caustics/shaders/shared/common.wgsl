@@ -21,8 +21,18 @@ struct LightGpu {
     axis: vec4f,
     // x = falloff start (radians), y = fixed-point scale (units per watt), z = Gaussian sigma (texels), w = gbuffer size G
     params: vec4f,
-    // x = bounding radius of the casters (m), y = bounding radius of the scene (m)
+    // x = bounding radius of the casters (m), y = bounding radius of the scene (m),
+    // z = tan of half the perspective faces' field of view
     extra: vec4f,
+}
+
+// A traced photon: where it lands in the caustic map (continuous texel coordinates, face) and
+// its flux (W, rgb). face = INVALID: no caustic.
+struct Photon {
+    pos: vec2f,
+    face: u32,
+    _pad: u32,
+    flux: vec4f,
 }
 
 // Per-object material, indexed by object id.

@@ -17,11 +17,30 @@ pub const STAGES: &[(&str, &str)] = &[
 ];
 pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 
-/// Full source of a stage: the shared code, then the stage.
+/// Shared WGSL modules a stage can pull in with a line `#import NAME`.
+pub const SHARED: &[(&str, &str)] = &[("trace", include_str!("../../shaders/shared/trace.wgsl"))];
+
+/// Full source of a stage: the shared code, then the stage with its `#import` lines replaced by
+/// the modules they name (a tiny preprocessor, as vello does; WGSL has no includes).
 pub fn stage_source(name: &str) -> String {
     let src =
         STAGES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s).unwrap_or_else(|| panic!("no shader stage {name}"));
-    format!("{COMMON_WGSL}\n{src}")
+    let mut out = String::from(COMMON_WGSL);
+    out.push('\n');
+    for line in src.lines() {
+        match line.trim().strip_prefix("#import ") {
+            Some(module) => {
+                let m = SHARED
+                    .iter()
+                    .find(|(n, _)| *n == module.trim())
+                    .unwrap_or_else(|| panic!("{name}: no shared module {module}"));
+                out.push_str(m.1);
+            }
+            None => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    out
 }
 
 /// Validate a stage with naga (the tests do this for every stage).

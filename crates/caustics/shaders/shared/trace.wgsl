@@ -1,0 +1,231 @@
+// Shared photon tracing (imported by photon_trace and the adaptive techniques): from a light
+// ray through NDC point `ndc` of face `layer`, carrying `flux`, find where it lands in the
+// caustic map. Uses the module-scope bindings every importing stage declares: light, front_pos,
+// front_nrm, back_pos, back_nrm, recv_pos, recv_nrm, materials, stats.
+fn add_fixed(slot: u32, value: f32) {
+    let v = max(value * light.params.y, 0.0);
+    let hi = floor(v / 4294967296.0);
+    let lo = u32(v - hi * 4294967296.0);
+    let old = atomicAdd(&stats[slot], lo);
+    var carry = 0u;
+    if (old > 0xffffffffu - lo) { carry = 1u; }
+    atomicAdd(&stats[slot + 1u], u32(hi) + carry);
+}
+
+fn texel_of(p: vec2f, size: u32) -> vec2i {
+    return clamp(vec2i(floor(p)), vec2i(0), vec2i(i32(size) - 1));
+}
+
+// Surface point of a light-space geometry buffer hit by the ray o + t d near texel coordinate
+// uv (in buffer texels): the ray's intersection with the tangent plane of the nearest texel.
+struct Hit {
+    p: vec3f,
+    n: vec3f,
+    object: u32,
+}
+
+fn buffer_hit(pos_tex: texture_2d_array<f32>, nrm_tex: texture_2d_array<f32>, layer: u32, uv: vec2f, o: vec3f, d: vec3f) -> Hit {
+    var h: Hit;
+    h.object = INVALID;
+    let g = textureDimensions(pos_tex).x;
+    let t = texel_of(uv, g);
+    let pw = textureLoad(pos_tex, t, layer, 0);
+    if (pw.w < 0.0) { return h; }
+    let n = normalize(textureLoad(nrm_tex, t, layer, 0).xyz);
+    let dn = dot(d, n);
+    var p = pw.xyz;
+    if (abs(dn) > 1e-4) {
+        let s = dot(pw.xyz - o, n) / dn;
+        if (s > 0.0) { p = o + s * d; }
+    }
+    h.p = p;
+    h.n = n;
+    h.object = u32(pw.w);
+    return h;
+}
+
+// Distance of p from the light along its view (perspective: from the light; orthographic:
+// along the light direction).
+fn light_depth(face: Face, p: vec3f) -> f32 {
+    if (face.origin.w > 0.5) { return dot(p, face.origin.xyz); }
+    return length(p - face.origin.xyz);
+}
+
+fn march_back(o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
+    var none: Hit;
+    none.object = INVALID;
+    let face = light.faces[layer];
+    let steps = 96u;
+    let ds = 2.2 * light.extra.x / f32(steps);
+    var last_valid = vec2f(-1.0);
+    for (var k = 1u; k <= steps; k++) {
+        let p = o + d * (f32(k) * ds);
+        let q = project_face(face, p, g);
+        if (q.w < 0.5) { break; }
+        let t = texel_of(q.xy, u32(g));
+        let bp = textureLoad(back_pos, t, layer, 0);
+        if (bp.w < 0.0) {
+            // Left the silhouette between two samples: exit through the last back texel seen.
+            if (last_valid.x < 0.0) { return none; }
+            return buffer_hit(back_pos, back_nrm, layer, last_valid, o, d);
+        }
+        last_valid = q.xy;
+        if (light_depth(face, p) >= light_depth(face, bp.xyz)) {
+            let h = buffer_hit(back_pos, back_nrm, layer, q.xy, o, d);
+            let s = dot(h.p - o, d);
+            if (h.object != INVALID && s > (f32(k) - 1.5) * ds && s < (f32(k) + 0.5) * ds) { return h; }
+            var hh = h;
+            hh.p = p;
+            return hh;
+        }
+    }
+    return none;
+}
+
+// Iterative search for the receiver hit by the ray o + t d in the receiver map (all faces).
+// Returns (hit point, 1) or (0, 0).
+fn find_receiver(o: vec3f, d: vec3f) -> vec4f {
+    let m = f32(light.info.w);
+    let nfaces = light.info.x;
+    // Where the guess lands on no receiver (the light ray behind the caster misses every
+    // receiver), march along the ray in steps of a fraction of the scene's size.
+    let step = light.extra.y / 32.0;
+    var t = 0.0;
+    var p = o;
+    var converged_once = false;
+    for (var it = 0u; it < 96u; it++) {
+        var found = false;
+        var proj = vec4f(0.0);
+        var face = 0u;
+        for (var f = 0u; f < nfaces; f++) {
+            let q = project_face(light.faces[f], p, m);
+            if (q.w > 0.5) { proj = q; face = f; found = true; break; }
+        }
+        var r = vec4f(0.0, 0.0, 0.0, -1.0);
+        var n = vec3f(0.0);
+        if (found) {
+            let tx = texel_of(proj.xy, light.info.w);
+            r = textureLoad(recv_pos, tx, face, 0);
+            n = textureLoad(recv_nrm, tx, face, 0).xyz;
+        }
+        var t_new = -1.0;
+        if (r.w >= 0.0) {
+            let dn = dot(d, n);
+            t_new = length(r.xyz - o);
+            if (abs(dn) > 1e-3) { t_new = dot(r.xyz - o, n) / dn; }
+        }
+        if (t_new <= 0.0) {
+            // No receiver here (or behind the ray): march on.
+            t += step;
+            if (t > 4.0 * light.extra.y) { return vec4f(0.0); }
+            p = o + t * d;
+            continue;
+        }
+        if (abs(t_new - t) <= 1e-5 * t_new) { return vec4f(o + t_new * d, 1.0); }
+        t = t_new;
+        p = o + t * d;
+    }
+    return vec4f(0.0);
+}
+
+
+// F(u, v) = atan(u v / sqrt(1 + u^2 + v^2)): the solid angle of the image-plane rectangle
+// [0, u] x [0, v] at unit distance. Differences of F give any rectangle's solid angle exactly,
+// so the flux of a cell is the sum of its children's (up to the intensity's variation).
+fn rect_solid_angle_f(u: f32, v: f32) -> f32 {
+    return atan(u * v / sqrt(1.0 + u * u + v * v));
+}
+
+// Flux (W, rgb) of the light-view cell centred at `ndc` with NDC size `cell`: I(w) times the
+// cell's exact solid angle (spot, point), or E times its area (directional).
+fn cell_flux(layer: u32, ndc: vec2f, cell: vec2f, d: vec3f) -> vec3f {
+    let face = light.faces[layer];
+    if (face.origin.w > 0.5) {
+        let ex = (face.clip_to_world * vec4f(cell.x, 0.0, 0.0, 0.0)).xyz;
+        let ey = (face.clip_to_world * vec4f(0.0, cell.y, 0.0, 0.0)).xyz;
+        return light.power.rgb * length(cross(ex, ey));
+    }
+    let t = light.extra.z;
+    let u0 = (ndc.x - 0.5 * cell.x) * t;
+    let u1 = (ndc.x + 0.5 * cell.x) * t;
+    let v0 = (ndc.y - 0.5 * cell.y) * t;
+    let v1 = (ndc.y + 0.5 * cell.y) * t;
+    let omega = rect_solid_angle_f(u1, v1) - rect_solid_angle_f(u0, v1) - rect_solid_angle_f(u1, v0) + rect_solid_angle_f(u0, v0);
+    return intensity_toward(light, d) * omega;
+}
+
+// Trace the photon of the light-view cell centred at `ndc` (NDC size `cell`) of face `layer`.
+// Returns face = INVALID when it carries no caustic (missed the casters, lost on the way).
+// Adds its flux to the bookkeeping in `stats`.
+fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
+    var out: Photon;
+    out.face = INVALID;
+    out.flux = vec4f(0.0);
+    let face = light.faces[layer];
+    let a4 = face.clip_to_world * vec4f(ndc, 0.0, 1.0);
+    let b4 = face.clip_to_world * vec4f(ndc, 1.0, 1.0);
+    let a = a4.xyz / a4.w;
+    let b = b4.xyz / b4.w;
+    let d = normalize(b - a);
+
+    let g = f32(light.params.w);
+    let uv = vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * g;
+    let front = buffer_hit(front_pos, front_nrm, layer, uv, a, d);
+    if (front.object == INVALID) { return out; }
+    let mat = materials[front.object];
+    if (mat.kind.y == 0u || mat.kind.x == KIND_DIFFUSE) { return out; }
+
+    var flux = cell_flux(layer, ndc, cell, d);
+    let total_in = flux.r + flux.g + flux.b;
+    if (total_in <= 0.0) { return out; }
+    add_fixed(0u, total_in);
+
+    var o = front.p;
+    var dir = d;
+    var n1 = front.n;
+    if (dot(n1, d) > 0.0) { n1 = -n1; }
+    let cos1 = -dot(d, n1);
+    if (mat.kind.x == KIND_MIRROR) {
+        flux *= mat.a.rgb;
+        dir = reflect(d, n1);
+    } else if (mat.kind.x == KIND_CONDUCTOR) {
+        flux *= fresnel_conductor(cos1, mat.a.rgb, mat.b.rgb);
+        dir = reflect(d, n1);
+    } else {
+        let ior = mat.a.x;
+        let ext = mat.a.y;
+        flux *= 1.0 - fresnel_dielectric(cos1, ior / ext);
+        let t1 = refract_dir(d, n1, ext / ior);
+        // Back surface: march the refracted ray through the light-space back-surface buffer
+        // until it passes behind the back surface (or leaves its silhouette), then take the
+        // exact intersection with that texel's tangent plane.
+        let back = march_back(o, t1.xyz, layer, g);
+        if (back.object == INVALID) { add_fixed(4u, flux.r + flux.g + flux.b); return out; }
+        var n2 = back.n;
+        if (dot(n2, t1.xyz) < 0.0) { n2 = -n2; }
+        // Leaving the refractor: the normal facing the ray is -n2.
+        let cos2 = dot(t1.xyz, n2);
+        let f2 = fresnel_dielectric(cos2, ext / ior);
+        let t2 = refract_dir(t1.xyz, -n2, ior / ext);
+        if (t2.w < 0.5) { add_fixed(6u, flux.r + flux.g + flux.b); return out; }
+        flux *= 1.0 - f2;
+        o = back.p;
+        dir = t2.xyz;
+    }
+    let total = flux.r + flux.g + flux.b;
+    let hit = find_receiver(o + dir * 1e-4, dir);
+    if (hit.w < 0.5) { add_fixed(8u, total); return out; }
+    let m = f32(light.info.w);
+    for (var f = 0u; f < light.info.x; f++) {
+        let q = project_face(light.faces[f], hit.xyz, m);
+        if (q.w > 0.5) {
+            out.pos = q.xy;
+            out.face = f;
+            out.flux = vec4f(flux, 0.0);
+            add_fixed(2u, total);
+            return out;
+        }
+    }
+    add_fixed(10u, total);
+    return out;
+}
