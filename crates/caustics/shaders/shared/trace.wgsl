@@ -154,6 +154,105 @@ fn cell_flux(layer: u32, ndc: vec2f, cell: vec2f, d: vec3f) -> vec3f {
     return intensity_toward(light, d) * omega;
 }
 
+const MAX_BOUNCES: u32 = 4u;
+const STATUS_OK: u32 = 0u;
+const STATUS_NO_EXIT: u32 = 1u;
+const STATUS_TIR: u32 = 2u;
+
+struct Interaction {
+    o: vec3f,
+    d: vec3f,
+    flux: vec3f,
+    status: u32,
+}
+
+// One specular interaction at point p (surface normal n) of a photon travelling along d:
+// mirrors and conductors reflect (weighted by their reflectance), dielectrics refract in and out
+// (Fresnel transmittance at both interfaces; the exit found in the back-surface buffer).
+fn interact(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f, layer: u32, g: f32) -> Interaction {
+    var r: Interaction;
+    r.status = STATUS_OK;
+    r.o = p;
+    r.flux = flux_in;
+    var n1 = n_in;
+    if (dot(n1, d) > 0.0) { n1 = -n1; }
+    let cos1 = -dot(d, n1);
+    if (mat.kind.x == KIND_MIRROR) {
+        r.flux *= mat.a.rgb;
+        r.d = reflect(d, n1);
+        return r;
+    }
+    if (mat.kind.x == KIND_CONDUCTOR) {
+        r.flux *= fresnel_conductor(cos1, mat.a.rgb, mat.b.rgb);
+        r.d = reflect(d, n1);
+        return r;
+    }
+    let ior = mat.a.x;
+    let ext = mat.a.y;
+    r.flux *= 1.0 - fresnel_dielectric(cos1, ior / ext);
+    let t1 = refract_dir(d, n1, ext / ior);
+    // Back surface: march the refracted ray through the light-space back-surface buffer until it
+    // passes behind the back surface (or leaves its silhouette), then take the exact
+    // intersection with that texel's tangent plane.
+    let back = march_back(p, t1.xyz, layer, g);
+    if (back.object == INVALID) { r.status = STATUS_NO_EXIT; return r; }
+    var n2 = back.n;
+    if (dot(n2, t1.xyz) < 0.0) { n2 = -n2; }
+    // Leaving the refractor: the normal facing the ray is -n2.
+    let cos2 = dot(t1.xyz, n2);
+    let t2 = refract_dir(t1.xyz, -n2, ior / ext);
+    if (t2.w < 0.5) { r.status = STATUS_TIR; return r; }
+    r.flux *= 1.0 - fresnel_dielectric(cos2, ext / ior);
+    r.o = back.p;
+    r.d = t2.xyz;
+    return r;
+}
+
+// The first caster surface the ray o + s d (0 < s < t_max) crosses, found by marching through
+// the light-space caster front buffer: a crossing is a change of side (in front of / behind the
+// buffer's surface, seen from the light) between two samples on the same, continuous surface.
+// Exact position from the crossing texel's tangent plane.
+fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
+    var none: Hit;
+    none.object = INVALID;
+    let g = f32(light.params.w);
+    let steps = 128u;
+    let reach = min(t_max, 2.2 * light.extra.x);
+    let ds = reach / f32(steps);
+    var prev_side = 0.0;
+    var prev_obj = INVALID;
+    var prev_gap = 0.0;
+    for (var k = 2u; k <= steps; k++) {
+        let s = f32(k) * ds;
+        let p = o + d * s;
+        var layer = INVALID;
+        var q = vec4f(0.0);
+        for (var f = 0u; f < light.info.x; f++) {
+            let qq = project_face(light.faces[f], p, g);
+            if (qq.w > 0.5) { q = qq; layer = f; break; }
+        }
+        if (layer == INVALID) { prev_obj = INVALID; continue; }
+        let fp = textureLoad(front_pos, texel_of(q.xy, u32(g)), layer, 0);
+        if (fp.w < 0.0) { prev_obj = INVALID; continue; }
+        let gap = light_depth(light.faces[layer], p) - light_depth(light.faces[layer], fp.xyz);
+        let obj = u32(fp.w);
+        let side = sign(gap);
+        if (prev_obj == obj && side != prev_side && abs(gap) < 3.0 * ds && abs(prev_gap) < 3.0 * ds) {
+            let h = buffer_hit(front_pos, front_nrm, layer, q.xy, o, d);
+            if (h.object == INVALID) { return none; }
+            let sh = dot(h.p - o, d);
+            var hh = h;
+            if (!(sh > s - 2.0 * ds && sh < s + ds)) { hh.p = p; }
+            if (dot(hh.p - o, d) < 1.5 * ds) { return none; }
+            return hh;
+        }
+        prev_obj = obj;
+        prev_side = side;
+        prev_gap = gap;
+    }
+    return none;
+}
+
 // Trace the photon of the light-view cell centred at `ndc` (NDC size `cell`) of face `layer`.
 // Returns face = INVALID when it carries no caustic (missed the casters, lost on the way).
 // Adds its flux to the bookkeeping in `stats`.
@@ -182,50 +281,45 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
 
     var o = front.p;
     var dir = d;
-    var n1 = front.n;
-    if (dot(n1, d) > 0.0) { n1 = -n1; }
-    let cos1 = -dot(d, n1);
-    if (mat.kind.x == KIND_MIRROR) {
-        flux *= mat.a.rgb;
-        dir = reflect(d, n1);
-    } else if (mat.kind.x == KIND_CONDUCTOR) {
-        flux *= fresnel_conductor(cos1, mat.a.rgb, mat.b.rgb);
-        dir = reflect(d, n1);
-    } else {
-        let ior = mat.a.x;
-        let ext = mat.a.y;
-        flux *= 1.0 - fresnel_dielectric(cos1, ior / ext);
-        let t1 = refract_dir(d, n1, ext / ior);
-        // Back surface: march the refracted ray through the light-space back-surface buffer
-        // until it passes behind the back surface (or leaves its silhouette), then take the
-        // exact intersection with that texel's tangent plane.
-        let back = march_back(o, t1.xyz, layer, g);
-        if (back.object == INVALID) { add_fixed(4u, flux.r + flux.g + flux.b); return out; }
-        var n2 = back.n;
-        if (dot(n2, t1.xyz) < 0.0) { n2 = -n2; }
-        // Leaving the refractor: the normal facing the ray is -n2.
-        let cos2 = dot(t1.xyz, n2);
-        let f2 = fresnel_dielectric(cos2, ext / ior);
-        let t2 = refract_dir(t1.xyz, -n2, ior / ext);
-        if (t2.w < 0.5) { add_fixed(6u, flux.r + flux.g + flux.b); return out; }
-        flux *= 1.0 - f2;
-        o = back.p;
-        dir = t2.xyz;
-    }
-    let total = flux.r + flux.g + flux.b;
-    let hit = find_receiver(o + dir * 1e-4, dir);
-    if (hit.w < 0.5) { add_fixed(8u, total); return out; }
-    let m = f32(light.info.w);
-    for (var f = 0u; f < light.info.x; f++) {
-        let q = project_face(light.faces[f], hit.xyz, m);
-        if (q.w > 0.5) {
-            out.pos = q.xy;
-            out.face = f;
-            out.flux = vec4f(flux, 0.0);
-            add_fixed(2u, total);
-            return out;
+    var hit_p = front.p;
+    var hit_n = front.n;
+    var obj = front.object;
+    // Up to MAX_BOUNCES specular interactions: the first at the caster seen by the light, the
+    // later ones wherever the outgoing ray meets another caster surface on its way to the
+    // receiver (the inside of a mirror ring, a second glass object).
+    for (var bounce = 0u; bounce < MAX_BOUNCES; bounce++) {
+        let r = interact(materials[obj], hit_p, hit_n, dir, flux, layer, g);
+        if (r.status == STATUS_NO_EXIT) { add_fixed(4u, r.flux.r + r.flux.g + r.flux.b); return out; }
+        if (r.status == STATUS_TIR) { add_fixed(6u, r.flux.r + r.flux.g + r.flux.b); return out; }
+        o = r.o;
+        dir = r.d;
+        flux = r.flux;
+        let total = flux.r + flux.g + flux.b;
+        let hit = find_receiver(o + dir * 1e-4, dir);
+        var t_recv = 1e30;
+        if (hit.w > 0.5) { t_recv = length(hit.xyz - o); }
+        let next = find_caster(o, dir, t_recv);
+        if (next.object != INVALID && bounce + 1u < MAX_BOUNCES) {
+            hit_p = next.p;
+            hit_n = next.n;
+            obj = next.object;
+            continue;
         }
+        // Landing (a further caster after the last bounce followed is ignored).
+        if (hit.w < 0.5) { add_fixed(8u, total); return out; }
+        let m = f32(light.info.w);
+        for (var f = 0u; f < light.info.x; f++) {
+            let q = project_face(light.faces[f], hit.xyz, m);
+            if (q.w > 0.5) {
+                out.pos = q.xy;
+                out.face = f;
+                out.flux = vec4f(flux, 0.0);
+                add_fixed(2u, total);
+                return out;
+            }
+        }
+        add_fixed(10u, total);
+        return out;
     }
-    add_fixed(10u, total);
     return out;
 }

@@ -416,3 +416,72 @@ mod tests {
         assert!(compare(&a, &Image::new(3, 3), None).is_err());
     }
 }
+
+/// Agreement of two caustic maps of the same light-view face (e.g. the GPU's and the CPU
+/// reference's), texel by texel. Both are box-filtered over 3×3 texels first, so that photon
+/// noise and the difference between a Gaussian splat and a box deposit do not dominate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapAgreement {
+    /// Sum of `a` over sum of `b` (luminance; the texel areas are the same in both maps).
+    pub energy_ratio: f64,
+    /// RMSE over the texels where either filtered map exceeds 1 % of `b`'s filtered maximum,
+    /// relative to `b`'s mean over those texels.
+    pub rel_rmse: f64,
+    /// Texels compared.
+    pub texels: usize,
+    /// Brightest filtered texel (x, y) of `a` and of `b`.
+    pub peak_a: (u32, u32),
+    pub peak_b: (u32, u32),
+}
+
+impl std::fmt::Display for MapAgreement {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "energy ratio {:.4}, relative RMSE {:.4} over {} texels, peak {:?} vs {:?}",
+            self.energy_ratio, self.rel_rmse, self.texels, self.peak_a, self.peak_b
+        )
+    }
+}
+
+/// See [`MapAgreement`]. The maps must have the same size.
+pub fn map_agreement(a: &Image, b: &Image) -> MapAgreement {
+    assert_eq!((a.width, a.height), (b.width, b.height), "caustic maps of different sizes");
+    let blur = |img: &Image| -> Vec<f64> {
+        let (w, h) = (img.width as i64, img.height as i64);
+        let lum = img.luminance();
+        let mut out = vec![0.0; lum.len()];
+        for y in 0..h {
+            for x in 0..w {
+                let mut s = 0.0;
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        let (xx, yy) = (x + dx, y + dy);
+                        if xx >= 0 && yy >= 0 && xx < w && yy < h {
+                            s += lum[(yy * w + xx) as usize] as f64;
+                        }
+                    }
+                }
+                out[(y * w + x) as usize] = s / 9.0;
+            }
+        }
+        out
+    };
+    let (fa, fb) = (blur(a), blur(b));
+    let peak = |v: &[f64]| {
+        let i = v.iter().enumerate().fold(0, |best, (i, x)| if *x > v[best] { i } else { best });
+        (i as u32 % a.width, i as u32 / a.width)
+    };
+    let max_b = fb.iter().cloned().fold(0.0, f64::max);
+    let sel: Vec<usize> = (0..fa.len()).filter(|&i| fa[i] > 0.01 * max_b || fb[i] > 0.01 * max_b).collect();
+    let mse = sel.iter().map(|&i| (fa[i] - fb[i]).powi(2)).sum::<f64>() / sel.len().max(1) as f64;
+    let mean = sel.iter().map(|&i| fb[i]).sum::<f64>() / sel.len().max(1) as f64;
+    let sum = |img: &Image| img.luminance().iter().map(|&x| x as f64).sum::<f64>();
+    MapAgreement {
+        energy_ratio: sum(a) / sum(b).max(1e-30),
+        rel_rmse: mse.sqrt() / mean.max(1e-30),
+        texels: sel.len(),
+        peak_a: peak(&fa),
+        peak_b: peak(&fb),
+    }
+}
