@@ -1,6 +1,7 @@
 //! `caustics`: render scenes with caustics on the GPU (or the CPU reference), compare images,
 //! list adapters. Exit codes: 0 success, 2 bad input (scene, settings, paths), 1 anything else.
 
+mod bench;
 mod compare;
 
 use anyhow::Result;
@@ -36,6 +37,24 @@ enum Backend {
 enum Technique {
     /// Basic caustic maps: a dense N x N photon grid per light-view face.
     Basic,
+    /// Hierarchical caustic maps: the dense grid, traversed top-down through a mip hierarchy.
+    Hierarchical,
+    /// Adaptive caustic maps, maximal traversal level (equivalent to a dense N x N grid).
+    AdaptiveLevel,
+    /// Adaptive caustic maps, maximal caustic map error (finest grid N).
+    AdaptiveError,
+}
+
+impl Technique {
+    fn lib(self) -> caustics::techniques::Technique {
+        use caustics::techniques::Technique as T;
+        match self {
+            Technique::Basic => T::Basic,
+            Technique::Hierarchical => T::Hierarchical,
+            Technique::AdaptiveLevel => T::AdaptiveLevel,
+            Technique::AdaptiveError => T::AdaptiveError,
+        }
+    }
 }
 
 #[derive(Subcommand)]
@@ -47,7 +66,8 @@ enum Command {
         /// Output image (.png or .exr).
         #[arg(short, long, default_value = "caustics.png")]
         output: PathBuf,
-        /// Photon grid size N per light-view face (N x N photons), 16 to 8192.
+        /// Photon grid size N per light-view face (N x N photons), 16 to 8192 (adaptive: the
+        /// equivalent finest grid, a power of two up to 65536).
         #[arg(long, default_value_t = 1024)]
         photons: u32,
         /// Image size WxH, overriding the scene's camera.
@@ -55,6 +75,13 @@ enum Command {
         size: Option<(u32, u32)>,
         #[arg(long, value_enum, default_value = "basic")]
         technique: Technique,
+        /// Adaptive techniques: the coarse photon grid the hierarchy starts from.
+        #[arg(long, default_value_t = 64)]
+        base_grid: u32,
+        /// Maximal caustic map error: a cluster converges when its photons land within this many
+        /// caustic-map texels (0: in one texel).
+        #[arg(long, default_value_t = 0.0)]
+        max_error_tolerance: f32,
         #[arg(long, value_enum, default_value = "auto")]
         backend: Backend,
         /// Caustic map size per light-view face (texels); default 1024, or the largest that
@@ -67,7 +94,8 @@ enum Command {
         /// Gaussian splat standard deviation (caustic-map texels).
         #[arg(long, default_value_t = 1.0)]
         splat_sigma: f32,
-        /// Memory for one batch of photons, MiB.
+        /// Memory for photon storage, MiB (basic: one batch of the grid; hierarchical: a dense
+        /// tile; adaptive: the photon hierarchy of one batch).
         #[arg(long, default_value_t = 64)]
         photon_memory: u64,
         /// Write the intermediate buffers (light-space normals, depths, caustic maps) here.
@@ -97,11 +125,14 @@ enum Command {
         #[arg(long)]
         heatmap: Option<PathBuf>,
     },
+    /// Compare photon emission techniques on one scene (Table 1 of Wyman & Nichols 2009):
+    /// photons splatted, relevant photons, coverage, GPU ms per pass, memory, batches.
+    Bench(bench::BenchArgs),
     /// List GPU adapters with their features and limits.
     Info,
 }
 
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
+pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s.split_once(['x', 'X']).ok_or("expected WxH, e.g. 800x600")?;
     let w: u32 = w.trim().parse().map_err(|_| format!("bad width \"{w}\""))?;
     let h: u32 = h.trim().parse().map_err(|_| format!("bad height \"{h}\""))?;
@@ -126,13 +157,16 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Info => info(),
+        Command::Bench(args) => bench::run(&args),
         Command::Compare { a, b, mask, heatmap } => Ok(compare::run(&a, &b, mask.as_deref(), heatmap.as_deref())?),
         Command::Render {
             scene,
             output,
             photons,
             size,
-            technique: Technique::Basic,
+            technique,
+            base_grid,
+            max_error_tolerance,
             backend,
             caustic_map,
             shadow_map,
@@ -161,6 +195,9 @@ fn run(cli: Cli) -> Result<()> {
             }
             let mut settings = RenderSettings {
                 photons,
+                technique: technique.lib(),
+                base_grid,
+                max_error_tolerance,
                 caustic_map_size: caustic_map.unwrap_or(1024),
                 shadow_map_size: shadow_map,
                 splat_sigma,
@@ -247,7 +284,23 @@ fn check_output(path: &Path) -> Result<(), Error> {
 
 fn report_gpu(out: &GpuRender, wall_ms: f64) {
     println!("adapter: {}", out.adapter);
+    let t = &out.technique;
     println!("photons: {} traced in {} batch(es)", out.photons_traced, out.batches);
+    println!(
+        "technique {}: {} photons splatted, {} relevant (dense {}^2 photons hitting a caster), coverage {:.2} %, photon memory {:.1} MiB (peak {:.1} MiB)",
+        t.technique,
+        t.photons_splatted,
+        t.relevant,
+        t.grid,
+        100.0 * t.coverage(),
+        t.photon_bytes as f64 / (1 << 20) as f64,
+        t.peak_photon_bytes as f64 / (1 << 20) as f64
+    );
+    if t.levels.len() > 1 {
+        for l in &t.levels {
+            println!("  level {:>6}^2: {:>10} cells, {:>10} traced, {:>10} emitted", l.grid, l.cells, l.traced, l.emitted);
+        }
+    }
     if out.timings.is_empty() {
         println!("GPU pass timings: unavailable (no timestamp queries on this adapter)");
     } else {

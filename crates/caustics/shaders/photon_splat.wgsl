@@ -4,17 +4,18 @@
 // Accumulation is in 64-bit fixed point (two u32 words, carry propagated), so the sum does not
 // depend on the order photons arrive in: bit-identical maps run to run.
 // Layout of `accum`: per face, per texel, per channel (r, g, b): (lo, hi).
-
+// The photon count is read from a storage buffer whose first three words are the (indirect)
+// dispatch arguments: the adaptive techniques write count and arguments on the GPU.
 
 struct SplatParams {
+    groups_x: u32,
+    groups_y: u32,
+    groups_z: u32,
     count: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
-@group(0) @binding(1) var<uniform> sp: SplatParams;
+@group(0) @binding(1) var<storage, read> sp: SplatParams;
 @group(0) @binding(2) var<storage, read> photons: array<Photon>;
 @group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
 
@@ -31,9 +32,10 @@ fn add64(word: u32, value: f32) {
 }
 
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3u) {
-    if (gid.x >= sp.count) { return; }
-    let ph = photons[gid.x];
+fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @builtin(local_invocation_index) lid: u32) {
+    let index = (wg.y * nwg.x + wg.x) * 64u + lid;
+    if (index >= sp.count) { return; }
+    let ph = photons[index];
     if (ph.face == INVALID) { return; }
     let m = i32(light.info.w);
     let sigma = light.params.z;

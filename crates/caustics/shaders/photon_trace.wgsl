@@ -8,6 +8,8 @@
 // Fresnel transmittance at each interface (reflectance for mirrors and conductors).
 // Total internal reflection at the back surface ends the photon; its flux is counted as lost.
 // Output: one Photon per grid cell of the batch (face = INVALID when it carries no caustic).
+// A batch is a range of the row-major grid (tile = 0), or a tile x tile square whose top-left
+// cell has row-major index batch_offset (hierarchical caustic maps), stored row-major.
 
 #import trace
 
@@ -15,7 +17,7 @@ struct TraceParams {
     face: u32,
     batch_offset: u32,
     batch_count: u32,
-    _pad: u32,
+    tile: u32,
 }
 
 
@@ -39,8 +41,12 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (gid.x >= tp.batch_count) { return; }
     let index = tp.batch_offset + gid.x;
     let n_grid = light.info.z;
-    let i = index % n_grid;
-    let j = index / n_grid;
+    var i = index % n_grid;
+    var j = index / n_grid;
+    if (tp.tile > 0u) {
+        i = tp.batch_offset % n_grid + gid.x % tp.tile;
+        j = tp.batch_offset / n_grid + gid.x / tp.tile;
+    }
     let cell = 2.0 / f32(n_grid);
     let ndc = vec2f(-1.0 + (f32(i) + 0.5) * cell, 1.0 - (f32(j) + 0.5) * cell);
     photons[gid.x] = trace_photon(tp.face, ndc, vec2f(cell));

@@ -1,11 +1,14 @@
-//! The GPU renderer: basic caustic maps (a dense photon grid per light-view face) and the final
-//! image. One function chains the passes; each pass is named, and the name is both the wgpu
-//! label and the timer name:
+//! The GPU renderer: caustic maps (the photon emission technique is pluggable, see
+//! [`crate::techniques`]) and the final image. One function chains the passes; each pass is
+//! named, and the name is both the wgpu label and the timer name:
 //!
 //! 1. `eye_receivers`, `eye_specular_front`, `eye_specular_back`: camera geometry buffers;
 //! 2. per light and face: `light_shadow` (depth of everything), `light_receivers` (position and
 //!    normal of diffuse surfaces), `light_caster_front`, `light_caster_back`;
-//! 3. per photon batch: `photon_trace`, `photon_splat` (64-bit fixed-point atomics);
+//! 3. per light and face: `coverage_mip`, then the technique's passes: basic per photon batch
+//!    `photon_trace`, `photon_splat` (64-bit fixed-point atomics); hierarchical per tile
+//!    `photon_trace`, `hcm_mip`, `hcm_traverse`, `photon_splat`; adaptive `adaptive_plan`, then
+//!    per batch `adaptive_traverse` (all levels, indirect dispatches) and `photon_splat`;
 //! 4. `caustic_resolve`: flux per texel to irradiance;
 //! 5. `shade_receivers` per light, then `composite` (image-space refraction and reflection).
 
@@ -15,6 +18,7 @@ use crate::gpu::{GpuContext, PassTimer};
 use crate::image_io::Image;
 use crate::lightspace::LightView;
 use crate::scene::{Light, Material, Scene, Tessellation};
+pub use crate::techniques::{LevelStats, Technique, TechniqueStats};
 use glam::{Mat4, Vec3};
 use std::ops::Range;
 use std::path::Path;
@@ -23,15 +27,27 @@ use wgpu::util::DeviceExt;
 /// Settings of a GPU render.
 #[derive(Debug, Clone)]
 pub struct RenderSettings {
-    /// Photon grid size N per light-view face: N × N photons.
+    /// Photon grid size N per light-view face: N × N photons (the equivalent, finest grid of
+    /// the adaptive techniques).
     pub photons: u32,
+    /// How photons are emitted.
+    pub technique: Technique,
+    /// Adaptive techniques: the coarse grid the hierarchy starts from (a power of two).
+    pub base_grid: u32,
+    /// Maximal caustic map error: a cluster converges when its photons land in one caustic-map
+    /// texel (0) or within this many texels (> 0).
+    pub max_error_tolerance: f32,
+    /// Maximal caustic map error: convergence is checked for clusters whose photons lie on a grid
+    /// of at least this size (Wyman & Nichols check from the 512² level on).
+    pub error_check_grid: u32,
     /// Caustic map (and receiver map) size M per face.
     pub caustic_map_size: u32,
     /// Shadow map size per face.
     pub shadow_map_size: u32,
     /// Gaussian splat standard deviation, in caustic-map texels.
     pub splat_sigma: f32,
-    /// Memory for one batch of photons (bytes); the grid is traced in batches that fit.
+    /// Memory for photon storage (bytes): the grid (basic), the tiles (hierarchical) or the
+    /// hierarchy (adaptive) is processed in batches that fit.
     pub photon_memory: u64,
     pub tessellation: Tessellation,
 }
@@ -40,6 +56,10 @@ impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
             photons: 1024,
+            technique: Technique::Basic,
+            base_grid: 64,
+            max_error_tolerance: 0.0,
+            error_check_grid: 512,
             caustic_map_size: 1024,
             shadow_map_size: 2048,
             splat_sigma: 1.0,
@@ -84,13 +104,16 @@ pub struct GpuRender {
     pub photons_traced: u64,
     /// Batches the photon grid was split into (all lights and faces).
     pub batches: u32,
+    /// What the photon emission technique did (photons traced, splatted, relevant, coverage,
+    /// per level, memory, batches).
+    pub technique: TechniqueStats,
     pub adapter: String,
 }
 
 const POS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// The largest caster geometry buffer; denser photon grids interpolate between its texels.
-const MAX_GBUFFER: u32 = 2048;
+pub(crate) const MAX_GBUFFER: u32 = 2048;
 
 struct Geometry {
     vertices: wgpu::Buffer,
@@ -436,6 +459,35 @@ fn flux_bound(view: &LightView, light: &Light) -> f64 {
     .max(1e-12)
 }
 
+/// An upper bound of the relevant photons (cells of the N × N grid whose caster-buffer texel
+/// holds a caster) of one face: the cells within one texel of the casters' bounding box as the
+/// face sees it (the whole face when the box reaches behind the light).
+fn relevant_bound(scene: &Scene, face: &crate::lightspace::LightFace, n: u32, g: u32) -> u64 {
+    let all = (n as u64).pow(2);
+    let Some((lo, hi)) = scene.caster_bounds() else { return 0 };
+    let (mut a, mut b) = (glam::Vec2::splat(f32::MAX), glam::Vec2::splat(f32::MIN));
+    for k in 0..8 {
+        let p = Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        let c = face.world_to_clip * p.extend(1.0);
+        if c.w <= 1e-6 {
+            return all;
+        }
+        let q = glam::Vec2::new(c.x / c.w, c.y / c.w);
+        a = a.min(q);
+        b = b.max(q);
+    }
+    let margin = 2.0 * (n / g) as f64 + 2.0;
+    let side = |lo: f32, hi: f32| {
+        let (lo, hi) = (lo.clamp(-1.0, 1.0) as f64, hi.clamp(-1.0, 1.0) as f64);
+        ((hi - lo) * 0.5 * n as f64 + margin).min(n as f64)
+    };
+    ((side(a.x, b.x) * side(a.y, b.y)).ceil() as u64).min(all)
+}
+
 fn bytes_to_image(data: &[u8], w: u32, h: u32) -> Image {
     let px: &[[f32; 4]] = bytemuck::cast_slice(data);
     Image { width: w, height: h, pixels: px.iter().map(|p| [p[0], p[1], p[2]]).collect() }
@@ -458,8 +510,15 @@ impl RenderSettings {
     /// Check the settings against the adapter's limits; errors name the command-line option.
     pub fn validate(&self, ctx: &GpuContext, scene: &Scene) -> Result<()> {
         let cl = |f: &str, m: String| Err(Error::input("<command line>", f, m));
-        if !(16..=8192).contains(&self.photons) {
-            return cl("--photons", format!("the photon grid must be 16 to 8192 per side (got {})", self.photons));
+        let max_n = self.technique.max_photons();
+        if !(16..=max_n).contains(&self.photons) {
+            return cl(
+                "--photons",
+                format!("the {} photon grid must be 16 to {max_n} per side (got {})", self.technique, self.photons),
+            );
+        }
+        if !(self.max_error_tolerance >= 0.0 && self.max_error_tolerance <= 1e6) {
+            return cl("--max-error-tolerance", format!("must be 0 or more texels (got {})", self.max_error_tolerance));
         }
         let max_tex = ctx.device.limits().max_texture_dimension_2d;
         if !(16..=2048).contains(&self.caustic_map_size) || self.caustic_map_size > max_tex {
@@ -492,8 +551,20 @@ impl RenderSettings {
                 ),
             );
         }
-        if self.photon_memory < 64 * 32 || self.photon_memory > max_bind {
+        if self.photon_memory < 64 * 32 {
+            return cl("--photon-memory", "must be at least 2 KiB".into());
+        }
+        if self.technique == Technique::Basic && self.photon_memory > max_bind {
             return cl("--photon-memory", format!("must be between 2 KiB and {} MiB", max_bind >> 20));
+        }
+        match self.technique {
+            Technique::Basic => {}
+            Technique::Hierarchical => {
+                crate::techniques::hierarchical::HierarchicalPlan::new(self, max_bind)?;
+            }
+            Technique::AdaptiveLevel | Technique::AdaptiveError => {
+                crate::techniques::adaptive::AdaptivePlan::new(self, max_bind)?;
+            }
         }
         if (c.width as u64 * c.height as u64 * 16) > max_bind {
             return cl("--size", "the image exceeds this adapter's storage-binding limit".into());
@@ -523,8 +594,7 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
     let dev = &ctx.device;
     let geo = upload_geometry(ctx, scene, &s.tessellation);
     let raster = raster_pipelines(ctx);
-    let trace_pl = ctx.compute_pipeline("photon_trace");
-    let splat_pl = ctx.compute_pipeline("photon_splat");
+    let pipelines = crate::techniques::Pipelines::new(ctx, s.technique);
     let resolve_pl = ctx.compute_pipeline("caustic_resolve");
     let shade_pl = ctx.compute_pipeline("shade_receivers");
     let composite_pl = ctx.compute_pipeline("composite");
@@ -607,12 +677,6 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
     let m = s.caustic_map_size;
     let n = s.photons;
     let g = n.min(MAX_GBUFFER);
-    let photon_stride = std::mem::size_of::<Photon>() as u64;
-    let max_bind = dev.limits().max_storage_buffer_binding_size;
-    let batch_cap = (s.photon_memory.min(max_bind) / photon_stride).min(65535 * 64);
-    let per_face = (n as u64) * (n as u64);
-    let batch = per_face.min(batch_cap).max(1);
-    let photon_buf = storage("photons", batch * photon_stride);
     let caster_radius = scene.caster_bounds().map_or(1.0, |(a, b)| (b - a).length() * 0.5);
 
     struct PerLight {
@@ -625,8 +689,7 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
         casters: (GBuffer, GBuffer),
     }
     let mut per_light = Vec::new();
-    let mut photons_traced = 0u64;
-    let mut batches = 0u32;
+    let mut pendings = Vec::new();
     for (li, light) in scene.lights.iter().enumerate() {
         let view = LightView::new(scene, light);
         let nf = view.faces.len() as u32;
@@ -696,74 +759,25 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
             array_view(&recv.pos),
             array_view(&recv.nrm),
         );
-        let trace_layout = trace_pl.get_bind_group_layout(0);
-        let splat_layout = splat_pl.get_bind_group_layout(0);
-        for f in 0..nf {
-            let mut off = 0u64;
-            while off < per_face {
-                let count = batch.min(per_face - off);
-                let tp = uniform(
-                    "trace_params",
-                    bytemuck::bytes_of(&TraceParams {
-                        face: f,
-                        batch_offset: off as u32,
-                        batch_count: count as u32,
-                        _pad: 0,
-                    }),
-                );
-                let sp =
-                    uniform("splat_params", bytemuck::bytes_of(&CountParams { count: count as u32, _pad: [0; 3] }));
-                let tbg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("photon_trace"),
-                    layout: &trace_layout,
-                    entries: &[
-                        wgpu::BindGroupEntry { binding: 0, resource: light_buf.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 1, resource: tp.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&fpv) },
-                        wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&fnv) },
-                        wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&bpv) },
-                        wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&bnv) },
-                        wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&rpv) },
-                        wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(&rnv) },
-                        wgpu::BindGroupEntry { binding: 8, resource: geo.materials.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 9, resource: photon_buf.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 10, resource: stats.as_entire_binding() },
-                    ],
-                });
-                let sbg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("photon_splat"),
-                    layout: &splat_layout,
-                    entries: &[
-                        wgpu::BindGroupEntry { binding: 0, resource: light_buf.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 1, resource: sp.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 2, resource: photon_buf.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 3, resource: accum.as_entire_binding() },
-                    ],
-                });
-                let groups = (count as u32).div_ceil(64);
-                {
-                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some("photon_trace"),
-                        timestamp_writes: timer.compute("photon_trace"),
-                    });
-                    cp.set_pipeline(&trace_pl);
-                    cp.set_bind_group(0, &tbg, &[]);
-                    cp.dispatch_workgroups(groups, 1, 1);
-                }
-                {
-                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some("photon_splat"),
-                        timestamp_writes: timer.compute("photon_splat"),
-                    });
-                    cp.set_pipeline(&splat_pl);
-                    cp.set_bind_group(0, &sbg, &[]);
-                    cp.dispatch_workgroups(groups, 1, 1);
-                }
-                photons_traced += count;
-                batches += 1;
-                off += count;
-            }
-        }
+        let emit = crate::techniques::Emit {
+            ctx,
+            settings: s,
+            pipelines: &pipelines,
+            light_buf: &light_buf,
+            front_pos: &fpv,
+            front_nrm: &fnv,
+            back_pos: &bpv,
+            back_nrm: &bnv,
+            recv_pos: &rpv,
+            recv_nrm: &rnv,
+            materials: &geo.materials,
+            stats: &stats,
+            accum: &accum,
+            n,
+            g,
+            bound: view.faces.iter().map(|f| relevant_bound(scene, f, n, g)).collect(),
+        };
+        pendings.push(crate::techniques::emit(&emit, &mut enc, &mut timer, nf)?);
         let rp = uniform("resolve_params", bytemuck::bytes_of(&CountParams { count: texels as u32, _pad: [0; 3] }));
         let rbg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("caustic_resolve"),
@@ -902,6 +916,10 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
         });
     }
     let timings = timer.finish(ctx)?;
+    let mut technique = TechniqueStats::default();
+    for p in pendings {
+        technique.merge(&p.finish(ctx)?);
+    }
 
     if let Some(dir) = dump {
         dump_buffers(
@@ -920,8 +938,9 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
         caustic_flux_bits,
         flux,
         timings,
-        photons_traced,
-        batches,
+        photons_traced: technique.photons_traced,
+        batches: technique.batches,
+        technique,
         adapter: format!("{} ({:?}, {})", ctx.info.name, ctx.info.backend, ctx.info.driver),
     })
 }

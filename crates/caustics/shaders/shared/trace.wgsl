@@ -2,7 +2,12 @@
 // ray through NDC point `ndc` of face `layer`, carrying `flux`, find where it lands in the
 // caustic map. Uses the module-scope bindings every importing stage declares: light, front_pos,
 // front_nrm, back_pos, back_nrm, recv_pos, recv_nrm, materials, stats.
+// With trace_defer set (adaptive caustic maps trace children and book only the photons they
+// emit), add_fixed collects the flux per slot in trace_pending instead of adding it to stats.
+var<private> trace_defer: bool = false;
+var<private> trace_pending: array<f32, 6>;
 fn add_fixed(slot: u32, value: f32) {
+    if (trace_defer) { trace_pending[slot / 2u] += value; return; }
     let v = max(value * light.params.y, 0.0);
     let hi = floor(v / 4294967296.0);
     let lo = u32(v - hi * 4294967296.0);
@@ -51,7 +56,12 @@ fn light_depth(face: Face, p: vec3f) -> f32 {
     return length(p - face.origin.xyz);
 }
 
-fn march_back(o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
+// March the ray o + s d that travels inside a caster (it entered at o) to where it leaves:
+// through a back surface (the ray passes behind the back-surface buffer's surface), through a
+// front surface (it comes back in front of the front-surface buffer's surface: concave objects,
+// rays reflected inside), or across the silhouette (the last back texel seen). Exact position
+// from the exit texel's tangent plane. `object` = INVALID when no exit is found.
+fn march_exit(o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
     var none: Hit;
     none.object = INVALID;
     let face = light.faces[layer];
@@ -70,8 +80,21 @@ fn march_back(o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
             return buffer_hit(back_pos, back_nrm, layer, last_valid, o, d);
         }
         last_valid = q.xy;
-        if (light_depth(face, p) >= light_depth(face, bp.xyz)) {
-            let h = buffer_hit(back_pos, back_nrm, layer, q.xy, o, d);
+        let depth = light_depth(face, p);
+        var exit_tex = 0u;
+        if (depth >= light_depth(face, bp.xyz)) {
+            exit_tex = 1u;
+        } else if (k >= 2u) {
+            let fp = textureLoad(front_pos, t, layer, 0);
+            if (fp.w >= 0.0 && depth <= light_depth(face, fp.xyz)) { exit_tex = 2u; }
+        }
+        if (exit_tex != 0u) {
+            var h: Hit;
+            if (exit_tex == 1u) {
+                h = buffer_hit(back_pos, back_nrm, layer, q.xy, o, d);
+            } else {
+                h = buffer_hit(front_pos, front_nrm, layer, q.xy, o, d);
+            }
             let s = dot(h.p - o, d);
             if (h.object != INVALID && s > (f32(k) - 1.5) * ds && s < (f32(k) + 0.5) * ds) { return h; }
             var hh = h;
@@ -155,6 +178,8 @@ fn cell_flux(layer: u32, ndc: vec2f, cell: vec2f, d: vec3f) -> vec3f {
 }
 
 const MAX_BOUNCES: u32 = 4u;
+// Total internal reflections followed inside a dielectric before the photon is given up.
+const MAX_INTERNAL: u32 = 3u;
 const STATUS_OK: u32 = 0u;
 const STATUS_NO_EXIT: u32 = 1u;
 const STATUS_TIR: u32 = 2u;
@@ -191,20 +216,28 @@ fn interact(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f, l
     let ext = mat.a.y;
     r.flux *= 1.0 - fresnel_dielectric(cos1, ior / ext);
     let t1 = refract_dir(d, n1, ext / ior);
-    // Back surface: march the refracted ray through the light-space back-surface buffer until it
-    // passes behind the back surface (or leaves its silhouette), then take the exact
-    // intersection with that texel's tangent plane.
-    let back = march_back(p, t1.xyz, layer, g);
-    if (back.object == INVALID) { r.status = STATUS_NO_EXIT; return r; }
-    var n2 = back.n;
-    if (dot(n2, t1.xyz) < 0.0) { n2 = -n2; }
-    // Leaving the refractor: the normal facing the ray is -n2.
-    let cos2 = dot(t1.xyz, n2);
-    let t2 = refract_dir(t1.xyz, -n2, ior / ext);
-    if (t2.w < 0.5) { r.status = STATUS_TIR; return r; }
-    r.flux *= 1.0 - fresnel_dielectric(cos2, ext / ior);
-    r.o = back.p;
-    r.d = t2.xyz;
+    // Inside: march to the exit; on total internal reflection reflect (all the flux) and march
+    // on, up to MAX_INTERNAL times. At a partial exit only the transmitted part is followed.
+    var p_in = p;
+    var t_in = t1.xyz;
+    for (var k = 0u; k <= MAX_INTERNAL; k++) {
+        let exit = march_exit(p_in, t_in, layer, g);
+        if (exit.object == INVALID) { r.status = STATUS_NO_EXIT; return r; }
+        var n2 = exit.n;
+        if (dot(n2, t_in) < 0.0) { n2 = -n2; }
+        // Leaving the refractor: the normal facing the ray is -n2.
+        let cos2 = dot(t_in, n2);
+        let t2 = refract_dir(t_in, -n2, ior / ext);
+        if (t2.w > 0.5) {
+            r.flux *= 1.0 - fresnel_dielectric(cos2, ext / ior);
+            r.o = exit.p;
+            r.d = t2.xyz;
+            return r;
+        }
+        p_in = exit.p;
+        t_in = reflect(t_in, n2);
+    }
+    r.status = STATUS_TIR;
     return r;
 }
 

@@ -14,11 +14,21 @@ pub const STAGES: &[(&str, &str)] = &[
     ("caustic_resolve", include_str!("../../shaders/caustic_resolve.wgsl")),
     ("shade_receivers", include_str!("../../shaders/shade_receivers.wgsl")),
     ("composite", include_str!("../../shaders/composite.wgsl")),
+    ("coverage_mip", include_str!("../../shaders/coverage_mip.wgsl")),
+    ("adaptive_plan", include_str!("../../shaders/adaptive_plan.wgsl")),
+    ("adaptive_init", include_str!("../../shaders/adaptive_init.wgsl")),
+    ("adaptive_setup", include_str!("../../shaders/adaptive_setup.wgsl")),
+    ("adaptive_refine", include_str!("../../shaders/adaptive_refine.wgsl")),
+    ("hcm_traverse", include_str!("../../shaders/hcm_traverse.wgsl")),
 ];
 pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 
 /// Shared WGSL modules a stage can pull in with a line `#import NAME`.
-pub const SHARED: &[(&str, &str)] = &[("trace", include_str!("../../shaders/shared/trace.wgsl"))];
+pub const SHARED: &[(&str, &str)] = &[
+    ("trace", include_str!("../../shaders/shared/trace.wgsl")),
+    ("hierarchy", include_str!("../../shaders/shared/hierarchy.wgsl")),
+    ("coverage", include_str!("../../shaders/shared/coverage.wgsl")),
+];
 
 /// Full source of a stage: the shared code, then the stage with its `#import` lines replaced by
 /// the modules they name (a tiny preprocessor, as vello does; WGSL has no includes).

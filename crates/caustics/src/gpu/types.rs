@@ -56,7 +56,9 @@ pub struct TraceParams {
     pub face: u32,
     pub batch_offset: u32,
     pub batch_count: u32,
-    pub _pad: u32,
+    /// 0: the batch is `batch_count` consecutive cells of the row-major grid from `batch_offset`;
+    /// T > 0: a T × T tile whose top-left cell has row-major index `batch_offset`.
+    pub tile: u32,
 }
 
 #[repr(C)]
@@ -68,7 +70,7 @@ pub struct Photon {
     pub flux: [f32; 4],
 }
 
-/// Used by photon_splat (`SplatParams`) and caustic_resolve (`ResolveParams`).
+/// Used by caustic_resolve (`ResolveParams`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct CountParams {
@@ -96,6 +98,71 @@ pub struct CompositeParams {
     pub _pad: [u32; 2],
 }
 
+/// Read by photon_splat from a storage buffer: the first three words are also the indirect
+/// dispatch arguments of the splat (the adaptive techniques write them on the GPU).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct SplatParams {
+    pub groups: [u32; 3],
+    pub count: u32,
+}
+
+/// Coverage mip chain build (coverage_mip): level 0 from the caster front buffer, or a level
+/// from the one below (sum of 2 × 2 counts).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct CoverParams {
+    /// Face (layer of the caster buffers).
+    pub face: u32,
+    /// Destination level (0 = from the texture).
+    pub level: u32,
+    /// Size of the destination level (texels per side).
+    pub size: u32,
+    /// Word offset of the source level (level > 0).
+    pub src: u32,
+    /// Word offset of the destination level.
+    pub dst: u32,
+    /// Level 0 source: 0 the caster front buffer (coverage), 1 a dense photon tile (validity).
+    pub source: u32,
+    pub _pad: [u32; 2],
+}
+
+/// One step of the GPU-driven photon hierarchy (adaptive and hierarchical techniques): the
+/// parameters of one level, fixed when the frame is recorded; what changes on the GPU (counts,
+/// offsets, batch index) lives in the control buffer.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct LevelParams {
+    pub face: u32,
+    /// Level index k of the clusters this step reads (grid `grid`), or of the cells written.
+    pub level: u32,
+    /// Grid size of the clusters read (cells per side).
+    pub grid: u32,
+    /// Finest grid N (adaptive) or tile size (hierarchical).
+    pub finest: u32,
+    /// Caster geometry buffer size G (size of coverage level 0).
+    pub gbuffer: u32,
+    /// Bit 0: children are the finest level (emit photons); bit 1: check convergence (maximal
+    /// caustic map error); bit 2: setup step after init (begin batch); bit 3: setup at batch end.
+    pub flags: u32,
+    /// Capacity of each of the two cell regions (cells).
+    pub cell_capacity: u32,
+    /// Capacity of the photon buffer (photons).
+    pub photon_capacity: u32,
+    /// Convergence tolerance in caustic-map texels (0: all children in one texel).
+    pub tolerance: f32,
+    /// Batch grid size (cells per side) and batch capacity in leaf photons (plan).
+    pub batch_grid: u32,
+    pub batch_leaves: u32,
+    /// Batches the host recorded (the plan flags an overflow beyond).
+    pub max_batches: u32,
+    /// Hierarchical: column and row of the tile's top-left cell in the N × N grid, N.
+    pub tile_x: u32,
+    pub tile_y: u32,
+    pub grid_n: u32,
+    pub _pad: u32,
+}
+
 /// (Rust type name, WGSL struct name, size) for the layout test.
 pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("FaceGpu", "Face", std::mem::size_of::<FaceGpu>()),
@@ -104,7 +171,9 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("RasterView", "RasterView", std::mem::size_of::<RasterView>()),
     ("TraceParams", "TraceParams", std::mem::size_of::<TraceParams>()),
     ("Photon", "Photon", std::mem::size_of::<Photon>()),
-    ("CountParams", "SplatParams", std::mem::size_of::<CountParams>()),
+    ("SplatParams", "SplatParams", std::mem::size_of::<SplatParams>()),
+    ("CoverParams", "CoverParams", std::mem::size_of::<CoverParams>()),
+    ("LevelParams", "LevelParams", std::mem::size_of::<LevelParams>()),
     ("CountParams", "ResolveParams", std::mem::size_of::<CountParams>()),
     ("ShadeParams", "ShadeParams", std::mem::size_of::<ShadeParams>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),

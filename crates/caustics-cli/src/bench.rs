@@ -1,0 +1,357 @@
+//! `caustics bench`: the photon emission techniques side by side on one scene, light and device,
+//! like Table 1 of Wyman & Nichols 2009 (photons splatted at each equivalent photon grid), plus
+//! relevant photons, coverage, photons traced and evaluated, GPU milliseconds per pass, speed
+//! relative to basic caustic maps, photon memory, batches, and how far each caustic map lies from
+//! the dense one (HDR-FLIP). Printed, and written as markdown and JSON.
+
+use anyhow::{Context, Result, bail};
+use caustics::Scene;
+use caustics::image_io::Image;
+use caustics::render::{GpuRender, RenderSettings};
+use caustics::techniques::Technique;
+use clap::Args;
+use serde_json::{Value, json};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct BenchArgs {
+    /// Scene file (JSON); the built-in glass-ball scene if omitted.
+    scene: Option<PathBuf>,
+    /// Techniques to compare, comma-separated: basic, hierarchical, adaptive-level, adaptive-error.
+    #[arg(long, default_value = "basic,hierarchical,adaptive-level,adaptive-error")]
+    technique: String,
+    /// Equivalent photon grids: a range of powers of two `LO..HI`, or a comma-separated list.
+    #[arg(long, default_value = "256..4096")]
+    photons: String,
+    /// Caustic map size per light-view face (texels).
+    #[arg(long, default_value_t = 1024)]
+    caustic_map: u32,
+    /// Memory for photon storage, MiB.
+    #[arg(long, default_value_t = 64)]
+    photon_memory: u64,
+    /// Adaptive techniques: the coarse grid the hierarchy starts from.
+    #[arg(long, default_value_t = 64)]
+    base_grid: u32,
+    /// Maximal caustic map error: convergence tolerance in caustic-map texels (0: one texel).
+    #[arg(long, default_value_t = 0.0)]
+    max_error_tolerance: f32,
+    /// Camera image size WxH (small: the bench is about the caustic map).
+    #[arg(long, default_value = "64x64", value_parser = crate::parse_size)]
+    size: (u32, u32),
+    /// Renders per measurement; the fastest is reported.
+    #[arg(long, default_value_t = 1)]
+    repeat: u32,
+    /// Folder for bench_SCENE.md and bench_SCENE.json.
+    #[arg(long, default_value = ".")]
+    out: PathBuf,
+    /// Adapter to use (a part of its name, see `caustics info`).
+    #[arg(long)]
+    adapter: Option<String>,
+}
+
+fn parse_grids(s: &str) -> Result<Vec<u32>> {
+    let bad = || format!("--photons: expected LO..HI (powers of two) or a list N,N,..., got \"{s}\"");
+    if let Some((a, b)) = s.split_once("..") {
+        let a: u32 = a.trim().parse().ok().with_context(bad)?;
+        let b: u32 = b.trim().parse().ok().with_context(bad)?;
+        if !a.is_power_of_two() || !b.is_power_of_two() || a > b {
+            bail!(bad());
+        }
+        let mut v = Vec::new();
+        let mut n = a;
+        while n <= b {
+            v.push(n);
+            n *= 2;
+        }
+        return Ok(v);
+    }
+    s.split(',').map(|x| x.trim().parse::<u32>().ok().with_context(bad)).collect()
+}
+
+/// One render of one technique at one grid.
+struct Run {
+    technique: Technique,
+    n: u32,
+    out: GpuRender,
+    /// GPU ms of the photon stage (coverage, trace, traversal, splat) and of the whole frame.
+    photon_ms: f64,
+    frame_ms: f64,
+    wall_ms: f64,
+}
+
+fn is_photon_pass(name: &str) -> bool {
+    name.starts_with("photon_") || name.starts_with("adaptive_") || name.starts_with("hcm_") || name == "coverage_mip"
+}
+
+pub fn run(a: &BenchArgs) -> Result<()> {
+    let techniques: Vec<Technique> = a
+        .technique
+        .split(',')
+        .map(|t| Technique::parse(t).with_context(|| format!("--technique: unknown technique \"{t}\"")))
+        .collect::<Result<_>>()?;
+    let grids = parse_grids(&a.photons)?;
+    let mut scene = match &a.scene {
+        Some(p) => Scene::load(p)?,
+        None => Scene::default_scene(),
+    };
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    (scene.camera.width, scene.camera.height) = a.size;
+    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    let ctx = caustics::gpu::GpuContext::new(a.adapter.as_deref())?;
+    let adapter = format!("{} ({:?}, {})", ctx.info.name, ctx.info.backend, ctx.info.driver);
+    println!("scene: {} ({}), adapter: {adapter}", scene.name, scene.source);
+    let mut runs: Vec<Run> = Vec::new();
+    let mut skipped: Vec<(Technique, u32, String)> = Vec::new();
+    for &n in &grids {
+        for &t in &techniques {
+            let s = RenderSettings {
+                photons: n,
+                technique: t,
+                base_grid: a.base_grid,
+                max_error_tolerance: a.max_error_tolerance,
+                caustic_map_size: a.caustic_map,
+                shadow_map_size: 1024,
+                photon_memory: a.photon_memory.saturating_mul(1 << 20),
+                ..Default::default()
+            };
+            if n > t.max_photons() {
+                skipped.push((t, n, format!("{t} supports grids up to {}", t.max_photons())));
+                continue;
+            }
+            let mut best: Option<Run> = None;
+            for _ in 0..a.repeat.max(1) {
+                let t0 = std::time::Instant::now();
+                let out = match caustics::render::render(&ctx, &scene, &s, None) {
+                    Ok(o) => o,
+                    Err(e) if e.is_input() => {
+                        skipped.push((t, n, e.to_string()));
+                        break;
+                    }
+                    Err(e) => return Err(e.into()),
+                };
+                let wall_ms = t0.elapsed().as_secs_f64() * 1e3;
+                let photon_ms = out.timings.iter().filter(|(p, _)| is_photon_pass(p)).map(|(_, ms)| ms).sum();
+                let frame_ms = out.timings.iter().map(|(_, ms)| ms).sum();
+                let r = Run { technique: t, n, out, photon_ms, frame_ms, wall_ms };
+                if best.as_ref().is_none_or(|b| r.photon_ms < b.photon_ms) {
+                    best = Some(r);
+                }
+            }
+            if let Some(r) = best {
+                let ts = &r.out.technique;
+                println!(
+                    "{n:>6}^2 {:<15} splatted {:>11} relevant {:>11} traced {:>11} photon GPU {:>9.1} ms wall {:>8.0} ms batches {:>4} peak {:>7.2} MiB",
+                    t.name(),
+                    ts.photons_splatted,
+                    ts.relevant,
+                    ts.photons_traced,
+                    r.photon_ms,
+                    r.wall_ms,
+                    ts.batches,
+                    ts.peak_photon_bytes as f64 / (1 << 20) as f64
+                );
+                runs.push(r);
+            }
+        }
+    }
+    let name = scene.name.clone();
+    let md = markdown(&name, &adapter, a, &grids, &techniques, &runs, &skipped);
+    let js = to_json(&name, &adapter, a, &runs, &skipped);
+    println!("\n{md}");
+    let md_path = a.out.join(format!("bench_{name}.md"));
+    let js_path = a.out.join(format!("bench_{name}.json"));
+    std::fs::write(&md_path, &md).with_context(|| format!("cannot write {}", md_path.display()))?;
+    std::fs::write(&js_path, serde_json::to_string_pretty(&js)? + "\n")
+        .with_context(|| format!("cannot write {}", js_path.display()))?;
+    println!("wrote {} and {}", md_path.display(), js_path.display());
+    Ok(())
+}
+
+fn find(runs: &[Run], t: Technique, n: u32) -> Option<&Run> {
+    runs.iter().find(|r| r.technique == t && r.n == n)
+}
+
+/// Mean HDR-FLIP between two caustic maps (all lights and faces, concatenated).
+fn map_flip(a: &GpuRender, b: &GpuRender) -> Option<f64> {
+    let cat = |r: &GpuRender| -> Option<Image> {
+        let maps: Vec<&Image> = r.caustic_maps.iter().flatten().collect();
+        let w = maps.first()?.width;
+        let mut img = Image::new(w, w * maps.len() as u32);
+        for (k, m) in maps.iter().enumerate() {
+            img.pixels[k * (w * w) as usize..(k + 1) * (w * w) as usize].copy_from_slice(&m.pixels);
+        }
+        Some(img)
+    };
+    caustics::metrics::hdr_flip(&cat(a)?, &cat(b)?, None).ok().map(|f| f.mean)
+}
+
+fn mib(b: u64) -> String {
+    format!("{:.2}", b as f64 / (1 << 20) as f64)
+}
+
+fn markdown(
+    scene: &str,
+    adapter: &str,
+    a: &BenchArgs,
+    grids: &[u32],
+    techniques: &[Technique],
+    runs: &[Run],
+    skipped: &[(Technique, u32, String)],
+) -> String {
+    let mut s = String::new();
+    let coverage = runs.first().map_or(0.0, |r| r.out.technique.coverage());
+    let _ = writeln!(s, "# Photon emission techniques: {scene}\n");
+    let _ = writeln!(
+        s,
+        "Adapter: {adapter}. Caustic map {0}x{0}, photon memory {1} MiB, base grid {2}, max-error tolerance {3} texels (0: one texel), camera {4}x{5}. Coverage (casters in the light's view): **{6:.2} %**.\n",
+        a.caustic_map,
+        a.photon_memory,
+        a.base_grid,
+        a.max_error_tolerance,
+        a.size.0,
+        a.size.1,
+        100.0 * coverage
+    );
+    let _ = writeln!(s, "## Photons splatted (Table 1 of Wyman & Nichols 2009)\n");
+    let mut head = String::from("| photon grid | relevant |");
+    let mut rule = String::from("| ---: | ---: |");
+    for t in techniques {
+        let _ = write!(head, " {t} |");
+        rule.push_str(" ---: |");
+    }
+    for t in techniques.iter().filter(|t| !matches!(t, Technique::Basic)) {
+        let _ = write!(head, " {t} / relevant |");
+        rule.push_str(" ---: |");
+    }
+    let _ = writeln!(s, "{head}\n{rule}");
+    for &n in grids {
+        let relevant = runs.iter().find(|r| r.n == n).map(|r| r.out.technique.relevant);
+        let _ = write!(s, "| {n}² | {} |", relevant.map_or("-".into(), |v| v.to_string()));
+        for &t in techniques {
+            let _ = write!(s, " {} |", find(runs, t, n).map_or("N/A".into(), |r| r.out.technique.photons_splatted.to_string()));
+        }
+        for &t in techniques.iter().filter(|t| !matches!(t, Technique::Basic)) {
+            let v = find(runs, t, n).and_then(|r| {
+                let rel = r.out.technique.relevant;
+                (rel > 0).then(|| format!("{:.3}", r.out.technique.photons_splatted as f64 / rel as f64))
+            });
+            let _ = write!(s, " {} |", v.unwrap_or("N/A".into()));
+        }
+        s.push('\n');
+    }
+    let _ = writeln!(
+        s,
+        "\n## Work, time and memory\n\nTraced: photons traced. Evaluated: cells kept over all levels of the hierarchy plus photons traced below the last level (adaptive), or cells plus photons splatted (hierarchical); divided by the relevant photons. Photon GPU ms: coverage mip, tracing, traversal and splat (timestamp queries); speed-up: basic's photon GPU ms at the same grid over this technique's.\n"
+    );
+    let _ = writeln!(
+        s,
+        "| photon grid | technique | traced | evaluated / relevant | photon GPU ms | speed-up vs basic | frame GPU ms | wall ms | photon memory MiB | peak used MiB | batches | FLIP vs dense |"
+    );
+    let _ = writeln!(s, "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
+    for &n in grids {
+        for &t in techniques {
+            let Some(r) = find(runs, t, n) else { continue };
+            let ts = &r.out.technique;
+            let basic = find(runs, Technique::Basic, n);
+            let speed = basic.map_or("-".into(), |b| format!("{:.2}", b.photon_ms / r.photon_ms.max(1e-9)));
+            let dense = basic.or_else(|| find(runs, Technique::AdaptiveLevel, n).filter(|_| t != Technique::AdaptiveLevel));
+            let flip = match dense {
+                Some(d) if !std::ptr::eq(d, r) => map_flip(&r.out, &d.out).map_or("-".into(), |f| format!("{f:.4}")),
+                _ => "-".into(),
+            };
+            let eval = if ts.relevant > 0 && t != Technique::Basic {
+                format!("{:.3}", ts.evaluated as f64 / ts.relevant as f64)
+            } else {
+                "-".into()
+            };
+            let _ = writeln!(
+                s,
+                "| {n}² | {t} | {} | {eval} | {:.1} | {speed} | {:.1} | {:.0} | {} | {} | {} | {flip} |",
+                ts.photons_traced,
+                r.photon_ms,
+                r.frame_ms,
+                r.wall_ms,
+                mib(ts.photon_bytes),
+                mib(ts.peak_photon_bytes),
+                ts.batches
+            );
+        }
+    }
+    let _ = writeln!(s, "\nFLIP vs dense: mean HDR-FLIP of the caustic map against basic caustic maps at the same grid (against adaptive-level where basic cannot run).\n");
+    let _ = writeln!(s, "## GPU milliseconds per pass\n");
+    let mut passes: Vec<String> = Vec::new();
+    for r in runs {
+        for (p, _) in &r.out.timings {
+            if is_photon_pass(p) && !passes.contains(p) {
+                passes.push(p.clone());
+            }
+        }
+    }
+    let _ = writeln!(s, "| photon grid | technique | {} |", passes.join(" | "));
+    let _ = writeln!(s, "| ---: | --- |{}", " ---: |".repeat(passes.len()));
+    for r in runs {
+        let cells: Vec<String> = passes
+            .iter()
+            .map(|p| r.out.timings.iter().find(|(q, _)| q == p).map_or("-".into(), |(_, ms)| format!("{ms:.1}")))
+            .collect();
+        let _ = writeln!(s, "| {}² | {} | {} |", r.n, r.technique, cells.join(" | "));
+    }
+    let _ = writeln!(s, "\n## Photons per level (adaptive)\n");
+    let _ = writeln!(s, "| photon grid | technique | level grid | cells kept | photons traced | photons emitted |");
+    let _ = writeln!(s, "| ---: | --- | ---: | ---: | ---: | ---: |");
+    for r in runs.iter().filter(|r| r.technique.is_adaptive()) {
+        for l in &r.out.technique.levels {
+            let _ = writeln!(s, "| {}² | {} | {}² | {} | {} | {} |", r.n, r.technique, l.grid, l.cells, l.traced, l.emitted);
+        }
+    }
+    if !skipped.is_empty() {
+        let _ = writeln!(s, "\nNot run:\n");
+        for (t, n, why) in skipped {
+            let _ = writeln!(s, "- {t} at {n}²: {why}");
+        }
+    }
+    s
+}
+
+fn to_json(scene: &str, adapter: &str, a: &BenchArgs, runs: &[Run], skipped: &[(Technique, u32, String)]) -> Value {
+    let rows: Vec<Value> = runs
+        .iter()
+        .map(|r| {
+            let ts = &r.out.technique;
+            let basic = find(runs, Technique::Basic, r.n).filter(|b| !std::ptr::eq(*b, r));
+            json!({
+                "technique": r.technique.name(),
+                "photon_grid": r.n,
+                "photons_splatted": ts.photons_splatted,
+                "photons_traced": ts.photons_traced,
+                "relevant": ts.relevant,
+                "evaluated": ts.evaluated,
+                "coverage": ts.coverage(),
+                "photon_gpu_ms": r.photon_ms,
+                "frame_gpu_ms": r.frame_ms,
+                "wall_ms": r.wall_ms,
+                "speedup_vs_basic": basic.map(|b| b.photon_ms / r.photon_ms.max(1e-9)),
+                "flip_vs_basic": basic.and_then(|b| map_flip(&r.out, &b.out)),
+                "photon_bytes": ts.photon_bytes,
+                "peak_photon_bytes": ts.peak_photon_bytes,
+                "batches": ts.batches,
+                "flux_landed_w": r.out.flux.iter().map(|f| f.landed).sum::<f64>(),
+                "passes_ms": r.out.timings.iter().map(|(p, ms)| (p.clone(), json!(ms))).collect::<serde_json::Map<_, _>>(),
+                "levels": ts.levels.iter().map(|l| json!({"grid": l.grid, "cells": l.cells, "traced": l.traced, "emitted": l.emitted})).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    json!({
+        "scene": scene,
+        "adapter": adapter,
+        "caustic_map": a.caustic_map,
+        "photon_memory_mib": a.photon_memory,
+        "base_grid": a.base_grid,
+        "max_error_tolerance": a.max_error_tolerance,
+        "runs": rows,
+        "not_run": skipped.iter().map(|(t, n, why)| json!({"technique": t.name(), "photon_grid": n, "why": why})).collect::<Vec<_>>(),
+    })
+}

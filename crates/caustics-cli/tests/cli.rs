@@ -1,0 +1,59 @@
+//! The command line: exit codes, error messages naming file and field, no half-written output.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn caustics() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_caustics"))
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("caustics-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+fn run_err(args: &[&str]) -> String {
+    let out = caustics().args(args).output().unwrap();
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8_lossy(&out.stderr).to_string()
+}
+
+#[test]
+fn bad_scene_file_exits_2_and_names_it() {
+    let bad = tmp("bad.json");
+    std::fs::write(&bad, "{ \"schema_version\": 1,\n \"name\": 3 }").unwrap();
+    let out = tmp("never.png");
+    let e = run_err(&["render", bad.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(e.contains("bad.json") && e.contains("line 2"), "{e}");
+    assert!(!out.exists(), "an output file was written for a bad scene");
+    let e = run_err(&["render", "/nonexistent/scene.json"]);
+    assert!(e.contains("/nonexistent/scene.json"), "{e}");
+}
+
+#[test]
+fn bad_output_and_settings_exit_2() {
+    let e = run_err(&["render", "-o", "/nonexistent-dir/x.png"]);
+    assert!(e.contains("--output") && e.contains("/nonexistent-dir"), "{e}");
+    let e = run_err(&["render", "-o", tmp("x.txt").to_str().unwrap()]);
+    assert!(e.contains(".png or .exr"), "{e}");
+    let out = tmp("big.png");
+    let e = run_err(&["render", "--photons", "100000", "-o", out.to_str().unwrap()]);
+    assert!(e.contains("--photons"), "{e}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn compare_reports_metrics() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../references");
+    let a = root.join("a_glass_sphere.exr");
+    let out = caustics()
+        .args(["compare", a.to_str().unwrap(), a.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(s.contains("RMSE") && s.contains("FLIP") && s.contains("energy ratio"), "{s}");
+    let e = run_err(&["compare", a.to_str().unwrap(), "/nonexistent/b.exr"]);
+    assert!(e.contains("/nonexistent/b.exr"), "{e}");
+}

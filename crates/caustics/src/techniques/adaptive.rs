@@ -1,0 +1,297 @@
+//! Adaptive caustic maps (Wyman & Nichols 2009), GPU-driven with compute shaders as Piao 2015
+//! proposes: a photon hierarchy over the light-space geometry buffers, traversed breadth-first
+//! from a coarse grid (64² by default) down to the finest grid N, with photons created only
+//! where needed by point-sampling the geometry buffers (deferred), never as a dense buffer.
+//!
+//! Per face and batch, recorded once per frame with no CPU readback between levels:
+//! `adaptive_setup` (begin), `adaptive_init` (the batch's cells of the start grid), then per
+//! level `adaptive_refine` (indirect dispatch: discard, emit or refine each cluster, appending
+//! children and photons with atomic counters into one cell list with read and write regions and
+//! one photon buffer) and `adaptive_setup` (next level's indirect arguments, the splat's
+//! indirect arguments and photon count), then `photon_splat` (indirect).
+//!
+//! Batching: `adaptive_plan` splits each face's hierarchy into batches of at most the photon
+//! capacity the memory budget allows, from the exact relevant-photon counts of the coverage mip
+//! (an upper bound of what either metric emits), so memory stays bounded whatever N. The host
+//! records as many batches as an upper bound from the casters' bounding box allows; batches the
+//! plan leaves empty cost empty indirect dispatches. Any overflow is flagged on the GPU and
+//! reported after the frame.
+
+use super::{
+    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, Pending, Technique, bind, ctrl, level_params, storage, uniform,
+};
+use crate::error::{Error, Result};
+use crate::gpu::PassTimer;
+use crate::gpu::types::{LevelParams, Photon};
+use crate::render::RenderSettings;
+
+/// Bytes per leaf photon of batch capacity: the photon (32) and its slots in the two cell
+/// regions (2 × 4).
+pub const BYTES_PER_PHOTON: u64 = 40;
+/// The largest batch grid (the plan is S² words, and one workgroup walks it).
+const MAX_BATCH_GRID: u32 = 4096;
+
+/// How one frame's hierarchy is laid out and batched (host side).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AdaptivePlan {
+    /// Finest grid N and start grid (base, a power of two, at most N / 2).
+    pub n: u32,
+    pub base: u32,
+    /// Grid whose cells are assigned to batches (≥ base).
+    pub batch_grid: u32,
+    /// Photons (and cells per region) one batch can hold.
+    pub capacity: u64,
+    /// Leaf photons per batch the plan fills up to (capacity less the largest cell).
+    pub batch_leaves: u64,
+    /// Bytes of photon storage: photon buffer, two cell regions, plan.
+    pub bytes: u64,
+}
+
+impl AdaptivePlan {
+    /// The plan for `settings`, or an input error naming the option at fault.
+    pub fn new(s: &RenderSettings, max_bind: u64) -> Result<AdaptivePlan> {
+        let n = s.photons;
+        let cl = |f: &str, m: String| Err(Error::input("<command line>", f, m));
+        if !n.is_power_of_two() || n < 32 || n > 65536 {
+            return cl("--photons", format!("adaptive caustic maps need a power of two from 32 to 65536 (got {n})"));
+        }
+        if !s.base_grid.is_power_of_two() || !(4..=4096).contains(&s.base_grid) {
+            return cl("--base-grid", format!("must be a power of two from 4 to 4096 (got {})", s.base_grid));
+        }
+        let base = s.base_grid.min(n / 2);
+        let mut sb = base;
+        loop {
+            let plan_bytes = (sb as u64).pow(2) * 4;
+            let capacity = (s.photon_memory.saturating_sub(plan_bytes) / BYTES_PER_PHOTON).min(max_bind / 32);
+            let cell = ((n / sb) as u64).pow(2);
+            if cell * 2 <= capacity && capacity >= 64 {
+                return Ok(AdaptivePlan {
+                    n,
+                    base,
+                    batch_grid: sb,
+                    capacity,
+                    batch_leaves: capacity - cell,
+                    bytes: capacity * BYTES_PER_PHOTON + plan_bytes,
+                });
+            }
+            if sb >= n / 2 || sb >= MAX_BATCH_GRID {
+                return cl(
+                    "--photon-memory",
+                    format!(
+                        "{} KiB of photon memory is too small for even one batch of the {n}x{n} photon hierarchy \
+                         (a batch must hold at least two {1}x{1} cells of {BYTES_PER_PHOTON} bytes per photon, \
+                         plus a {2}x{2} plan)",
+                        s.photon_memory >> 10,
+                        n / sb,
+                        sb
+                    ),
+                );
+            }
+            sb *= 2;
+        }
+    }
+
+    /// Level index (of the control buffer's per-level counters) of grid `s`.
+    fn level(&self, s: u32) -> u32 {
+        (s / self.base).trailing_zeros()
+    }
+}
+
+pub(crate) struct Adaptive {
+    plan: AdaptivePlan,
+    cells: wgpu::Buffer,
+    photons: wgpu::Buffer,
+    plan_buf: wgpu::Buffer,
+    args: wgpu::Buffer,
+}
+
+impl Adaptive {
+    pub fn new(e: &Emit) -> Result<Adaptive> {
+        let plan = AdaptivePlan::new(e.settings, e.ctx.device.limits().max_storage_buffer_binding_size)?;
+        let none = wgpu::BufferUsages::empty();
+        Ok(Adaptive {
+            cells: storage(e.ctx, "cells", plan.capacity * 8, none),
+            photons: storage(e.ctx, "photons", plan.capacity * std::mem::size_of::<Photon>() as u64, none),
+            plan_buf: storage(e.ctx, "batch_plan", (plan.batch_grid as u64).pow(2) * 4, none),
+            args: storage(e.ctx, "indirect_args", ctrl::SPLAT_ARGS + 16, wgpu::BufferUsages::INDIRECT),
+            plan,
+        })
+    }
+
+    pub fn record_face(
+        &mut self,
+        e: &Emit,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        cover: &wgpu::Buffer,
+        f: u32,
+    ) -> wgpu::Buffer {
+        let p = self.plan;
+        let s = e.settings;
+        let ctrl_buf = storage(e.ctx, "hierarchy_control", ctrl::WORDS * 4, wgpu::BufferUsages::empty());
+        let max_batches = e.bound[f as usize].div_ceil(p.batch_leaves).clamp(1, (p.batch_grid as u64).pow(2)) as u32;
+        let lp = LevelParams {
+            finest: p.n,
+            gbuffer: e.g,
+            cell_capacity: p.capacity as u32,
+            photon_capacity: p.capacity as u32,
+            tolerance: s.max_error_tolerance,
+            batch_grid: p.batch_grid,
+            batch_leaves: p.batch_leaves as u32,
+            max_batches,
+            grid_n: p.n,
+            ..level_params(f)
+        };
+        let (plan_pl, init_pl, setup_pl, refine_pl) = (
+            e.pipelines.plan.as_ref().unwrap(),
+            e.pipelines.init.as_ref().unwrap(),
+            e.pipelines.setup.as_ref().unwrap(),
+            e.pipelines.refine.as_ref().unwrap(),
+        );
+        let setup = |lp: LevelParams| {
+            let u = uniform(e.ctx, "adaptive_setup", bytemuck::bytes_of(&lp));
+            bind(
+                e.ctx,
+                setup_pl,
+                "adaptive_setup",
+                &[u.as_entire_binding(), ctrl_buf.as_entire_binding(), self.args.as_entire_binding()],
+            )
+        };
+        let u_plan = uniform(e.ctx, "adaptive_plan", bytemuck::bytes_of(&lp));
+        let plan_bg = bind(
+            e.ctx,
+            plan_pl,
+            "adaptive_plan",
+            &[
+                u_plan.as_entire_binding(),
+                cover.as_entire_binding(),
+                self.plan_buf.as_entire_binding(),
+                ctrl_buf.as_entire_binding(),
+            ],
+        );
+        let init_bg = bind(
+            e.ctx,
+            init_pl,
+            "adaptive_init",
+            &[
+                u_plan.as_entire_binding(),
+                cover.as_entire_binding(),
+                self.plan_buf.as_entire_binding(),
+                self.cells.as_entire_binding(),
+                ctrl_buf.as_entire_binding(),
+            ],
+        );
+        let begin = setup(LevelParams { flags: FLAG_BEGIN, ..lp });
+        let end_begin = setup(LevelParams { flags: FLAG_BEGIN | FLAG_END, ..lp });
+        let end = setup(LevelParams { flags: FLAG_END, ..lp });
+        let after_init = setup(LevelParams { level: p.level(p.batch_grid), ..lp });
+        // One step per cluster grid from the batch grid to N / 2.
+        let mut steps = Vec::new();
+        let mut grid = p.batch_grid;
+        while grid < p.n {
+            let mut flags = 0;
+            if grid * 2 == p.n {
+                flags |= FLAG_LAST;
+            }
+            if s.technique == Technique::AdaptiveError && grid * 2 >= s.error_check_grid {
+                flags |= FLAG_CHECK;
+            }
+            let rl = LevelParams { level: p.level(grid), grid, flags, ..lp };
+            let u = uniform(e.ctx, "adaptive_refine", bytemuck::bytes_of(&rl));
+            let rbg = bind(
+                e.ctx,
+                refine_pl,
+                "adaptive_refine",
+                &[
+                    e.light_buf.as_entire_binding(),
+                    u.as_entire_binding(),
+                    wgpu::BindingResource::TextureView(e.front_pos),
+                    wgpu::BindingResource::TextureView(e.front_nrm),
+                    wgpu::BindingResource::TextureView(e.back_pos),
+                    wgpu::BindingResource::TextureView(e.back_nrm),
+                    wgpu::BindingResource::TextureView(e.recv_pos),
+                    wgpu::BindingResource::TextureView(e.recv_nrm),
+                    e.materials.as_entire_binding(),
+                    cover.as_entire_binding(),
+                    self.cells.as_entire_binding(),
+                    self.photons.as_entire_binding(),
+                    ctrl_buf.as_entire_binding(),
+                    e.stats.as_entire_binding(),
+                ],
+            );
+            let sbg = setup(LevelParams { level: p.level(grid * 2), ..lp });
+            steps.push((rbg, sbg));
+            grid *= 2;
+        }
+        let splat_bg = bind(
+            e.ctx,
+            &e.pipelines.splat,
+            "photon_splat",
+            &[
+                e.light_buf.as_entire_binding(),
+                wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &self.args,
+                    offset: ctrl::SPLAT_ARGS,
+                    size: std::num::NonZeroU64::new(16),
+                }),
+                self.photons.as_entire_binding(),
+                e.accum.as_entire_binding(),
+            ],
+        );
+        {
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("adaptive_plan"),
+                timestamp_writes: timer.compute("adaptive_plan"),
+            });
+            cp.set_pipeline(plan_pl);
+            cp.set_bind_group(0, &plan_bg, &[]);
+            cp.dispatch_workgroups(1, 1, 1);
+        }
+        let ig = p.batch_grid.div_ceil(8);
+        for b in 0..max_batches {
+            {
+                let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("adaptive_traverse"),
+                    timestamp_writes: timer.compute("adaptive_traverse"),
+                });
+                cp.set_pipeline(setup_pl);
+                cp.set_bind_group(0, if b == 0 { &begin } else { &end_begin }, &[]);
+                cp.dispatch_workgroups(1, 1, 1);
+                cp.set_pipeline(init_pl);
+                cp.set_bind_group(0, &init_bg, &[]);
+                cp.dispatch_workgroups(ig, ig, 1);
+                cp.set_pipeline(setup_pl);
+                cp.set_bind_group(0, &after_init, &[]);
+                cp.dispatch_workgroups(1, 1, 1);
+                for (rbg, sbg) in &steps {
+                    cp.set_pipeline(refine_pl);
+                    cp.set_bind_group(0, rbg, &[]);
+                    cp.dispatch_workgroups_indirect(&self.args, 0);
+                    cp.set_pipeline(setup_pl);
+                    cp.set_bind_group(0, sbg, &[]);
+                    cp.dispatch_workgroups(1, 1, 1);
+                }
+            }
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("photon_splat"),
+                timestamp_writes: timer.compute("photon_splat"),
+            });
+            cp.set_pipeline(&e.pipelines.splat);
+            cp.set_bind_group(0, &splat_bg, &[]);
+            cp.dispatch_workgroups_indirect(&self.args, ctrl::SPLAT_ARGS);
+        }
+        {
+            let mut cp =
+                enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("adaptive_end"), timestamp_writes: None });
+            cp.set_pipeline(setup_pl);
+            cp.set_bind_group(0, &end, &[]);
+            cp.dispatch_workgroups(1, 1, 1);
+        }
+        ctrl_buf
+    }
+
+    pub fn fill(&self, pending: &mut Pending) {
+        pending.level0_grid = self.plan.base;
+        pending.stats.photon_bytes = self.plan.bytes;
+    }
+}

@@ -1,0 +1,119 @@
+//! Basic caustic maps (Wyman & Nichols 2009, section 2; Shah et al. 2007): one photon per cell of
+//! a dense N × N grid over each light-view face, traced (`photon_trace`) and splatted
+//! (`photon_splat`) in batches that fit the photon memory.
+
+use super::{Emit, Pending, bind, storage, uniform};
+use crate::gpu::PassTimer;
+use crate::gpu::types::{Photon, SplatParams, TraceParams};
+
+pub(crate) struct Basic {
+    photons: wgpu::Buffer,
+    batch: u64,
+    traced: u64,
+    batches: u32,
+}
+
+impl Basic {
+    /// Photons per batch: what fits the photon memory, the storage-binding limit and one
+    /// dispatch.
+    pub fn batch_size(e: &Emit) -> u64 {
+        let stride = std::mem::size_of::<Photon>() as u64;
+        let max_bind = e.ctx.device.limits().max_storage_buffer_binding_size;
+        let cap = (e.settings.photon_memory.min(max_bind) / stride).min(65535 * 64);
+        (e.n as u64 * e.n as u64).min(cap).max(1)
+    }
+
+    pub fn new(e: &Emit) -> Basic {
+        let batch = Basic::batch_size(e);
+        let photons = storage(e.ctx, "photons", batch * std::mem::size_of::<Photon>() as u64, wgpu::BufferUsages::empty());
+        Basic { photons, batch, traced: 0, batches: 0 }
+    }
+
+    pub fn record_face(&mut self, e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, f: u32) {
+        let per_face = e.n as u64 * e.n as u64;
+        let trace_pl = e.pipelines.trace.as_ref().expect("photon_trace pipeline");
+        let mut off = 0u64;
+        while off < per_face {
+            let count = self.batch.min(per_face - off);
+            let groups = (count as u32).div_ceil(64);
+            let tp = uniform(
+                e.ctx,
+                "trace_params",
+                bytemuck::bytes_of(&TraceParams { face: f, batch_offset: off as u32, batch_count: count as u32, tile: 0 }),
+            );
+            let sp = storage_init(e, &SplatParams { groups: [groups, 1, 1], count: count as u32 });
+            let tbg = bind(
+                e.ctx,
+                trace_pl,
+                "photon_trace",
+                &[
+                    e.light_buf.as_entire_binding(),
+                    tp.as_entire_binding(),
+                    wgpu::BindingResource::TextureView(e.front_pos),
+                    wgpu::BindingResource::TextureView(e.front_nrm),
+                    wgpu::BindingResource::TextureView(e.back_pos),
+                    wgpu::BindingResource::TextureView(e.back_nrm),
+                    wgpu::BindingResource::TextureView(e.recv_pos),
+                    wgpu::BindingResource::TextureView(e.recv_nrm),
+                    e.materials.as_entire_binding(),
+                    self.photons.as_entire_binding(),
+                    e.stats.as_entire_binding(),
+                ],
+            );
+            let sbg = bind(
+                e.ctx,
+                &e.pipelines.splat,
+                "photon_splat",
+                &[
+                    e.light_buf.as_entire_binding(),
+                    sp.as_entire_binding(),
+                    self.photons.as_entire_binding(),
+                    e.accum.as_entire_binding(),
+                ],
+            );
+            {
+                let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("photon_trace"),
+                    timestamp_writes: timer.compute("photon_trace"),
+                });
+                cp.set_pipeline(trace_pl);
+                cp.set_bind_group(0, &tbg, &[]);
+                cp.dispatch_workgroups(groups, 1, 1);
+            }
+            {
+                let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("photon_splat"),
+                    timestamp_writes: timer.compute("photon_splat"),
+                });
+                cp.set_pipeline(&e.pipelines.splat);
+                cp.set_bind_group(0, &sbg, &[]);
+                cp.dispatch_workgroups(groups, 1, 1);
+            }
+            self.traced += count;
+            self.batches += 1;
+            off += count;
+        }
+    }
+
+    pub fn fill(&self, p: &mut Pending) {
+        let s = &mut p.stats;
+        s.photons_traced = self.traced;
+        s.photons_splatted = self.traced;
+        s.batches = self.batches;
+        s.photon_bytes = self.photons.size();
+        s.peak_photon_bytes = self.photons.size();
+        s.evaluated = self.traced;
+        s.level_mut(s.grid).traced = self.traced;
+        s.level_mut(s.grid).emitted = self.traced;
+    }
+}
+
+/// A small read-only storage buffer holding `v`.
+pub(crate) fn storage_init<T: bytemuck::Pod>(e: &Emit, v: &T) -> wgpu::Buffer {
+    use wgpu::util::DeviceExt;
+    e.ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("splat_params"),
+        contents: bytemuck::bytes_of(v),
+        usage: wgpu::BufferUsages::STORAGE,
+    })
+}

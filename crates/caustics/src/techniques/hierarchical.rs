@@ -1,0 +1,266 @@
+//! Hierarchical caustic maps (Wyman 2008), the baseline of adaptive caustic maps: the dense
+//! N × N photon grid is traced (`photon_trace`) into a dense photon buffer, tile by tile (a tile
+//! is T × T photons, the largest that fits the photon memory), a mip hierarchy of valid-photon
+//! counts is built over the tile (`hcm_mip`), and traversed top-down (`hcm_traverse`, GPU-driven
+//! like the adaptive technique: indirect dispatches, atomic appends) to copy only the valid
+//! photons into a compact buffer that is splatted (indirect). Irrelevant regions are skipped by
+//! the traversal and the splat, but every photon of the dense grid is still created.
+
+use super::{
+    Emit, FLAG_BEGIN, FLAG_END, FLAG_LAST, FLAG_NO_PLAN, Pending, bind, build_mip, ctrl, level_params, mip_words,
+    storage, uniform,
+};
+use crate::error::{Error, Result};
+use crate::gpu::PassTimer;
+use crate::gpu::types::{LevelParams, Photon, TraceParams};
+use crate::render::RenderSettings;
+
+/// Tile layout of the dense grid (host side).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HierarchicalPlan {
+    pub n: u32,
+    /// Tile size T (photons per side) and the traversal's start grid over a tile.
+    pub tile: u32,
+    pub start: u32,
+    /// Bytes of photon storage: dense tile, compact buffer, cell regions, mip chain.
+    pub bytes: u64,
+}
+
+impl HierarchicalPlan {
+    pub fn bytes_for(t: u32, start: u32) -> u64 {
+        let t2 = (t as u64).pow(2);
+        t2 * 64 + (t as u64 / 2).pow(2).max(1) * 8 + mip_words(t, start) * 4
+    }
+
+    pub fn new(s: &RenderSettings, max_bind: u64) -> Result<HierarchicalPlan> {
+        let n = s.photons;
+        let cl = |f: &str, m: String| Err(Error::input("<command line>", f, m));
+        if !n.is_power_of_two() || n < 32 {
+            return cl("--photons", format!("hierarchical caustic maps need a power of two from 32 to 8192 (got {n})"));
+        }
+        let mut t = n.min(2048);
+        loop {
+            let start = s.base_grid.min(t / 2).max(1);
+            let bytes = HierarchicalPlan::bytes_for(t, start);
+            if bytes <= s.photon_memory && (t as u64).pow(2) * 32 <= max_bind {
+                return Ok(HierarchicalPlan { n, tile: t, start, bytes });
+            }
+            if t <= 8 {
+                return cl(
+                    "--photon-memory",
+                    format!("{} KiB is too small for one 8x8 tile of hierarchical caustic maps", s.photon_memory >> 10),
+                );
+            }
+            t /= 2;
+        }
+    }
+}
+
+pub(crate) struct Hierarchical {
+    plan: HierarchicalPlan,
+    tile: wgpu::Buffer,
+    compact: wgpu::Buffer,
+    cells: wgpu::Buffer,
+    mip: wgpu::Buffer,
+    args: wgpu::Buffer,
+    dummy: wgpu::Buffer,
+    tiles: u32,
+}
+
+impl Hierarchical {
+    pub fn new(e: &Emit) -> Result<Hierarchical> {
+        let plan = HierarchicalPlan::new(e.settings, e.ctx.device.limits().max_storage_buffer_binding_size)?;
+        let none = wgpu::BufferUsages::empty();
+        let t2 = (plan.tile as u64).pow(2);
+        let stride = std::mem::size_of::<Photon>() as u64;
+        Ok(Hierarchical {
+            tile: storage(e.ctx, "dense_photons", t2 * stride, none),
+            compact: storage(e.ctx, "photons", t2 * stride, none),
+            cells: storage(e.ctx, "cells", (plan.tile as u64 / 2).pow(2).max(1) * 8, none),
+            mip: storage(e.ctx, "hcm_mip", mip_words(plan.tile, plan.start) * 4, none),
+            args: storage(e.ctx, "indirect_args", ctrl::SPLAT_ARGS + 16, wgpu::BufferUsages::INDIRECT),
+            dummy: storage(e.ctx, "unused", 64, none),
+            plan,
+            tiles: 0,
+        })
+    }
+
+    pub fn record_face(&mut self, e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, f: u32) -> wgpu::Buffer {
+        let p = self.plan;
+        let t = p.tile;
+        let ctrl_buf = storage(e.ctx, "hierarchy_control", ctrl::WORDS * 4, wgpu::BufferUsages::empty());
+        let (trace_pl, init_pl, setup_pl, hcm_pl) = (
+            e.pipelines.trace.as_ref().unwrap(),
+            e.pipelines.init.as_ref().unwrap(),
+            e.pipelines.setup.as_ref().unwrap(),
+            e.pipelines.hcm.as_ref().unwrap(),
+        );
+        let cap = (t as u64 / 2).pow(2).max(1) as u32;
+        let lp = LevelParams {
+            finest: t,
+            gbuffer: t,
+            cell_capacity: cap,
+            photon_capacity: t * t,
+            batch_grid: p.start,
+            flags: FLAG_NO_PLAN,
+            grid_n: p.n,
+            ..level_params(f)
+        };
+        let setup = |lp: LevelParams| {
+            let u = uniform(e.ctx, "adaptive_setup", bytemuck::bytes_of(&lp));
+            bind(
+                e.ctx,
+                setup_pl,
+                "adaptive_setup",
+                &[u.as_entire_binding(), ctrl_buf.as_entire_binding(), self.args.as_entire_binding()],
+            )
+        };
+        let u_init = uniform(e.ctx, "hcm_init", bytemuck::bytes_of(&lp));
+        let init_bg = bind(
+            e.ctx,
+            init_pl,
+            "adaptive_init",
+            &[
+                u_init.as_entire_binding(),
+                self.mip.as_entire_binding(),
+                self.dummy.as_entire_binding(),
+                self.cells.as_entire_binding(),
+                ctrl_buf.as_entire_binding(),
+            ],
+        );
+        let begin = setup(LevelParams { flags: FLAG_BEGIN, ..lp });
+        let end_begin = setup(LevelParams { flags: FLAG_BEGIN | FLAG_END, ..lp });
+        let end = setup(LevelParams { flags: FLAG_END, ..lp });
+        let after_init = setup(LevelParams { level: 0, flags: 0, ..lp });
+        let mut steps = Vec::new();
+        let (mut grid, mut level) = (p.start, 0);
+        while grid < t {
+            let flags = if grid * 2 == t { FLAG_LAST } else { 0 };
+            let hl = LevelParams { level, grid, flags, ..lp };
+            let u = uniform(e.ctx, "hcm_traverse", bytemuck::bytes_of(&hl));
+            let hbg = bind(
+                e.ctx,
+                hcm_pl,
+                "hcm_traverse",
+                &[
+                    u.as_entire_binding(),
+                    self.mip.as_entire_binding(),
+                    self.cells.as_entire_binding(),
+                    self.tile.as_entire_binding(),
+                    self.compact.as_entire_binding(),
+                    ctrl_buf.as_entire_binding(),
+                ],
+            );
+            steps.push((hbg, setup(LevelParams { level: level + 1, flags: 0, ..lp })));
+            grid *= 2;
+            level += 1;
+        }
+        let splat_bg = bind(
+            e.ctx,
+            &e.pipelines.splat,
+            "photon_splat",
+            &[
+                e.light_buf.as_entire_binding(),
+                wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &self.args,
+                    offset: ctrl::SPLAT_ARGS,
+                    size: std::num::NonZeroU64::new(16),
+                }),
+                self.compact.as_entire_binding(),
+                e.accum.as_entire_binding(),
+            ],
+        );
+        let per_side = p.n / t;
+        let mut first = true;
+        for ty in 0..per_side {
+            for tx in 0..per_side {
+                let tp = uniform(
+                    e.ctx,
+                    "trace_params",
+                    bytemuck::bytes_of(&TraceParams {
+                        face: f,
+                        batch_offset: ty * t * p.n + tx * t,
+                        batch_count: t * t,
+                        tile: t,
+                    }),
+                );
+                let tbg = bind(
+                    e.ctx,
+                    trace_pl,
+                    "photon_trace",
+                    &[
+                        e.light_buf.as_entire_binding(),
+                        tp.as_entire_binding(),
+                        wgpu::BindingResource::TextureView(e.front_pos),
+                        wgpu::BindingResource::TextureView(e.front_nrm),
+                        wgpu::BindingResource::TextureView(e.back_pos),
+                        wgpu::BindingResource::TextureView(e.back_nrm),
+                        wgpu::BindingResource::TextureView(e.recv_pos),
+                        wgpu::BindingResource::TextureView(e.recv_nrm),
+                        e.materials.as_entire_binding(),
+                        self.tile.as_entire_binding(),
+                        e.stats.as_entire_binding(),
+                    ],
+                );
+                {
+                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("photon_trace"),
+                        timestamp_writes: timer.compute("photon_trace"),
+                    });
+                    cp.set_pipeline(trace_pl);
+                    cp.set_bind_group(0, &tbg, &[]);
+                    cp.dispatch_workgroups((t * t).div_ceil(64), 1, 1);
+                }
+                build_mip(e, enc, timer, "hcm_mip", &self.mip, &self.tile, f, t, p.start, 1);
+                {
+                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("hcm_traverse"),
+                        timestamp_writes: timer.compute("hcm_traverse"),
+                    });
+                    cp.set_pipeline(setup_pl);
+                    cp.set_bind_group(0, if first { &begin } else { &end_begin }, &[]);
+                    cp.dispatch_workgroups(1, 1, 1);
+                    cp.set_pipeline(init_pl);
+                    cp.set_bind_group(0, &init_bg, &[]);
+                    cp.dispatch_workgroups(p.start.div_ceil(8), p.start.div_ceil(8), 1);
+                    cp.set_pipeline(setup_pl);
+                    cp.set_bind_group(0, &after_init, &[]);
+                    cp.dispatch_workgroups(1, 1, 1);
+                    for (hbg, sbg) in &steps {
+                        cp.set_pipeline(hcm_pl);
+                        cp.set_bind_group(0, hbg, &[]);
+                        cp.dispatch_workgroups_indirect(&self.args, 0);
+                        cp.set_pipeline(setup_pl);
+                        cp.set_bind_group(0, sbg, &[]);
+                        cp.dispatch_workgroups(1, 1, 1);
+                    }
+                }
+                let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("photon_splat"),
+                    timestamp_writes: timer.compute("photon_splat"),
+                });
+                cp.set_pipeline(&e.pipelines.splat);
+                cp.set_bind_group(0, &splat_bg, &[]);
+                cp.dispatch_workgroups_indirect(&self.args, ctrl::SPLAT_ARGS);
+                first = false;
+                self.tiles += 1;
+            }
+        }
+        let mut cp =
+            enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("hcm_end"), timestamp_writes: None });
+        cp.set_pipeline(setup_pl);
+        cp.set_bind_group(0, &end, &[]);
+        cp.dispatch_workgroups(1, 1, 1);
+        drop(cp);
+        ctrl_buf
+    }
+
+    pub fn fill(&self, pending: &mut Pending) {
+        let p = self.plan;
+        pending.level0_grid = p.start * (p.n / p.tile);
+        let s = &mut pending.stats;
+        s.photon_bytes = p.bytes;
+        s.batches = self.tiles;
+        s.photons_traced = (p.n as u64).pow(2) * pending.ctrl.len() as u64;
+    }
+}

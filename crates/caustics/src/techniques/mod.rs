@@ -1,0 +1,498 @@
+//! Photon emission techniques: how the photons of one light-view face are created, traced and
+//! splatted into the caustic map. The rest of the frame (light-space buffers, resolve, shading,
+//! composite) is shared, in [`crate::render`].
+//!
+//! - [`Technique::Basic`]: a dense N × N photon grid ([`basic`]);
+//! - [`Technique::Hierarchical`]: the dense grid traced tile by tile, a mip hierarchy of valid
+//!   photons built over it and traversed top-down to splat only the valid ones ([`hierarchical`],
+//!   Wyman 2008);
+//! - [`Technique::AdaptiveLevel`] and [`Technique::AdaptiveError`]: adaptive caustic maps
+//!   (Wyman & Nichols 2009) with the maximal traversal level and the maximal caustic map error
+//!   stopping metrics, GPU-driven as Piao 2015 proposes ([`adaptive`]).
+//!
+//! Every technique builds the coverage mip chain of the caster front buffer (`coverage_mip`),
+//! from which the relevant photons (those of the dense N × N grid that hit a caster) and the
+//! coverage (fraction of the light's view covered by casters) are reported.
+
+pub mod adaptive;
+pub mod basic;
+pub mod hierarchical;
+
+use crate::error::{Error, Result};
+use crate::gpu::types::{CoverParams, LevelParams};
+use crate::gpu::{GpuContext, PassTimer};
+use crate::render::RenderSettings;
+use wgpu::util::DeviceExt;
+
+/// How photons are emitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum Technique {
+    /// Basic caustic maps: a dense N × N photon grid per light-view face.
+    #[default]
+    Basic,
+    /// Hierarchical caustic maps: the dense grid, then a top-down traversal of a mip hierarchy
+    /// of valid photons that skips irrelevant regions.
+    Hierarchical,
+    /// Adaptive caustic maps, maximal traversal level: every relevant cluster is refined down
+    /// to the finest grid N (equivalent to a dense N × N grid).
+    AdaptiveLevel,
+    /// Adaptive caustic maps, maximal caustic map error: a cluster whose photons land in one
+    /// caustic-map texel (or within the tolerance) is emitted as one photon; the finest grid N
+    /// caps the refinement.
+    AdaptiveError,
+}
+
+impl Technique {
+    pub const ALL: [Technique; 4] =
+        [Technique::Basic, Technique::Hierarchical, Technique::AdaptiveLevel, Technique::AdaptiveError];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Technique::Basic => "basic",
+            Technique::Hierarchical => "hierarchical",
+            Technique::AdaptiveLevel => "adaptive-level",
+            Technique::AdaptiveError => "adaptive-error",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Technique> {
+        Technique::ALL.into_iter().find(|t| t.name() == s.trim())
+    }
+
+    pub fn is_adaptive(self) -> bool {
+        matches!(self, Technique::AdaptiveLevel | Technique::AdaptiveError)
+    }
+
+    /// The largest finest grid N this technique supports.
+    pub fn max_photons(self) -> u32 {
+        if self.is_adaptive() { 65536 } else { 8192 }
+    }
+}
+
+impl std::fmt::Display for Technique {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Counts of one level of the photon hierarchy (summed over lights, faces and batches).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LevelStats {
+    /// Grid size of the level (cells per side of a face).
+    pub grid: u32,
+    /// Cells (clusters) kept at this level: relevant, refined further or emitted.
+    pub cells: u64,
+    /// Photons traced on this level's grid.
+    pub traced: u64,
+    /// Photons emitted (handed to the splat) from this level: cells of this grid (maximal
+    /// traversal, finest level) or merged clusters of four cells of the next finer grid.
+    pub emitted: u64,
+}
+
+/// What a technique did in one frame (all lights and faces).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TechniqueStats {
+    pub technique: Technique,
+    /// Equivalent photon grid N (per face).
+    pub grid: u32,
+    /// Photons traced (calls of the photon tracer).
+    pub photons_traced: u64,
+    /// Photons handed to the splat pass.
+    pub photons_splatted: u64,
+    /// Photons of the dense N × N grid that hit a caster (a specular caustic caster).
+    pub relevant: u64,
+    /// Caster front-buffer texels covered by a caster, and all texels (faces × G²).
+    pub covered_texels: u64,
+    pub face_texels: u64,
+    /// Cells kept over all levels of the hierarchy plus the photons traced below the last
+    /// level of cells: what the traversal evaluated (adaptive and hierarchical techniques).
+    pub evaluated: u64,
+    /// Per level of the hierarchy, coarse to fine.
+    pub levels: Vec<LevelStats>,
+    /// Bytes allocated for photon storage (photon buffers, cell lists, dense tiles).
+    pub photon_bytes: u64,
+    /// Peak bytes of photon storage in use (measured on the GPU where the technique appends).
+    pub peak_photon_bytes: u64,
+    /// Batches processed (all lights and faces).
+    pub batches: u32,
+}
+
+impl TechniqueStats {
+    /// Fraction of the light's view covered by casters.
+    pub fn coverage(&self) -> f64 {
+        if self.face_texels == 0 { 0.0 } else { self.covered_texels as f64 / self.face_texels as f64 }
+    }
+
+    pub(crate) fn level_mut(&mut self, grid: u32) -> &mut LevelStats {
+        let i = match self.levels.iter().position(|l| l.grid == grid) {
+            Some(i) => i,
+            None => {
+                self.levels.push(LevelStats { grid, ..Default::default() });
+                self.levels.sort_by_key(|l| l.grid);
+                self.levels.iter().position(|l| l.grid == grid).unwrap()
+            }
+        };
+        &mut self.levels[i]
+    }
+}
+
+/// Compute pipelines of the photon stages (only those the technique needs).
+pub(crate) struct Pipelines {
+    pub trace: Option<wgpu::ComputePipeline>,
+    pub splat: wgpu::ComputePipeline,
+    pub coverage: wgpu::ComputePipeline,
+    pub plan: Option<wgpu::ComputePipeline>,
+    pub init: Option<wgpu::ComputePipeline>,
+    pub setup: Option<wgpu::ComputePipeline>,
+    pub refine: Option<wgpu::ComputePipeline>,
+    pub hcm: Option<wgpu::ComputePipeline>,
+}
+
+impl Pipelines {
+    pub fn new(ctx: &GpuContext, t: Technique) -> Pipelines {
+        let hier = t != Technique::Basic;
+        let p = |name: &str, on: bool| on.then(|| ctx.compute_pipeline(name));
+        Pipelines {
+            trace: p("photon_trace", !t.is_adaptive()),
+            splat: ctx.compute_pipeline("photon_splat"),
+            coverage: ctx.compute_pipeline("coverage_mip"),
+            plan: p("adaptive_plan", t.is_adaptive()),
+            init: p("adaptive_init", hier),
+            setup: p("adaptive_setup", hier),
+            refine: p("adaptive_refine", t.is_adaptive()),
+            hcm: p("hcm_traverse", t == Technique::Hierarchical),
+        }
+    }
+}
+
+/// What the photon stage of one light needs from the frame.
+pub(crate) struct Emit<'a> {
+    pub ctx: &'a GpuContext,
+    pub settings: &'a RenderSettings,
+    pub pipelines: &'a Pipelines,
+    pub light_buf: &'a wgpu::Buffer,
+    /// Caster front/back, receiver position/normal array views (2D arrays, all faces).
+    pub front_pos: &'a wgpu::TextureView,
+    pub front_nrm: &'a wgpu::TextureView,
+    pub back_pos: &'a wgpu::TextureView,
+    pub back_nrm: &'a wgpu::TextureView,
+    pub recv_pos: &'a wgpu::TextureView,
+    pub recv_nrm: &'a wgpu::TextureView,
+    pub materials: &'a wgpu::Buffer,
+    pub stats: &'a wgpu::Buffer,
+    pub accum: &'a wgpu::Buffer,
+    /// Photon grid N and caster buffer size G.
+    pub n: u32,
+    pub g: u32,
+    /// Per face: an upper bound of the relevant photons of the N × N grid (from the casters'
+    /// bounding box seen from the light), for the number of batches to record.
+    pub bound: Vec<u64>,
+}
+
+/// Buffers read back after the frame to fill in the statistics.
+pub(crate) struct Pending {
+    /// One word per face: covered caster-buffer texels.
+    pub coverage: wgpu::Buffer,
+    pub faces: u32,
+    /// Control buffers (adaptive, hierarchical), one per face.
+    pub ctrl: Vec<wgpu::Buffer>,
+    pub stats: TechniqueStats,
+    /// Grid size of level index 0 of the control buffers' per-level counters.
+    pub level0_grid: u32,
+}
+
+/// Word indices of the control buffer (mirrors `shaders/shared/hierarchy.wgsl`).
+pub(crate) mod ctrl {
+    pub const OVERFLOW: usize = 9;
+    pub const BATCHES: usize = 11;
+    pub const PEAK_CELLS: usize = 13;
+    pub const PEAK_PHOTONS: usize = 14;
+    pub const SPLATTED: usize = 16;
+    pub const CELLS: usize = 32;
+    pub const TRACED: usize = 64;
+    pub const EMITTED: usize = 96;
+    pub const WORDS: u64 = 256;
+    /// Byte offset of the splat's SplatParams in the indirect-arguments buffer.
+    pub const SPLAT_ARGS: u64 = 256;
+}
+
+pub(crate) const FLAG_LAST: u32 = 1;
+pub(crate) const FLAG_CHECK: u32 = 2;
+pub(crate) const FLAG_BEGIN: u32 = 4;
+pub(crate) const FLAG_END: u32 = 8;
+pub(crate) const FLAG_NO_PLAN: u32 = 16;
+
+pub(crate) fn storage(ctx: &GpuContext, label: &str, size: u64, extra: wgpu::BufferUsages) -> wgpu::Buffer {
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size.max(16),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST | extra,
+        mapped_at_creation: false,
+    })
+}
+
+pub(crate) fn uniform(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+    ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytes,
+        usage: wgpu::BufferUsages::UNIFORM,
+    })
+}
+
+/// A bind group of `pl`'s group 0 with the resources bound at 0, 1, 2, … in order.
+pub(crate) fn bind(
+    ctx: &GpuContext,
+    pl: &wgpu::ComputePipeline,
+    label: &str,
+    resources: &[wgpu::BindingResource],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = resources
+        .iter()
+        .enumerate()
+        .map(|(i, r)| wgpu::BindGroupEntry { binding: i as u32, resource: r.clone() })
+        .collect();
+    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout: &pl.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
+/// Word offset of level `l` of a mip chain whose level 0 is g × g.
+pub(crate) fn mip_offset(l: u32, g: u32) -> u64 {
+    (0..l).map(|m| ((g >> m) as u64).pow(2)).sum()
+}
+
+/// Words of a mip chain of g × g down to `down_to` × `down_to`.
+pub(crate) fn mip_words(g: u32, down_to: u32) -> u64 {
+    mip_offset(g.trailing_zeros() - down_to.trailing_zeros() + 1, g)
+}
+
+/// Record the passes that build a coverage mip chain (level 0 is g × g, down to `down_to`²) of
+/// face `face`: source 0 = caster front buffer, 1 = a dense photon tile.
+#[expect(clippy::too_many_arguments, reason = "a pass is described by all of these")]
+pub(crate) fn build_mip(
+    e: &Emit,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+    name: &str,
+    cover: &wgpu::Buffer,
+    tile: &wgpu::Buffer,
+    face: u32,
+    g: u32,
+    down_to: u32,
+    source: u32,
+) {
+    let pl = &e.pipelines.coverage;
+    let levels = g.trailing_zeros() - down_to.trailing_zeros() + 1;
+    let groups: Vec<(wgpu::BindGroup, u32)> = (0..levels)
+        .map(|l| {
+            let size = g >> l;
+            let p = CoverParams {
+                face,
+                level: l,
+                size,
+                src: if l == 0 { 0 } else { mip_offset(l - 1, g) as u32 },
+                dst: mip_offset(l, g) as u32,
+                source,
+                _pad: [0; 2],
+            };
+            let u = uniform(e.ctx, name, bytemuck::bytes_of(&p));
+            let bg = bind(
+                e.ctx,
+                pl,
+                name,
+                &[
+                    u.as_entire_binding(),
+                    wgpu::BindingResource::TextureView(e.front_pos),
+                    tile.as_entire_binding(),
+                    cover.as_entire_binding(),
+                ],
+            );
+            (bg, size)
+        })
+        .collect();
+    let mut cp =
+        enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(name), timestamp_writes: timer.compute(name) });
+    cp.set_pipeline(pl);
+    for (bg, size) in &groups {
+        cp.set_bind_group(0, bg, &[]);
+        cp.dispatch_workgroups(size.div_ceil(8), size.div_ceil(8), 1);
+    }
+}
+
+/// The level parameters every step of one face shares.
+pub(crate) fn level_params(face: u32) -> LevelParams {
+    LevelParams {
+        face,
+        level: 0,
+        grid: 0,
+        finest: 0,
+        gbuffer: 0,
+        flags: 0,
+        cell_capacity: 0,
+        photon_capacity: 0,
+        tolerance: 0.0,
+        batch_grid: 0,
+        batch_leaves: 0,
+        max_batches: 0,
+        tile_x: 0,
+        tile_y: 0,
+        grid_n: 0,
+        _pad: 0,
+    }
+}
+
+/// Record the photon stage of one light: per face, the coverage mip, then the technique.
+pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, faces: u32) -> Result<Pending> {
+    let t = e.settings.technique;
+    let g = e.g;
+    let cover = storage(e.ctx, "coverage", mip_words(g, 1) * 4, wgpu::BufferUsages::empty());
+    let dummy = storage(e.ctx, "unused", 64, wgpu::BufferUsages::empty());
+    let covres = storage(e.ctx, "covered_texels", faces as u64 * 4, wgpu::BufferUsages::empty());
+    let mut pending = Pending {
+        coverage: covres,
+        faces,
+        ctrl: Vec::new(),
+        stats: TechniqueStats { technique: t, grid: e.n, ..Default::default() },
+        level0_grid: 1,
+    };
+    let mut adaptive = match t {
+        Technique::AdaptiveLevel | Technique::AdaptiveError => Some(adaptive::Adaptive::new(e)?),
+        _ => None,
+    };
+    let mut hier = match t {
+        Technique::Hierarchical => Some(hierarchical::Hierarchical::new(e)?),
+        _ => None,
+    };
+    let mut basic = match t {
+        Technique::Basic => Some(basic::Basic::new(e)),
+        _ => None,
+    };
+    for f in 0..faces {
+        build_mip(e, enc, timer, "coverage_mip", &cover, &dummy, f, g, 1, 0);
+        enc.copy_buffer_to_buffer(&cover, mip_offset(g.trailing_zeros(), g) * 4, &pending.coverage, f as u64 * 4, 4);
+        if let Some(a) = &mut adaptive {
+            pending.ctrl.push(a.record_face(e, enc, timer, &cover, f));
+        }
+        if let Some(h) = &mut hier {
+            pending.ctrl.push(h.record_face(e, enc, timer, f));
+        }
+        if let Some(b) = &mut basic {
+            b.record_face(e, enc, timer, f);
+        }
+    }
+    if let Some(a) = &adaptive {
+        a.fill(&mut pending);
+    }
+    if let Some(h) = &hier {
+        h.fill(&mut pending);
+    }
+    if let Some(b) = &basic {
+        b.fill(&mut pending);
+    }
+    Ok(pending)
+}
+
+impl Pending {
+    /// Read back the counters after the frame was submitted.
+    pub fn finish(mut self, ctx: &GpuContext) -> Result<TechniqueStats> {
+        let cov = ctx.read_buffer(&self.coverage, self.faces as u64 * 4)?;
+        let words: &[u32] = bytemuck::cast_slice(&cov);
+        let s = &mut self.stats;
+        let covered: u64 = words.iter().map(|&w| w as u64).sum();
+        s.covered_texels += covered;
+        let g = s.face_texels_g();
+        s.face_texels += self.faces as u64 * (g as u64).pow(2);
+        let r = (s.grid as u64 / g as u64).pow(2);
+        s.relevant += covered * r;
+        let mut peak_cells = 0u64;
+        let mut peak_photons = 0u64;
+        for buf in &self.ctrl {
+            let data = ctx.read_buffer(buf, ctrl::WORDS * 4)?;
+            let c: &[u32] = bytemuck::cast_slice(&data);
+            let overflow = c[ctrl::OVERFLOW];
+            if overflow != 0 {
+                let mut what = Vec::new();
+                if overflow & 1 != 0 {
+                    what.push("the cell list");
+                }
+                if overflow & 2 != 0 {
+                    what.push("the photon buffer");
+                }
+                if overflow & 4 != 0 {
+                    what.push("the batch plan's 32-bit photon count (too many relevant photons per face)");
+                }
+                if overflow & 8 != 0 {
+                    what.push("the number of batches recorded");
+                }
+                return Err(Error::Device(format!(
+                    "{} overflowed: {} (detected on the GPU; the caustic map is incomplete)",
+                    s.technique,
+                    what.join(", ")
+                )));
+            }
+            if s.technique.is_adaptive() {
+                s.batches += c[ctrl::BATCHES];
+            }
+            s.photons_splatted += c[ctrl::SPLATTED] as u64 | (c[ctrl::SPLATTED + 1] as u64) << 32;
+            peak_cells = peak_cells.max(c[ctrl::PEAK_CELLS] as u64);
+            peak_photons = peak_photons.max(c[ctrl::PEAK_PHOTONS] as u64);
+            for k in 0..32 {
+                let (cells, traced, emitted) =
+                    (c[ctrl::CELLS + k] as u64, c[ctrl::TRACED + k] as u64, c[ctrl::EMITTED + k] as u64);
+                if cells + traced + emitted == 0 {
+                    continue;
+                }
+                let l = s.level_mut(self.level0_grid << k);
+                l.cells += cells;
+                l.traced += traced;
+                l.emitted += emitted;
+            }
+        }
+        if s.technique.is_adaptive() {
+            s.peak_photon_bytes = peak_cells * 4 + peak_photons * 32;
+        } else {
+            s.peak_photon_bytes = s.photon_bytes;
+        }
+        if !self.ctrl.is_empty() {
+            let traced: u64 = s.levels.iter().map(|l| l.traced).sum();
+            let cells: u64 = s.levels.iter().map(|l| l.cells).sum();
+            if s.technique.is_adaptive() {
+                s.photons_traced = traced;
+                s.evaluated = cells + traced;
+            } else {
+                s.evaluated = cells + s.photons_splatted;
+            }
+        }
+        Ok(self.stats)
+    }
+}
+
+impl TechniqueStats {
+    /// Add another light's statistics.
+    pub fn merge(&mut self, o: &TechniqueStats) {
+        self.technique = o.technique;
+        self.grid = o.grid;
+        self.photons_traced += o.photons_traced;
+        self.photons_splatted += o.photons_splatted;
+        self.relevant += o.relevant;
+        self.covered_texels += o.covered_texels;
+        self.face_texels += o.face_texels;
+        self.evaluated += o.evaluated;
+        for l in &o.levels {
+            let m = self.level_mut(l.grid);
+            m.cells += l.cells;
+            m.traced += l.traced;
+            m.emitted += l.emitted;
+        }
+        self.photon_bytes = self.photon_bytes.max(o.photon_bytes);
+        self.peak_photon_bytes = self.peak_photon_bytes.max(o.peak_photon_bytes);
+        self.batches += o.batches;
+    }
+
+    fn face_texels_g(&self) -> u32 {
+        self.grid.min(crate::render::MAX_GBUFFER)
+    }
+}
