@@ -67,6 +67,60 @@ fn trace_receivers(o: vec3f, d: vec3f) -> vec3f {
     return radiance[u32(px.y) * cp.width + u32(px.x)].rgb;
 }
 
+struct EyeHit {
+    p: vec3f,
+    n: vec3f,
+    ok: bool,
+}
+
+fn tangent_hit(pos_tex: texture_2d<f32>, nrm_tex: texture_2d<f32>, q: vec2f, o: vec3f, d: vec3f) -> EyeHit {
+    var h: EyeHit;
+    let pw = textureLoad(pos_tex, pix(q), 0);
+    h.ok = pw.w >= 0.0;
+    h.n = normalize(textureLoad(nrm_tex, pix(q), 0).xyz);
+    h.p = pw.xyz;
+    let dn = dot(d, h.n);
+    if (abs(dn) > 1e-4) {
+        let t = dot(pw.xyz - o, h.n) / dn;
+        if (t > 0.0) { h.p = o + t * d; }
+    }
+    return h;
+}
+
+// March a ray travelling inside a specular object (it entered at o) through the camera's
+// back-surface and front-surface buffers, about 1.5 pixels a step, to where it leaves: behind
+// the back surface, in front of the front surface (concave parts), or across the silhouette.
+fn march_exit_eye(o: vec3f, d: vec3f) -> EyeHit {
+    var none: EyeHit;
+    none.ok = false;
+    let q0 = to_pixel(o);
+    let eps = 1e-3;
+    let q1 = to_pixel(o + d * eps);
+    var px_per_m = 200.0;
+    if (q0.z > 0.0 && q1.z > 0.0) { px_per_m = max(length(q1.xy - q0.xy) / eps, 1.0); }
+    let ds = clamp(1.5 / px_per_m, 1e-4, 0.05);
+    let cam = cp.camera.xyz;
+    var last = vec2f(-1.0);
+    for (var k = 1u; k <= 256u; k++) {
+        let p = o + d * (f32(k) * ds);
+        let q = to_pixel(p);
+        if (q.z < 0.0) { return none; }
+        let bp = textureLoad(back_pos, pix(q.xy), 0);
+        if (bp.w < 0.0) {
+            if (last.x < 0.0) { return none; }
+            return tangent_hit(back_pos, back_nrm, last, o, d);
+        }
+        last = q.xy;
+        let dist = length(p - cam);
+        if (dist >= length(bp.xyz - cam)) { return tangent_hit(back_pos, back_nrm, q.xy, o, d); }
+        if (k >= 3u) {
+            let fp = textureLoad(spec_pos, pix(q.xy), 0);
+            if (fp.w >= 0.0 && dist <= length(fp.xyz - cam)) { return tangent_hit(spec_pos, spec_nrm, q.xy, o, d); }
+        }
+    }
+    return none;
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (gid.x >= cp.width || gid.y >= cp.height) { return; }
@@ -100,31 +154,24 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         let f1 = fresnel_dielectric(cos1, ior / ext);
         l = f1 * trace_receivers(p, refl);
         let t1 = refract_dir(d, n, ext / ior);
-        // Exit point: the refracted ray against the back buffer's tangent planes.
-        var q = vec2f(gid.xy) + 0.5;
-        var exit = vec4f(0.0);
+        // Inside: march to the exit; follow total internal reflection up to three times.
+        var p_in = p;
+        var t_in = t1.xyz;
+        var w = 1.0 - f1;
         for (var k = 0u; k < 4u; k++) {
-            let bp = textureLoad(back_pos, pix(q), 0);
-            if (bp.w < 0.0) { break; }
-            let bn = normalize(textureLoad(back_nrm, pix(q), 0).xyz);
-            let dn = dot(t1.xyz, bn);
-            if (abs(dn) < 1e-4) { break; }
-            let tt = dot(bp.xyz - p, bn) / dn;
-            if (tt <= 0.0) { break; }
-            exit = vec4f(p + tt * t1.xyz, 1.0);
-            let qq = to_pixel(exit.xyz);
-            if (qq.z < 0.0) { break; }
-            q = qq.xy;
-        }
-        if (exit.w > 0.5) {
-            var n2 = normalize(textureLoad(back_nrm, pix(q), 0).xyz);
-            if (dot(n2, t1.xyz) < 0.0) { n2 = -n2; }
-            let cos2 = dot(t1.xyz, n2);
-            let t2 = refract_dir(t1.xyz, -n2, ior / ext);
+            let exit = march_exit_eye(p_in, t_in);
+            if (!exit.ok) { break; }
+            var n2 = exit.n;
+            if (dot(n2, t_in) < 0.0) { n2 = -n2; }
+            let cos2 = dot(t_in, n2);
+            let t2 = refract_dir(t_in, -n2, ior / ext);
             if (t2.w > 0.5) {
                 let f2 = fresnel_dielectric(cos2, ext / ior);
-                l += (1.0 - f1) * (1.0 - f2) * trace_receivers(exit.xyz, t2.xyz);
+                l += w * (1.0 - f2) * trace_receivers(exit.p, t2.xyz);
+                break;
             }
+            p_in = exit.p;
+            t_in = reflect(t_in, n2);
         }
     }
     out_full[idx] = vec4f(l, 0.0);
