@@ -231,7 +231,11 @@ fn markdown(
         let relevant = runs.iter().find(|r| r.n == n).map(|r| r.out.technique.relevant);
         let _ = write!(s, "| {n}² | {} |", relevant.map_or("-".into(), |v| v.to_string()));
         for &t in techniques {
-            let _ = write!(s, " {} |", find(runs, t, n).map_or("N/A".into(), |r| r.out.technique.photons_splatted.to_string()));
+            let _ = write!(
+                s,
+                " {} |",
+                find(runs, t, n).map_or("N/A".into(), |r| r.out.technique.photons_splatted.to_string())
+            );
         }
         for &t in techniques.iter().filter(|t| !matches!(t, Technique::Basic)) {
             let v = find(runs, t, n).and_then(|r| {
@@ -257,7 +261,8 @@ fn markdown(
             let ts = &r.out.technique;
             let basic = find(runs, Technique::Basic, n);
             let speed = basic.map_or("-".into(), |b| format!("{:.2}", b.photon_ms / r.photon_ms.max(1e-9)));
-            let dense = basic.or_else(|| find(runs, Technique::AdaptiveLevel, n).filter(|_| t != Technique::AdaptiveLevel));
+            let dense =
+                basic.or_else(|| find(runs, Technique::AdaptiveLevel, n).filter(|_| t != Technique::AdaptiveLevel));
             let flip = match dense {
                 Some(d) if !std::ptr::eq(d, r) => map_flip(&r.out, &d.out).map_or("-".into(), |f| format!("{f:.4}")),
                 _ => "-".into(),
@@ -280,7 +285,10 @@ fn markdown(
             );
         }
     }
-    let _ = writeln!(s, "\nFLIP vs dense: mean HDR-FLIP of the caustic map against basic caustic maps at the same grid (against adaptive-level where basic cannot run).\n");
+    let _ = writeln!(
+        s,
+        "\nFLIP vs dense: mean HDR-FLIP of the caustic map against basic caustic maps at the same grid (against adaptive-level where basic cannot run).\n"
+    );
     let _ = writeln!(s, "## GPU milliseconds per pass\n");
     let mut passes: Vec<String> = Vec::new();
     for r in runs {
@@ -304,7 +312,11 @@ fn markdown(
     let _ = writeln!(s, "| ---: | --- | ---: | ---: | ---: | ---: |");
     for r in runs.iter().filter(|r| r.technique.is_adaptive()) {
         for l in &r.out.technique.levels {
-            let _ = writeln!(s, "| {}² | {} | {}² | {} | {} | {} |", r.n, r.technique, l.grid, l.cells, l.traced, l.emitted);
+            let _ = writeln!(
+                s,
+                "| {}² | {} | {}² | {} | {} | {} |",
+                r.n, r.technique, l.grid, l.cells, l.traced, l.emitted
+            );
         }
     }
     if !skipped.is_empty() {

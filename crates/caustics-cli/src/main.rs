@@ -298,7 +298,10 @@ fn report_gpu(out: &GpuRender, wall_ms: f64) {
     );
     if t.levels.len() > 1 {
         for l in &t.levels {
-            println!("  level {:>6}^2: {:>10} cells, {:>10} traced, {:>10} emitted", l.grid, l.cells, l.traced, l.emitted);
+            println!(
+                "  level {:>6}^2: {:>10} cells, {:>10} traced, {:>10} emitted",
+                l.grid, l.cells, l.traced, l.emitted
+            );
         }
     }
     if out.timings.is_empty() {

@@ -40,6 +40,9 @@ pub struct RenderSettings {
     /// Maximal caustic map error: convergence is checked for clusters whose photons lie on a grid
     /// of at least this size (Wyman & Nichols check from the 512² level on).
     pub error_check_grid: u32,
+    /// Keep the coverage masks (caster front-buffer texels per face) in the statistics, for
+    /// tests that model the traversal on the CPU.
+    pub keep_coverage: bool,
     /// Caustic map (and receiver map) size M per face.
     pub caustic_map_size: u32,
     /// Shadow map size per face.
@@ -60,6 +63,7 @@ impl Default for RenderSettings {
             base_grid: 64,
             max_error_tolerance: 0.0,
             error_check_grid: 512,
+            keep_coverage: false,
             caustic_map_size: 1024,
             shadow_map_size: 2048,
             splat_sigma: 1.0,

@@ -6,6 +6,12 @@
 // emit), add_fixed collects the flux per slot in trace_pending instead of adding it to stats.
 var<private> trace_defer: bool = false;
 var<private> trace_pending: array<f32, 6>;
+// Splat data the tracer leaves in each photon (docs/splatting.md): flux.w = the path signature
+// (objects hit and internal reflections, 24 bits; caustic triangles do not span two paths);
+// _pad = the beam diameter on the receiver in caustic-map texels from the lens equations (f32
+// bits), when light.extra.w asks for it (1 thin lens, 2 thick lens; 0: _pad = 0).
+var<private> trace_internal: u32 = 0u;
+var<private> lens_exit_p: vec3f;
 fn add_fixed(slot: u32, value: f32) {
     if (trace_defer) { trace_pending[slot / 2u] += value; return; }
     let v = max(value * light.params.y, 0.0);
@@ -283,6 +289,8 @@ fn interact(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f, l
     var n1 = n_in;
     if (dot(n1, d) > 0.0) { n1 = -n1; }
     let cos1 = -dot(d, n1);
+    trace_internal = 0u;
+    lens_exit_p = p;
     if (mat.kind.x == KIND_MIRROR) {
         r.flux *= mat.a.rgb;
         r.d = reflect(d, n1);
@@ -310,6 +318,8 @@ fn interact(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f, l
         let cos2 = dot(t_in, n2);
         let t2 = refract_dir(t_in, -n2, ior / ext);
         if (t2.w > 0.5) {
+            trace_internal = k;
+            lens_exit_p = exit.p;
             r.flux *= 1.0 - fresnel_dielectric(cos2, ext / ior);
             r.o = exit.p;
             r.d = t2.xyz;
@@ -367,6 +377,83 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
     return none;
 }
 
+// Curvature of a caster buffer's surface at buffer texel coordinate uv along the buffer's x and
+// y axes, with the normal oriented toward the light: (dn . dp) / |dp|^2 over the neighbouring
+// texels of the same object (positive: convex toward the light).
+fn buffer_curvature(pos_tex: texture_2d_array<f32>, nrm_tex: texture_2d_array<f32>, layer: u32, uv: vec2f) -> vec2f {
+    let g = i32(textureDimensions(pos_tex).x);
+    let t = texel_of(uv, u32(g));
+    let p0 = textureLoad(pos_tex, t, layer, 0);
+    if (p0.w < 0.0) { return vec2f(0.0); }
+    let n0r = normalize(textureLoad(nrm_tex, t, layer, 0).xyz);
+    let s0 = select(-1.0, 1.0, dot(n0r, to_light(light, p0.xyz).xyz) >= 0.0);
+    let n0 = n0r * s0;
+    var k = vec2f(0.0);
+    for (var axis = 0; axis < 2; axis++) {
+        var num = 0.0;
+        var den = 0.0;
+        for (var side = -1; side <= 1; side += 2) {
+            let tt = t + select(vec2i(0, side), vec2i(side, 0), axis == 0);
+            if (tt.x < 0 || tt.y < 0 || tt.x >= g || tt.y >= g) { continue; }
+            let q = textureLoad(pos_tex, tt, layer, 0);
+            if (q.w != p0.w) { continue; }
+            let dp = q.xyz - p0.xyz;
+            num += dot(normalize(textureLoad(nrm_tex, tt, layer, 0).xyz) * s0 - n0, dp);
+            den += dot(dp, dp);
+        }
+        if (den > 0.0) { k[axis] = num / den; }
+    }
+    return k;
+}
+
+// The optical power (1 / focal length, per buffer axis) of the first specular interaction and
+// the principal-plane offsets, from the lens maker's equation (Wyman & Dachsbacher 2008, eq. 2)
+// with the front and back radii of curvature estimated from the light-space normals (thin
+// lens; light.extra.w = 2: the thick-lens equations with the thickness front -> exit), or the
+// mirror equation. Returns (power x, power y, h1 (front-side principal plane behind the front
+// surface), 1) with h2 folded into h1's sign convention: see lens_diameter.
+var<private> lens_h2: f32 = 0.0;
+fn lens_power(mat: MaterialGpu, layer: u32, uv: vec2f, d: vec3f, p_front: vec3f, g: f32) -> vec4f {
+    let kf = buffer_curvature(front_pos, front_nrm, layer, uv);
+    lens_h2 = 0.0;
+    if (mat.kind.x != KIND_DIELECTRIC) {
+        // Mirror equation: 1/f = 2/R for a mirror concave toward the light (curvature < 0).
+        return vec4f(-2.0 * kf, 0.0, 1.0);
+    }
+    let n = mat.a.x / mat.a.y;
+    let q = project_face(light.faces[layer], lens_exit_p, g);
+    let kb = buffer_curvature(back_pos, back_nrm, layer, q.xy);
+    if (light.extra.w < 1.5) {
+        return vec4f((n - 1.0) * (kf - kb), 0.0, 1.0);
+    }
+    let t = length(lens_exit_p - p_front);
+    let p = (n - 1.0) * (kf - kb + (n - 1.0) * t * kf * kb / n);
+    // Principal planes (mean over the axes): h1 behind the front vertex, h2 before the back one.
+    let pm = 0.5 * (p.x + p.y);
+    var h1 = 0.0;
+    if (abs(pm) > 1e-6) {
+        h1 = -(n - 1.0) * t * 0.5 * (kb.x + kb.y) / (n * pm);
+        lens_h2 = (n - 1.0) * t * 0.5 * (kf.x + kf.y) / (n * pm);
+    }
+    return vec4f(p, h1, 1.0);
+}
+
+// Distance from the light to p (infinite for directional lights).
+fn light_dist(face: Face, p: vec3f) -> f32 {
+    if (face.origin.w > 0.5) { return 1e30; }
+    return length(p - face.origin.xyz);
+}
+
+// Beam diameter on the receiver (eq. 7): D0 |d_front / (d_front + d_bg) (d_bg - d_image) /
+// d_image| per axis with 1/d_image = power - 1/d_front, the geometric mean of the two axes.
+fn lens_diameter(lens: vec4f, d_front_in: f32, d_bg_in: f32, d0: f32) -> f32 {
+    let d_front = d_front_in + lens.z;
+    let d_bg = max(d_bg_in + lens_h2, 0.0);
+    let inv_front = select(1.0 / d_front, 0.0, d_front_in >= 1e29);
+    let rho = abs(d_bg * (lens.xy - inv_front) - 1.0) / (1.0 + d_bg * inv_front);
+    return d0 * sqrt(rho.x * rho.y);
+}
+
 // Trace the photon of the light-view cell centred at `ndc` (NDC size `cell`) of face `layer`.
 // Returns face = INVALID when it carries no caustic (missed the casters, lost on the way).
 // Adds its flux to the bookkeeping in `stats`.
@@ -401,8 +488,14 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     // Up to MAX_BOUNCES specular interactions: the first at the caster seen by the light, the
     // later ones wherever the outgoing ray meets another caster surface on its way to the
     // receiver (the inside of a mirror ring, a second glass object).
+    var sig = 0u;
+    var lens = vec4f(0.0);
     for (var bounce = 0u; bounce < MAX_BOUNCES; bounce++) {
         let r = interact(materials[obj], hit_p, hit_n, dir, flux, layer, g);
+        sig = (sig * 31u + obj * 8u + trace_internal + 1u) & 0xffffffu;
+        if (bounce == 0u && light.extra.w > 0.5 && r.status == STATUS_OK) {
+            lens = lens_power(materials[obj], layer, uv, d, front.p, g);
+        }
         if (r.status == STATUS_NO_EXIT) { add_fixed(4u, r.flux.r + r.flux.g + r.flux.b); return out; }
         if (r.status == STATUS_TIR) { add_fixed(6u, r.flux.r + r.flux.g + r.flux.b); return out; }
         o = r.o;
@@ -427,7 +520,10 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
             if (q.w > 0.5) {
                 out.pos = q.xy;
                 out.face = f;
-                out.flux = vec4f(flux, 0.0);
+                out.flux = vec4f(flux, f32(sig));
+                if (lens.w > 0.0) {
+                    out._pad = bitcast<u32>(lens_diameter(lens, light_dist(face, front.p), length(hit.xyz - lens_exit_p), cell.x * 0.5 * m));
+                }
                 add_fixed(2u, total);
                 return out;
             }

@@ -52,7 +52,7 @@ impl AdaptivePlan {
     pub fn new(s: &RenderSettings, max_bind: u64) -> Result<AdaptivePlan> {
         let n = s.photons;
         let cl = |f: &str, m: String| Err(Error::input("<command line>", f, m));
-        if !n.is_power_of_two() || n < 32 || n > 65536 {
+        if !n.is_power_of_two() || !(32..=65536).contains(&n) {
             return cl("--photons", format!("adaptive caustic maps need a power of two from 32 to 65536 (got {n})"));
         }
         if !s.base_grid.is_power_of_two() || !(4..=4096).contains(&s.base_grid) {
@@ -107,7 +107,15 @@ pub(crate) struct Adaptive {
 
 impl Adaptive {
     pub fn new(e: &Emit) -> Result<Adaptive> {
-        let plan = AdaptivePlan::new(e.settings, e.ctx.device.limits().max_storage_buffer_binding_size)?;
+        let mut plan = AdaptivePlan::new(e.settings, e.ctx.device.limits().max_storage_buffer_binding_size)?;
+        // Allocate no more than the casters' bounding box can need: one batch then suffices.
+        let cell = ((plan.n / plan.batch_grid) as u64).pow(2);
+        let need = (e.bound.iter().copied().max().unwrap_or(0) + cell).max(2 * cell).max(64);
+        if need < plan.capacity {
+            plan.bytes -= (plan.capacity - need) * BYTES_PER_PHOTON;
+            plan.capacity = need;
+            plan.batch_leaves = need - cell;
+        }
         let none = wgpu::BufferUsages::empty();
         Ok(Adaptive {
             cells: storage(e.ctx, "cells", plan.capacity * 8, none),
@@ -281,8 +289,10 @@ impl Adaptive {
             cp.dispatch_workgroups_indirect(&self.args, ctrl::SPLAT_ARGS);
         }
         {
-            let mut cp =
-                enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("adaptive_end"), timestamp_writes: None });
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("adaptive_end"),
+                timestamp_writes: None,
+            });
             cp.set_pipeline(setup_pl);
             cp.set_bind_group(0, &end, &[]);
             cp.dispatch_workgroups(1, 1, 1);

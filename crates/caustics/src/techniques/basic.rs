@@ -25,7 +25,8 @@ impl Basic {
 
     pub fn new(e: &Emit) -> Basic {
         let batch = Basic::batch_size(e);
-        let photons = storage(e.ctx, "photons", batch * std::mem::size_of::<Photon>() as u64, wgpu::BufferUsages::empty());
+        let photons =
+            storage(e.ctx, "photons", batch * std::mem::size_of::<Photon>() as u64, wgpu::BufferUsages::empty());
         Basic { photons, batch, traced: 0, batches: 0 }
     }
 
@@ -39,7 +40,12 @@ impl Basic {
             let tp = uniform(
                 e.ctx,
                 "trace_params",
-                bytemuck::bytes_of(&TraceParams { face: f, batch_offset: off as u32, batch_count: count as u32, tile: 0 }),
+                bytemuck::bytes_of(&TraceParams {
+                    face: f,
+                    batch_offset: off as u32,
+                    batch_count: count as u32,
+                    tile: 0,
+                }),
             );
             let sp = storage_init(e, &SplatParams { groups: [groups, 1, 1], count: count as u32 });
             let tbg = bind(

@@ -85,7 +85,13 @@ impl Hierarchical {
         })
     }
 
-    pub fn record_face(&mut self, e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, f: u32) -> wgpu::Buffer {
+    pub fn record_face(
+        &mut self,
+        e: &Emit,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        f: u32,
+    ) -> wgpu::Buffer {
         let p = self.plan;
         let t = p.tile;
         let ctrl_buf = storage(e.ctx, "hierarchy_control", ctrl::WORDS * 4, wgpu::BufferUsages::empty());

@@ -116,6 +116,9 @@ pub struct TechniqueStats {
     pub peak_photon_bytes: u64,
     /// Batches processed (all lights and faces).
     pub batches: u32,
+    /// With `RenderSettings::keep_coverage`: per light and face, the G × G coverage mask of the
+    /// caster front buffer (1 where a caster is), row-major.
+    pub coverage_masks: Vec<Vec<u32>>,
 }
 
 impl TechniqueStats {
@@ -200,6 +203,8 @@ pub(crate) struct Pending {
     pub stats: TechniqueStats,
     /// Grid size of level index 0 of the control buffers' per-level counters.
     pub level0_grid: u32,
+    /// Copies of level 0 of the coverage mip per face (`keep_coverage`).
+    pub masks: Vec<wgpu::Buffer>,
 }
 
 /// Word indices of the control buffer (mirrors `shaders/shared/hierarchy.wgsl`).
@@ -313,8 +318,8 @@ pub(crate) fn build_mip(
             (bg, size)
         })
         .collect();
-    let mut cp =
-        enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(name), timestamp_writes: timer.compute(name) });
+    let mut cp = enc
+        .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(name), timestamp_writes: timer.compute(name) });
     cp.set_pipeline(pl);
     for (bg, size) in &groups {
         cp.set_bind_group(0, bg, &[]);
@@ -357,6 +362,7 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
         ctrl: Vec::new(),
         stats: TechniqueStats { technique: t, grid: e.n, ..Default::default() },
         level0_grid: 1,
+        masks: Vec::new(),
     };
     let mut adaptive = match t {
         Technique::AdaptiveLevel | Technique::AdaptiveError => Some(adaptive::Adaptive::new(e)?),
@@ -373,6 +379,11 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
     for f in 0..faces {
         build_mip(e, enc, timer, "coverage_mip", &cover, &dummy, f, g, 1, 0);
         enc.copy_buffer_to_buffer(&cover, mip_offset(g.trailing_zeros(), g) * 4, &pending.coverage, f as u64 * 4, 4);
+        if e.settings.keep_coverage {
+            let m = storage(e.ctx, "coverage_mask", (g as u64).pow(2) * 4, wgpu::BufferUsages::empty());
+            enc.copy_buffer_to_buffer(&cover, 0, &m, 0, (g as u64).pow(2) * 4);
+            pending.masks.push(m);
+        }
         if let Some(a) = &mut adaptive {
             pending.ctrl.push(a.record_face(e, enc, timer, &cover, f));
         }
@@ -407,6 +418,10 @@ impl Pending {
         s.face_texels += self.faces as u64 * (g as u64).pow(2);
         let r = (s.grid as u64 / g as u64).pow(2);
         s.relevant += covered * r;
+        for m in &self.masks {
+            let data = ctx.read_buffer(m, m.size())?;
+            s.coverage_masks.push(bytemuck::cast_slice(&data).to_vec());
+        }
         let mut peak_cells = 0u64;
         let mut peak_photons = 0u64;
         for buf in &self.ctrl {
@@ -490,6 +505,7 @@ impl TechniqueStats {
         self.photon_bytes = self.photon_bytes.max(o.photon_bytes);
         self.peak_photon_bytes = self.peak_photon_bytes.max(o.peak_photon_bytes);
         self.batches += o.batches;
+        self.coverage_masks.extend(o.coverage_masks.iter().cloned());
     }
 
     fn face_texels_g(&self) -> u32 {

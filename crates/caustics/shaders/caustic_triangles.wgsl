@@ -1,0 +1,157 @@
+// Stage: caustic_triangles. Caustic triangles from the dense photon grid: the photons of grid
+// cells (i, j), (i+1, j), (i, j+1), (i+1, j+1) form a quad, split along its (i, j)-(i+1, j+1)
+// diagonal into two triangles. Each photon gives a quarter of its flux to each of the four quads
+// around it; a quad's flux is shared equally by its two triangles, and a triangle spreads its
+// flux uniformly over its area in the caustic map: the flux of each texel is the triangle's flux
+// times the exact area of the triangle inside the texel (polygon clipping) over the triangle's
+// area, so density comes from geometry, not from counting photons.
+// - Folds: a triangle that flips orientation (past a caustic cusp) is a sheet of light like any
+//   other: its flux is spread over its (unsigned) area, and overlapping sheets add up.
+// - Discontinuities: a quad is used only if its four photons are valid, land on the same face,
+//   followed the same path (Photon.flux.w: the path signature the tracer writes: objects and
+//   internal reflections) and no edge spans more than `max_edge` texels (an edge that long
+//   crosses a gap between surfaces). Otherwise each valid corner's quarter is splatted as a
+//   normalised Gaussian (the fixed splat's sigma) at the photon: light is never smeared across
+//   a silhouette or a total-internal-reflection boundary.
+// Conservation: the parts of a triangle outside the map and any rounding go to the texel of
+// its centroid (clamped), so every photon's flux lands exactly once.
+// A pass handles the quad rows r0 - 1 .. r0 - 1 + quad_rows of one face: photon row r0 - 1 is
+// held at index 0 of `photons` (has_prev), rows r0 .. r0 + rows from index cur_off.
+
+#import splat
+
+struct TriParams {
+    n: u32,
+    r0: u32,
+    rows: u32,
+    quad_rows: u32,
+    cur_off: u32,
+    has_prev: u32,
+    max_edge: f32,
+    _pad: u32,
+}
+
+@group(0) @binding(0) var<uniform> light: LightGpu;
+@group(0) @binding(1) var<uniform> tp: TriParams;
+@group(0) @binding(2) var<storage, read> photons: array<Photon>;
+@group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
+
+fn load(x: i32, y: i32) -> Photon {
+    var p: Photon;
+    p.face = INVALID;
+    let n = i32(tp.n);
+    if (x < 0 || x >= n || y < 0 || y >= n) { return p; }
+    let r0 = i32(tp.r0);
+    if (y == r0 - 1) {
+        if (tp.has_prev == 0u) { return p; }
+        return photons[u32(x)];
+    }
+    if (y < r0 || y >= r0 + i32(tp.rows)) { return p; }
+    return photons[tp.cur_off + u32(y - r0) * tp.n + u32(x)];
+}
+
+struct Poly {
+    p: array<vec2f, 8>,
+    n: u32,
+}
+
+// Clip a convex polygon to the half-plane where coordinate `axis` is >= bound (keep_greater)
+// or <= bound.
+fn clip(poly_in: Poly, axis: u32, bound: f32, keep_greater: bool) -> Poly {
+    var src = poly_in;
+    var out: Poly;
+    out.n = 0u;
+    for (var i = 0u; i < src.n; i++) {
+        let a = src.p[i];
+        let b = src.p[(i + 1u) % src.n];
+        let ax = select(a.y, a.x, axis == 0u);
+        let bx = select(b.y, b.x, axis == 0u);
+        let da = select(bound - ax, ax - bound, keep_greater);
+        let db = select(bound - bx, bx - bound, keep_greater);
+        if (da >= 0.0) {
+            out.p[out.n] = a;
+            out.n++;
+        }
+        if ((da >= 0.0) != (db >= 0.0)) {
+            out.p[out.n] = mix(a, b, da / (da - db));
+            out.n++;
+        }
+    }
+    return out;
+}
+
+fn cross2(a: vec2f, b: vec2f) -> f32 {
+    return a.x * b.y - a.y * b.x;
+}
+
+// Area of triangle (a, b, c) inside the unit square with corner t.
+fn clipped_area(a: vec2f, b: vec2f, c: vec2f, t: vec2f) -> f32 {
+    var poly: Poly;
+    poly.p[0] = a;
+    poly.p[1] = b;
+    poly.p[2] = c;
+    poly.n = 3u;
+    poly = clip(poly, 0u, t.x, true);
+    poly = clip(poly, 0u, t.x + 1.0, false);
+    poly = clip(poly, 1u, t.y, true);
+    poly = clip(poly, 1u, t.y + 1.0, false);
+    if (poly.n < 3u) { return 0.0; }
+    var s = 0.0;
+    for (var i = 0u; i < poly.n; i++) {
+        s += cross2(poly.p[i], poly.p[(i + 1u) % poly.n]);
+    }
+    return abs(0.5 * s);
+}
+
+fn triangle(face: u32, a: vec2f, b: vec2f, c: vec2f, flux: vec3f) {
+    let m = i32(light.info.w);
+    let centroid = clamp(vec2i(floor((a + b + c) / 3.0)), vec2i(0), vec2i(m - 1));
+    let area = 0.5 * abs(cross2(b - a, c - a));
+    let lo = max(vec2i(floor(min(a, min(b, c)))), vec2i(0));
+    let hi = min(vec2i(floor(max(a, max(b, c)))), vec2i(m - 1));
+    if (area < 1e-6 || all(lo == hi)) {
+        deposit(face, centroid, flux);
+        return;
+    }
+    var wsum = 0.0;
+    for (var y = lo.y; y <= hi.y; y++) {
+        for (var x = lo.x; x <= hi.x; x++) {
+            let w = clipped_area(a, b, c, vec2f(f32(x), f32(y))) / area;
+            if (w <= 0.0) { continue; }
+            wsum += w;
+            deposit(face, vec2i(x, y), flux * w);
+        }
+    }
+    if (wsum < 1.0) { deposit(face, centroid, flux * (1.0 - wsum)); }
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3u) {
+    if (gid.x > tp.n || gid.y >= tp.quad_rows) { return; }
+    let x = i32(gid.x) - 1;
+    let y = i32(tp.r0) - 1 + i32(gid.y);
+    var q: array<Photon, 4>;
+    q[0] = load(x, y);
+    q[1] = load(x + 1, y);
+    q[2] = load(x, y + 1);
+    q[3] = load(x + 1, y + 1);
+    let f = q[0].face;
+    var ok = f != INVALID;
+    for (var k = 1; k < 4; k++) {
+        ok = ok && q[k].face == f && q[k].flux.w == q[0].flux.w;
+    }
+    if (ok) {
+        let e = max(max(distance(q[0].pos, q[1].pos), distance(q[0].pos, q[2].pos)),
+                    max(max(distance(q[1].pos, q[3].pos), distance(q[2].pos, q[3].pos)), distance(q[0].pos, q[3].pos)));
+        ok = e <= tp.max_edge;
+    }
+    if (ok) {
+        let quad = 0.25 * (q[0].flux.rgb + q[1].flux.rgb + q[2].flux.rgb + q[3].flux.rgb);
+        triangle(f, q[0].pos, q[1].pos, q[3].pos, 0.5 * quad);
+        triangle(f, q[0].pos, q[3].pos, q[2].pos, 0.5 * quad);
+        return;
+    }
+    for (var k = 0; k < 4; k++) {
+        if (q[k].face != INVALID) { gauss_splat(q[k].face, q[k].pos, 0.25 * q[k].flux.rgb, light.params.z); }
+    }
+}

@@ -1,0 +1,64 @@
+// Shared by the splat stages (splat_lens, splat_multires, caustic_triangles): 64-bit fixed-point
+// accumulation into `accum` (per face, per texel, per channel: (lo, hi) word pairs), the texel
+// index, and a normalised Gaussian splat. Uses the module-scope bindings `light` and `accum`.
+
+fn add64(word: u32, value: f32) {
+    let v = max(value, 0.0);
+    let hi = floor(v / 4294967296.0);
+    let lo = u32(v - hi * 4294967296.0);
+    if (lo == 0u && hi == 0.0) { return; }
+    let old = atomicAdd(&accum[word], lo);
+    var carry = 0u;
+    if (old > 0xffffffffu - lo) { carry = 1u; }
+    let h = u32(hi) + carry;
+    if (h != 0u) { atomicAdd(&accum[word + 1u], h); }
+}
+
+fn texel_index(face: u32, t: vec2i) -> u32 {
+    let m = light.info.w;
+    return (face * m + u32(t.y)) * m + u32(t.x);
+}
+
+// Add flux (W, rgb) to texel t of face `face`.
+fn deposit(face: u32, t: vec2i, flux: vec3f) {
+    let base = texel_index(face, t) * 6u;
+    let s = light.params.y;
+    add64(base, flux.r * s);
+    add64(base + 2u, flux.g * s);
+    add64(base + 4u, flux.b * s);
+}
+
+// A Gaussian splat of standard deviation sigma texels (cut at 3 sigma) at continuous texel
+// position pos, its weights normalised over the texels inside the map: the whole flux lands.
+fn gauss_splat(face: u32, pos: vec2f, flux: vec3f, sigma: f32) {
+    let m = i32(light.info.w);
+    let r = i32(ceil(3.0 * sigma));
+    let c = vec2i(floor(pos));
+    let cut = 9.0 * sigma * sigma;
+    var wsum = 0.0;
+    for (var y = -r; y <= r; y++) {
+        for (var x = -r; x <= r; x++) {
+            let t = c + vec2i(x, y);
+            if (t.x < 0 || t.y < 0 || t.x >= m || t.y >= m) { continue; }
+            let dd = vec2f(t) + 0.5 - pos;
+            let d2 = dot(dd, dd);
+            if (d2 > cut) { continue; }
+            wsum += exp(-0.5 * d2 / (sigma * sigma));
+        }
+    }
+    if (wsum <= 0.0) {
+        // No texel centre within the cut (sigma below half a texel): the nearest texel.
+        deposit(face, clamp(c, vec2i(0), vec2i(m - 1)), flux);
+        return;
+    }
+    for (var y = -r; y <= r; y++) {
+        for (var x = -r; x <= r; x++) {
+            let t = c + vec2i(x, y);
+            if (t.x < 0 || t.y < 0 || t.x >= m || t.y >= m) { continue; }
+            let dd = vec2f(t) + 0.5 - pos;
+            let d2 = dot(dd, dd);
+            if (d2 > cut) { continue; }
+            deposit(face, t, flux * (exp(-0.5 * d2 / (sigma * sigma)) / wsum));
+        }
+    }
+}

@@ -1,0 +1,110 @@
+// Stage: splat_multires. Adaptive multi-resolution splatting (Wyman & Dachsbacher 2008, section
+// 4.1): each photon is splatted once over its largest footprint; every texel of it receives the
+// photon's flux under four truncated Gaussians of radii r_i = RADII[i] * splat sigma (about 3, 7,
+// 11 and 15 texels across at sigma 1, the paper's point sizes), each normalised over the texels
+// inside the map (every intensity map holds the whole flux), and a count per radius of the
+// photons whose footprint covers it. splat_multires_blend chooses per texel.
+// Maps: intensity of radius 3 in `accum` (the caustic map itself), radii 0..2 in flux0..flux2
+// (same layout), counts in `counts` (4 u32 per texel).
+
+#import splat
+
+struct SplatParams {
+    groups_x: u32,
+    groups_y: u32,
+    groups_z: u32,
+    count: u32,
+}
+
+@group(0) @binding(0) var<uniform> light: LightGpu;
+@group(0) @binding(1) var<storage, read> sp: SplatParams;
+@group(0) @binding(2) var<storage, read> photons: array<Photon>;
+@group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
+@group(0) @binding(4) var<storage, read_write> flux0: array<atomic<u32>>;
+@group(0) @binding(5) var<storage, read_write> flux1: array<atomic<u32>>;
+@group(0) @binding(6) var<storage, read_write> flux2: array<atomic<u32>>;
+@group(0) @binding(7) var<storage, read_write> counts: array<atomic<u32>>;
+
+const RADII: vec4f = vec4f(1.5, 3.5, 5.5, 7.5);
+
+fn add_to(map: u32, word: u32, value: f32) {
+    let v = max(value, 0.0);
+    let hi = floor(v / 4294967296.0);
+    let lo = u32(v - hi * 4294967296.0);
+    if (lo == 0u && hi == 0.0) { return; }
+    var old = 0u;
+    switch map {
+        case 0u: { old = atomicAdd(&flux0[word], lo); }
+        case 1u: { old = atomicAdd(&flux1[word], lo); }
+        case 2u: { old = atomicAdd(&flux2[word], lo); }
+        default: { old = atomicAdd(&accum[word], lo); }
+    }
+    var carry = 0u;
+    if (old > 0xffffffffu - lo) { carry = 1u; }
+    let h = u32(hi) + carry;
+    if (h == 0u) { return; }
+    switch map {
+        case 0u: { atomicAdd(&flux0[word + 1u], h); }
+        case 1u: { atomicAdd(&flux1[word + 1u], h); }
+        case 2u: { atomicAdd(&flux2[word + 1u], h); }
+        default: { atomicAdd(&accum[word + 1u], h); }
+    }
+}
+
+// Truncated Gaussian of radius r (sigma = r / 2).
+fn kernel(d2: f32, r: f32) -> f32 {
+    if (d2 > r * r) { return 0.0; }
+    return exp(-2.0 * d2 / (r * r));
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @builtin(local_invocation_index) lid: u32) {
+    let index = (wg.y * nwg.x + wg.x) * 64u + lid;
+    if (index >= sp.count) { return; }
+    let ph = photons[index];
+    if (ph.face == INVALID) { return; }
+    let m = i32(light.info.w);
+    let radii = RADII * light.params.z;
+    let rr = i32(ceil(radii.w));
+    let c = vec2i(floor(ph.pos));
+    var wsum = vec4f(0.0);
+    for (var y = -rr; y <= rr; y++) {
+        for (var x = -rr; x <= rr; x++) {
+            let t = c + vec2i(x, y);
+            if (t.x < 0 || t.y < 0 || t.x >= m || t.y >= m) { continue; }
+            let dd = vec2f(t) + 0.5 - ph.pos;
+            let d2 = dot(dd, dd);
+            for (var i = 0u; i < 4u; i++) { wsum[i] += kernel(d2, radii[i]); }
+        }
+    }
+    let s = light.params.y;
+    let cn = clamp(c, vec2i(0), vec2i(m - 1));
+    for (var i = 0u; i < 4u; i++) {
+        if (wsum[i] <= 0.0) {
+            // Radius below half a texel: the nearest texel takes it all.
+            let b = texel_index(ph.face, cn) * 6u;
+            add_to(i, b, ph.flux.r * s);
+            add_to(i, b + 2u, ph.flux.g * s);
+            add_to(i, b + 4u, ph.flux.b * s);
+            atomicAdd(&counts[texel_index(ph.face, cn) * 4u + i], 1u);
+        }
+    }
+    for (var y = -rr; y <= rr; y++) {
+        for (var x = -rr; x <= rr; x++) {
+            let t = c + vec2i(x, y);
+            if (t.x < 0 || t.y < 0 || t.x >= m || t.y >= m) { continue; }
+            let dd = vec2f(t) + 0.5 - ph.pos;
+            let d2 = dot(dd, dd);
+            let tex = texel_index(ph.face, t);
+            for (var i = 0u; i < 4u; i++) {
+                let k = kernel(d2, radii[i]);
+                if (k <= 0.0 || wsum[i] <= 0.0) { continue; }
+                let w = k / wsum[i] * s;
+                add_to(i, tex * 6u, ph.flux.r * w);
+                add_to(i, tex * 6u + 2u, ph.flux.g * w);
+                add_to(i, tex * 6u + 4u, ph.flux.b * w);
+                atomicAdd(&counts[tex * 4u + i], 1u);
+            }
+        }
+    }
+}

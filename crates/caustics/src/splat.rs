@@ -1,0 +1,349 @@
+//! Splat modes: how photons become the caustic map's flux (`docs/splatting.md`, issue 5).
+//!
+//! - [`SplatMode::Fixed`]: one normalised Gaussian of `splat_sigma` texels per photon
+//!   (`photon_splat`), the baseline;
+//! - [`SplatMode::MultiRes`]: adaptive multi-resolution splatting (Wyman & Dachsbacher 2008,
+//!   section 4.1): four radii splatted at once (`splat_multires`), chosen per texel from photon
+//!   counts with the Bernstein interpolant (`splat_multires_blend`);
+//! - [`SplatMode::ThinLens`], [`SplatMode::ThickLens`]: each photon's splat size from the lens
+//!   equations (section 4.2) with radii of curvature from the light-space normals; the tracer
+//!   writes the beam diameter into the photon (`shared/trace.wgsl`), `splat_lens` splats it;
+//! - [`SplatMode::Triangles`]: caustic triangles from adjacent photons of the dense grid
+//!   (`caustic_triangles`): flux spread over the triangle's area on the receiver (basic
+//!   technique; the hierarchical and adaptive techniques, whose photons are not kept as a grid,
+//!   fall back to thin-lens splats).
+//!
+//! Every mode puts each photon's flux into the map exactly once (normalised weights, 64-bit
+//! fixed-point atomics: deterministic maps).
+
+use crate::gpu::types::{Photon, TraceParams};
+use crate::gpu::{GpuContext, PassTimer};
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+/// How photons are splatted into the caustic map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum SplatMode {
+    /// A Gaussian of fixed width (`splat_sigma` texels).
+    #[default]
+    Fixed,
+    /// Adaptive multi-resolution splatting: radii 1.5, 3.5, 5.5, 7.5 × `splat_sigma` texels.
+    MultiRes,
+    /// Splat sizes from the thin-lens equations.
+    ThinLens,
+    /// Splat sizes from the thick-lens equations (principal planes, thickness).
+    ThickLens,
+    /// Caustic triangles from the dense photon grid (basic technique).
+    Triangles,
+}
+
+impl SplatMode {
+    pub const ALL: [SplatMode; 5] =
+        [SplatMode::Fixed, SplatMode::MultiRes, SplatMode::ThinLens, SplatMode::ThickLens, SplatMode::Triangles];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SplatMode::Fixed => "fixed",
+            SplatMode::MultiRes => "multires",
+            SplatMode::ThinLens => "thin-lens",
+            SplatMode::ThickLens => "thick-lens",
+            SplatMode::Triangles => "triangles",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<SplatMode> {
+        SplatMode::ALL.into_iter().find(|m| m.name() == s.trim())
+    }
+
+    /// What the tracer writes into `light.extra.w`: 1 thin-lens, 2 thick-lens beam diameters.
+    pub fn lens_flag(self, technique: crate::techniques::Technique) -> f32 {
+        match self {
+            SplatMode::ThinLens => 1.0,
+            SplatMode::ThickLens => 2.0,
+            SplatMode::Triangles if technique != crate::techniques::Technique::Basic => 1.0,
+            _ => 0.0,
+        }
+    }
+
+    /// The splat stage that takes a photon buffer (for triangles outside the basic technique:
+    /// the thin-lens splat).
+    pub fn stage(self) -> &'static str {
+        match self {
+            SplatMode::Fixed => "photon_splat",
+            SplatMode::MultiRes => "splat_multires",
+            SplatMode::ThinLens | SplatMode::ThickLens | SplatMode::Triangles => "splat_lens",
+        }
+    }
+}
+
+impl std::fmt::Display for SplatMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Parameters of `caustic_triangles` (mirrors the WGSL `TriParams`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct TriParams {
+    pub n: u32,
+    pub r0: u32,
+    pub rows: u32,
+    pub quad_rows: u32,
+    pub cur_off: u32,
+    pub has_prev: u32,
+    pub max_edge: f32,
+    pub _pad: u32,
+}
+
+/// Parameters of `splat_multires_blend` (mirrors the WGSL `BlendParams`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct BlendParams {
+    pub count: u32,
+    pub pass_index: u32,
+    pub _pad: [u32; 2],
+}
+
+/// The compute pipelines of one splat mode.
+pub(crate) struct SplatPipelines {
+    pub mode: SplatMode,
+    /// The splat of a photon buffer (every technique).
+    pub splat: wgpu::ComputePipeline,
+    pub blend: Option<wgpu::ComputePipeline>,
+    pub triangles: Option<wgpu::ComputePipeline>,
+}
+
+impl SplatPipelines {
+    pub fn new(ctx: &GpuContext, mode: SplatMode, technique: crate::techniques::Technique) -> SplatPipelines {
+        SplatPipelines {
+            mode,
+            splat: ctx.compute_pipeline(mode.stage()),
+            blend: (mode == SplatMode::MultiRes).then(|| ctx.compute_pipeline("splat_multires_blend")),
+            triangles: (mode == SplatMode::Triangles && technique == crate::techniques::Technique::Basic)
+                .then(|| ctx.compute_pipeline("caustic_triangles")),
+        }
+    }
+
+    /// Caustic triangles are drawn from the dense grid (instead of photon_splat).
+    pub fn grid_triangles(&self) -> bool {
+        self.triangles.is_some()
+    }
+}
+
+/// Per-light buffers a splat mode needs besides the caustic map's `accum`: multi-resolution
+/// splatting's three smaller-radius flux maps, the counts and the per-face sums.
+pub(crate) struct SplatTargets {
+    pub extra: Vec<wgpu::Buffer>,
+    pub texels: u64,
+}
+
+fn buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size.max(16),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+impl SplatTargets {
+    /// `texels`: caustic-map texels of all faces of the light.
+    pub fn new(ctx: &GpuContext, mode: SplatMode, texels: u64, faces: u32) -> SplatTargets {
+        let extra = match mode {
+            SplatMode::MultiRes => vec![
+                buffer(ctx, "caustic_flux_r0", texels * 24),
+                buffer(ctx, "caustic_flux_r1", texels * 24),
+                buffer(ctx, "caustic_flux_r2", texels * 24),
+                buffer(ctx, "caustic_counts", texels * 16),
+                buffer(ctx, "caustic_sums", faces as u64 * 16),
+            ],
+            _ => Vec::new(),
+        };
+        SplatTargets { extra, texels }
+    }
+
+    /// Bind group of the photon-buffer splat: light, params (storage, indirect layout), photons,
+    /// the caustic map, and the mode's extra maps.
+    pub fn bind(
+        &self,
+        ctx: &GpuContext,
+        p: &SplatPipelines,
+        light: &wgpu::Buffer,
+        params: wgpu::BindingResource<'_>,
+        photons: &wgpu::Buffer,
+        accum: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        let mut res = vec![light.as_entire_binding(), params, photons.as_entire_binding()];
+        res.push(accum.as_entire_binding());
+        if p.mode == SplatMode::MultiRes {
+            res.extend(self.extra[..4].iter().map(|b| b.as_entire_binding()));
+        }
+        crate::techniques::bind(ctx, &p.splat, p.mode.stage(), &res)
+    }
+
+    /// Record what the mode does after every photon of the light was splatted: the
+    /// multi-resolution blend (and its flux-preserving rescale) into `accum`.
+    pub fn finish(
+        &self,
+        ctx: &GpuContext,
+        p: &SplatPipelines,
+        light: &wgpu::Buffer,
+        accum: &wgpu::Buffer,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+    ) {
+        let Some(pl) = &p.blend else { return };
+        let groups: Vec<wgpu::BindGroup> = (0..2u32)
+            .map(|pass| {
+                let u = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("blend_params"),
+                    contents: bytemuck::bytes_of(&BlendParams {
+                        count: self.texels as u32,
+                        pass_index: pass,
+                        _pad: [0; 2],
+                    }),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+                let mut res = vec![light.as_entire_binding(), u.as_entire_binding(), accum.as_entire_binding()];
+                res.extend(self.extra.iter().map(|b| b.as_entire_binding()));
+                crate::techniques::bind(ctx, pl, "splat_multires_blend", &res)
+            })
+            .collect();
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("splat_blend"),
+            timestamp_writes: timer.compute("splat_blend"),
+        });
+        cp.set_pipeline(pl);
+        for bg in &groups {
+            cp.set_bind_group(0, bg, &[]);
+            cp.dispatch_workgroups((self.texels as u32).div_ceil(256), 1, 1);
+        }
+    }
+}
+
+/// Longest triangle edge (caustic-map texels) that is not taken for a discontinuity: eight times
+/// the unrefracted photon spacing M / N, and at least 32 texels.
+pub fn triangle_max_edge(n: u32, m: u32) -> f32 {
+    (8.0 * m as f32 / n as f32).max(32.0)
+}
+
+/// Rows of photons per batch of the triangle pass: whole rows of the N × N grid that fit `batch`
+/// photons (at least one).
+pub fn triangle_rows(n: u32, batch: u64) -> u32 {
+    ((batch / n as u64).max(1)).min(n as u64) as u32
+}
+
+/// Bytes of the triangle pass's photon buffer: the previous batch's last row (padded to the
+/// storage offset alignment), then `rows` rows.
+pub fn triangle_buffer_layout(n: u32, rows: u32) -> (u64, u64) {
+    let stride = std::mem::size_of::<Photon>() as u64;
+    let pad = (n as u64 * stride).div_ceil(256) * 256;
+    (pad, pad + rows as u64 * n as u64 * stride)
+}
+
+/// What the basic technique needs to draw caustic triangles for one face.
+pub(crate) struct GridTriangles<'a> {
+    pub ctx: &'a GpuContext,
+    pub trace: &'a wgpu::ComputePipeline,
+    pub triangles: &'a wgpu::ComputePipeline,
+    /// The photon_trace bind group for a batch: (trace parameters, photon output binding).
+    pub trace_bind: &'a dyn Fn(&wgpu::Buffer, wgpu::BindingResource) -> wgpu::BindGroup,
+    pub light: &'a wgpu::Buffer,
+    pub accum: &'a wgpu::Buffer,
+    pub photons: &'a wgpu::Buffer,
+    pub carry: &'a wgpu::Buffer,
+    pub n: u32,
+    pub m: u32,
+    pub rows: u32,
+}
+
+/// Record the dense grid of face `f` in batches of whole rows: `photon_trace`, then
+/// `caustic_triangles` over the quads whose rows are held, then the batch's last row is carried
+/// to the head of the buffer for the next batch's first quad row. Returns (photons traced,
+/// batches).
+pub(crate) fn record_grid_triangles(
+    g: &GridTriangles,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+    f: u32,
+) -> (u64, u32) {
+    let (n, stride) = (g.n, std::mem::size_of::<Photon>() as u64);
+    let (pad, _) = triangle_buffer_layout(n, g.rows);
+    let uniform = |label: &str, bytes: &[u8]| {
+        g.ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytes,
+            usage: wgpu::BufferUsages::UNIFORM,
+        })
+    };
+    let (mut r0, mut traced, mut batches) = (0u32, 0u64, 0u32);
+    while r0 < n {
+        let rows = g.rows.min(n - r0);
+        let count = rows * n;
+        let tp = uniform(
+            "trace_params",
+            bytemuck::bytes_of(&TraceParams { face: f, batch_offset: r0 * n, batch_count: count, tile: 0 }),
+        );
+        let out = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer: g.photons,
+            offset: pad,
+            size: std::num::NonZeroU64::new(count as u64 * stride),
+        });
+        let tbg = (g.trace_bind)(&tp, out);
+        let last = r0 + rows == n;
+        let quad_rows = rows + u32::from(last);
+        let par = uniform(
+            "triangle_params",
+            bytemuck::bytes_of(&TriParams {
+                n,
+                r0,
+                rows,
+                quad_rows,
+                cur_off: (pad / stride) as u32,
+                has_prev: u32::from(r0 > 0),
+                max_edge: triangle_max_edge(n, g.m),
+                _pad: 0,
+            }),
+        );
+        let trbg = crate::techniques::bind(
+            g.ctx,
+            g.triangles,
+            "caustic_triangles",
+            &[
+                g.light.as_entire_binding(),
+                par.as_entire_binding(),
+                g.photons.as_entire_binding(),
+                g.accum.as_entire_binding(),
+            ],
+        );
+        {
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("photon_trace"),
+                timestamp_writes: timer.compute("photon_trace"),
+            });
+            cp.set_pipeline(g.trace);
+            cp.set_bind_group(0, &tbg, &[]);
+            cp.dispatch_workgroups(count.div_ceil(64), 1, 1);
+        }
+        {
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("photon_splat"),
+                timestamp_writes: timer.compute("photon_splat"),
+            });
+            cp.set_pipeline(g.triangles);
+            cp.set_bind_group(0, &trbg, &[]);
+            cp.dispatch_workgroups((n + 1).div_ceil(8), quad_rows.div_ceil(8), 1);
+        }
+        if !last {
+            let row = n as u64 * stride;
+            enc.copy_buffer_to_buffer(g.photons, pad + (rows as u64 - 1) * row, g.carry, 0, row);
+            enc.copy_buffer_to_buffer(g.carry, 0, g.photons, 0, row);
+        }
+        traced += count as u64;
+        batches += 1;
+        r0 += rows;
+    }
+    (traced, batches)
+}

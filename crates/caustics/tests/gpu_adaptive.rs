@@ -1,0 +1,212 @@
+//! GPU tests of the photon emission techniques (hierarchical and adaptive caustic maps), run on
+//! lavapipe in CI at small sizes: per-level counts against a CPU model of the traversal, equality
+//! with the dense grid, flux conservation, batching, budget errors, stability.
+//! Without an adapter they skip with a printed reason, except in CI (`CI=true`), where they fail.
+
+use caustics::Scene;
+use caustics::gpu::GpuContext;
+use caustics::render::{GpuRender, RenderSettings, Technique, render};
+
+fn gpu() -> Option<GpuContext> {
+    match GpuContext::new(None) {
+        Ok(c) => Some(c),
+        Err(e) => {
+            if std::env::var("CI").is_ok_and(|v| v == "true") {
+                panic!("CI requires a GPU adapter (install mesa-vulkan-drivers): {e}");
+            }
+            eprintln!("skipping GPU test: {e}");
+            None
+        }
+    }
+}
+
+/// The built-in glass ball, with a small camera (the tests are about the caustic map).
+fn scene() -> Scene {
+    let mut s = Scene::default_scene();
+    s.camera.width = 32;
+    s.camera.height = 32;
+    s
+}
+
+fn settings(t: Technique, n: u32) -> RenderSettings {
+    RenderSettings {
+        photons: n,
+        technique: t,
+        base_grid: 32,
+        caustic_map_size: 256,
+        shadow_map_size: 256,
+        ..Default::default()
+    }
+}
+
+fn total_flux(r: &GpuRender) -> (f64, f64) {
+    (r.flux.iter().map(|f| f.emitted).sum(), r.flux.iter().map(|f| f.landed).sum())
+}
+
+/// CPU model of the maximal-traversal refinement: from the covered cells of the base grid, keep
+/// the covered children of every kept cell, level by level, down to the finest grid `n`.
+/// Coverage of a cell of an s × s grid: any covered texel of the g × g mask under it.
+fn cpu_levels(mask: &[u32], g: u32, base: u32, n: u32) -> Vec<(u32, u64)> {
+    let covered = |i: u32, j: u32, s: u32| -> bool {
+        if s >= g {
+            let r = s / g;
+            return mask[((j / r) * g + i / r) as usize] != 0;
+        }
+        let r = g / s;
+        (0..r).any(|y| (0..r).any(|x| mask[((j * r + y) * g + i * r + x) as usize] != 0))
+    };
+    let mut cells: Vec<(u32, u32)> =
+        (0..base).flat_map(|j| (0..base).map(move |i| (i, j))).filter(|&(i, j)| covered(i, j, base)).collect();
+    let mut out = vec![(base, cells.len() as u64)];
+    let mut s = base;
+    while s < n {
+        s *= 2;
+        cells = cells
+            .iter()
+            .flat_map(|&(i, j)| [(2 * i, 2 * j), (2 * i + 1, 2 * j), (2 * i, 2 * j + 1), (2 * i + 1, 2 * j + 1)])
+            .filter(|&(i, j)| covered(i, j, s))
+            .collect();
+        out.push((s, cells.len() as u64));
+    }
+    out
+}
+
+#[test]
+fn level_counts_match_a_cpu_model_of_the_traversal() {
+    let Some(ctx) = gpu() else { return };
+    let s = scene();
+    // N = 512 > G would be 512 too; use N = 1024 with the caster buffer at 1024 and N = 256.
+    for n in [256, 1024] {
+        let set = RenderSettings { keep_coverage: true, ..settings(Technique::AdaptiveLevel, n) };
+        let out = render(&ctx, &s, &set, None).unwrap();
+        let t = &out.technique;
+        let g = n.min(2048);
+        assert_eq!(t.coverage_masks.len(), 1);
+        let model = cpu_levels(&t.coverage_masks[0], g, 32, n);
+        eprintln!("N = {n}: CPU model {model:?}; GPU {:?}", t.levels);
+        let (last_grid, leaves) = *model.last().unwrap();
+        for &(grid, count) in &model[..model.len() - 1] {
+            let l = t.levels.iter().find(|l| l.grid == grid).expect("a level of the model");
+            assert_eq!(l.cells, count, "cells kept at {grid}^2");
+        }
+        let finest = t.levels.iter().find(|l| l.grid == last_grid).unwrap();
+        assert_eq!(finest.traced, leaves, "photons traced at {last_grid}^2");
+        assert_eq!(finest.emitted, leaves, "photons emitted at {last_grid}^2");
+        // Maximal traversal splats exactly the relevant photons of the dense grid.
+        assert_eq!(t.photons_splatted, t.relevant);
+        assert_eq!(t.relevant, leaves);
+        let evaluated = t.evaluated as f64 / t.relevant as f64;
+        assert!(evaluated <= 1.4, "evaluated {evaluated:.3} x relevant");
+        assert!(t.coverage() > 0.01 && t.coverage() < 0.5, "coverage {}", t.coverage());
+    }
+}
+
+#[test]
+fn maximal_traversal_and_hierarchical_equal_the_dense_grid() {
+    let Some(ctx) = gpu() else { return };
+    let s = scene();
+    let basic = render(&ctx, &s, &settings(Technique::Basic, 256), None).unwrap();
+    for t in [Technique::AdaptiveLevel, Technique::Hierarchical] {
+        let out = render(&ctx, &s, &settings(t, 256), None).unwrap();
+        assert_eq!(out.caustic_flux_bits, basic.caustic_flux_bits, "{t}: caustic map differs from basic");
+        assert_eq!(out.flux, basic.flux, "{t}: flux bookkeeping differs from basic");
+        assert!(out.technique.photons_splatted < basic.technique.photons_splatted / 4, "{t}");
+    }
+    assert!(basic.caustic_flux_bits.iter().flatten().any(|&x| x != 0));
+}
+
+#[test]
+fn both_metrics_conserve_flux() {
+    let Some(ctx) = gpu() else { return };
+    let s = scene();
+    let level = render(&ctx, &s, &settings(Technique::AdaptiveLevel, 512), None).unwrap();
+    // Check convergence from the 128^2 level on with a 2-texel tolerance, so that clusters merge.
+    let set =
+        RenderSettings { error_check_grid: 128, max_error_tolerance: 2.0, ..settings(Technique::AdaptiveError, 512) };
+    let err = render(&ctx, &s, &set, None).unwrap();
+    let (e0, l0) = total_flux(&level);
+    let (e1, l1) = total_flux(&err);
+    eprintln!(
+        "maximal traversal: {} photons, {e0:.6} W onto the casters, {l0:.6} W landed; maximal error: {} photons, {e1:.6} W, {l1:.6} W",
+        level.technique.photons_splatted, err.technique.photons_splatted
+    );
+    assert!(err.technique.photons_splatted < level.technique.photons_splatted * 3 / 4, "clusters must merge");
+    assert!((e1 / e0 - 1.0).abs() < 1e-4, "flux onto the casters {e1} vs {e0}");
+    assert!((l1 / l0 - 1.0).abs() < 1e-4, "flux in the map {l1} vs {l0}");
+    // The map holds the landed flux: sum of the fixed-point texels.
+    let map_sum = |r: &GpuRender| -> f64 { r.caustic_flux_bits.iter().flatten().map(|&b| b as f64).sum() };
+    assert!((map_sum(&err) / map_sum(&level) - 1.0).abs() < 1e-4);
+    // And the maps agree closely.
+    let flip = caustics::metrics::hdr_flip(&err.caustic_maps[0][0], &level.caustic_maps[0][0], None).unwrap().mean;
+    eprintln!("FLIP (maximal error vs maximal traversal): {flip:.4}");
+    assert!(flip < 0.05, "FLIP {flip}");
+}
+
+#[test]
+fn batching_gives_the_same_map() {
+    let Some(ctx) = gpu() else { return };
+    let s = scene();
+    for t in [Technique::AdaptiveLevel, Technique::AdaptiveError, Technique::Hierarchical] {
+        let mut set = settings(t, 512);
+        if t == Technique::AdaptiveError {
+            set.error_check_grid = 128;
+            set.max_error_tolerance = 1.0;
+        }
+        let one = render(&ctx, &s, &set, None).unwrap();
+        let small = RenderSettings { photon_memory: 256 << 10, ..set.clone() };
+        let many = render(&ctx, &s, &small, None).unwrap();
+        eprintln!(
+            "{t}: {} batch(es) in {} KiB vs {} in {} KiB; peak {} vs {} bytes",
+            one.technique.batches,
+            set.photon_memory >> 10,
+            many.technique.batches,
+            small.photon_memory >> 10,
+            one.technique.peak_photon_bytes,
+            many.technique.peak_photon_bytes
+        );
+        assert!(many.technique.batches > one.technique.batches, "{t}: the small budget must split into batches");
+        assert!(many.technique.peak_photon_bytes <= small.photon_memory, "{t}: peak over the budget");
+        assert!(many.technique.photon_bytes <= small.photon_memory, "{t}: allocation over the budget");
+        assert_eq!(many.caustic_flux_bits, one.caustic_flux_bits, "{t}: batching changed the map");
+        assert_eq!(many.technique.photons_splatted, one.technique.photons_splatted, "{t}");
+    }
+}
+
+#[test]
+fn a_budget_too_small_for_one_batch_is_an_input_error() {
+    let Some(ctx) = gpu() else { return };
+    let s = scene();
+    for t in [Technique::AdaptiveLevel, Technique::AdaptiveError] {
+        let set = RenderSettings { photon_memory: 4 << 10, ..settings(t, 16384) };
+        let e = render(&ctx, &s, &set, None).unwrap_err();
+        assert!(e.is_input(), "{e}");
+        let msg = e.to_string();
+        assert!(msg.contains("--photon-memory") && msg.contains("too small"), "{msg}");
+    }
+    // Grids beyond what a technique supports, and grids that are not powers of two.
+    for set in [
+        RenderSettings { photons: 16384, ..settings(Technique::Basic, 16384) },
+        RenderSettings { photons: 1000, ..settings(Technique::AdaptiveLevel, 1000) },
+        RenderSettings { photons: 131072, ..settings(Technique::AdaptiveError, 131072) },
+    ] {
+        assert!(render(&ctx, &s, &set, None).unwrap_err().is_input());
+    }
+}
+
+#[test]
+fn camera_motion_leaves_the_caustic_map_unchanged() {
+    let Some(ctx) = gpu() else { return };
+    let a = scene();
+    let mut b = scene();
+    b.camera.position = glam::Vec3::new(2.5, 1.5, -2.0);
+    for t in [Technique::AdaptiveLevel, Technique::AdaptiveError] {
+        let set = RenderSettings { error_check_grid: 128, max_error_tolerance: 1.0, ..settings(t, 512) };
+        let ra = render(&ctx, &a, &set, None).unwrap();
+        let ra2 = render(&ctx, &a, &set, None).unwrap();
+        let rb = render(&ctx, &b, &set, None).unwrap();
+        assert_eq!(ra.caustic_flux_bits, ra2.caustic_flux_bits, "{t}: not bit-identical run to run");
+        assert_eq!(ra.image, ra2.image, "{t}: image not bit-identical run to run");
+        assert_eq!(ra.caustic_flux_bits, rb.caustic_flux_bits, "{t}: the camera changed the caustic map");
+        assert_eq!(ra.technique.levels, rb.technique.levels, "{t}: the camera changed the hierarchy");
+    }
+}
