@@ -47,10 +47,7 @@ fn bad_output_and_settings_exit_2() {
 fn compare_reports_metrics() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../references");
     let a = root.join("a_glass_sphere.exr");
-    let out = caustics()
-        .args(["compare", a.to_str().unwrap(), a.to_str().unwrap()])
-        .output()
-        .unwrap();
+    let out = caustics().args(["compare", a.to_str().unwrap(), a.to_str().unwrap()]).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let s = String::from_utf8_lossy(&out.stdout);
     assert!(s.contains("RMSE") && s.contains("FLIP") && s.contains("energy ratio"), "{s}");
