@@ -418,6 +418,7 @@ fn light_gpu(
     sigma: f32,
     scale: f64,
     caster_radius: f32,
+    multi_bounce: f32,
 ) -> LightGpu {
     let mut faces = [FaceGpu { world_to_clip: [[0.0; 4]; 4], clip_to_world: [[0.0; 4]; 4], origin: [0.0; 4] }; 6];
     for (f, face) in view.faces.iter().enumerate() {
@@ -440,7 +441,7 @@ fn light_gpu(
         power: power.extend(cone.cos()).to_array(),
         axis: axis.extend(cone).to_array(),
         params: [start, scale as f32, sigma, g as f32],
-        extra: [caster_radius, view.scene_radius, view.tan_half_fov, 0.0],
+        extra: [caster_radius, view.scene_radius, view.tan_half_fov, multi_bounce],
     }
 }
 
@@ -682,6 +683,10 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
     let n = s.photons;
     let g = n.min(MAX_GBUFFER);
     let caster_radius = scene.caster_bounds().map_or(1.0, |(a, b)| (b - a).length() * 0.5);
+    // Whether a photon leaving a caster can meet a caster again: not for a lone convex caster (a
+    // sphere), where the search would only cost time.
+    let casters: Vec<_> = scene.objects.iter().filter(|o| o.caustic_caster && scene.material_of(o).is_specular()).collect();
+    let multi_bounce = if casters.len() == 1 && matches!(casters[0].shape, crate::scene::Shape::Sphere { .. }) { 0.0 } else { 1.0 };
 
     struct PerLight {
         accum: wgpu::Buffer,
@@ -698,7 +703,7 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
         let view = LightView::new(scene, light);
         let nf = view.faces.len() as u32;
         let scale = (1u64 << 52) as f64 / flux_bound(&view, light);
-        let lg = light_gpu(&view, light, n, m, g, s.splat_sigma, scale, caster_radius);
+        let lg = light_gpu(&view, light, n, m, g, s.splat_sigma, scale, caster_radius, multi_bounce);
         let light_buf = uniform("light", bytemuck::bytes_of(&lg));
         let shadow = texture(ctx, "light_shadow", s.shadow_map_size, s.shadow_map_size, nf, DEPTH_FORMAT);
         let recv = GBuffer::new(ctx, "light_receivers", m, m, nf);

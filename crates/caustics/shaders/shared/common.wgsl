@@ -22,7 +22,8 @@ struct LightGpu {
     // x = falloff start (radians), y = fixed-point scale (units per watt), z = Gaussian sigma (texels), w = gbuffer size G
     params: vec4f,
     // x = bounding radius of the casters (m), y = bounding radius of the scene (m),
-    // z = tan of half the perspective faces' field of view
+    // z = tan of half the perspective faces' field of view, w = 1 if a photon leaving a caster
+    // can meet a caster again (anything but a lone sphere), else 0
     extra: vec4f,
 }
 

@@ -141,7 +141,7 @@ fn march_exit(o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
     var none: Hit;
     none.object = INVALID;
     let face = light.faces[layer];
-    let steps = 96u;
+    let steps = 48u;
     let ds = 2.2 * light.extra.x / f32(steps);
     var last_valid = vec2f(-1.0);
     var prev_front_gap = -1.0;
@@ -340,7 +340,7 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
     var none: Hit;
     none.object = INVALID;
     let g = f32(light.params.w);
-    let steps = 128u;
+    let steps = 64u;
     let reach = min(t_max, 2.2 * light.extra.x);
     let ds = reach / f32(steps);
     var prev_side = 0.0;
@@ -505,8 +505,10 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
         let hit = find_receiver(o + dir * 1e-4, dir);
         var t_recv = 1e30;
         if (hit.w > 0.5) { t_recv = length(hit.xyz - o); }
-        let next = find_caster(o, dir, t_recv);
-        if (next.object != INVALID && bounce + 1u < MAX_BOUNCES) {
+        var next: Hit;
+        next.object = INVALID;
+        if (light.extra.w > 0.5 && bounce + 1u < MAX_BOUNCES) { next = find_caster(o, dir, t_recv); }
+        if (next.object != INVALID) {
             hit_p = next.p;
             hit_n = next.n;
             obj = next.object;

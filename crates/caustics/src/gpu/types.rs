@@ -24,7 +24,7 @@ pub struct LightGpu {
     pub axis: [f32; 4],
     /// falloff start (radians), fixed-point scale (units per watt), splat sigma (texels), G
     pub params: [f32; 4],
-    /// bounding radius of the casters (m), of the scene (m), unused, unused
+    /// bounding radius of the casters (m), of the scene (m), tan of half the field of view, multi-bounce flag
     pub extra: [f32; 4],
 }
 
