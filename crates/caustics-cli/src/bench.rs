@@ -48,6 +48,11 @@ pub struct BenchArgs {
     /// Adapter to use (a part of its name, see `caustics info`).
     #[arg(long)]
     adapter: Option<String>,
+    /// Also time the CPU reference renderer with this many photon paths per light, on one
+    /// thread and on all (photon paths and rays per second; written to bench_SCENE_cpu.md).
+    /// With `--technique none` only the CPU reference is timed.
+    #[arg(long, default_value_t = 0)]
+    cpu_photons: u64,
 }
 
 fn parse_grids(s: &str) -> Result<Vec<u32>> {
@@ -85,6 +90,12 @@ fn is_photon_pass(name: &str) -> bool {
 }
 
 pub fn run(a: &BenchArgs) -> Result<()> {
+    if a.cpu_photons > 0 {
+        cpu_bench(a)?;
+    }
+    if a.technique == "none" {
+        return Ok(());
+    }
     let techniques: Vec<Technique> = a
         .technique
         .split(',')
@@ -366,4 +377,57 @@ fn to_json(scene: &str, adapter: &str, a: &BenchArgs, runs: &[Run], skipped: &[(
         "runs": rows,
         "not_run": skipped.iter().map(|(t, n, why)| json!({"technique": t.name(), "photon_grid": n, "why": why})).collect::<Vec<_>>(),
     })
+}
+
+/// Photon paths and rays per second of the CPU reference on the bench scene, one thread and all.
+fn cpu_bench(a: &BenchArgs) -> Result<()> {
+    let mut scene = match &a.scene {
+        Some(p) => Scene::load(p)?,
+        None => Scene::default_scene(),
+    };
+    (scene.camera.width, scene.camera.height) = a.size;
+    let settings = caustics::reference::ReferenceSettings {
+        photons_per_light: a.cpu_photons,
+        camera_spp: 4,
+        ..Default::default()
+    };
+    let all = rayon::current_num_threads();
+    let mut rows = Vec::new();
+    for threads in [1, all] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+        let out = pool.install(|| caustics::reference::render(&scene, &settings))?;
+        let st = out.stats;
+        println!("CPU reference, {threads} thread(s): {st}");
+        rows.push(format!(
+            "| {threads} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} |",
+            st.photon_paths,
+            st.photon_paths_per_second / 1e6,
+            st.photon_paths_per_second / 1e6 / threads as f64,
+            st.rays_per_second / 1e6,
+            st.rays_per_second / 1e6 / threads as f64,
+            st.seconds
+        ));
+        if all == 1 {
+            break;
+        }
+    }
+    let md = format!(
+        "# CPU reference: {}\n\n{} triangles, {}x{} camera, 4 samples per pixel.\n\n| threads | photon paths | M paths/s | M paths/s per thread | M rays/s | M rays/s per thread | seconds |\n| ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n{}\n",
+        scene.name,
+        scene
+            .objects
+            .iter()
+            .map(|o| match &o.shape {
+                caustics::scene::Shape::Mesh(m) => m.indices.len(),
+                _ => 0,
+            })
+            .sum::<usize>(),
+        a.size.0,
+        a.size.1,
+        rows.join("\n")
+    );
+    let path = a.out.join(format!("bench_{}_cpu.md", scene.name));
+    std::fs::write(&path, &md).with_context(|| format!("cannot write {}", path.display()))?;
+    println!("{md}wrote {}", path.display());
+    Ok(())
 }
