@@ -50,55 +50,47 @@ fn load(x: i32, y: i32) -> Photon {
     return photons[tp.cur_off + u32(y - r0) * tp.n + u32(x)];
 }
 
-struct Poly {
-    p: array<vec2f, 8>,
-    n: u32,
-}
-
-// Clip a convex polygon to the half-plane where coordinate `axis` is >= bound (keep_greater)
-// or <= bound.
-fn clip(poly_in: Poly, axis: u32, bound: f32, keep_greater: bool) -> Poly {
-    var src = poly_in;
-    var out: Poly;
-    out.n = 0u;
-    for (var i = 0u; i < src.n; i++) {
-        let a = src.p[i];
-        let b = src.p[(i + 1u) % src.n];
-        let ax = select(a.y, a.x, axis == 0u);
-        let bx = select(b.y, b.x, axis == 0u);
-        let da = select(bound - ax, ax - bound, keep_greater);
-        let db = select(bound - bx, bx - bound, keep_greater);
-        if (da >= 0.0) {
-            out.p[out.n] = a;
-            out.n++;
-        }
-        if ((da >= 0.0) != (db >= 0.0)) {
-            out.p[out.n] = mix(a, b, da / (da - db));
-            out.n++;
-        }
-    }
-    return out;
-}
-
 fn cross2(a: vec2f, b: vec2f) -> f32 {
     return a.x * b.y - a.y * b.x;
 }
 
-// Area of triangle (a, b, c) inside the unit square with corner t.
+// Area of triangle (a, b, c) inside the unit square with corner t: the triangle is clipped
+// (Sutherland-Hodgman) against the square's four sides, then the shoelace formula.
 fn clipped_area(a: vec2f, b: vec2f, c: vec2f, t: vec2f) -> f32 {
-    var poly: Poly;
-    poly.p[0] = a;
-    poly.p[1] = b;
-    poly.p[2] = c;
-    poly.n = 3u;
-    poly = clip(poly, 0u, t.x, true);
-    poly = clip(poly, 0u, t.x + 1.0, false);
-    poly = clip(poly, 1u, t.y, true);
-    poly = clip(poly, 1u, t.y + 1.0, false);
-    if (poly.n < 3u) { return 0.0; }
+    // Relative to the square's corner: f32 shoelace sums of absolute map coordinates (hundreds
+    // of texels) would swamp the area of small triangles.
+    var src: array<vec2f, 8>;
+    var dst: array<vec2f, 8>;
+    src[0] = a - t;
+    src[1] = b - t;
+    src[2] = c - t;
+    var n = 3u;
+    for (var side = 0u; side < 4u; side++) {
+        let axis = side / 2u;
+        let greater = (side & 1u) == 0u;
+        let bound = select(1.0, 0.0, greater);
+        var k = 0u;
+        for (var i = 0u; i < n; i++) {
+            let p = src[i];
+            let q = src[(i + 1u) % n];
+            let dp = select(bound - p[axis], p[axis] - bound, greater);
+            let dq = select(bound - q[axis], q[axis] - bound, greater);
+            if (dp >= 0.0) {
+                dst[k] = p;
+                k++;
+            }
+            if ((dp >= 0.0) != (dq >= 0.0)) {
+                dst[k] = mix(p, q, dp / (dp - dq));
+                k++;
+            }
+        }
+        n = k;
+        for (var i = 0u; i < n; i++) { src[i] = dst[i]; }
+    }
+    if (n < 3u) { return 0.0; }
     var s = 0.0;
-    for (var i = 0u; i < poly.n; i++) {
-        s += cross2(poly.p[i], poly.p[(i + 1u) % poly.n]);
+    for (var i = 0u; i < n; i++) {
+        s += cross2(src[i], src[(i + 1u) % n]);
     }
     return abs(0.5 * s);
 }

@@ -11,6 +11,7 @@ pub mod metrics;
 pub mod reference;
 pub mod render;
 pub mod scene;
+pub mod splat;
 pub mod techniques;
 
 pub use error::{Error, Result};

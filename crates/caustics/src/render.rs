@@ -18,6 +18,7 @@ use crate::gpu::{GpuContext, PassTimer};
 use crate::image_io::Image;
 use crate::lightspace::LightView;
 use crate::scene::{Light, Material, Scene, Tessellation};
+pub use crate::splat::SplatMode;
 pub use crate::techniques::{LevelStats, Technique, TechniqueStats};
 use glam::{Mat4, Vec3};
 use std::ops::Range;
@@ -47,8 +48,11 @@ pub struct RenderSettings {
     pub caustic_map_size: u32,
     /// Shadow map size per face.
     pub shadow_map_size: u32,
-    /// Gaussian splat standard deviation, in caustic-map texels.
+    /// Gaussian splat standard deviation, in caustic-map texels (fixed splats; the fallback and
+    /// smallest sizes of the other modes scale with it).
     pub splat_sigma: f32,
+    /// How photons are splatted into the caustic map (`crate::splat`).
+    pub splat: SplatMode,
     /// Memory for photon storage (bytes): the grid (basic), the tiles (hierarchical) or the
     /// hierarchy (adaptive) is processed in batches that fit.
     pub photon_memory: u64,
@@ -67,6 +71,7 @@ impl Default for RenderSettings {
             caustic_map_size: 1024,
             shadow_map_size: 2048,
             splat_sigma: 1.0,
+            splat: SplatMode::Fixed,
             photon_memory: 64 << 20,
             tessellation: Tessellation::default(),
         }
@@ -419,6 +424,7 @@ fn light_gpu(
     scale: f64,
     caster_radius: f32,
     multi_bounce: f32,
+    lens: f32,
 ) -> LightGpu {
     let mut faces = [FaceGpu { world_to_clip: [[0.0; 4]; 4], clip_to_world: [[0.0; 4]; 4], origin: [0.0; 4] }; 6];
     for (f, face) in view.faces.iter().enumerate() {
@@ -442,6 +448,7 @@ fn light_gpu(
         axis: axis.extend(cone).to_array(),
         params: [start, scale as f32, sigma, g as f32],
         extra: [caster_radius, view.scene_radius, view.tan_half_fov, multi_bounce],
+        splat: [lens, 0.0, 0.0, 0.0],
     }
 }
 
@@ -599,7 +606,7 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
     let dev = &ctx.device;
     let geo = upload_geometry(ctx, scene, &s.tessellation);
     let raster = raster_pipelines(ctx);
-    let pipelines = crate::techniques::Pipelines::new(ctx, s.technique);
+    let pipelines = crate::techniques::Pipelines::new(ctx, s.technique, s.splat);
     let resolve_pl = ctx.compute_pipeline("caustic_resolve");
     let shade_pl = ctx.compute_pipeline("shade_receivers");
     let composite_pl = ctx.compute_pipeline("composite");
@@ -685,8 +692,10 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
     let caster_radius = scene.caster_bounds().map_or(1.0, |(a, b)| (b - a).length() * 0.5);
     // Whether a photon leaving a caster can meet a caster again: not for a lone convex caster (a
     // sphere), where the search would only cost time.
-    let casters: Vec<_> = scene.objects.iter().filter(|o| o.caustic_caster && scene.material_of(o).is_specular()).collect();
-    let multi_bounce = if casters.len() == 1 && matches!(casters[0].shape, crate::scene::Shape::Sphere { .. }) { 0.0 } else { 1.0 };
+    let casters: Vec<_> =
+        scene.objects.iter().filter(|o| o.caustic_caster && scene.material_of(o).is_specular()).collect();
+    let multi_bounce =
+        if casters.len() == 1 && matches!(casters[0].shape, crate::scene::Shape::Sphere { .. }) { 0.0 } else { 1.0 };
 
     struct PerLight {
         accum: wgpu::Buffer,
@@ -703,7 +712,8 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
         let view = LightView::new(scene, light);
         let nf = view.faces.len() as u32;
         let scale = (1u64 << 52) as f64 / flux_bound(&view, light);
-        let lg = light_gpu(&view, light, n, m, g, s.splat_sigma, scale, caster_radius, multi_bounce);
+        let lens = s.splat.lens_flag(s.technique);
+        let lg = light_gpu(&view, light, n, m, g, s.splat_sigma, scale, caster_radius, multi_bounce, lens);
         let light_buf = uniform("light", bytemuck::bytes_of(&lg));
         let shadow = texture(ctx, "light_shadow", s.shadow_map_size, s.shadow_map_size, nf, DEPTH_FORMAT);
         let recv = GBuffer::new(ctx, "light_receivers", m, m, nf);
@@ -760,6 +770,7 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
         let accum = storage("caustic_flux", texels * 24);
         let irradiance = storage("caustic_irradiance", texels * 16);
         let stats = storage("flux_stats", 48);
+        let splat_targets = crate::splat::SplatTargets::new(ctx, s.splat, texels, nf);
         let (fpv, fnv, bpv, bnv, rpv, rnv) = (
             array_view(&front.pos),
             array_view(&front.nrm),
@@ -782,11 +793,13 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
             materials: &geo.materials,
             stats: &stats,
             accum: &accum,
+            splat_targets: &splat_targets,
             n,
             g,
             bound: view.faces.iter().map(|f| relevant_bound(scene, f, n, g)).collect(),
         };
         pendings.push(crate::techniques::emit(&emit, &mut enc, &mut timer, nf)?);
+        splat_targets.finish(ctx, &pipelines.splat, &light_buf, &accum, &mut enc, &mut timer);
         let rp = uniform("resolve_params", bytemuck::bytes_of(&CountParams { count: texels as u32, _pad: [0; 3] }));
         let rbg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("caustic_resolve"),

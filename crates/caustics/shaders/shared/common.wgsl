@@ -25,6 +25,9 @@ struct LightGpu {
     // z = tan of half the perspective faces' field of view, w = 1 if a photon leaving a caster
     // can meet a caster again (anything but a lone sphere), else 0
     extra: vec4f,
+    // x = beam diameters from the lens equations for the splat (0 off, 1 thin lens, 2 thick
+    // lens; src/splat.rs), yzw unused
+    splat: vec4f,
 }
 
 // A traced photon: where it lands in the caustic map (continuous texel coordinates, face) and

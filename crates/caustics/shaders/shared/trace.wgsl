@@ -9,7 +9,7 @@ var<private> trace_pending: array<f32, 6>;
 // Splat data the tracer leaves in each photon (docs/splatting.md): flux.w = the path signature
 // (objects hit and internal reflections, 24 bits; caustic triangles do not span two paths);
 // _pad = the beam diameter on the receiver in caustic-map texels from the lens equations (f32
-// bits), when light.extra.w asks for it (1 thin lens, 2 thick lens; 0: _pad = 0).
+// bits), when light.splat.x asks for it (1 thin lens, 2 thick lens; 0: _pad = 0).
 var<private> trace_internal: u32 = 0u;
 var<private> lens_exit_p: vec3f;
 fn add_fixed(slot: u32, value: f32) {
@@ -409,7 +409,7 @@ fn buffer_curvature(pos_tex: texture_2d_array<f32>, nrm_tex: texture_2d_array<f3
 // The optical power (1 / focal length, per buffer axis) of the first specular interaction and
 // the principal-plane offsets, from the lens maker's equation (Wyman & Dachsbacher 2008, eq. 2)
 // with the front and back radii of curvature estimated from the light-space normals (thin
-// lens; light.extra.w = 2: the thick-lens equations with the thickness front -> exit), or the
+// lens; light.splat.x = 2: the thick-lens equations with the thickness front -> exit), or the
 // mirror equation. Returns (power x, power y, h1 (front-side principal plane behind the front
 // surface), 1) with h2 folded into h1's sign convention: see lens_diameter.
 var<private> lens_h2: f32 = 0.0;
@@ -423,7 +423,7 @@ fn lens_power(mat: MaterialGpu, layer: u32, uv: vec2f, d: vec3f, p_front: vec3f,
     let n = mat.a.x / mat.a.y;
     let q = project_face(light.faces[layer], lens_exit_p, g);
     let kb = buffer_curvature(back_pos, back_nrm, layer, q.xy);
-    if (light.extra.w < 1.5) {
+    if (light.splat.x < 1.5) {
         return vec4f((n - 1.0) * (kf - kb), 0.0, 1.0);
     }
     let t = length(lens_exit_p - p_front);
@@ -493,7 +493,7 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     for (var bounce = 0u; bounce < MAX_BOUNCES; bounce++) {
         let r = interact(materials[obj], hit_p, hit_n, dir, flux, layer, g);
         sig = (sig * 31u + obj * 8u + trace_internal + 1u) & 0xffffffu;
-        if (bounce == 0u && light.extra.w > 0.5 && r.status == STATUS_OK) {
+        if (bounce == 0u && light.splat.x > 0.5 && r.status == STATUS_OK) {
             lens = lens_power(materials[obj], layer, uv, d, front.p, g);
         }
         if (r.status == STATUS_NO_EXIT) { add_fixed(4u, r.flux.r + r.flux.g + r.flux.b); return out; }

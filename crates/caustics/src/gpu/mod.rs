@@ -20,6 +20,10 @@ pub const STAGES: &[(&str, &str)] = &[
     ("adaptive_setup", include_str!("../../shaders/adaptive_setup.wgsl")),
     ("adaptive_refine", include_str!("../../shaders/adaptive_refine.wgsl")),
     ("hcm_traverse", include_str!("../../shaders/hcm_traverse.wgsl")),
+    ("splat_lens", include_str!("../../shaders/splat_lens.wgsl")),
+    ("splat_multires", include_str!("../../shaders/splat_multires.wgsl")),
+    ("splat_multires_blend", include_str!("../../shaders/splat_multires_blend.wgsl")),
+    ("caustic_triangles", include_str!("../../shaders/caustic_triangles.wgsl")),
 ];
 pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 
@@ -28,6 +32,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("trace", include_str!("../../shaders/shared/trace.wgsl")),
     ("hierarchy", include_str!("../../shaders/shared/hierarchy.wgsl")),
     ("coverage", include_str!("../../shaders/shared/coverage.wgsl")),
+    ("splat", include_str!("../../shaders/shared/splat.wgsl")),
 ];
 
 /// Full source of a stage: the shared code, then the stage with its `#import` lines replaced by

@@ -26,6 +26,8 @@ pub struct LightGpu {
     pub params: [f32; 4],
     /// bounding radius of the casters (m), of the scene (m), tan of half the field of view, multi-bounce flag
     pub extra: [f32; 4],
+    /// beam diameters from the lens equations (0 off, 1 thin lens, 2 thick lens), unused × 3
+    pub splat: [f32; 4],
 }
 
 #[repr(C)]
@@ -177,4 +179,6 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("CountParams", "ResolveParams", std::mem::size_of::<CountParams>()),
     ("ShadeParams", "ShadeParams", std::mem::size_of::<ShadeParams>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
+    ("TriParams", "TriParams", std::mem::size_of::<crate::splat::TriParams>()),
+    ("BlendParams", "BlendParams", std::mem::size_of::<crate::splat::BlendParams>()),
 ];

@@ -231,20 +231,17 @@ impl Adaptive {
             steps.push((rbg, sbg));
             grid *= 2;
         }
-        let splat_bg = bind(
+        let splat_bg = e.splat_targets.bind(
             e.ctx,
             &e.pipelines.splat,
-            "photon_splat",
-            &[
-                e.light_buf.as_entire_binding(),
-                wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &self.args,
-                    offset: ctrl::SPLAT_ARGS,
-                    size: std::num::NonZeroU64::new(16),
-                }),
-                self.photons.as_entire_binding(),
-                e.accum.as_entire_binding(),
-            ],
+            e.light_buf,
+            wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: &self.args,
+                offset: ctrl::SPLAT_ARGS,
+                size: std::num::NonZeroU64::new(16),
+            }),
+            &self.photons,
+            e.accum,
         );
         {
             let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -284,7 +281,7 @@ impl Adaptive {
                 label: Some("photon_splat"),
                 timestamp_writes: timer.compute("photon_splat"),
             });
-            cp.set_pipeline(&e.pipelines.splat);
+            cp.set_pipeline(&e.pipelines.splat.splat);
             cp.set_bind_group(0, &splat_bg, &[]);
             cp.dispatch_workgroups_indirect(&self.args, ctrl::SPLAT_ARGS);
         }

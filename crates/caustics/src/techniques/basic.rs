@@ -8,6 +8,8 @@ use crate::gpu::types::{Photon, SplatParams, TraceParams};
 
 pub(crate) struct Basic {
     photons: wgpu::Buffer,
+    /// Caustic triangles: one photon row carried from batch to batch, rows per batch.
+    carry: Option<(wgpu::Buffer, u32)>,
     batch: u64,
     traced: u64,
     batches: u32,
@@ -25,14 +27,61 @@ impl Basic {
 
     pub fn new(e: &Emit) -> Basic {
         let batch = Basic::batch_size(e);
+        if e.pipelines.splat.grid_triangles() {
+            let rows = crate::splat::triangle_rows(e.n, batch);
+            let (_, bytes) = crate::splat::triangle_buffer_layout(e.n, rows);
+            let photons = storage(e.ctx, "photons", bytes, wgpu::BufferUsages::empty());
+            let row = e.n as u64 * std::mem::size_of::<Photon>() as u64;
+            let carry = storage(e.ctx, "photon_row", row, wgpu::BufferUsages::empty());
+            return Basic { photons, carry: Some((carry, rows)), batch, traced: 0, batches: 0 };
+        }
         let photons =
             storage(e.ctx, "photons", batch * std::mem::size_of::<Photon>() as u64, wgpu::BufferUsages::empty());
-        Basic { photons, batch, traced: 0, batches: 0 }
+        Basic { photons, carry: None, batch, traced: 0, batches: 0 }
     }
 
     pub fn record_face(&mut self, e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, f: u32) {
         let per_face = e.n as u64 * e.n as u64;
         let trace_pl = e.pipelines.trace.as_ref().expect("photon_trace pipeline");
+        if let (Some((carry, rows)), Some(tri)) = (&self.carry, &e.pipelines.splat.triangles) {
+            let trace_bg = |tp: &wgpu::Buffer, out: wgpu::BindingResource| {
+                bind(
+                    e.ctx,
+                    trace_pl,
+                    "photon_trace",
+                    &[
+                        e.light_buf.as_entire_binding(),
+                        tp.as_entire_binding(),
+                        wgpu::BindingResource::TextureView(e.front_pos),
+                        wgpu::BindingResource::TextureView(e.front_nrm),
+                        wgpu::BindingResource::TextureView(e.back_pos),
+                        wgpu::BindingResource::TextureView(e.back_nrm),
+                        wgpu::BindingResource::TextureView(e.recv_pos),
+                        wgpu::BindingResource::TextureView(e.recv_nrm),
+                        e.materials.as_entire_binding(),
+                        out,
+                        e.stats.as_entire_binding(),
+                    ],
+                )
+            };
+            let g = crate::splat::GridTriangles {
+                ctx: e.ctx,
+                trace: trace_pl,
+                triangles: tri,
+                trace_bind: &trace_bg,
+                light: e.light_buf,
+                accum: e.accum,
+                photons: &self.photons,
+                carry,
+                n: e.n,
+                m: e.settings.caustic_map_size,
+                rows: *rows,
+            };
+            let (traced, batches) = crate::splat::record_grid_triangles(&g, enc, timer, f);
+            self.traced += traced;
+            self.batches += batches;
+            return;
+        }
         let mut off = 0u64;
         while off < per_face {
             let count = self.batch.min(per_face - off);
@@ -66,16 +115,13 @@ impl Basic {
                     e.stats.as_entire_binding(),
                 ],
             );
-            let sbg = bind(
+            let sbg = e.splat_targets.bind(
                 e.ctx,
                 &e.pipelines.splat,
-                "photon_splat",
-                &[
-                    e.light_buf.as_entire_binding(),
-                    sp.as_entire_binding(),
-                    self.photons.as_entire_binding(),
-                    e.accum.as_entire_binding(),
-                ],
+                e.light_buf,
+                sp.as_entire_binding(),
+                &self.photons,
+                e.accum,
             );
             {
                 let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -91,7 +137,7 @@ impl Basic {
                     label: Some("photon_splat"),
                     timestamp_writes: timer.compute("photon_splat"),
                 });
-                cp.set_pipeline(&e.pipelines.splat);
+                cp.set_pipeline(&e.pipelines.splat.splat);
                 cp.set_bind_group(0, &sbg, &[]);
                 cp.dispatch_workgroups(groups, 1, 1);
             }

@@ -143,7 +143,7 @@ impl TechniqueStats {
 /// Compute pipelines of the photon stages (only those the technique needs).
 pub(crate) struct Pipelines {
     pub trace: Option<wgpu::ComputePipeline>,
-    pub splat: wgpu::ComputePipeline,
+    pub splat: crate::splat::SplatPipelines,
     pub coverage: wgpu::ComputePipeline,
     pub plan: Option<wgpu::ComputePipeline>,
     pub init: Option<wgpu::ComputePipeline>,
@@ -153,12 +153,12 @@ pub(crate) struct Pipelines {
 }
 
 impl Pipelines {
-    pub fn new(ctx: &GpuContext, t: Technique) -> Pipelines {
+    pub fn new(ctx: &GpuContext, t: Technique, splat: crate::splat::SplatMode) -> Pipelines {
         let hier = t != Technique::Basic;
         let p = |name: &str, on: bool| on.then(|| ctx.compute_pipeline(name));
         Pipelines {
             trace: p("photon_trace", !t.is_adaptive()),
-            splat: ctx.compute_pipeline("photon_splat"),
+            splat: crate::splat::SplatPipelines::new(ctx, splat, t),
             coverage: ctx.compute_pipeline("coverage_mip"),
             plan: p("adaptive_plan", t.is_adaptive()),
             init: p("adaptive_init", hier),
@@ -185,6 +185,8 @@ pub(crate) struct Emit<'a> {
     pub materials: &'a wgpu::Buffer,
     pub stats: &'a wgpu::Buffer,
     pub accum: &'a wgpu::Buffer,
+    /// The splat mode's extra buffers (multi-resolution maps).
+    pub splat_targets: &'a crate::splat::SplatTargets,
     /// Photon grid N and caster buffer size G.
     pub n: u32,
     pub g: u32,

