@@ -48,6 +48,9 @@ pub struct BenchArgs {
     /// Adapter to use (a part of its name, see `caustics info`).
     #[arg(long)]
     adapter: Option<String>,
+    /// Splat mode for every technique: fixed, multires, thin-lens, thick-lens, triangles.
+    #[arg(long, default_value = "triangles")]
+    splat: String,
     /// Also time the CPU reference renderer with this many photon paths per light, on one
     /// thread and on all (photon paths and rays per second; written to bench_SCENE_cpu.md).
     /// With `--technique none` only the CPU reference is timed.
@@ -102,6 +105,8 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         .map(|t| Technique::parse(t).with_context(|| format!("--technique: unknown technique \"{t}\"")))
         .collect::<Result<_>>()?;
     let grids = parse_grids(&a.photons)?;
+    let splat = caustics::splat::SplatMode::parse(&a.splat)
+        .with_context(|| format!("--splat: unknown splat mode \"{}\"", a.splat))?;
     let mut scene = match &a.scene {
         Some(p) => Scene::load(p)?,
         None => Scene::default_scene(),
@@ -126,6 +131,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 caustic_map_size: a.caustic_map,
                 shadow_map_size: 1024,
                 photon_memory: a.photon_memory.saturating_mul(1 << 20),
+                splat,
                 ..Default::default()
             };
             if n > t.max_photons() {

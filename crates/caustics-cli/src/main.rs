@@ -57,6 +57,34 @@ impl Technique {
     }
 }
 
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Splat {
+    /// A Gaussian of fixed width (--splat-sigma texels).
+    Fixed,
+    /// Adaptive multi-resolution splatting (Wyman & Dachsbacher 2008, section 4.1).
+    Multires,
+    /// Splat sizes from the thin-lens equations (Wyman & Dachsbacher 2008, section 4.2).
+    ThinLens,
+    /// Splat sizes from the thick-lens equations.
+    ThickLens,
+    /// Caustic triangles from the dense photon grid: flux spread over the area between adjacent
+    /// photons (basic technique; the others fall back to fixed Gaussians). The default.
+    Triangles,
+}
+
+impl Splat {
+    fn lib(self) -> caustics::splat::SplatMode {
+        use caustics::splat::SplatMode as S;
+        match self {
+            Splat::Fixed => S::Fixed,
+            Splat::Multires => S::MultiRes,
+            Splat::ThinLens => S::ThinLens,
+            Splat::ThickLens => S::ThickLens,
+            Splat::Triangles => S::Triangles,
+        }
+    }
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to PNG (tone-mapped) or EXR (linear radiance, W/(m^2 sr)).
@@ -75,6 +103,13 @@ enum Command {
         size: Option<(u32, u32)>,
         #[arg(long, value_enum, default_value = "basic")]
         technique: Technique,
+        /// How photons are splatted into the caustic map.
+        #[arg(long, value_enum, default_value = "triangles")]
+        splat: Splat,
+        /// Segments around tessellated spheres and cylinders (rasterization only; the CPU
+        /// reference intersects them exactly).
+        #[arg(long, default_value_t = 192)]
+        tessellation: u32,
         /// Adaptive techniques: the coarse photon grid the hierarchy starts from.
         #[arg(long, default_value_t = 64)]
         base_grid: u32,
@@ -165,6 +200,8 @@ fn run(cli: Cli) -> Result<()> {
             photons,
             size,
             technique,
+            splat,
+            tessellation,
             base_grid,
             max_error_tolerance,
             backend,
@@ -196,6 +233,11 @@ fn run(cli: Cli) -> Result<()> {
             let mut settings = RenderSettings {
                 photons,
                 technique: technique.lib(),
+                splat: splat.lib(),
+                tessellation: caustics::scene::Tessellation {
+                    sphere_segments: tessellation,
+                    cylinder_segments: tessellation.saturating_mul(8) / 3,
+                },
                 base_grid,
                 max_error_tolerance,
                 caustic_map_size: caustic_map.unwrap_or(1024),

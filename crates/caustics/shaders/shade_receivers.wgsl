@@ -82,6 +82,31 @@ fn caustic_at(p: vec3f) -> vec3f {
     return acc / wsum;
 }
 
+// The camera's box pixel filter over the caustic map: average 3 x 3 bilinear lookups spread over
+// the pixel's footprint on the receiver (from the neighbouring pixels' positions on the same
+// object). Without it, a caustic sharper than a pixel would be point-sampled at the pixel centre
+// and its peak overstated.
+fn caustic_box(p: vec3f, px: vec2i, object: f32) -> vec3f {
+    let size = vec2i(i32(sp.width), i32(sp.height));
+    var dx = vec3f(0.0);
+    var dy = vec3f(0.0);
+    let r = textureLoad(eye_pos, clamp(px + vec2i(1, 0), vec2i(0), size - 1), 0);
+    let l = textureLoad(eye_pos, clamp(px - vec2i(1, 0), vec2i(0), size - 1), 0);
+    let d = textureLoad(eye_pos, clamp(px + vec2i(0, 1), vec2i(0), size - 1), 0);
+    let u = textureLoad(eye_pos, clamp(px - vec2i(0, 1), vec2i(0), size - 1), 0);
+    if (r.w == object && px.x + 1 < size.x) { dx = r.xyz - p; } else if (l.w == object && px.x > 0) { dx = p - l.xyz; }
+    if (d.w == object && px.y + 1 < size.y) { dy = d.xyz - p; } else if (u.w == object && px.y > 0) { dy = p - u.xyz; }
+    var acc = vec3f(0.0);
+    for (var j = 0; j < 3; j++) {
+        for (var i = 0; i < 3; i++) {
+            let o = (f32(i) + 0.5) / 3.0 - 0.5;
+            let q = (f32(j) + 0.5) / 3.0 - 0.5;
+            acc += caustic_at(p + o * dx + q * dy);
+        }
+    }
+    return acc / 9.0;
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (gid.x >= sp.width || gid.y >= sp.height) { return; }
@@ -103,7 +128,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     }
     var e = vec3f(0.0);
     if (any(e_direct > vec3f(0.0))) { e = e_direct * shadow(p, n); }
-    let ec = caustic_at(p);
+    let ec = caustic_box(p, vec2i(gid.xy), pw.w);
     let albedo = mat.a.rgb / PI;
     let idx = gid.y * sp.width + gid.x;
     radiance[idx] += vec4f(albedo * (e + ec), 0.0);

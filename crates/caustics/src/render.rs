@@ -71,7 +71,7 @@ impl Default for RenderSettings {
             caustic_map_size: 1024,
             shadow_map_size: 2048,
             splat_sigma: 1.0,
-            splat: SplatMode::Fixed,
+            splat: SplatMode::default(),
             photon_memory: 64 << 20,
             tessellation: Tessellation::default(),
         }
@@ -522,6 +522,10 @@ impl RenderSettings {
     /// Check the settings against the adapter's limits; errors name the command-line option.
     pub fn validate(&self, ctx: &GpuContext, scene: &Scene) -> Result<()> {
         let cl = |f: &str, m: String| Err(Error::input("<command line>", f, m));
+        let t = &self.tessellation;
+        if !(8..=8192).contains(&t.sphere_segments) || !(8..=8192).contains(&t.cylinder_segments) {
+            return cl("--tessellation", format!("must be 8 to 8192 segments (got {})", t.sphere_segments));
+        }
         let max_n = self.technique.max_photons();
         if !(16..=max_n).contains(&self.photons) {
             return cl(

@@ -11,7 +11,8 @@
 //! - [`SplatMode::Triangles`]: caustic triangles from adjacent photons of the dense grid
 //!   (`caustic_triangles`): flux spread over the triangle's area on the receiver (basic
 //!   technique; the hierarchical and adaptive techniques, whose photons are not kept as a grid,
-//!   fall back to thin-lens splats).
+//!   fall back to fixed Gaussians). The default: the most accurate mode measured (see
+//!   `docs/splatting.md`).
 //!
 //! Every mode puts each photon's flux into the map exactly once (normalised weights, 64-bit
 //! fixed-point atomics: deterministic maps).
@@ -25,7 +26,6 @@ use wgpu::util::DeviceExt;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
 pub enum SplatMode {
     /// A Gaussian of fixed width (`splat_sigma` texels).
-    #[default]
     Fixed,
     /// Adaptive multi-resolution splatting: radii 1.5, 3.5, 5.5, 7.5 × `splat_sigma` texels.
     MultiRes,
@@ -34,6 +34,7 @@ pub enum SplatMode {
     /// Splat sizes from the thick-lens equations (principal planes, thickness).
     ThickLens,
     /// Caustic triangles from the dense photon grid (basic technique).
+    #[default]
     Triangles,
 }
 
@@ -56,18 +57,19 @@ impl SplatMode {
         SplatMode::ALL.into_iter().find(|m| m.name() == s.trim())
     }
 
-    /// What the tracer writes into `light.extra.w`: 1 thin-lens, 2 thick-lens beam diameters.
-    pub fn lens_flag(self, technique: crate::techniques::Technique) -> f32 {
+    /// What the tracer writes into `light.splat.x`: 1 thin-lens, 2 thick-lens beam diameters.
+    /// Triangles outside the basic technique fall back to fixed Gaussians (`splat_lens` with no
+    /// diameter uses `splat_sigma`).
+    pub fn lens_flag(self, _technique: crate::techniques::Technique) -> f32 {
         match self {
             SplatMode::ThinLens => 1.0,
             SplatMode::ThickLens => 2.0,
-            SplatMode::Triangles if technique != crate::techniques::Technique::Basic => 1.0,
             _ => 0.0,
         }
     }
 
     /// The splat stage that takes a photon buffer (for triangles outside the basic technique:
-    /// the thin-lens splat).
+    /// `splat_lens` without diameters, i.e. fixed Gaussians).
     pub fn stage(self) -> &'static str {
         match self {
             SplatMode::Fixed => "photon_splat",

@@ -226,13 +226,13 @@ fn glass_sphere_caustic_agrees_with_reference() {
         "caustic energy ratio {ratio:.4}; focal region ({} px): energy ratio {focal_ratio:.4}, relative RMSE {rel_rmse:.3}; peak {pa:?} vs reference {pb:?}",
         focal.len()
     );
-    // Measured on lavapipe (1024^2 photons, 1024^2 map): total energy 0.948 (the reference also
-    // holds floor -> glass -> floor light, about 2 %, and reflections off the ball, which the
-    // basic technique does not trace); focal energy 1.032, relative RMSE 0.376, peak on the same
-    // pixel and 6 % brighter.
+    // Measured on lavapipe (1024^2 photons, 1024^2 map, caustic triangles, the camera's box
+    // filter over the map): total energy 0.923 (the reference also holds floor -> glass -> floor
+    // light, about 2 %, and the light the ball reflects, which the basic technique does not
+    // trace); focal energy 0.988, relative RMSE 0.255, peak one pixel over and 6 % dimmer.
     assert!((ratio - 1.0).abs() < 0.10, "caustic energy ratio {ratio}");
-    assert!((focal_ratio - 1.0).abs() < 0.06, "focal caustic energy ratio {focal_ratio}");
-    assert!(rel_rmse < 0.45, "relative RMSE {rel_rmse}");
+    assert!((focal_ratio - 1.0).abs() < 0.04, "focal caustic energy ratio {focal_ratio}");
+    assert!(rel_rmse < 0.32, "relative RMSE {rel_rmse}");
     assert!(pa.1.abs_diff(pb.1) <= 1 && pa.2.abs_diff(pb.2) <= 1, "peak at {pa:?}, reference {pb:?}");
     assert!((pa.0 / pb.0 - 1.0).abs() < 0.10, "peak {} vs reference {}", pa.0, pb.0);
 }
@@ -282,12 +282,12 @@ fn full_images_agree_with_references() {
     if gpu().is_none() {
         return;
     }
-    // Measured on lavapipe: a_glass_sphere FLIP 0.037, energy 0.991; b_mirror_ring FLIP 0.064,
+    // Measured on lavapipe: a_glass_sphere FLIP 0.035, energy 0.987; b_mirror_ring FLIP 0.054,
     // energy 1.005 (the CPU reference reaches 0.028 and 0.020).
     let (flip, ratio) = full_image_agreement("a_glass_sphere");
-    assert!(flip < 0.05 && (ratio - 1.0).abs() < 0.02, "a_glass_sphere: FLIP {flip}, energy {ratio}");
+    assert!(flip < 0.045 && (ratio - 1.0).abs() < 0.02, "a_glass_sphere: FLIP {flip}, energy {ratio}");
     let (flip, ratio) = full_image_agreement("b_mirror_ring");
-    assert!(flip < 0.075 && (ratio - 1.0).abs() < 0.02, "b_mirror_ring: FLIP {flip}, energy {ratio}");
+    assert!(flip < 0.065 && (ratio - 1.0).abs() < 0.02, "b_mirror_ring: FLIP {flip}, energy {ratio}");
 }
 
 /// The GPU's basic caustic map against the CPU reference's, texel by texel. The bounds state how
@@ -295,7 +295,7 @@ fn full_images_agree_with_references() {
 #[test]
 fn caustic_maps_agree_with_cpu_reference() {
     let Some(ctx) = gpu() else { return };
-    for (name, ratio_range, max_rmse) in [("a_glass_sphere", (0.93, 0.98), 0.65), ("b_mirror_ring", (0.98, 1.02), 0.28)]
+    for (name, ratio_range, max_rmse) in [("a_glass_sphere", (0.93, 0.98), 0.02), ("b_mirror_ring", (0.98, 1.02), 0.18)]
     {
         let s = scene(&format!("{name}.json"));
         let g = render(&ctx, &s, &settings(1024, 256), None).unwrap();
@@ -307,10 +307,10 @@ fn caustic_maps_agree_with_cpu_reference() {
         let c = caustics::reference::caustic_maps(&s, &rs).unwrap();
         let a = caustics::metrics::map_agreement(&g.caustic_maps[0][0], &c[0][0]);
         eprintln!("{name}: GPU vs CPU caustic map: {a}");
-        // Measured on lavapipe: a_glass_sphere ratio 0.947 (the CPU also follows the light the
-        // ball reflects, which the basic technique drops), relative RMSE 0.60 (dominated by the
-        // few focal texels: Gaussian splat against box deposits); b_mirror_ring ratio 1.000,
-        // relative RMSE 0.23.
+        // Measured on lavapipe with caustic triangles (the default splat): a_glass_sphere ratio
+        // 0.947 (the CPU also follows the light the ball reflects, which the basic technique
+        // drops), relative RMSE 0.004; b_mirror_ring ratio 1.003, relative RMSE 0.138. (Fixed
+        // Gaussian splats: 0.60 and 0.23.)
         assert!(a.energy_ratio > ratio_range.0 && a.energy_ratio < ratio_range.1, "{name}: {a}");
         assert!(a.rel_rmse < max_rmse, "{name}: {a}");
         assert!(a.peak_a.0.abs_diff(a.peak_b.0) <= 1 && a.peak_a.1.abs_diff(a.peak_b.1) <= 1, "{name}: {a}");
