@@ -35,6 +35,9 @@ fn settings(t: Technique, n: u32) -> RenderSettings {
         base_grid: 32,
         caustic_map_size: 256,
         shadow_map_size: 256,
+        // Fixed splats for every technique, so that their maps compare bit for bit (caustic
+        // triangles, the default, need the dense grid and exist for the basic technique only).
+        splat: caustics::splat::SplatMode::Fixed,
         ..Default::default()
     }
 }
@@ -108,7 +111,7 @@ fn maximal_traversal_and_hierarchical_equal_the_dense_grid() {
     let basic = render(&ctx, &s, &settings(Technique::Basic, 256), None).unwrap();
     for t in [Technique::AdaptiveLevel, Technique::Hierarchical] {
         let out = render(&ctx, &s, &settings(t, 256), None).unwrap();
-        assert_eq!(out.caustic_flux_bits, basic.caustic_flux_bits, "{t}: caustic map differs from basic");
+        assert!(out.caustic_flux_bits == basic.caustic_flux_bits, "{t}: caustic map differs from basic");
         assert_eq!(out.flux, basic.flux, "{t}: flux bookkeeping differs from basic");
         assert!(out.technique.photons_splatted < basic.technique.photons_splatted / 4, "{t}");
     }
@@ -167,7 +170,7 @@ fn batching_gives_the_same_map() {
         assert!(many.technique.batches > one.technique.batches, "{t}: the small budget must split into batches");
         assert!(many.technique.peak_photon_bytes <= small.photon_memory, "{t}: peak over the budget");
         assert!(many.technique.photon_bytes <= small.photon_memory, "{t}: allocation over the budget");
-        assert_eq!(many.caustic_flux_bits, one.caustic_flux_bits, "{t}: batching changed the map");
+        assert!(many.caustic_flux_bits == one.caustic_flux_bits, "{t}: batching changed the map");
         assert_eq!(many.technique.photons_splatted, one.technique.photons_splatted, "{t}");
     }
 }
@@ -204,9 +207,9 @@ fn camera_motion_leaves_the_caustic_map_unchanged() {
         let ra = render(&ctx, &a, &set, None).unwrap();
         let ra2 = render(&ctx, &a, &set, None).unwrap();
         let rb = render(&ctx, &b, &set, None).unwrap();
-        assert_eq!(ra.caustic_flux_bits, ra2.caustic_flux_bits, "{t}: not bit-identical run to run");
+        assert!(ra.caustic_flux_bits == ra2.caustic_flux_bits, "{t}: not bit-identical run to run");
         assert_eq!(ra.image, ra2.image, "{t}: image not bit-identical run to run");
-        assert_eq!(ra.caustic_flux_bits, rb.caustic_flux_bits, "{t}: the camera changed the caustic map");
+        assert!(ra.caustic_flux_bits == rb.caustic_flux_bits, "{t}: the camera changed the caustic map");
         assert_eq!(ra.technique.levels, rb.technique.levels, "{t}: the camera changed the hierarchy");
     }
 }
