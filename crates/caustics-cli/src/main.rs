@@ -106,6 +106,10 @@ enum Command {
         /// How photons are splatted into the caustic map.
         #[arg(long, value_enum, default_value = "triangles")]
         splat: Splat,
+        /// Basic technique: trace only the light transmitted at glass, not the second photon per
+        /// cell that carries the light reflected at the first dielectric surface (half the cost).
+        #[arg(long)]
+        no_glass_reflection: bool,
         /// Segments around tessellated spheres and cylinders (rasterization only; the CPU
         /// reference intersects them exactly).
         #[arg(long, default_value_t = 192)]
@@ -201,6 +205,7 @@ fn run(cli: Cli) -> Result<()> {
             size,
             technique,
             splat,
+            no_glass_reflection,
             tessellation,
             base_grid,
             max_error_tolerance,
@@ -234,6 +239,7 @@ fn run(cli: Cli) -> Result<()> {
                 photons,
                 technique: technique.lib(),
                 splat: splat.lib(),
+                dielectric_reflection: !no_glass_reflection,
                 tessellation: caustics::scene::Tessellation {
                     sphere_segments: tessellation,
                     cylinder_segments: tessellation.saturating_mul(8) / 3,

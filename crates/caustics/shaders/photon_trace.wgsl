@@ -49,5 +49,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     }
     let cell = 2.0 / f32(n_grid);
     let ndc = vec2f(-1.0 + (f32(i) + 0.5) * cell, 1.0 - (f32(j) + 0.5) * cell);
-    photons[gid.x] = trace_photon(tp.face, ndc, vec2f(cell));
+    // The high bit of `face` selects the reflected branch at the first dielectric surface.
+    trace_reflect = (tp.face >> 31u) == 1u;
+    photons[gid.x] = trace_photon(tp.face & 0x7fffffffu, ndc, vec2f(cell));
 }

@@ -53,6 +53,10 @@ pub struct RenderSettings {
     pub splat_sigma: f32,
     /// How photons are splatted into the caustic map (`crate::splat`).
     pub splat: SplatMode,
+    /// Basic technique: also trace the light reflected at the first dielectric surface (a second
+    /// photon per cell, weighted by Fresnel reflectance; the first carries the transmitted
+    /// light). The other techniques trace the transmitted branch only.
+    pub dielectric_reflection: bool,
     /// Memory for photon storage (bytes): the grid (basic), the tiles (hierarchical) or the
     /// hierarchy (adaptive) is processed in batches that fit.
     pub photon_memory: u64,
@@ -72,6 +76,7 @@ impl Default for RenderSettings {
             shadow_map_size: 2048,
             splat_sigma: 1.0,
             splat: SplatMode::default(),
+            dielectric_reflection: true,
             photon_memory: 64 << 20,
             tessellation: Tessellation::default(),
         }
@@ -801,6 +806,11 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
             n,
             g,
             bound: view.faces.iter().map(|f| relevant_bound(scene, f, n, g)).collect(),
+            reflect_branch: s.dielectric_reflection
+                && scene
+                    .objects
+                    .iter()
+                    .any(|o| o.caustic_caster && matches!(scene.material_of(o), Material::Dielectric { .. })),
         };
         pendings.push(crate::techniques::emit(&emit, &mut enc, &mut timer, nf)?);
         splat_targets.finish(ctx, &pipelines.splat, &light_buf, &accum, &mut enc, &mut timer);

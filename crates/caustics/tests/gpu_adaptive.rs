@@ -38,6 +38,8 @@ fn settings(t: Technique, n: u32) -> RenderSettings {
         // Fixed splats for every technique, so that their maps compare bit for bit (caustic
         // triangles, the default, need the dense grid and exist for the basic technique only).
         splat: caustics::splat::SplatMode::Fixed,
+        // The reflected branch at glass exists for the basic technique only.
+        dielectric_reflection: false,
         ..Default::default()
     }
 }

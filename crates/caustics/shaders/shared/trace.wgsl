@@ -5,6 +5,10 @@
 // With trace_defer set (adaptive caustic maps trace children and book only the photons they
 // emit), add_fixed collects the flux per slot in trace_pending instead of adding it to stats.
 var<private> trace_defer: bool = false;
+// The reflected branch at the first dielectric surface (basic caustic maps trace each cell
+// twice when the scene has dielectric casters: the transmitted branch, then this one, each
+// weighted by its Fresnel factor). Set by the stage before calling trace_photon.
+var<private> trace_reflect: bool = false;
 var<private> trace_pending: array<f32, 6>;
 // Splat data the tracer leaves in each photon (docs/splatting.md): flux.w = the path signature
 // (objects hit and internal reflections, 24 bits; caustic triangles do not span two paths);
@@ -332,6 +336,23 @@ fn interact(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f, l
     return r;
 }
 
+// The reflected branch at a dielectric: the Fresnel-weighted mirror reflection. Other materials
+// have no second branch (status NO_EXIT, not booked: the photon simply does not exist).
+fn reflect_dielectric(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f) -> Interaction {
+    var r: Interaction;
+    r.status = STATUS_NO_EXIT;
+    r.o = p;
+    r.flux = vec3f(0.0);
+    r.d = d;
+    if (mat.kind.x != KIND_DIELECTRIC) { return r; }
+    var n1 = n_in;
+    if (dot(n1, d) > 0.0) { n1 = -n1; }
+    r.flux = flux_in * fresnel_dielectric(-dot(d, n1), mat.a.x / mat.a.y);
+    r.d = reflect(d, n1);
+    r.status = STATUS_OK;
+    return r;
+}
+
 // The first caster surface the ray o + s d (0 < s < t_max) crosses, found by marching through
 // the light-space caster front buffer: a crossing is a change of side (in front of / behind the
 // buffer's surface, seen from the light) between two samples on the same, continuous surface.
@@ -478,7 +499,8 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var flux = cell_flux(layer, ndc, cell, d);
     let total_in = flux.r + flux.g + flux.b;
     if (total_in <= 0.0) { return out; }
-    add_fixed(0u, total_in);
+    // Flux onto the casters is booked once, by the transmitted branch.
+    if (!trace_reflect) { add_fixed(0u, total_in); }
 
     var o = front.p;
     var dir = d;
@@ -491,9 +513,15 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var sig = 0u;
     var lens = vec4f(0.0);
     for (var bounce = 0u; bounce < MAX_BOUNCES; bounce++) {
-        let r = interact(materials[obj], hit_p, hit_n, dir, flux, layer, g);
+        var r: Interaction;
+        if (bounce == 0u && trace_reflect) {
+            r = reflect_dielectric(materials[obj], hit_p, hit_n, dir, flux);
+            if (r.status != STATUS_OK) { return out; }
+        } else {
+            r = interact(materials[obj], hit_p, hit_n, dir, flux, layer, g);
+        }
         sig = (sig * 31u + obj * 8u + trace_internal + 1u) & 0xffffffu;
-        if (bounce == 0u && light.splat.x > 0.5 && r.status == STATUS_OK) {
+        if (bounce == 0u && !trace_reflect && light.splat.x > 0.5 && r.status == STATUS_OK) {
             lens = lens_power(materials[obj], layer, uv, d, front.p, g);
         }
         if (r.status == STATUS_NO_EXIT) { add_fixed(4u, r.flux.r + r.flux.g + r.flux.b); return out; }

@@ -40,7 +40,16 @@ impl Basic {
         Basic { photons, carry: None, batch, traced: 0, batches: 0 }
     }
 
+    /// Trace and splat the grid of face `f`: the transmitted branch, then, when the scene has
+    /// dielectric casters, the reflected branch (the face index's high bit tells the tracer).
     pub fn record_face(&mut self, e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, f: u32) {
+        self.record_branch(e, enc, timer, f);
+        if e.reflect_branch {
+            self.record_branch(e, enc, timer, f | 1 << 31);
+        }
+    }
+
+    fn record_branch(&mut self, e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, f: u32) {
         let per_face = e.n as u64 * e.n as u64;
         let trace_pl = e.pipelines.trace.as_ref().expect("photon_trace pipeline");
         if let (Some((carry, rows)), Some(tri)) = (&self.carry, &e.pipelines.splat.triangles) {

@@ -193,6 +193,8 @@ pub(crate) struct Emit<'a> {
     /// Per face: an upper bound of the relevant photons of the N × N grid (from the casters'
     /// bounding box seen from the light), for the number of batches to record.
     pub bound: Vec<u64>,
+    /// Also trace the reflected branch at the first dielectric surface (basic technique).
+    pub reflect_branch: bool,
 }
 
 /// Buffers read back after the frame to fill in the statistics.
