@@ -3,22 +3,10 @@
 //! with the dense grid, flux conservation, batching, budget errors, stability.
 //! Without an adapter they skip with a printed reason, except in CI (`CI=true`), where they fail.
 
+mod common;
 use caustics::Scene;
-use caustics::gpu::GpuContext;
 use caustics::render::{GpuRender, RenderSettings, Technique, render};
-
-fn gpu() -> Option<GpuContext> {
-    match GpuContext::new(None) {
-        Ok(c) => Some(c),
-        Err(e) => {
-            if std::env::var("CI").is_ok_and(|v| v == "true") {
-                panic!("CI requires a GPU adapter (install mesa-vulkan-drivers): {e}");
-            }
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    }
-}
+use common::gpu;
 
 /// The built-in glass ball, with a small camera (the tests are about the caustic map).
 fn scene() -> Scene {

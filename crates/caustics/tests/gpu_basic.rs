@@ -2,26 +2,14 @@
 //! lens's focus, the mirror ring's cusp, agreement with the reference images, determinism.
 //! Without an adapter they skip with a printed reason, except in CI (`CI=true`), where they fail.
 
+mod common;
 use caustics::Scene;
-use caustics::gpu::GpuContext;
 use caustics::image_io::Image;
 use caustics::lightspace::LightView;
 use caustics::render::{GpuRender, RenderSettings, render};
+use common::gpu;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-
-fn gpu() -> Option<GpuContext> {
-    match GpuContext::new(None) {
-        Ok(c) => Some(c),
-        Err(e) => {
-            if std::env::var("CI").is_ok_and(|v| v == "true") {
-                panic!("CI requires a GPU adapter (install mesa-vulkan-drivers): {e}");
-            }
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    }
-}
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")

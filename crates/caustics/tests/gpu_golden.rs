@@ -3,24 +3,12 @@
 //! written beside the golden file (`*.actual.png`, `*.difference.png`). To accept new output:
 //! `CAUSTICS_ACCEPT_GOLDEN=1 cargo test --release --test gpu_golden`.
 
+mod common;
 use caustics::Scene;
-use caustics::gpu::GpuContext;
 use caustics::image_io::Image;
 use caustics::render::{RenderSettings, render};
+use common::gpu;
 use std::path::Path;
-
-fn gpu() -> Option<GpuContext> {
-    match GpuContext::new(None) {
-        Ok(c) => Some(c),
-        Err(e) => {
-            if std::env::var("CI").is_ok_and(|v| v == "true") {
-                panic!("CI requires a GPU adapter (install mesa-vulkan-drivers): {e}");
-            }
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    }
-}
 
 fn golden(name: &str) {
     let Some(ctx) = gpu() else { return };

@@ -2,24 +2,12 @@
 //! error against the CPU reference on the sphere scene, thin-lens sizes on a spherical lens.
 //! Without an adapter they skip with a printed reason, except in CI (`CI=true`), where they fail.
 
+mod common;
 use caustics::Scene;
-use caustics::gpu::GpuContext;
 use caustics::render::{GpuRender, RenderSettings, SplatMode, render};
 use caustics::techniques::Technique;
+use common::gpu;
 use std::path::Path;
-
-fn gpu() -> Option<GpuContext> {
-    match GpuContext::new(None) {
-        Ok(c) => Some(c),
-        Err(e) => {
-            if std::env::var("CI").is_ok_and(|v| v == "true") {
-                panic!("CI requires a GPU adapter (install mesa-vulkan-drivers): {e}");
-            }
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    }
-}
 
 fn small(mut s: Scene, w: u32) -> Scene {
     s.camera.height = s.camera.height * w / s.camera.width;
