@@ -239,9 +239,9 @@ fn find_receiver(o: vec3f, d: vec3f) -> vec4f {
 
 // Solid angle of the image-plane rectangle centred at (u, v) with sides (du, dv), at unit
 // distance: the integral of (1 + u^2 + v^2)^(-3/2) by 2 x 2 Gauss-Legendre quadrature. The
-// closed form (differences of atan) cancels catastrophically in f32 for small cells (1 % errors
-// that showed as rings in caustics); the quadrature is accurate to about (du^4) relative, so
-// the flux of a cell equals the sum of its children's to about 1e-7 at the coarsest levels.
+// closed form (differences of atan) cancels catastrophically in f32 for small cells (errors of
+// about 1 % per cell at a 1024^2 grid); the quadrature is accurate to about du^4 relative, so the
+// flux of a cell equals the sum of its children's to about 1e-7 at the coarsest levels.
 fn cell_solid_angle(u: f32, v: f32, du: f32, dv: f32) -> f32 {
     let g = 0.28867513; // 1 / (2 sqrt 3)
     var sum = 0.0;
