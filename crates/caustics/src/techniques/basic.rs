@@ -2,7 +2,7 @@
 //! a dense N × N grid over each light-view face, traced (`photon_trace`) and splatted
 //! (`photon_splat`) in batches that fit the photon memory.
 
-use super::{Emit, Pending, bind, storage, uniform};
+use super::{Emit, Pending, storage, uniform};
 use crate::gpu::PassTimer;
 use crate::gpu::types::{Photon, SplatParams, TraceParams};
 
@@ -53,26 +53,7 @@ impl Basic {
         let per_face = e.n as u64 * e.n as u64;
         let trace_pl = e.pipelines.trace.as_ref().expect("photon_trace pipeline");
         if let (Some((carry, rows)), Some(tri)) = (&self.carry, &e.pipelines.splat.triangles) {
-            let trace_bg = |tp: &wgpu::Buffer, out: wgpu::BindingResource| {
-                bind(
-                    e.ctx,
-                    trace_pl,
-                    "photon_trace",
-                    &[
-                        e.light_buf.as_entire_binding(),
-                        tp.as_entire_binding(),
-                        wgpu::BindingResource::TextureView(e.front_pos),
-                        wgpu::BindingResource::TextureView(e.front_nrm),
-                        wgpu::BindingResource::TextureView(e.back_pos),
-                        wgpu::BindingResource::TextureView(e.back_nrm),
-                        wgpu::BindingResource::TextureView(e.recv_pos),
-                        wgpu::BindingResource::TextureView(e.recv_nrm),
-                        e.materials.as_entire_binding(),
-                        out,
-                        e.stats.as_entire_binding(),
-                    ],
-                )
-            };
+            let trace_bg = |tp: &wgpu::Buffer, out: wgpu::BindingResource| e.trace_bind(trace_pl, tp, out);
             let g = crate::splat::GridTriangles {
                 ctx: e.ctx,
                 trace: trace_pl,
@@ -106,24 +87,7 @@ impl Basic {
                 }),
             );
             let sp = storage_init(e, &SplatParams { groups: [groups, 1, 1], count: count as u32 });
-            let tbg = bind(
-                e.ctx,
-                trace_pl,
-                "photon_trace",
-                &[
-                    e.light_buf.as_entire_binding(),
-                    tp.as_entire_binding(),
-                    wgpu::BindingResource::TextureView(e.front_pos),
-                    wgpu::BindingResource::TextureView(e.front_nrm),
-                    wgpu::BindingResource::TextureView(e.back_pos),
-                    wgpu::BindingResource::TextureView(e.back_nrm),
-                    wgpu::BindingResource::TextureView(e.recv_pos),
-                    wgpu::BindingResource::TextureView(e.recv_nrm),
-                    e.materials.as_entire_binding(),
-                    self.photons.as_entire_binding(),
-                    e.stats.as_entire_binding(),
-                ],
-            );
+            let tbg = e.trace_bind(trace_pl, &tp, self.photons.as_entire_binding());
             let sbg = e.splat_targets.bind(
                 e.ctx,
                 &e.pipelines.splat,

@@ -187,24 +187,7 @@ impl Hierarchical {
                         tile: t,
                     }),
                 );
-                let tbg = bind(
-                    e.ctx,
-                    trace_pl,
-                    "photon_trace",
-                    &[
-                        e.light_buf.as_entire_binding(),
-                        tp.as_entire_binding(),
-                        wgpu::BindingResource::TextureView(e.front_pos),
-                        wgpu::BindingResource::TextureView(e.front_nrm),
-                        wgpu::BindingResource::TextureView(e.back_pos),
-                        wgpu::BindingResource::TextureView(e.back_nrm),
-                        wgpu::BindingResource::TextureView(e.recv_pos),
-                        wgpu::BindingResource::TextureView(e.recv_nrm),
-                        e.materials.as_entire_binding(),
-                        self.tile.as_entire_binding(),
-                        e.stats.as_entire_binding(),
-                    ],
-                );
+                let tbg = e.trace_bind(trace_pl, &tp, self.tile.as_entire_binding());
                 {
                     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                         label: Some("photon_trace"),

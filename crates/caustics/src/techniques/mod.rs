@@ -197,6 +197,36 @@ pub(crate) struct Emit<'a> {
     pub reflect_branch: bool,
 }
 
+impl Emit<'_> {
+    /// The bind group of `photon_trace`: the light, the batch's parameters `tp`, the light-space
+    /// geometry buffers, the materials, the photon output `out` and the flux bookkeeping.
+    pub fn trace_bind(
+        &self,
+        pl: &wgpu::ComputePipeline,
+        tp: &wgpu::Buffer,
+        out: wgpu::BindingResource,
+    ) -> wgpu::BindGroup {
+        bind(
+            self.ctx,
+            pl,
+            "photon_trace",
+            &[
+                self.light_buf.as_entire_binding(),
+                tp.as_entire_binding(),
+                wgpu::BindingResource::TextureView(self.front_pos),
+                wgpu::BindingResource::TextureView(self.front_nrm),
+                wgpu::BindingResource::TextureView(self.back_pos),
+                wgpu::BindingResource::TextureView(self.back_nrm),
+                wgpu::BindingResource::TextureView(self.recv_pos),
+                wgpu::BindingResource::TextureView(self.recv_nrm),
+                self.materials.as_entire_binding(),
+                out,
+                self.stats.as_entire_binding(),
+            ],
+        )
+    }
+}
+
 /// Buffers read back after the frame to fill in the statistics.
 pub(crate) struct Pending {
     /// One word per face: covered caster-buffer texels.
