@@ -171,20 +171,14 @@ fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation) -> Geometr
         indices.extend(m.indices.iter().flat_map(|t| t.map(|x| x + base)));
         ranges.push(start..indices.len() as u32);
         let caster = u32::from(o.caustic_caster);
-        mats.push(match *scene.material_of(o) {
-            Material::Diffuse { albedo } => {
-                MaterialGpu { kind: [0, caster, 0, 0], a: albedo.extend(0.0).to_array(), b: [0.0; 4] }
-            }
-            Material::Dielectric { ior, ext_ior } => {
-                MaterialGpu { kind: [1, caster, 0, 0], a: [ior, ext_ior, 0.0, 0.0], b: [0.0; 4] }
-            }
-            Material::Mirror { reflectance } => {
-                MaterialGpu { kind: [2, caster, 0, 0], a: reflectance.extend(0.0).to_array(), b: [0.0; 4] }
-            }
-            Material::Conductor { eta, k } => {
-                MaterialGpu { kind: [3, caster, 0, 0], a: eta.extend(0.0).to_array(), b: k.extend(0.0).to_array() }
-            }
-        });
+        let (kind, a, b) = match *scene.material_of(o) {
+            Material::Diffuse { albedo } => (0, albedo.extend(0.0).to_array(), [0.0; 4]),
+            Material::Dielectric { ior, ext_ior } => (1, [ior, ext_ior, 0.0, 0.0], [0.0; 4]),
+            Material::Mirror { reflectance } => (2, reflectance.extend(0.0).to_array(), [0.0; 4]),
+            Material::Conductor { eta, k } => (3, eta.extend(0.0).to_array(), k.extend(0.0).to_array()),
+        };
+        let (shape_kind, shape) = analytic_shape(&o.shape);
+        mats.push(MaterialGpu { kind: [kind, caster, shape_kind, 0], a, b, shape });
     }
     let d = &ctx.device;
     Geometry {
@@ -204,6 +198,27 @@ fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation) -> Geometr
             contents: bytemuck::cast_slice(&mats),
             usage: wgpu::BufferUsages::STORAGE,
         }),
+    }
+}
+
+/// An object's analytic shape for exact intersection in the shaders: (kind, parameters).
+fn analytic_shape(shape: &crate::scene::Shape) -> (u32, [[f32; 4]; 4]) {
+    use crate::scene::Shape;
+    match shape {
+        Shape::Sphere { center, radius } => (1, [center.extend(*radius).to_array(), [0.0; 4], [0.0; 4], [0.0; 4]]),
+        Shape::Cylinder { base_center, axis, radius, height } => {
+            (2, [base_center.extend(*radius).to_array(), axis.extend(*height).to_array(), [0.0; 4], [0.0; 4]])
+        }
+        Shape::Rectangle { center, normal, u, v, size } => (
+            3,
+            [
+                center.extend(0.0).to_array(),
+                normal.extend(0.0).to_array(),
+                u.extend(size.x).to_array(),
+                v.extend(size.y).to_array(),
+            ],
+        ),
+        Shape::Mesh(_) => (0, [[0.0; 4]; 4]),
     }
 }
 
@@ -703,8 +718,15 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
     // sphere), where the search would only cost time.
     let casters: Vec<_> =
         scene.objects.iter().filter(|o| o.caustic_caster && scene.material_of(o).is_specular()).collect();
-    let multi_bounce =
-        if casters.len() == 1 && matches!(casters[0].shape, crate::scene::Shape::Sphere { .. }) { 0.0 } else { 1.0 };
+    // 0: no search; 1: analytic casters only, intersected exactly; 2: mesh casters too, found
+    // by marching through the light's caster buffer.
+    let multi_bounce = if casters.len() == 1 && matches!(casters[0].shape, crate::scene::Shape::Sphere { .. }) {
+        0.0
+    } else if casters.iter().any(|o| matches!(o.shape, crate::scene::Shape::Mesh(_))) {
+        2.0
+    } else {
+        1.0
+    };
 
     struct PerLight {
         accum: wgpu::Buffer,

@@ -304,12 +304,12 @@ fn full_images_agree_with_references() {
     if gpu().is_none() {
         return;
     }
-    // Measured on lavapipe: a_glass_sphere FLIP 0.028, energy 0.994; b_mirror_ring FLIP 0.054,
-    // energy 1.005 (the CPU reference reaches 0.028 and 0.020).
+    // Measured on lavapipe: a_glass_sphere FLIP 0.028, energy 0.994; b_mirror_ring FLIP 0.041,
+    // energy 1.003 (the CPU reference reaches 0.028 and 0.020).
     let (flip, ratio) = full_image_agreement("a_glass_sphere");
     assert!(flip < 0.04 && (ratio - 1.0).abs() < 0.02, "a_glass_sphere: FLIP {flip}, energy {ratio}");
     let (flip, ratio) = full_image_agreement("b_mirror_ring");
-    assert!(flip < 0.065 && (ratio - 1.0).abs() < 0.02, "b_mirror_ring: FLIP {flip}, energy {ratio}");
+    assert!(flip < 0.05 && (ratio - 1.0).abs() < 0.02, "b_mirror_ring: FLIP {flip}, energy {ratio}");
 }
 
 /// The GPU's basic caustic map against the CPU reference's, texel by texel. The bounds state how
@@ -317,7 +317,7 @@ fn full_images_agree_with_references() {
 #[test]
 fn caustic_maps_agree_with_cpu_reference() {
     let Some(ctx) = gpu() else { return };
-    for (name, ratio_range, max_rmse) in [("a_glass_sphere", (0.98, 1.02), 0.02), ("b_mirror_ring", (0.98, 1.02), 0.18)]
+    for (name, ratio_range, max_rmse) in [("a_glass_sphere", (0.98, 1.02), 0.02), ("b_mirror_ring", (0.98, 1.02), 0.05)]
     {
         let s = scene(&format!("{name}.json"));
         let g = render(&ctx, &s, &settings(1024, 256), None).unwrap();
@@ -331,8 +331,9 @@ fn caustic_maps_agree_with_cpu_reference() {
         eprintln!("{name}: GPU vs CPU caustic map: {a}");
         // Measured on lavapipe with caustic triangles (the default splat) and the reflected
         // branch at glass: a_glass_sphere ratio 0.999 (0.947 without the reflected branch),
-        // relative RMSE 0.004; b_mirror_ring ratio 1.003, relative RMSE 0.138. (Fixed Gaussian
-        // splats: 0.60 and 0.23.)
+        // relative RMSE 0.004; b_mirror_ring ratio 1.002, relative RMSE 0.025 (0.138 before
+        // second reflections met the analytic cylinder exactly). (Fixed Gaussian splats: 0.60
+        // and 0.23.)
         assert!(a.energy_ratio > ratio_range.0 && a.energy_ratio < ratio_range.1, "{name}: {a}");
         assert!(a.rel_rmse < max_rmse, "{name}: {a}");
         assert!(a.peak_a.0.abs_diff(a.peak_b.0) <= 1 && a.peak_a.1.abs_diff(a.peak_b.1) <= 1, "{name}: {a}");

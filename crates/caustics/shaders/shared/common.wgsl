@@ -41,12 +41,19 @@ struct Photon {
 
 // Per-object material, indexed by object id.
 struct MaterialGpu {
-    // x = kind (0 diffuse, 1 dielectric, 2 mirror, 3 conductor), y = caster (1/0)
+    // x = kind (0 diffuse, 1 dielectric, 2 mirror, 3 conductor), y = caster (1/0),
+    // z = analytic shape (0 none: mesh, 1 sphere, 2 cylinder, 3 rectangle)
     kind: vec4u,
     // diffuse: albedo; dielectric: (ior, ext_ior, -, -); mirror: reflectance; conductor: eta
     a: vec4f,
     // conductor: k
     b: vec4f,
+    // The object's analytic shape, for exact intersection: sphere (centre, radius); cylinder
+    // (base, radius), (axis, height); rectangle (centre, -), (normal, -), (u, size u), (v, size v).
+    s0: vec4f,
+    s1: vec4f,
+    s2: vec4f,
+    s3: vec4f,
 }
 
 const KIND_DIFFUSE: u32 = 0u;

@@ -33,9 +33,12 @@ pub struct LightGpu {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct MaterialGpu {
+    /// material kind, caster, analytic shape (0 mesh, 1 sphere, 2 cylinder, 3 rectangle), -
     pub kind: [u32; 4],
     pub a: [f32; 4],
     pub b: [f32; 4],
+    /// The analytic shape's parameters (see `common.wgsl`).
+    pub shape: [[f32; 4]; 4],
 }
 
 #[repr(C)]
