@@ -15,6 +15,7 @@
 
 #import hierarchy
 #import coverage
+#import shapes
 #import trace
 
 @group(0) @binding(0) var<uniform> light: LightGpu;

@@ -6,6 +6,8 @@
 // iterative screen-space search in the camera receiver buffer; what they find is weighted by the
 // Fresnel terms. Rays that leave the screen see the black background.
 
+#import shapes
+
 struct CompositeParams {
     world_to_clip: mat4x4f,
     camera: vec4f,
@@ -40,31 +42,95 @@ fn pix(q: vec2f) -> vec2i {
     return clamp(vec2i(floor(q)), vec2i(0), vec2i(i32(cp.width) - 1, i32(cp.height) - 1));
 }
 
-// Radiance of the diffuse surface hit by the ray o + t d, by screen-space search.
-fn trace_receivers(o: vec3f, d: vec3f) -> vec3f {
+// Radiance of the diffuse surface hit by the ray o + t d, by screen-space search, and the
+// distance to it (1e30 when the search finds nothing: the black background).
+fn trace_receivers_t(o: vec3f, d: vec3f) -> vec4f {
     var t = -1.0;
     var p = o + d * 0.05;
     for (var it = 0u; it < 16u; it++) {
         let q = to_pixel(p);
-        if (q.z < 0.0) { return vec3f(0.0); }
+        if (q.z < 0.0) { return vec4f(0.0, 0.0, 0.0, 1e30); }
         let px = pix(q.xy);
         let r = textureLoad(recv_pos, px, 0);
-        if (r.w < 0.0) { return vec3f(0.0); }
+        if (r.w < 0.0) { return vec4f(0.0, 0.0, 0.0, 1e30); }
         let n = textureLoad(recv_nrm, px, 0).xyz;
         let dn = dot(d, n);
         var t_new = length(r.xyz - o);
         if (abs(dn) > 1e-3) { t_new = dot(r.xyz - o, n) / dn; }
-        if (t_new <= 0.0) { return vec3f(0.0); }
+        if (t_new <= 0.0) { return vec4f(0.0, 0.0, 0.0, 1e30); }
         if (abs(t_new - t) <= 1e-4 * t_new) {
-            return radiance[u32(px.y) * cp.width + u32(px.x)].rgb;
+            return vec4f(radiance[u32(px.y) * cp.width + u32(px.x)].rgb, t_new);
         }
         t = t_new;
         p = o + t * d;
     }
     let q = to_pixel(p);
-    if (q.z < 0.0) { return vec3f(0.0); }
+    if (q.z < 0.0) { return vec4f(0.0, 0.0, 0.0, 1e30); }
     let px = pix(q.xy);
-    return radiance[u32(px.y) * cp.width + u32(px.x)].rgb;
+    return vec4f(radiance[u32(px.y) * cp.width + u32(px.x)].rgb, t);
+}
+
+fn trace_receivers(o: vec3f, d: vec3f) -> vec3f {
+    return trace_receivers_t(o, d).rgb;
+}
+
+// Radiance along a ray leaving the specular object `leaving`: analytic specular objects on its
+// way (spheres, open cylinders, rectangles, intersected exactly) reflect or refract it, up to
+// three more times (multi-layer refraction: glass seen through glass, glass in a mirror);
+// otherwise it sees the diffuse surface the screen-space search finds. Meshes behind the first
+// layer are not seen (they exist only in the camera's first-layer buffers).
+fn shade_ray(o_in: vec3f, d_in: vec3f, leaving_in: u32) -> vec3f {
+    var o = o_in;
+    var d = d_in;
+    var leaving = leaving_in;
+    var w = vec3f(1.0);
+    var l = vec3f(0.0);
+    for (var k = 0u; k < 3u; k++) {
+        let rec = trace_receivers_t(o, d);
+        let h = exact_shape(o, d, rec.w, leaving, false);
+        if (h.object == INVALID) { return l + w * rec.rgb; }
+        let m = materials[h.object];
+        var n = h.n;
+        if (dot(n, d) > 0.0) { n = -n; }
+        let cos1 = -dot(d, n);
+        if (m.kind.x == KIND_MIRROR) {
+            w *= m.a.rgb;
+            d = reflect(d, n);
+        } else if (m.kind.x == KIND_CONDUCTOR) {
+            w *= fresnel_conductor(cos1, m.a.rgb, m.b.rgb);
+            d = reflect(d, n);
+        } else {
+            let ior = m.a.x;
+            let ext = m.a.y;
+            let f1 = fresnel_dielectric(cos1, ior / ext);
+            l += w * f1 * trace_receivers(h.p, reflect(d, n));
+            w *= 1.0 - f1;
+            let t1 = refract_dir(d, n, ext / ior);
+            if (m.kind.z != 1u) {
+                // Open cylinders and rectangles have no inside: a thin sheet, out the other side.
+                w *= 1.0 - f1;
+            } else {
+                // Sphere: the far root, then out (total internal reflection: the ray is lost).
+                let c = m.s0.xyz;
+                let wv = h.p - c;
+                let b = dot(wv, t1.xyz);
+                let cc = dot(wv, wv) - m.s0.w * m.s0.w;
+                let t_exit = -b + sqrt(max(b * b - cc, 0.0));
+                let pe = h.p + t_exit * t1.xyz;
+                let ne = normalize(pe - c);
+                let t2 = refract_dir(t1.xyz, -ne, ior / ext);
+                if (t2.w < 0.5) { return l; }
+                w *= 1.0 - fresnel_dielectric(dot(t1.xyz, ne), ext / ior);
+                o = pe;
+                d = t2.xyz;
+                leaving = h.object;
+                continue;
+            }
+        }
+        o = h.p;
+        leaving = h.object;
+    }
+    return l + w * trace_receivers(o, d);
 }
 
 struct EyeHit {
@@ -145,14 +211,14 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let refl = reflect(d, n);
     var l = vec3f(0.0);
     if (mat.kind.x == KIND_MIRROR) {
-        l = mat.a.rgb * trace_receivers(p, refl);
+        l = mat.a.rgb * shade_ray(p, refl, u32(s.w));
     } else if (mat.kind.x == KIND_CONDUCTOR) {
-        l = fresnel_conductor(cos1, mat.a.rgb, mat.b.rgb) * trace_receivers(p, refl);
+        l = fresnel_conductor(cos1, mat.a.rgb, mat.b.rgb) * shade_ray(p, refl, u32(s.w));
     } else if (mat.kind.x == KIND_DIELECTRIC) {
         let ior = mat.a.x;
         let ext = mat.a.y;
         let f1 = fresnel_dielectric(cos1, ior / ext);
-        l = f1 * trace_receivers(p, refl);
+        l = f1 * shade_ray(p, refl, u32(s.w));
         let t1 = refract_dir(d, n, ext / ior);
         // Inside: march to the exit; follow total internal reflection up to three times.
         var p_in = p;
@@ -167,7 +233,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
             let t2 = refract_dir(t_in, -n2, ior / ext);
             if (t2.w > 0.5) {
                 let f2 = fresnel_dielectric(cos2, ext / ior);
-                l += w * (1.0 - f2) * trace_receivers(exit.p, t2.xyz);
+                l += w * (1.0 - f2) * shade_ray(exit.p, t2.xyz, u32(s.w));
                 break;
             }
             p_in = exit.p;

@@ -11,6 +11,7 @@
 // A batch is a range of the row-major grid (tile = 0), or a tile x tile square whose top-left
 // cell has row-major index batch_offset (hierarchical caustic maps), stored row-major.
 
+#import shapes
 #import trace
 
 struct TraceParams {

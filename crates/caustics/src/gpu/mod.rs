@@ -29,6 +29,7 @@ pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 
 /// Shared WGSL modules a stage can pull in with a line `#import NAME`.
 pub const SHARED: &[(&str, &str)] = &[
+    ("shapes", include_str!("../../shaders/shared/shapes.wgsl")),
     ("trace", include_str!("../../shaders/shared/trace.wgsl")),
     ("hierarchy", include_str!("../../shaders/shared/hierarchy.wgsl")),
     ("coverage", include_str!("../../shaders/shared/coverage.wgsl")),
