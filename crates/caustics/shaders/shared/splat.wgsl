@@ -1,4 +1,4 @@
-// Shared by the splat stages (splat_lens, splat_multires, caustic_triangles): 64-bit fixed-point
+// Shared by the splat stages (photon_splat, splat_lens, splat_multires, caustic_triangles): 64-bit fixed-point
 // accumulation into `accum` (per face, per texel, per channel: (lo, hi) word pairs), the texel
 // index, and a normalised Gaussian splat. Uses the module-scope bindings `light` and `accum`.
 
