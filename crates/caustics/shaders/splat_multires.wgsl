@@ -9,13 +9,6 @@
 
 #import splat
 
-struct SplatParams {
-    groups_x: u32,
-    groups_y: u32,
-    groups_z: u32,
-    count: u32,
-}
-
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<storage, read> sp: SplatParams;
 @group(0) @binding(2) var<storage, read> photons: array<Photon>;

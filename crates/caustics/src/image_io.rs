@@ -113,6 +113,24 @@ fn read_exr(path: &Path) -> std::result::Result<crate::image_io::Image, String> 
     Ok(img.layer_data.channel_data.pixels)
 }
 
+/// Write values already meant for display (linear, in [0, 1]) as an sRGB PNG, without tone
+/// mapping: normal maps, depth maps, heat maps.
+pub fn write_display_png(img: &Image, path: &Path) -> Result<()> {
+    write_atomically(path, |tmp| {
+        let bytes: Vec<u8> =
+            img.pixels.iter().flat_map(|p| p.map(|c| (255.0 * srgb_encode(c.clamp(0.0, 1.0))).round() as u8)).collect();
+        image::save_buffer_with_format(
+            tmp,
+            &bytes,
+            img.width,
+            img.height,
+            image::ColorType::Rgb8,
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| e.to_string())
+    })
+}
+
 /// Write through a temporary file in the same folder, then rename, so that no half-written
 /// output is ever left behind.
 pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<()> {

@@ -240,7 +240,16 @@ fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     }
 }
 
+/// The raster pipelines, built on the context's first frame and reused after.
 fn raster_pipelines(ctx: &GpuContext) -> Raster {
+    let mut built = None;
+    let mut get = |i: usize, label: &str| {
+        ctx.render_pipeline(label, || built.get_or_insert_with(|| build_raster_pipelines(ctx))[i].clone())
+    };
+    Raster { none: get(0, "raster_two_sided"), back: get(1, "raster_back_faces"), depth_only: get(2, "raster_depth") }
+}
+
+fn build_raster_pipelines(ctx: &GpuContext) -> [wgpu::RenderPipeline; 3] {
     let module = ctx.shader("raster");
     let bgl = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("raster"),
@@ -293,11 +302,11 @@ fn raster_pipelines(ctx: &GpuContext) -> Raster {
             cache: None,
         })
     };
-    Raster {
-        none: make(None, true, "raster_two_sided"),
-        back: make(Some(wgpu::Face::Front), true, "raster_back_faces"),
-        depth_only: make(None, false, "raster_depth"),
-    }
+    [
+        make(None, true, "raster_two_sided"),
+        make(Some(wgpu::Face::Front), true, "raster_back_faces"),
+        make(None, false, "raster_depth"),
+    ]
 }
 
 fn texture(
@@ -1037,8 +1046,8 @@ fn dump_buffers(
                 }
                 // Normals and depths are written as data, not radiance: bypass the tone curve by
                 // writing them with exposure chosen so that the PNG shows the stored values.
-                write_linear_png(&ni, &dir.join(format!("light{li}_face{f}_{name}_normal.png")))?;
-                write_linear_png(&di, &dir.join(format!("light{li}_face{f}_{name}_depth.png")))?;
+                crate::image_io::write_display_png(&ni, &dir.join(format!("light{li}_face{f}_{name}_normal.png")))?;
+                crate::image_io::write_display_png(&di, &dir.join(format!("light{li}_face{f}_{name}_depth.png")))?;
             }
             let map = &maps[li][f as usize];
             map.write(&dir.join(format!("light{li}_face{f}_caustic_map.exr")), exposure)?;
@@ -1051,23 +1060,4 @@ fn dump_buffers(
         }
     }
     Ok(())
-}
-
-fn write_linear_png(img: &Image, path: &Path) -> Result<()> {
-    crate::image_io::write_atomically(path, |tmp| {
-        let bytes: Vec<u8> = img
-            .pixels
-            .iter()
-            .flat_map(|p| p.map(|c| (255.0 * crate::image_io::srgb_encode(c.clamp(0.0, 1.0))).round() as u8))
-            .collect();
-        image::save_buffer_with_format(
-            tmp,
-            &bytes,
-            img.width,
-            img.height,
-            image::ColorType::Rgb8,
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| e.to_string())
-    })
 }

@@ -2,6 +2,15 @@
 // accumulation into `accum` (per face, per texel, per channel: (lo, hi) word pairs), the texel
 // index, and a normalised Gaussian splat. Uses the module-scope bindings `light` and `accum`.
 
+// Photon count of a splat dispatch, after the (indirect) dispatch arguments that the adaptive
+// techniques write on the GPU.
+struct SplatParams {
+    groups_x: u32,
+    groups_y: u32,
+    groups_z: u32,
+    count: u32,
+}
+
 fn add64(word: u32, value: f32) {
     let v = max(value, 0.0);
     let hi = floor(v / 4294967296.0);

@@ -78,6 +78,9 @@ pub struct GpuContext {
     pub info: wgpu::AdapterInfo,
     /// Timestamp queries are available (pass timings are measured on the GPU).
     pub timestamps: bool,
+    /// Pipelines already built, by name: a frame after the first compiles no shader.
+    compute_cache: std::sync::Mutex<std::collections::HashMap<String, wgpu::ComputePipeline>>,
+    render_cache: std::sync::Mutex<std::collections::HashMap<String, wgpu::RenderPipeline>>,
 }
 
 fn instance() -> wgpu::Instance {
@@ -155,7 +158,15 @@ impl GpuContext {
             ..Default::default()
         }))
         .map_err(|e| Error::Device(format!("cannot open {}: {e}", info.name)))?;
-        Ok(GpuContext { adapter, device, queue, info, timestamps })
+        Ok(GpuContext {
+            adapter,
+            device,
+            queue,
+            info,
+            timestamps,
+            compute_cache: Default::default(),
+            render_cache: Default::default(),
+        })
     }
 
     /// A compute or render shader module for a stage.
@@ -167,17 +178,30 @@ impl GpuContext {
         })
     }
 
-    /// A compute pipeline (layout derived from the shader) for a stage's `main`.
+    /// A compute pipeline (layout derived from the shader) for a stage's `main`, built once per
+    /// context.
     pub fn compute_pipeline(&self, name: &str) -> wgpu::ComputePipeline {
-        let module = self.shader(name);
-        self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(name),
-            layout: None,
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        })
+        let mut cache = self.compute_cache.lock().unwrap_or_else(|e| e.into_inner());
+        cache
+            .entry(name.to_string())
+            .or_insert_with(|| {
+                let module = self.shader(name);
+                self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(name),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some("main"),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+            })
+            .clone()
+    }
+
+    /// A render pipeline built once per context by `make`, under `name`.
+    pub fn render_pipeline(&self, name: &str, make: impl FnOnce() -> wgpu::RenderPipeline) -> wgpu::RenderPipeline {
+        let mut cache = self.render_cache.lock().unwrap_or_else(|e| e.into_inner());
+        cache.entry(name.to_string()).or_insert_with(make).clone()
     }
 
     /// Copy a buffer back to the CPU (blocking).

@@ -345,24 +345,7 @@ pub fn write_heatmap(path: &Path, a: &Image, b: &Image, mask: Option<&Mask>, fli
         }
     }
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    if ext == "png" { write_png_direct(path, &out) } else { out.write(path, 1.0) }
-}
-
-/// Write display values (already in [0,1] linear) without tone mapping.
-fn write_png_direct(path: &Path, img: &Image) -> Result<()> {
-    crate::image_io::write_atomically(path, |tmp| {
-        let bytes: Vec<u8> =
-            img.pixels.iter().flat_map(|p| p.map(|c| (255.0 * srgb_encode(c.clamp(0.0, 1.0)) + 0.5) as u8)).collect();
-        image::save_buffer_with_format(
-            tmp,
-            &bytes,
-            img.width,
-            img.height,
-            image::ColorType::Rgb8,
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| e.to_string())
-    })
+    if ext == "png" { crate::image_io::write_display_png(&out, path) } else { out.write(path, 1.0) }
 }
 
 /// A short magma-like ramp (sRGB display values).
