@@ -67,6 +67,9 @@ enum Splat {
     ThinLens,
     /// Splat sizes from the thick-lens equations.
     ThickLens,
+    /// Splat sizes from ray differentials carried through every interaction (exact first-order
+    /// beam size; beyond the papers).
+    Differential,
     /// Caustic triangles from the dense photon grid: flux spread over the area between adjacent
     /// photons (basic technique; the others fall back to fixed Gaussians). The default.
     Triangles,
@@ -80,6 +83,7 @@ impl Splat {
             Splat::Multires => S::MultiRes,
             Splat::ThinLens => S::ThinLens,
             Splat::ThickLens => S::ThickLens,
+            Splat::Differential => S::Differential,
             Splat::Triangles => S::Triangles,
         }
     }

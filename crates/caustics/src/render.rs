@@ -44,6 +44,10 @@ pub struct RenderSettings {
     /// Keep the coverage masks (caster front-buffer texels per face) in the statistics, for
     /// tests that model the traversal on the CPU.
     pub keep_coverage: bool,
+    /// Basic technique with a photon-buffer splat (not `triangles`): keep every traced photon
+    /// (`TechniqueStats::photons`), for tests and tools that inspect photons (memory grows with
+    /// the grid).
+    pub keep_photons: bool,
     /// Caustic map (and receiver map) size M per face.
     pub caustic_map_size: u32,
     /// Shadow map size per face.
@@ -72,6 +76,7 @@ impl Default for RenderSettings {
             max_error_tolerance: 0.0,
             error_check_grid: 512,
             keep_coverage: false,
+            keep_photons: false,
             caustic_map_size: 1024,
             shadow_map_size: 2048,
             splat_sigma: 1.0,

@@ -33,14 +33,23 @@ pub enum SplatMode {
     ThinLens,
     /// Splat sizes from the thick-lens equations (principal planes, thickness).
     ThickLens,
+    /// Splat sizes from ray differentials (Igehy 1999) carried through every interaction: the
+    /// exact first-order image of the photon's cell on the receiver (beyond the papers).
+    Differential,
     /// Caustic triangles from the dense photon grid (basic technique).
     #[default]
     Triangles,
 }
 
 impl SplatMode {
-    pub const ALL: [SplatMode; 5] =
-        [SplatMode::Fixed, SplatMode::MultiRes, SplatMode::ThinLens, SplatMode::ThickLens, SplatMode::Triangles];
+    pub const ALL: [SplatMode; 6] = [
+        SplatMode::Fixed,
+        SplatMode::MultiRes,
+        SplatMode::ThinLens,
+        SplatMode::ThickLens,
+        SplatMode::Differential,
+        SplatMode::Triangles,
+    ];
 
     /// The command-line name.
     pub fn name(self) -> &'static str {
@@ -49,6 +58,7 @@ impl SplatMode {
             SplatMode::MultiRes => "multires",
             SplatMode::ThinLens => "thin-lens",
             SplatMode::ThickLens => "thick-lens",
+            SplatMode::Differential => "differential",
             SplatMode::Triangles => "triangles",
         }
     }
@@ -64,6 +74,7 @@ impl SplatMode {
         match self {
             SplatMode::ThinLens => 1.0,
             SplatMode::ThickLens => 2.0,
+            SplatMode::Differential => 3.0,
             _ => 0.0,
         }
     }
@@ -74,7 +85,7 @@ impl SplatMode {
         match self {
             SplatMode::Fixed => "photon_splat",
             SplatMode::MultiRes => "splat_multires",
-            SplatMode::ThinLens | SplatMode::ThickLens | SplatMode::Triangles => "splat_lens",
+            SplatMode::ThinLens | SplatMode::ThickLens | SplatMode::Differential | SplatMode::Triangles => "splat_lens",
         }
     }
 }

@@ -16,6 +16,17 @@ var<private> trace_pending: array<f32, 6>;
 // bits), when light.splat.x asks for it (1 thin lens, 2 thick lens; 0: _pad = 0).
 var<private> trace_internal: u32 = 0u;
 var<private> lens_exit_p: vec3f;
+// Ray differentials (Igehy 1999) of the photon's cell, when light.splat.x == 3
+// (`--splat differential`): the position and direction derivatives across the whole cell along
+// the grid's two axes, carried through every transfer, refraction and reflection (the surface's
+// normal derivative from the analytic shape or the light-space buffers). On landing, the cell's
+// image in the caustic map gives the exact first-order beam diameter, which `splat_lens` uses.
+var<private> rd_on: bool = false;
+var<private> rd_from: vec3f;
+var<private> rd_pu: vec3f;
+var<private> rd_pv: vec3f;
+var<private> rd_du: vec3f;
+var<private> rd_dv: vec3f;
 fn add_fixed(slot: u32, value: f32) {
     if (trace_defer) { trace_pending[slot / 2u] += value; return; }
     let v = max(value * light.params.y, 0.0);
@@ -298,17 +309,20 @@ fn interact(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f, l
     if (mat.kind.x == KIND_MIRROR) {
         r.flux *= mat.a.rgb;
         r.d = reflect(d, n1);
+        rd_interface(mat, p, n1, d, r.d, 1.0, true);
         return r;
     }
     if (mat.kind.x == KIND_CONDUCTOR) {
         r.flux *= fresnel_conductor(cos1, mat.a.rgb, mat.b.rgb);
         r.d = reflect(d, n1);
+        rd_interface(mat, p, n1, d, r.d, 1.0, true);
         return r;
     }
     let ior = mat.a.x;
     let ext = mat.a.y;
     r.flux *= 1.0 - fresnel_dielectric(cos1, ior / ext);
     let t1 = refract_dir(d, n1, ext / ior);
+    rd_interface(mat, p, n1, d, t1.xyz, ext / ior, false);
     // Inside: march to the exit; on total internal reflection reflect (all the flux) and march
     // on, up to MAX_INTERNAL times. At a partial exit only the transmitted part is followed.
     var p_in = p;
@@ -321,6 +335,8 @@ fn interact(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f, l
         // Leaving the refractor: the normal facing the ray is -n2.
         let cos2 = dot(t_in, n2);
         let t2 = refract_dir(t_in, -n2, ior / ext);
+        if (rd_on) { rd_transfer(t_in, dot(exit.p - p_in, t_in), n2); }
+        rd_interface(materials[exit.object], exit.p, -n2, t_in, t2.xyz, ior / ext, t2.w < 0.5);
         if (t2.w > 0.5) {
             trace_internal = k;
             lens_exit_p = exit.p;
@@ -349,6 +365,7 @@ fn reflect_dielectric(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in
     if (dot(n1, d) > 0.0) { n1 = -n1; }
     r.flux = flux_in * fresnel_dielectric(-dot(d, n1), mat.a.x / mat.a.y);
     r.d = reflect(d, n1);
+    rd_interface(mat, p, n1, d, r.d, 1.0, true);
     r.status = STATUS_OK;
     return r;
 }
@@ -406,6 +423,120 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
         prev_gap = gap;
     }
     return none;
+}
+
+// Move the differentials along d to the point at distance t, onto its tangent plane (normal n).
+fn rd_transfer(d: vec3f, t: f32, n: vec3f) {
+    var pu = rd_pu + t * rd_du;
+    var pv = rd_pv + t * rd_dv;
+    let dn = dot(d, n);
+    if (abs(dn) > 1e-6) {
+        pu -= d * (dot(pu, n) / dn);
+        pv -= d * (dot(pv, n) / dn);
+    }
+    rd_pu = pu;
+    rd_pv = pv;
+}
+
+// Derivative of a buffer's stored normal field for the surface displacement dp, from central
+// differences of positions and normals over the neighbouring texels of the same object
+// (least-squares fit of dp in the two difference vectors).
+fn buffer_dn(pos_tex: texture_2d_array<f32>, nrm_tex: texture_2d_array<f32>, layer: u32, t: vec2i, dp: vec3f) -> vec3f {
+    let g = i32(textureDimensions(pos_tex).x);
+    let c = textureLoad(pos_tex, t, layer, 0);
+    let nc = normalize(textureLoad(nrm_tex, t, layer, 0).xyz);
+    var e: array<vec3f, 2>;
+    var dn: array<vec3f, 2>;
+    for (var axis = 0; axis < 2; axis++) {
+        let off = select(vec2i(0, 1), vec2i(1, 0), axis == 0);
+        var pa = c.xyz;
+        var na = nc;
+        var pb = c.xyz;
+        var nb = nc;
+        let ta = t + off;
+        let tb = t - off;
+        if (all(ta >= vec2i(0)) && all(ta < vec2i(g))) {
+            let q = textureLoad(pos_tex, ta, layer, 0);
+            if (q.w == c.w) { pa = q.xyz; na = normalize(textureLoad(nrm_tex, ta, layer, 0).xyz); }
+        }
+        if (all(tb >= vec2i(0)) && all(tb < vec2i(g))) {
+            let q = textureLoad(pos_tex, tb, layer, 0);
+            if (q.w == c.w) { pb = q.xyz; nb = normalize(textureLoad(nrm_tex, tb, layer, 0).xyz); }
+        }
+        e[axis] = pa - pb;
+        dn[axis] = na - nb;
+    }
+    let a00 = dot(e[0], e[0]);
+    let a01 = dot(e[0], e[1]);
+    let a11 = dot(e[1], e[1]);
+    let det = a00 * a11 - a01 * a01;
+    if (!(det > 1e-6 * a00 * a11)) { return vec3f(0.0); }
+    let r0 = dot(e[0], dp);
+    let r1 = dot(e[1], dp);
+    return ((a11 * r0 - a01 * r1) * dn[0] + (a00 * r1 - a01 * r0) * dn[1]) / det;
+}
+
+// Derivative, for the surface displacement dp, of the unit normal `nref` (either orientation)
+// of the caster surface with material `mat` at p: exact for analytic spheres, cylinders and
+// rectangles, from the light-space caster buffer that holds p (front or back) for meshes.
+fn surface_dn(mat: MaterialGpu, p: vec3f, nref: vec3f, dp_in: vec3f) -> vec3f {
+    let dp = dp_in - nref * dot(dp_in, nref);
+    if (mat.kind.z == 1u) {
+        let s = select(-1.0, 1.0, dot(nref, p - mat.s0.xyz) >= 0.0);
+        return s * dp / mat.s0.w;
+    }
+    if (mat.kind.z == 2u) {
+        let a = mat.s1.xyz;
+        let w = p - mat.s0.xyz;
+        let s = select(-1.0, 1.0, dot(nref, w - a * dot(w, a)) >= 0.0);
+        return s * (dp - a * dot(dp, a)) / mat.s0.w;
+    }
+    if (mat.kind.z == 3u) { return vec3f(0.0); }
+    let g = f32(light.params.w);
+    for (var f = 0u; f < light.info.x; f++) {
+        let q = project_face(light.faces[f], p, g);
+        if (q.w < 0.5) { continue; }
+        let t = texel_of(q.xy, u32(g));
+        let fp = textureLoad(front_pos, t, f, 0);
+        let bp = textureLoad(back_pos, t, f, 0);
+        if (bp.w >= 0.0 && (fp.w < 0.0 || length(bp.xyz - p) < length(fp.xyz - p))) {
+            let s = select(-1.0, 1.0, dot(nref, textureLoad(back_nrm, t, f, 0).xyz) >= 0.0);
+            return s * buffer_dn(back_pos, back_nrm, f, t, dp);
+        }
+        if (fp.w < 0.0) { return vec3f(0.0); }
+        let s = select(-1.0, 1.0, dot(nref, textureLoad(front_nrm, t, f, 0).xyz) >= 0.0);
+        return s * buffer_dn(front_pos, front_nrm, f, t, dp);
+    }
+    return vec3f(0.0);
+}
+
+// Refraction of the differentials (Igehy 1999): d incident, n the unit normal facing it, eta =
+// n_incident / n_transmitted, t the refracted direction, dnu / dnv the normal's derivatives.
+fn rd_refract(d: vec3f, n: vec3f, eta: f32, t: vec3f, dnu: vec3f, dnv: vec3f) {
+    let dn = dot(d, n);
+    let tn = dot(t, n);
+    let mu = eta * dn - tn;
+    let k = eta - eta * eta * dn / tn;
+    let ddu = dot(rd_du, n) + dot(d, dnu);
+    let ddv = dot(rd_dv, n) + dot(d, dnv);
+    rd_du = eta * rd_du - (mu * dnu + k * ddu * n);
+    rd_dv = eta * rd_dv - (mu * dnv + k * ddv * n);
+}
+
+fn rd_reflect(d: vec3f, n: vec3f, dnu: vec3f, dnv: vec3f) {
+    let dn = dot(d, n);
+    let ddu = dot(rd_du, n) + dot(d, dnu);
+    let ddv = dot(rd_dv, n) + dot(d, dnv);
+    rd_du = rd_du - 2.0 * (dn * dnu + ddu * n);
+    rd_dv = rd_dv - 2.0 * (dn * dnv + ddv * n);
+}
+
+// Refract or reflect the differentials at p (normal n facing the incident ray d).
+fn rd_interface(mat: MaterialGpu, p: vec3f, n: vec3f, d: vec3f, out_dir: vec3f, eta: f32, reflected: bool) {
+    if (!rd_on) { return; }
+    let dnu = surface_dn(mat, p, n, rd_pu);
+    let dnv = surface_dn(mat, p, n, rd_pv);
+    if (reflected) { rd_reflect(d, n, dnu, dnv); } else { rd_refract(d, n, eta, out_dir, dnu, dnv); }
 }
 
 // Curvature of a caster buffer's surface at buffer texel coordinate uv along the buffer's x and
@@ -485,6 +616,22 @@ fn lens_diameter(lens: vec4f, d_front_in: f32, d_bg_in: f32, d0: f32) -> f32 {
     return d0 * sqrt(rho.x * rho.y);
 }
 
+// Ray differentials on landing: transfer onto the receiver's tangent plane at hit (normal from
+// the receiver buffer at map texel uv), project the cell's image into the caustic map (size m)
+// and return its diameter in texels: the square root of its area.
+fn beam_diameter(f: u32, hit: vec3f, dir: vec3f, m: f32, uv: vec2f) -> f32 {
+    let face = light.faces[f];
+    let nr = textureLoad(recv_nrm, texel_of(uv, u32(m)), f, 0).xyz;
+    var n = nr;
+    if (dot(n, n) < 1e-12) { n = -dir; }
+    rd_transfer(dir, dot(hit - rd_from, dir), normalize(n));
+    let qu = project_face(face, hit + 0.5 * rd_pu, m).xy - project_face(face, hit - 0.5 * rd_pu, m).xy;
+    let qv = project_face(face, hit + 0.5 * rd_pv, m).xy - project_face(face, hit - 0.5 * rd_pv, m).xy;
+    let area = abs(qu.x * qv.y - qu.y * qv.x);
+    if (!(area < 1e30)) { return 0.0; }
+    return sqrt(area);
+}
+
 // Trace the photon of the light-view cell centred at `ndc` (NDC size `cell`) of face `layer`.
 // Returns face = INVALID when it carries no caustic (missed the casters, lost on the way).
 // Adds its flux to the bookkeeping in `stats`.
@@ -509,6 +656,26 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var flux = cell_flux(layer, ndc, cell, d);
     let total_in = flux.r + flux.g + flux.b;
     if (total_in <= 0.0) { return out; }
+    rd_on = light.splat.x > 2.5;
+    if (rd_on) {
+        // The cell's rays: across the whole cell along each grid axis (central differences).
+        let hu = vec2f(0.5 * cell.x, 0.0);
+        let hv = vec2f(0.0, 0.5 * cell.y);
+        let ray = array<vec2f, 4>(ndc + hu, ndc - hu, ndc + hv, ndc - hv);
+        var ro: array<vec3f, 4>;
+        var rdir: array<vec3f, 4>;
+        for (var k = 0u; k < 4u; k++) {
+            let ak = face.clip_to_world * vec4f(ray[k], 0.0, 1.0);
+            let bk = face.clip_to_world * vec4f(ray[k], 1.0, 1.0);
+            ro[k] = ak.xyz / ak.w;
+            rdir[k] = normalize(bk.xyz / bk.w - ro[k]);
+        }
+        rd_pu = ro[0] - ro[1];
+        rd_pv = ro[2] - ro[3];
+        rd_du = rdir[0] - rdir[1];
+        rd_dv = rdir[2] - rdir[3];
+        rd_from = a;
+    }
     // Flux onto the casters is booked once, by the transmitted branch.
     if (!trace_reflect) { add_fixed(0u, total_in); }
 
@@ -523,6 +690,7 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var sig = 0u;
     var lens = vec4f(0.0);
     for (var bounce = 0u; bounce < MAX_BOUNCES; bounce++) {
+        if (rd_on) { rd_transfer(dir, dot(hit_p - rd_from, dir), hit_n); }
         var r: Interaction;
         if (bounce == 0u && trace_reflect) {
             r = reflect_dielectric(materials[obj], hit_p, hit_n, dir, flux);
@@ -531,7 +699,7 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
             r = interact(materials[obj], hit_p, hit_n, dir, flux, layer, g);
         }
         sig = (sig * 31u + obj * 8u + trace_internal + 1u) & 0xffffffu;
-        if (bounce == 0u && !trace_reflect && light.splat.x > 0.5 && r.status == STATUS_OK) {
+        if (bounce == 0u && !trace_reflect && light.splat.x > 0.5 && light.splat.x < 2.5 && r.status == STATUS_OK) {
             lens = lens_power(materials[obj], layer, uv, d, front.p, g);
         }
         if (r.status == STATUS_NO_EXIT) { add_fixed(4u, r.flux.r + r.flux.g + r.flux.b); return out; }
@@ -539,6 +707,7 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
         o = r.o;
         dir = r.d;
         flux = r.flux;
+        rd_from = o;
         let total = flux.r + flux.g + flux.b;
         let hit = find_receiver(o + dir * 1e-4, dir);
         var t_recv = 1e30;
@@ -573,6 +742,7 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
                 if (lens.w > 0.0) {
                     out._pad = bitcast<u32>(lens_diameter(lens, light_dist(face, front.p), length(hit.xyz - lens_exit_p), cell.x * 0.5 * m));
                 }
+                if (rd_on) { out._pad = bitcast<u32>(beam_diameter(f, hit.xyz, dir, m, q.xy)); }
                 add_fixed(2u, total);
                 return out;
             }

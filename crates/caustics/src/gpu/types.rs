@@ -67,7 +67,7 @@ pub struct TraceParams {
 }
 
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct Photon {
     pub pos: [f32; 2],
     pub face: u32,

@@ -42,14 +42,29 @@ impl Basic {
 
     /// Trace and splat the grid of face `f`: the transmitted branch, then, when the scene has
     /// dielectric casters, the reflected branch (the face index's high bit tells the tracer).
-    pub fn record_face(&mut self, e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, f: u32) {
-        self.record_branch(e, enc, timer, f);
+    /// `kept` receives copies of the traced photons when `RenderSettings::keep_photons` is set.
+    pub fn record_face(
+        &mut self,
+        e: &Emit,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        f: u32,
+        kept: &mut Vec<(wgpu::Buffer, u64)>,
+    ) {
+        self.record_branch(e, enc, timer, f, kept);
         if e.reflect_branch {
-            self.record_branch(e, enc, timer, f | 1 << 31);
+            self.record_branch(e, enc, timer, f | 1 << 31, kept);
         }
     }
 
-    fn record_branch(&mut self, e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, f: u32) {
+    fn record_branch(
+        &mut self,
+        e: &Emit,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        f: u32,
+        kept: &mut Vec<(wgpu::Buffer, u64)>,
+    ) {
         let per_face = e.n as u64 * e.n as u64;
         let trace_pl = e.pipelines.trace.as_ref().expect("photon_trace pipeline");
         if let (Some((carry, rows)), Some(tri)) = (&self.carry, &e.pipelines.splat.triangles) {
@@ -104,6 +119,12 @@ impl Basic {
                 cp.set_pipeline(trace_pl);
                 cp.set_bind_group(0, &tbg, &[]);
                 cp.dispatch_workgroups(groups, 1, 1);
+            }
+            if e.settings.keep_photons {
+                let bytes = count * std::mem::size_of::<Photon>() as u64;
+                let copy = storage(e.ctx, "kept_photons", bytes, wgpu::BufferUsages::empty());
+                enc.copy_buffer_to_buffer(&self.photons, 0, &copy, 0, bytes);
+                kept.push((copy, count));
             }
             {
                 let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {

@@ -119,6 +119,10 @@ pub struct TechniqueStats {
     /// With `RenderSettings::keep_coverage`: per light and face, the G × G coverage mask of the
     /// caster front buffer (1 where a caster is), row-major.
     pub coverage_masks: Vec<Vec<u32>>,
+    /// With `RenderSettings::keep_photons` (basic technique, photon-buffer splats): every
+    /// traced photon in trace order (per light: faces in order, per face the transmitted
+    /// branch's grid in row-major order, then the reflected branch's).
+    pub photons: Vec<crate::gpu::types::Photon>,
 }
 
 impl TechniqueStats {
@@ -239,6 +243,8 @@ pub(crate) struct Pending {
     pub level0_grid: u32,
     /// Copies of level 0 of the coverage mip per face (`keep_coverage`).
     pub masks: Vec<wgpu::Buffer>,
+    /// Copies of the traced photon batches (`keep_photons`), with their photon counts.
+    pub kept: Vec<(wgpu::Buffer, u64)>,
 }
 
 /// Word indices of the control buffer (mirrors `shaders/shared/hierarchy.wgsl`).
@@ -397,6 +403,7 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
         stats: TechniqueStats { technique: t, grid: e.n, ..Default::default() },
         level0_grid: 1,
         masks: Vec::new(),
+        kept: Vec::new(),
     };
     let mut adaptive = match t {
         Technique::AdaptiveLevel | Technique::AdaptiveError => Some(adaptive::Adaptive::new(e)?),
@@ -425,7 +432,7 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
             pending.ctrl.push(h.record_face(e, enc, timer, f));
         }
         if let Some(b) = &mut basic {
-            b.record_face(e, enc, timer, f);
+            b.record_face(e, enc, timer, f, &mut pending.kept);
         }
     }
     if let Some(a) = &adaptive {
@@ -455,6 +462,10 @@ impl Pending {
         for m in &self.masks {
             let data = ctx.read_buffer(m, m.size())?;
             s.coverage_masks.push(bytemuck::cast_slice(&data).to_vec());
+        }
+        for (b, count) in &self.kept {
+            let data = ctx.read_buffer(b, count * std::mem::size_of::<crate::gpu::types::Photon>() as u64)?;
+            s.photons.extend_from_slice(bytemuck::cast_slice(&data));
         }
         let mut peak_cells = 0u64;
         let mut peak_photons = 0u64;
@@ -540,6 +551,7 @@ impl TechniqueStats {
         self.peak_photon_bytes = self.peak_photon_bytes.max(o.peak_photon_bytes);
         self.batches += o.batches;
         self.coverage_masks.extend(o.coverage_masks.iter().cloned());
+        self.photons.extend_from_slice(&o.photons);
     }
 
     fn face_texels_g(&self) -> u32 {
