@@ -5,6 +5,9 @@
 // times), and the exit ray and the reflected ray find the diffuse surface they hit by an
 // iterative screen-space search in the camera receiver buffer; what they find is weighted by the
 // Fresnel terms. Rays that leave the screen see the black background.
+// Multi-layer deferred refraction: analytic specular objects behind the first layer are
+// intersected exactly; specular meshes behind it are found in the camera's second-layer buffers
+// (front and back, depth-peeled per object by `raster_peel`) and refracted through the same way.
 
 #import shapes
 
@@ -29,6 +32,10 @@ struct CompositeParams {
 @group(0) @binding(9) var<storage, read> caustic_in: array<vec4f>;
 @group(0) @binding(10) var<storage, read_write> out_full: array<vec4f>;
 @group(0) @binding(11) var<storage, read_write> out_caustic: array<vec4f>;
+@group(0) @binding(12) var spec2_pos: texture_2d<f32>;
+@group(0) @binding(13) var spec2_nrm: texture_2d<f32>;
+@group(0) @binding(14) var back2_pos: texture_2d<f32>;
+@group(0) @binding(15) var back2_nrm: texture_2d<f32>;
 
 fn to_pixel(p: vec3f) -> vec3f {
     let c = cp.world_to_clip * vec4f(p, 1.0);
@@ -77,8 +84,9 @@ fn trace_receivers(o: vec3f, d: vec3f) -> vec3f {
 // Radiance along a ray leaving the specular object `leaving`: analytic specular objects on its
 // way (spheres, open cylinders, rectangles, intersected exactly) reflect or refract it, up to
 // three more times (multi-layer refraction: glass seen through glass, glass in a mirror);
-// otherwise it sees the diffuse surface the screen-space search finds. Meshes behind the first
-// layer are not seen (they exist only in the camera's first-layer buffers).
+// specular meshes behind the first layer are found in the second-layer buffers and refracted
+// through (`mesh_interaction`); otherwise it sees the diffuse surface the screen-space search
+// finds.
 fn shade_ray(o_in: vec3f, d_in: vec3f, leaving_in: u32) -> vec3f {
     var o = o_in;
     var d = d_in;
@@ -88,6 +96,17 @@ fn shade_ray(o_in: vec3f, d_in: vec3f, leaving_in: u32) -> vec3f {
     for (var k = 0u; k < 3u; k++) {
         let rec = trace_receivers_t(o, d);
         let h = exact_shape(o, d, rec.w, leaving, false);
+        let mh = find_layer2(o, d, min(rec.w, h.t), leaving);
+        if (mh.ok) {
+            let r = mesh_interaction(mh, d);
+            l += w * r.l;
+            w *= r.w;
+            if (!r.ok) { return l; }
+            o = r.o;
+            d = r.d;
+            leaving = mh.object;
+            continue;
+        }
         if (h.object == INVALID) { return l + w * rec.rgb; }
         let m = materials[h.object];
         var n = h.n;
@@ -137,12 +156,14 @@ struct EyeHit {
     p: vec3f,
     n: vec3f,
     ok: bool,
+    object: u32,
 }
 
 fn tangent_hit(pos_tex: texture_2d<f32>, nrm_tex: texture_2d<f32>, q: vec2f, o: vec3f, d: vec3f) -> EyeHit {
     var h: EyeHit;
     let pw = textureLoad(pos_tex, pix(q), 0);
     h.ok = pw.w >= 0.0;
+    h.object = u32(max(pw.w, 0.0));
     h.n = normalize(textureLoad(nrm_tex, pix(q), 0).xyz);
     h.p = pw.xyz;
     let dn = dot(d, h.n);
@@ -153,18 +174,28 @@ fn tangent_hit(pos_tex: texture_2d<f32>, nrm_tex: texture_2d<f32>, q: vec2f, o: 
     return h;
 }
 
-// March a ray travelling inside a specular object (it entered at o) through the camera's
-// back-surface and front-surface buffers, about 1.5 pixels a step, to where it leaves: behind
-// the back surface, in front of the front surface (concave parts), or across the silhouette.
-fn march_exit_eye(o: vec3f, d: vec3f) -> EyeHit {
-    var none: EyeHit;
-    none.ok = false;
+// March step along o + s d: about 1.5 pixels on screen.
+fn screen_step(o: vec3f, d: vec3f) -> f32 {
     let q0 = to_pixel(o);
     let eps = 1e-3;
     let q1 = to_pixel(o + d * eps);
     var px_per_m = 200.0;
     if (q0.z > 0.0 && q1.z > 0.0) { px_per_m = max(length(q1.xy - q0.xy) / eps, 1.0); }
-    let ds = clamp(1.5 / px_per_m, 1e-4, 0.05);
+    return clamp(1.5 / px_per_m, 1e-4, 0.05);
+}
+
+// March a ray travelling inside a specular object (it entered at o) through the camera's
+// back-surface and front-surface buffers of the first layer, about 1.5 pixels a step, to where
+// it leaves: behind the back surface, in front of the front surface (concave parts), or across
+// the silhouette.
+fn march_exit_eye(o: vec3f, d: vec3f) -> EyeHit {
+    return march_exit_in(o, d, spec_pos, spec_nrm, back_pos, back_nrm);
+}
+
+fn march_exit_in(o: vec3f, d: vec3f, spec_pos: texture_2d<f32>, spec_nrm: texture_2d<f32>, back_pos: texture_2d<f32>, back_nrm: texture_2d<f32>) -> EyeHit {
+    var none: EyeHit;
+    none.ok = false;
+    let ds = screen_step(o, d);
     let cam = cp.camera.xyz;
     var last = vec2f(-1.0);
     for (var k = 1u; k <= 256u; k++) {
@@ -185,6 +216,97 @@ fn march_exit_eye(o: vec3f, d: vec3f) -> EyeHit {
         }
     }
     return none;
+}
+
+// The second-layer specular mesh the ray o + s d (0 < s < t_max) enters, other than `leaving`:
+// marched about 1.5 pixels a step through the second-layer buffers; a sample between a mesh's
+// front and back surfaces (seen from the camera) after one outside is an entry, placed exactly
+// on the front texel's tangent plane.
+fn find_layer2(o: vec3f, d: vec3f, t_max: f32, leaving: u32) -> EyeHit {
+    var none: EyeHit;
+    none.ok = false;
+    let ds = screen_step(o, d);
+    let cam = cp.camera.xyz;
+    var was_outside = false;
+    for (var k = 1u; k <= 256u; k++) {
+        let s = f32(k) * ds;
+        if (s >= t_max) { break; }
+        let p = o + d * s;
+        let q = to_pixel(p);
+        if (q.z < 0.0) { break; }
+        let px = pix(q.xy);
+        let fp = textureLoad(spec2_pos, px, 0);
+        var inside = false;
+        if (fp.w >= 0.0 && u32(fp.w) != leaving) {
+            let dist = length(p - cam);
+            let bp = textureLoad(back2_pos, px, 0);
+            let behind_front = dist >= length(fp.xyz - cam);
+            let before_back = bp.w < 0.0 || dist <= length(bp.xyz - cam) + ds;
+            inside = behind_front && before_back;
+        }
+        if (inside && was_outside) {
+            var h = tangent_hit(spec2_pos, spec2_nrm, q.xy, o, d);
+            if (dot(h.p - o, d) <= 0.0) { h.p = p; }
+            return h;
+        }
+        was_outside = !inside;
+    }
+    return none;
+}
+
+struct MeshResult {
+    l: vec3f,
+    w: vec3f,
+    o: vec3f,
+    d: vec3f,
+    ok: bool,
+}
+
+// A second-layer mesh hit by the ray along d: mirrors and conductors reflect; dielectrics add
+// the Fresnel-reflected receivers, refract in, march to the exit through the second-layer
+// buffers (total internal reflection followed up to three times) and refract out. Returns the
+// radiance gathered (l), the weight of what follows (w) and the continuing ray (o, d), ok =
+// false when the ray is lost.
+fn mesh_interaction(h: EyeHit, d: vec3f) -> MeshResult {
+    var r: MeshResult;
+    r.l = vec3f(0.0);
+    r.w = vec3f(1.0);
+    r.ok = false;
+    let m = materials[h.object];
+    var n = h.n;
+    if (dot(n, d) > 0.0) { n = -n; }
+    let cos1 = -dot(d, n);
+    r.o = h.p;
+    if (m.kind.x == KIND_MIRROR || m.kind.x == KIND_CONDUCTOR) {
+        r.w = select(fresnel_conductor(cos1, m.a.rgb, m.b.rgb), m.a.rgb, m.kind.x == KIND_MIRROR);
+        r.d = reflect(d, n);
+        r.ok = true;
+        return r;
+    }
+    let ior = m.a.x;
+    let ext = m.a.y;
+    let f1 = fresnel_dielectric(cos1, ior / ext);
+    r.l = f1 * trace_receivers(h.p, reflect(d, n));
+    r.w = vec3f(1.0 - f1);
+    var p_in = h.p;
+    var t_in = refract_dir(d, n, ext / ior).xyz;
+    for (var k = 0u; k < 4u; k++) {
+        let exit = march_exit_in(p_in, t_in, spec2_pos, spec2_nrm, back2_pos, back2_nrm);
+        if (!exit.ok) { return r; }
+        var n2 = exit.n;
+        if (dot(n2, t_in) < 0.0) { n2 = -n2; }
+        let t2 = refract_dir(t_in, -n2, ior / ext);
+        if (t2.w > 0.5) {
+            r.w *= 1.0 - fresnel_dielectric(dot(t_in, n2), ext / ior);
+            r.o = exit.p;
+            r.d = t2.xyz;
+            r.ok = true;
+            return r;
+        }
+        p_in = exit.p;
+        t_in = reflect(t_in, n2);
+    }
+    return r;
 }
 
 @compute @workgroup_size(8, 8)

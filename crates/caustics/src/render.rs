@@ -148,6 +148,8 @@ enum Subset {
     Diffuse,
     Specular,
     Casters,
+    /// Specular meshes (the camera's second layer: analytic shapes are intersected exactly).
+    SpecularMeshes,
 }
 
 fn in_subset(scene: &Scene, i: usize, s: Subset) -> bool {
@@ -158,6 +160,7 @@ fn in_subset(scene: &Scene, i: usize, s: Subset) -> bool {
         Subset::Diffuse => !spec,
         Subset::Specular => spec,
         Subset::Casters => spec && o.caustic_caster,
+        Subset::SpecularMeshes => spec && matches!(o.shape, crate::scene::Shape::Mesh(_)),
     }
 }
 
@@ -234,6 +237,9 @@ struct Raster {
     none: wgpu::RenderPipeline,
     back: wgpu::RenderPipeline,
     depth_only: wgpu::RenderPipeline,
+    /// The camera's second specular layer (`raster_peel`): two-sided and back faces.
+    peel: wgpu::RenderPipeline,
+    peel_back: wgpu::RenderPipeline,
 }
 
 fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
@@ -251,39 +257,69 @@ fn raster_pipelines(ctx: &GpuContext) -> Raster {
     let mut get = |i: usize, label: &str| {
         ctx.render_pipeline(label, || built.get_or_insert_with(|| build_raster_pipelines(ctx))[i].clone())
     };
-    Raster { none: get(0, "raster_two_sided"), back: get(1, "raster_back_faces"), depth_only: get(2, "raster_depth") }
+    Raster {
+        none: get(0, "raster_two_sided"),
+        back: get(1, "raster_back_faces"),
+        depth_only: get(2, "raster_depth"),
+        peel: get(3, "raster_peel_two_sided"),
+        peel_back: get(4, "raster_peel_back_faces"),
+    }
 }
 
-fn build_raster_pipelines(ctx: &GpuContext) -> [wgpu::RenderPipeline; 3] {
-    let module = ctx.shader("raster");
-    let bgl = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("raster"),
-        entries: &[wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::VERTEX,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        }],
-    });
-    let layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("raster"),
-        bind_group_layouts: &[Some(&bgl)],
-        immediate_size: 0,
-    });
-    let make = |cull: Option<wgpu::Face>, color: bool, label: &str| {
+fn build_raster_pipelines(ctx: &GpuContext) -> [wgpu::RenderPipeline; 5] {
+    let view_entry = wgpu::BindGroupLayoutEntry {
+        binding: 0,
+        visibility: wgpu::ShaderStages::VERTEX,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let texture_entry = |binding: u32, sample_type: wgpu::TextureSampleType| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    };
+    let layout = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
+        let bgl = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries });
+        ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
+        })
+    };
+    let raster = (ctx.shader("raster"), layout("raster", &[view_entry]));
+    let peel = (
+        ctx.shader("raster_peel"),
+        layout(
+            "raster_peel",
+            &[
+                view_entry,
+                texture_entry(1, wgpu::TextureSampleType::Float { filterable: false }),
+                texture_entry(2, wgpu::TextureSampleType::Depth),
+            ],
+        ),
+    );
+    let make = |(module, layout): &(wgpu::ShaderModule, wgpu::PipelineLayout),
+                cull: Option<wgpu::Face>,
+                color: bool,
+                label: &str| {
         let targets = [
             Some(wgpu::ColorTargetState { format: POS_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
             Some(wgpu::ColorTargetState { format: POS_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
         ];
         ctx.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(label),
-            layout: Some(&layout),
+            layout: Some(layout),
             vertex: wgpu::VertexState {
-                module: &module,
+                module,
                 entry_point: Some("vs_main"),
                 compilation_options: Default::default(),
                 buffers: &[Some(vertex_layout())],
@@ -298,7 +334,7 @@ fn build_raster_pipelines(ctx: &GpuContext) -> [wgpu::RenderPipeline; 3] {
             }),
             multisample: Default::default(),
             fragment: color.then(|| wgpu::FragmentState {
-                module: &module,
+                module,
                 entry_point: Some("fs_main"),
                 compilation_options: Default::default(),
                 targets: &targets,
@@ -308,9 +344,11 @@ fn build_raster_pipelines(ctx: &GpuContext) -> [wgpu::RenderPipeline; 3] {
         })
     };
     [
-        make(None, true, "raster_two_sided"),
-        make(Some(wgpu::Face::Front), true, "raster_back_faces"),
-        make(None, false, "raster_depth"),
+        make(&raster, None, true, "raster_two_sided"),
+        make(&raster, Some(wgpu::Face::Front), true, "raster_back_faces"),
+        make(&raster, None, false, "raster_depth"),
+        make(&peel, None, true, "raster_peel_two_sided"),
+        make(&peel, Some(wgpu::Face::Front), true, "raster_peel_back_faces"),
     ]
 }
 
@@ -390,6 +428,24 @@ impl DrawCtx<'_> {
         world_to_clip: Mat4,
         subset: Subset,
     ) {
+        self.pass_with(enc, timer, name, pipeline, gb_color, depth, layer, world_to_clip, subset, &[]);
+    }
+
+    /// `pass` with further bindings after the view uniform (binding 0).
+    #[expect(clippy::too_many_arguments, reason = "a pass is described by all of these")]
+    fn pass_with(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        name: &str,
+        pipeline: &wgpu::RenderPipeline,
+        gb_color: Option<(&wgpu::Texture, &wgpu::Texture)>,
+        depth: &wgpu::Texture,
+        layer: u32,
+        world_to_clip: Mat4,
+        subset: Subset,
+        extra: &[wgpu::BindGroupEntry],
+    ) {
         let ubuf = self.ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(name),
             contents: bytemuck::bytes_of(&RasterView { world_to_clip: world_to_clip.to_cols_array_2d() }),
@@ -398,7 +454,7 @@ impl DrawCtx<'_> {
         let bg = self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some(name),
             layout: &pipeline.get_bind_group_layout(0),
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: ubuf.as_entire_binding() }],
+            entries: &[&[wgpu::BindGroupEntry { binding: 0, resource: ubuf.as_entire_binding() }], extra].concat(),
         });
         let views = gb_color.map(|(p, n)| (layer_view(p, layer), layer_view(n, layer)));
         let clear_pos = wgpu::Color { r: 0.0, g: 0.0, b: 0.0, a: -1.0 };
@@ -695,6 +751,32 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
         cam_clip,
         Subset::Specular,
     );
+    // The second specular layer (meshes behind the first layer's object), front and back.
+    let eye_front2 = GBuffer::new(ctx, "eye_specular_front2", w, h, 1);
+    let eye_back2 = GBuffer::new(ctx, "eye_specular_back2", w, h, 1);
+    {
+        let (first_pos, first_depth) = (layer_view(&eye_front.pos, 0), layer_view(&eye_front.depth, 0));
+        let extra = [
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&first_pos) },
+            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&first_depth) },
+        ];
+        for (name, pl, gb) in
+            [("eye_specular_front2", &raster.peel, &eye_front2), ("eye_specular_back2", &raster.peel_back, &eye_back2)]
+        {
+            dc.pass_with(
+                &mut enc,
+                &mut timer,
+                name,
+                pl,
+                Some((&gb.pos, &gb.nrm)),
+                &gb.depth,
+                0,
+                cam_clip,
+                Subset::SpecularMeshes,
+                &extra,
+            );
+        }
+    }
 
     let img_bytes = (w as u64) * (h as u64) * 16;
     let storage = |label: &str, size: u64| {
@@ -927,8 +1009,19 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
             _pad: [0; 2],
         }),
     );
-    let views = [&eye_recv.pos, &eye_recv.nrm, &eye_front.pos, &eye_front.nrm, &eye_back.pos, &eye_back.nrm]
-        .map(|t| layer_view(t, 0));
+    let views = [
+        &eye_recv.pos,
+        &eye_recv.nrm,
+        &eye_front.pos,
+        &eye_front.nrm,
+        &eye_back.pos,
+        &eye_back.nrm,
+        &eye_front2.pos,
+        &eye_front2.nrm,
+        &eye_back2.pos,
+        &eye_back2.nrm,
+    ]
+    .map(|t| layer_view(t, 0));
     let cbg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("composite"),
         layout: &composite_pl.get_bind_group_layout(0),
@@ -945,6 +1038,10 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
             wgpu::BindGroupEntry { binding: 9, resource: caustic_rad.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 10, resource: out_full.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 11, resource: out_caustic.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 12, resource: wgpu::BindingResource::TextureView(&views[6]) },
+            wgpu::BindGroupEntry { binding: 13, resource: wgpu::BindingResource::TextureView(&views[7]) },
+            wgpu::BindGroupEntry { binding: 14, resource: wgpu::BindingResource::TextureView(&views[8]) },
+            wgpu::BindGroupEntry { binding: 15, resource: wgpu::BindingResource::TextureView(&views[9]) },
         ],
     });
     {

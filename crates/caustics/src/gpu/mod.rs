@@ -9,6 +9,7 @@ use std::sync::mpsc;
 /// Every WGSL stage, with its source. Each is prepended with `shaders/shared/common.wgsl`.
 pub const STAGES: &[(&str, &str)] = &[
     ("raster", include_str!("../../shaders/raster.wgsl")),
+    ("raster_peel", include_str!("../../shaders/raster_peel.wgsl")),
     ("photon_trace", include_str!("../../shaders/photon_trace.wgsl")),
     ("photon_splat", include_str!("../../shaders/photon_splat.wgsl")),
     ("caustic_resolve", include_str!("../../shaders/caustic_resolve.wgsl")),
@@ -30,6 +31,7 @@ pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 /// Shared WGSL modules a stage can pull in with a line `#import NAME`.
 pub const SHARED: &[(&str, &str)] = &[
     ("shapes", include_str!("../../shaders/shared/shapes.wgsl")),
+    ("raster_common", include_str!("../../shaders/shared/raster_common.wgsl")),
     ("trace", include_str!("../../shaders/shared/trace.wgsl")),
     ("hierarchy", include_str!("../../shaders/shared/hierarchy.wgsl")),
     ("coverage", include_str!("../../shaders/shared/coverage.wgsl")),
