@@ -1,76 +1,143 @@
 // Stage: temporal_filter. Blends one light's caustic irradiance maps (all faces) over frames.
 // Per texel: the new raw map N, the previous frame's raw map P and the filtered history H.
+// Step 0 (blend), per texel, into `scratch`:
 // 1. Rejection by photon-map change: the 3x3 box sums of N and P (luminance r+g+b) differ by
 //    more than `threshold` times the larger (sub-texel jitter of photons moves flux between
 //    neighbours, which the 3x3 sum does not see; a caustic that moved, appeared or vanished
-//    changes it). Rejected texels, and every texel when there is no history, take N.
+//    changes it). With flag bit 0 the test is also made around each of the 8 neighbours (a
+//    texel next to a changed one is rejected too). Rejected texels, and every texel when there
+//    is no history, take N.
 // 2. Otherwise H is clamped per channel to the min/max of N's 3x3 neighbourhood (the standard TAA
-//    clamp: no value the new frame does not support survives), then out = h + alpha (N - h).
+//    clamp: no value the new frame does not support survives), then B = h + alpha (N - h).
 //    When N == H the result is N bit for bit (N - h = 0), so a static sequence is the input.
-// The result is written to `history` in place (each invocation reads and writes only its own
-// history texel); the host then copies N to `previous` and `history` to the renderer's map.
+// Step 1 (flux), per texel, into `history`: with flag bit 1, B times the ratio of the 3x3 sums
+// (per channel) of N and B, so that the local flux is the new frame's: the blend only smooths how
+// flux is spread within a few texels (where photon jitter flickers), and a caustic that moves
+// does not lose or gain flux by lagging. Equal sums give a ratio of exactly 1 (static: exact).
+// Without the flag, B. The host then copies N to `previous` and `history` to the renderer's map.
 
 struct TemporalParams {
     size: u32,
     faces: u32,
     has_history: u32,
-    _pad: u32,
+    // 0: blend, 1: flux.
+    stage: u32,
     alpha: f32,
     threshold: f32,
-    _pad1: f32,
-    _pad2: f32,
+    // Bit 0: dilate the rejection over the 3x3 neighbourhood; bit 1: keep the new local flux.
+    flags: u32,
+    _pad: u32,
 }
 
 @group(0) @binding(0) var<uniform> tp: TemporalParams;
 @group(0) @binding(1) var<storage, read> current: array<vec4f>;
 @group(0) @binding(2) var<storage, read> previous: array<vec4f>;
 @group(0) @binding(3) var<storage, read_write> history: array<vec4f>;
+@group(0) @binding(4) var<storage, read_write> scratch: array<vec4f>;
 // [0]: texels whose history was rejected, [1]: texels blended.
-@group(0) @binding(4) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(5) var<storage, read_write> counters: array<atomic<u32>>;
 
 fn index_of(x: i32, y: i32, face: u32) -> u32 {
     let m = tp.size;
     return (face * m + u32(y)) * m + u32(x);
 }
 
-@compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) gid: vec3u) {
+fn inside(x: i32, y: i32) -> bool {
+    return x >= 0 && y >= 0 && x < i32(tp.size) && y < i32(tp.size);
+}
+
+fn blend(gid: vec3u, i: u32) {
     let m = tp.size;
-    if (gid.x >= m || gid.y >= m || gid.z >= tp.faces) { return; }
     let face = gid.z;
-    let i = index_of(i32(gid.x), i32(gid.y), face);
     let n = current[i].rgb;
     if (tp.has_history == 0u) {
-        history[i] = vec4f(n, 0.0);
+        scratch[i] = vec4f(n, 0.0);
         atomicAdd(&counters[0], 1u);
         return;
     }
+    // The 3x3 neighbourhood of N: range per channel (the clamp).
     var lo = n;
     var hi = n;
-    var sum_n = 0.0;
-    var sum_p = 0.0;
-    // Fixed order: the sums are the same on every run.
-    for (var dy = -1; dy <= 1; dy++) {
-        for (var dx = -1; dx <= 1; dx++) {
+    // Luminance (r+g+b) of N and P over the 5x5 window: the 3x3 sums around each texel of the
+    // 3x3 neighbourhood. Zero outside the map. Fixed order: the same on every run.
+    var ln: array<f32, 25>;
+    var lp: array<f32, 25>;
+    for (var dy = -2; dy <= 2; dy++) {
+        for (var dx = -2; dx <= 2; dx++) {
             let x = i32(gid.x) + dx;
             let y = i32(gid.y) + dy;
-            if (x < 0 || y < 0 || x >= i32(m) || y >= i32(m)) { continue; }
+            let k = (dy + 2) * 5 + dx + 2;
+            ln[k] = 0.0;
+            lp[k] = 0.0;
+            if (!inside(x, y)) { continue; }
             let j = index_of(x, y, face);
             let c = current[j].rgb;
             let p = previous[j].rgb;
-            lo = min(lo, c);
-            hi = max(hi, c);
-            sum_n += c.r + c.g + c.b;
-            sum_p += p.r + p.g + p.b;
+            ln[k] = c.r + c.g + c.b;
+            lp[k] = p.r + p.g + p.b;
+            if (abs(dx) <= 1 && abs(dy) <= 1) {
+                lo = min(lo, c);
+                hi = max(hi, c);
+            }
         }
     }
-    let changed = abs(sum_n - sum_p) > tp.threshold * max(sum_n, sum_p);
+    let r = select(0, 1, (tp.flags & 1u) != 0u);
+    var changed = false;
+    for (var cy = 2 - r; cy <= 2 + r; cy++) {
+        for (var cx = 2 - r; cx <= 2 + r; cx++) {
+            var sum_n = 0.0;
+            var sum_p = 0.0;
+            for (var dy = -1; dy <= 1; dy++) {
+                for (var dx = -1; dx <= 1; dx++) {
+                    let k = (cy + dy) * 5 + cx + dx;
+                    sum_n += ln[k];
+                    sum_p += lp[k];
+                }
+            }
+            changed = changed || abs(sum_n - sum_p) > tp.threshold * max(sum_n, sum_p);
+        }
+    }
     if (changed || tp.alpha >= 1.0) {
-        history[i] = vec4f(n, 0.0);
+        scratch[i] = vec4f(n, 0.0);
         atomicAdd(&counters[0], 1u);
         return;
     }
     let h = clamp(history[i].rgb, lo, hi);
-    history[i] = vec4f(h + tp.alpha * (n - h), 0.0);
+    scratch[i] = vec4f(h + tp.alpha * (n - h), 0.0);
     atomicAdd(&counters[1], 1u);
+}
+
+fn flux(gid: vec3u, i: u32) {
+    let b = scratch[i].rgb;
+    if ((tp.flags & 2u) == 0u) {
+        history[i] = vec4f(b, 0.0);
+        return;
+    }
+    var sum_n = vec3f(0.0);
+    var sum_b = vec3f(0.0);
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let x = i32(gid.x) + dx;
+            let y = i32(gid.y) + dy;
+            if (!inside(x, y)) { continue; }
+            let j = index_of(x, y, gid.z);
+            sum_n += current[j].rgb;
+            sum_b += scratch[j].rgb;
+        }
+    }
+    // Where the blended sum is 0 the new one is too (the clamp keeps B within N's range).
+    let ratio = select(vec3f(0.0), sum_n / sum_b, sum_b > vec3f(0.0));
+    history[i] = vec4f(b * ratio, 0.0);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3u) {
+    let m = tp.size;
+    if (gid.x >= m || gid.y >= m || gid.z >= tp.faces) { return; }
+    let i = index_of(i32(gid.x), i32(gid.y), gid.z);
+    if (tp.stage == 0u) {
+        blend(gid, i);
+    } else {
+        flux(gid, i);
+    }
 }

@@ -43,14 +43,30 @@ fn a_static_scene_is_filtered_to_exactly_its_input() {
     let Some(ctx) = gpu() else { return };
     let s = scene(Vec3::ZERO);
     let unfiltered = render(&ctx, &s, &settings(M), None).unwrap();
-    let mut filter = TemporalFilter::new(TemporalSettings::default());
-    for frame in 0..4 {
-        let out = filter.render(&ctx, &s, &settings(M), None).unwrap();
-        let raw = filter.raw_maps(&ctx).unwrap();
-        assert_eq!(bits(&out.caustic_maps[0][0]), bits(&raw[0][0]), "frame {frame}: filtered != raw");
+    let variants = [
+        TemporalSettings::default(),
+        TemporalSettings { keep_local_flux: false, ..Default::default() },
+        TemporalSettings { dilate: true, alpha: 0.05, ..Default::default() },
+    ];
+    for ts in variants {
+        static_sequence(&ctx, &s, &unfiltered, ts);
+    }
+}
+
+fn static_sequence(
+    ctx: &caustics::gpu::GpuContext,
+    s: &Scene,
+    unfiltered: &caustics::render::GpuRender,
+    ts: TemporalSettings,
+) {
+    let mut filter = TemporalFilter::new(ts);
+    for frame in 0..3 {
+        let out = filter.render(ctx, s, &settings(M), None).unwrap();
+        let raw = filter.raw_maps(ctx).unwrap();
+        assert_eq!(bits(&out.caustic_maps[0][0]), bits(&raw[0][0]), "{ts:?} frame {frame}: filtered != raw");
         assert_eq!(bits(&out.caustic_maps[0][0]), bits(&unfiltered.caustic_maps[0][0]), "frame {frame}");
         assert_eq!(bits(&out.image), bits(&unfiltered.image), "frame {frame}: shaded image differs");
-        let st = filter.stats(&ctx).unwrap()[0];
+        let st = filter.stats(ctx).unwrap()[0];
         assert_eq!(st.rejected + st.blended, (M * M) as u64);
         if frame > 0 {
             assert_eq!(st.rejected, 0, "frame {frame}: a static map rejected history");

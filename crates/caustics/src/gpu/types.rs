@@ -177,12 +177,15 @@ pub struct TemporalParams {
     pub faces: u32,
     /// 0: no history yet (the output is the new map).
     pub has_history: u32,
-    pub _pad: u32,
+    /// 0: blend, 1: local flux correction.
+    pub stage: u32,
     /// Weight of the new frame.
     pub alpha: f32,
     /// Relative change of the 3 × 3 flux sums that rejects the history.
     pub threshold: f32,
-    pub _pad1: [f32; 2],
+    /// Bit 0: dilate the rejection over the 3 × 3 neighbourhood; bit 1: keep the new local flux.
+    pub flags: u32,
+    pub _pad: u32,
 }
 
 /// (Rust type name, WGSL struct name, size) for the layout test.
