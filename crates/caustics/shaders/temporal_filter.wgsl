@@ -10,11 +10,12 @@
 // 2. Otherwise H is clamped per channel to the min/max of N's 3x3 neighbourhood (the standard TAA
 //    clamp: no value the new frame does not support survives), then B = h + alpha (N - h).
 //    When N == H the result is N bit for bit (N - h = 0), so a static sequence is the input.
-// Step 1 (flux), per texel, into `history`: with flag bit 1, B times the ratio of the 3x3 sums
-// (per channel) of N and B, so that the local flux is the new frame's: the blend only smooths how
-// flux is spread within a few texels (where photon jitter flickers), and a caustic that moves
-// does not lose or gain flux by lagging. Equal sums give a ratio of exactly 1 (static: exact).
-// Without the flag, B. The host then copies N to `previous` and `history` to the renderer's map.
+// Step 1 (flux), per texel, into `history`: with a flux radius r > 0 (flags >> 1), B times the
+// ratio of the sums (per channel) of N and B over the (2r+1)^2 texels around it, so that the
+// local flux is the new frame's: the blend only smooths how flux is spread within a few texels
+// (where photon jitter flickers), and a caustic that moves does not lose or gain flux by lagging.
+// Equal sums give a ratio of exactly 1 (static: exact).
+// With r = 0, B. The host then copies N to `previous` and `history` to the renderer's map.
 
 struct TemporalParams {
     size: u32,
@@ -24,7 +25,7 @@ struct TemporalParams {
     stage: u32,
     alpha: f32,
     threshold: f32,
-    // Bit 0: dilate the rejection over the 3x3 neighbourhood; bit 1: keep the new local flux.
+    // Bit 0: dilate the rejection over the 3x3 neighbourhood; bits 1..: the flux radius r.
     flags: u32,
     _pad: u32,
 }
@@ -109,14 +110,15 @@ fn blend(gid: vec3u, i: u32) {
 
 fn flux(gid: vec3u, i: u32) {
     let b = scratch[i].rgb;
-    if ((tp.flags & 2u) == 0u) {
+    let r = i32(tp.flags >> 1u);
+    if (r == 0) {
         history[i] = vec4f(b, 0.0);
         return;
     }
     var sum_n = vec3f(0.0);
     var sum_b = vec3f(0.0);
-    for (var dy = -1; dy <= 1; dy++) {
-        for (var dx = -1; dx <= 1; dx++) {
+    for (var dy = -r; dy <= r; dy++) {
+        for (var dx = -r; dx <= r; dx++) {
             let x = i32(gid.x) + dx;
             let y = i32(gid.y) + dy;
             if (!inside(x, y)) { continue; }

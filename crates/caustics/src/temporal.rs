@@ -13,11 +13,12 @@
 //! - **clamp**: elsewhere the history is clamped per channel to the min/max of the new map's 3 × 3
 //!   neighbourhood before blending (the standard TAA clamp), so a ghost cannot outlive one frame
 //!   even where the rejection test does not fire;
-//! - **local flux** (`keep_local_flux`, on by default): the blend is then scaled per texel by the
-//!   ratio of the new map's 3 × 3 sum to the blend's, so that flux is only redistributed within
-//!   a few texels (where photon jitter flickers) and a moving caustic does not dim by lagging
-//!   (without it the glass sphere's focal caustic lost up to 20 % of the map's flux while its
-//!   light moved, `docs/splatting.md`).
+//! - **local flux** (`flux_radius` r, 3 by default): the blend is then scaled per texel by the
+//!   ratio of the new map's sum over the (2r + 1)² texels around it to the blend's, so that flux
+//!   is only redistributed within a few texels (where photon jitter flickers) and a moving
+//!   caustic does not dim by lagging: without it the glass sphere's focal caustic, drifting about
+//!   0.4 texel a frame, lost up to 20 % of the map's flux (`docs/splatting.md`, "Temporal
+//!   filter").
 //!
 //! The blend is `h + alpha (new - h)`: where the history equals the new map the result is the
 //! new map bit for bit (and the flux ratio is exactly 1), so a static scene (deterministic maps)
@@ -70,16 +71,19 @@ pub struct TemporalSettings {
     /// Reject a texel's history also when the photon map changed around one of its 8 neighbours
     /// (fewer lag artefacts at moving edges, less flicker reduction).
     pub dilate: bool,
-    /// Scale the blend so that its 3 × 3 flux sums are the new frame's (see the module
-    /// documentation).
-    pub keep_local_flux: bool,
+    /// Scale the blend so that its flux over (2r + 1)² texels is the new frame's, r =
+    /// `flux_radius` (0: off, at most 8; see the module documentation).
+    pub flux_radius: u32,
 }
 
 impl Default for TemporalSettings {
     fn default() -> Self {
-        TemporalSettings { alpha: 0.2, threshold: 0.25, dilate: false, keep_local_flux: true }
+        TemporalSettings { alpha: 0.2, threshold: 0.25, dilate: false, flux_radius: 3 }
     }
 }
+
+/// The largest `flux_radius`.
+pub const MAX_FLUX_RADIUS: u32 = 8;
 
 /// GPU state of one light's maps.
 struct LightHistory {
@@ -178,7 +182,7 @@ impl TemporalFilter {
             });
         }
         let Some(l) = slot.as_mut() else { return };
-        let flags = u32::from(self.settings.dilate) | u32::from(self.settings.keep_local_flux) << 1;
+        let flags = u32::from(self.settings.dilate) | self.settings.flux_radius.min(MAX_FLUX_RADIUS) << 1;
         let pipeline = ctx.compute_pipeline("temporal_filter");
         let mut timer = timer;
         encoder.clear_buffer(&l.counters, 0, None);

@@ -45,8 +45,8 @@ fn a_static_scene_is_filtered_to_exactly_its_input() {
     let unfiltered = render(&ctx, &s, &settings(M), None).unwrap();
     let variants = [
         TemporalSettings::default(),
-        TemporalSettings { keep_local_flux: false, ..Default::default() },
-        TemporalSettings { dilate: true, alpha: 0.05, ..Default::default() },
+        TemporalSettings { flux_radius: 0, ..Default::default() },
+        TemporalSettings { dilate: true, alpha: 0.05, flux_radius: 1, ..Default::default() },
     ];
     for ts in variants {
         static_sequence(&ctx, &s, &unfiltered, ts);
@@ -173,9 +173,10 @@ fn sub_texel_light_jitter_flickers_less() {
         filter.stats(&ctx).unwrap()[0]
     );
     assert!(fr > 0.0);
-    assert!(ff < 0.7 * fr, "filtered flicker {ff} vs raw {fr}");
+    // Measured on lavapipe: ratio 0.29, map sums within 0.2 %.
+    assert!(ff < 0.5 * fr, "filtered flicker {ff} vs raw {fr}");
     // The filter does not lose or invent light on average.
-    assert!((energy(&filtered) / energy(&raw) - 1.0).abs() < 0.05);
+    assert!((energy(&filtered) / energy(&raw) - 1.0).abs() < 0.02);
 }
 
 #[test]

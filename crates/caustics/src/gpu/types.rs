@@ -183,7 +183,7 @@ pub struct TemporalParams {
     pub alpha: f32,
     /// Relative change of the 3 × 3 flux sums that rejects the history.
     pub threshold: f32,
-    /// Bit 0: dilate the rejection over the 3 × 3 neighbourhood; bit 1: keep the new local flux.
+    /// Bit 0: dilate the rejection over the 3 × 3 neighbourhood; bits 1..: the flux radius.
     pub flags: u32,
     pub _pad: u32,
 }
