@@ -10,11 +10,12 @@
 // 2. Otherwise H is clamped per channel to the min/max of N's 3x3 neighbourhood (the standard TAA
 //    clamp: no value the new frame does not support survives), then B = h + alpha (N - h).
 //    When N == H the result is N bit for bit (N - h = 0), so a static sequence is the input.
-// Step 1 (flux), per texel, into `history`: with a flux radius r > 0 (flags >> 1), B times the
-// ratio of the sums (per channel) of N and B over the (2r+1)^2 texels around it, so that the
-// local flux is the new frame's: the blend only smooths how flux is spread within a few texels
-// (where photon jitter flickers), and a caustic that moves does not lose or gain flux by lagging.
-// Equal sums give a ratio of exactly 1 (static: exact).
+// Step 1 (flux), per texel, into `history`: with a flux radius r > 0 (flags >> 1), the blend's
+// change D = B - N is balanced over the (2r+1)^2 texels around the texel: where the window's
+// positive changes exceed its negative ones, the texel's positive change is scaled by neg/pos,
+// and the other way round (per channel). The blend then only moves flux between nearby texels
+// (where photon jitter flickers); a caustic that moves does not lose or gain flux by lagging, and
+// a ghost (positive change with no negative one nearby) is removed. Static: D = 0, out = N.
 // With r = 0, B. The host then copies N to `previous` and `history` to the renderer's map.
 
 struct TemporalParams {
@@ -115,21 +116,27 @@ fn flux(gid: vec3u, i: u32) {
         history[i] = vec4f(b, 0.0);
         return;
     }
-    var sum_n = vec3f(0.0);
-    var sum_b = vec3f(0.0);
+    // The blend's change of the new map, D = B - N, positive (flux the blend added) and
+    // negative (flux it removed) parts over the window; the side in excess is scaled down so that
+    // the window's changes balance. Texels the blend did not change are not touched.
+    var pos = vec3f(0.0);
+    var neg = vec3f(0.0);
     for (var dy = -r; dy <= r; dy++) {
         for (var dx = -r; dx <= r; dx++) {
             let x = i32(gid.x) + dx;
             let y = i32(gid.y) + dy;
             if (!inside(x, y)) { continue; }
             let j = index_of(x, y, gid.z);
-            sum_n += current[j].rgb;
-            sum_b += scratch[j].rgb;
+            let d = scratch[j].rgb - current[j].rgb;
+            pos += max(d, vec3f(0.0));
+            neg += max(-d, vec3f(0.0));
         }
     }
-    // Where the blended sum is 0 the new one is too (the clamp keeps B within N's range).
-    let ratio = select(vec3f(0.0), sum_n / sum_b, sum_b > vec3f(0.0));
-    history[i] = vec4f(b * ratio, 0.0);
+    let n = current[i].rgb;
+    let d = b - n;
+    let kp = select(vec3f(0.0), min(vec3f(1.0), neg / pos), pos > vec3f(0.0));
+    let kn = select(vec3f(0.0), min(vec3f(1.0), pos / neg), neg > vec3f(0.0));
+    history[i] = vec4f(n + max(d, vec3f(0.0)) * kp - max(-d, vec3f(0.0)) * kn, 0.0);
 }
 
 @compute @workgroup_size(8, 8, 1)

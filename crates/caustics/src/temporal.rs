@@ -13,15 +13,17 @@
 //! - **clamp**: elsewhere the history is clamped per channel to the min/max of the new map's 3 × 3
 //!   neighbourhood before blending (the standard TAA clamp), so a ghost cannot outlive one frame
 //!   even where the rejection test does not fire;
-//! - **local flux** (`flux_radius` r, 3 by default): the blend is then scaled per texel by the
-//!   ratio of the new map's sum over the (2r + 1)² texels around it to the blend's, so that flux
-//!   is only redistributed within a few texels (where photon jitter flickers) and a moving
-//!   caustic does not dim by lagging: without it the glass sphere's focal caustic, drifting about
-//!   0.4 texel a frame, lost up to 20 % of the map's flux (`docs/splatting.md`, "Temporal
-//!   filter").
+//! - **local flux balance** (`flux_radius` r, 3 by default): the blend's change of the new map,
+//!   D = blend − new, is split into what it adds (D > 0) and what it removes (D < 0) over the
+//!   (2r + 1)² texels around each texel, and the side in excess is scaled down so that the two
+//!   balance: the blend only moves flux between nearby texels (smoothing how photon jitter
+//!   spreads it), a moving caustic neither dims nor brightens by lagging (without it the glass
+//!   sphere's focal caustic, drifting about 0.4 texel a frame, lost up to 20 % of the map's
+//!   flux), and history that the new frame does not balance anywhere nearby (a ghost) is removed.
+//!   Texels the blend did not change are not touched.
 //!
 //! The blend is `h + alpha (new - h)`: where the history equals the new map the result is the
-//! new map bit for bit (and the flux ratio is exactly 1), so a static scene (deterministic maps)
+//! new map bit for bit (D = 0 everywhere, so the balance changes nothing), so a static scene (deterministic maps)
 //! is filtered to exactly its input from the first frame on, and its flux is preserved. The
 //! first frame, a change of map size or face count, and [`TemporalFilter::reset`] start from the
 //! new map. Deterministic: same inputs, same outputs (fixed summation order, no float atomics).
@@ -71,8 +73,8 @@ pub struct TemporalSettings {
     /// Reject a texel's history also when the photon map changed around one of its 8 neighbours
     /// (fewer lag artefacts at moving edges, less flicker reduction).
     pub dilate: bool,
-    /// Scale the blend so that its flux over (2r + 1)² texels is the new frame's, r =
-    /// `flux_radius` (0: off, at most 8; see the module documentation).
+    /// Balance the blend's flux changes over (2r + 1)² texels, r = `flux_radius` (0: off, at
+    /// most 8; see the module documentation).
     pub flux_radius: u32,
 }
 
