@@ -6,8 +6,9 @@
 //! light's map (a static region seen by a moving light); `arc`: a 0.3 m arc, the spot's direction
 //! kept, so the caustic drifts by about 0.4 texel a frame.
 //!
-//! `cargo run --release --example temporal -- OUT_DIR [FRAMES] [SPLAT] [MOTION] [SCENE]`
-//! (defaults: 12 frames, `triangles`, `orbit`; 128² photons, 128² map, 128-pixel-wide image).
+//! `cargo run --release --example temporal -- OUT_DIR [FRAMES] [SPLAT] [MOTION] [SCENE] [MAP]`
+//! (defaults: 12 frames, `triangles`, `orbit`, `scenes/glass_sphere.json`, 128² map; 128²
+//! photons, 128-pixel-wide image).
 //!
 //! Writes per frame `image_raw_NN.png`, `image_filtered_NN.png` (camera) and `map_raw_NN.png`,
 //! `map_filtered_NN.png` (light-space caustic map, one exposure for the whole sequence), and
@@ -39,6 +40,7 @@ fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let orbit = args.get(4).is_none_or(|m| m == "orbit");
     let scene_path = args.get(5).map_or(root.join("scenes/glass_sphere.json"), |s| s.into());
+    let map: u32 = args.get(6).map_or(128, |x| x.parse().expect("MAP"));
     std::fs::create_dir_all(out).unwrap();
     let mut base = Scene::load(&scene_path).unwrap();
     base.camera.height = base.camera.height * 128 / base.camera.width;
@@ -46,12 +48,12 @@ fn main() {
     let Some(Light::Spot { position: p0, direction: d0, .. }) = base.lights.first().cloned() else {
         panic!("the scene's first light must be a spot light")
     };
-    let s = RenderSettings { photons: 128, caustic_map_size: 128, shadow_map_size: 512, splat, ..Default::default() };
+    let s = RenderSettings { photons: 128, caustic_map_size: map, shadow_map_size: 512, splat, ..Default::default() };
     let ctx = caustics::gpu::GpuContext::new(None).unwrap();
     let mut filter = TemporalFilter::new(TemporalSettings::default());
     let jump = frames * 3 / 4;
     let (mut raw, mut filtered, mut rejected, mut lights) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let t0 = std::time::Instant::now();
+    let (mut wall_raw, mut wall_filtered) = (0.0, 0.0);
     // The spot orbits the casters' centre in the x-y plane, aimed at it (0.2° a frame: about 11 mm
     // at 3.1 m), or (`arc`) moves on an arc of radius 0.3 m, 2° a frame (10.5 mm), keeping its
     // direction. From frame `jump` on, it is 0.8 m further in x, with the direction it would have
@@ -74,8 +76,12 @@ fn main() {
             *position = p;
             *direction = d;
         }
+        let t = std::time::Instant::now();
         let f = filter.render(&ctx, &scene, &s, None).unwrap();
+        wall_filtered += t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
         let r = render(&ctx, &scene, &s, None).unwrap();
+        wall_raw += t.elapsed().as_secs_f64();
         r.image.write(&out.join(format!("image_raw_{k:02}.png")), scene.exposure).unwrap();
         f.image.write(&out.join(format!("image_filtered_{k:02}.png")), scene.exposure).unwrap();
         let st = filter.stats(&ctx).unwrap()[0];
@@ -84,7 +90,6 @@ fn main() {
         filtered.push(f.caustic_maps[0][0].clone());
         lights.push(p);
     }
-    let wall = t0.elapsed().as_secs_f64();
     // One exposure for every map: the 99th percentile of the first raw map to white.
     let mut l: Vec<f32> = raw[0].luminance().into_iter().filter(|x| *x > 0.0).collect();
     l.sort_by(f32::total_cmp);
@@ -95,9 +100,11 @@ fn main() {
     }
 
     println!(
-        "{} frames, {} motion, {splat} splats, 128² photons, 128² map: {wall:.1} s for both sequences",
+        "{} frames, {} motion, {splat} splats, 128² photons, {map}² map; wall ms per frame: {:.0} raw, {:.0} filtered",
         frames,
-        if orbit { "orbit" } else { "arc" }
+        if orbit { "orbit" } else { "arc" },
+        1e3 * wall_raw / frames as f64,
+        1e3 * wall_filtered / frames as f64
     );
     println!(
         "| frame | light x, y, z (m) | flicker raw | flicker filtered | ratio | vanished | ghost | rejected | map sum filtered / raw |"
