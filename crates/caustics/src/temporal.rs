@@ -84,6 +84,24 @@ impl Default for TemporalSettings {
     }
 }
 
+impl TemporalSettings {
+    /// `alpha` in (0, 1], `threshold` ≥ 0 (infinity: never reject), `flux_radius` ≤
+    /// [`MAX_FLUX_RADIUS`].
+    pub fn validate(&self) -> Result<()> {
+        let err = |field: &str, message: String| Err(crate::Error::input("<temporal settings>", field, message));
+        if !(self.alpha > 0.0 && self.alpha <= 1.0) {
+            return err("alpha", format!("must lie in (0, 1] (got {})", self.alpha));
+        }
+        if self.threshold.is_nan() || self.threshold < 0.0 {
+            return err("threshold", format!("must be 0 or more (got {})", self.threshold));
+        }
+        if self.flux_radius > MAX_FLUX_RADIUS {
+            return err("flux_radius", format!("must be at most {MAX_FLUX_RADIUS} (got {})", self.flux_radius));
+        }
+        Ok(())
+    }
+}
+
 /// The largest `flux_radius`.
 pub const MAX_FLUX_RADIUS: u32 = 8;
 
@@ -138,6 +156,7 @@ impl TemporalFilter {
         settings: &RenderSettings,
         dump: Option<&Path>,
     ) -> Result<GpuRender> {
+        self.settings.validate()?;
         let out = crate::render::render_with(ctx, scene, settings, dump, Some(self));
         self.lights.truncate(scene.lights.len());
         out
@@ -146,7 +165,8 @@ impl TemporalFilter {
     /// Record the filter of one light's caustic maps into `encoder`. `maps` holds M × M × `faces`
     /// texels of `vec4<f32>` (rgb irradiance, face-major, rows top-down), as the renderer
     /// resolves them, with usage `STORAGE | COPY_SRC | COPY_DST`; after the commands run it holds
-    /// the filtered maps. `light` indexes the history (one per light of the scene).
+    /// the filtered maps. `light` indexes the history (one per light of the scene). Settings
+    /// out of range (see [`TemporalSettings::validate`]) are clamped.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &mut self,
@@ -194,8 +214,8 @@ impl TemporalFilter {
                 faces,
                 has_history: u32::from(l.has_history),
                 stage,
-                alpha: self.settings.alpha,
-                threshold: self.settings.threshold,
+                alpha: if self.settings.alpha > 0.0 { self.settings.alpha.min(1.0) } else { 1.0 },
+                threshold: self.settings.threshold.max(0.0),
                 flags,
                 _pad: 0,
             };

@@ -210,3 +210,60 @@ fn reset_and_a_new_map_size_start_from_the_new_frame() {
     assert_eq!(raw[0][0].width, M / 2);
     assert_eq!(bits(&out.caustic_maps[0][0]), bits(&raw[0][0]));
 }
+
+#[test]
+fn settings_out_of_range_are_refused() {
+    let ok = TemporalSettings::default();
+    assert!(ok.validate().is_ok());
+    assert!(TemporalSettings { threshold: f32::INFINITY, ..ok }.validate().is_ok());
+    for bad in [
+        TemporalSettings { alpha: 0.0, ..ok },
+        TemporalSettings { alpha: 1.5, ..ok },
+        TemporalSettings { alpha: f32::NAN, ..ok },
+        TemporalSettings { threshold: -1.0, ..ok },
+        TemporalSettings { flux_radius: 9, ..ok },
+    ] {
+        assert!(bad.validate().is_err(), "{bad:?}");
+    }
+}
+
+/// The engine path: `record` on a map buffer the caller owns, in the caller's encoder. A blob of
+/// light that stays is returned exactly; one that jumps leaves nothing behind.
+#[test]
+fn record_filters_a_callers_buffer() {
+    let Some(ctx) = gpu() else { return };
+    const S: u32 = 32;
+    let blob = |cx: f32, cy: f32| -> Vec<[f32; 4]> {
+        (0..S * S)
+            .map(|i| {
+                let (x, y) = ((i % S) as f32 - cx, (i / S) as f32 - cy);
+                let e = 100.0 * (-(x * x + y * y) / 4.0).exp();
+                let e = if e < 1e-3 { 0.0 } else { e };
+                [e, 0.5 * e, 0.25 * e, 0.0]
+            })
+            .collect()
+    };
+    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("caller maps"),
+        size: (S * S * 16) as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut filter = TemporalFilter::new(TemporalSettings::default());
+    let mut frame = |map: &[[f32; 4]]| -> Vec<[f32; 4]> {
+        ctx.queue.write_buffer(&buffer, 0, bytemuck::cast_slice(map));
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        filter.record(&ctx, &mut enc, None, 0, &buffer, S, 1);
+        ctx.queue.submit([enc.finish()]);
+        bytemuck::cast_slice(&ctx.read_buffer(&buffer, (S * S * 16) as u64).unwrap()).to_vec()
+    };
+    let a = blob(8.0, 8.0);
+    for _ in 0..3 {
+        assert_eq!(frame(&a), a);
+    }
+    let b = blob(24.0, 22.0);
+    let out = frame(&b);
+    let left: f32 = (0..(S * S) as usize).filter(|&i| b[i][0] == 0.0).map(|i| out[i][0]).sum();
+    assert_eq!(left, 0.0, "light left where only the old blob was");
+    assert_eq!(out, b);
+}
