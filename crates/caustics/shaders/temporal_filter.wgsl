@@ -60,12 +60,14 @@ fn blend(gid: vec3u, i: u32) {
     // The 3x3 neighbourhood of N: range per channel (the clamp).
     var lo = n;
     var hi = n;
-    // Luminance (r+g+b) of N and P over the 5x5 window: the 3x3 sums around each texel of the
-    // 3x3 neighbourhood. Zero outside the map. Fixed order: the same on every run.
+    // Luminance (r+g+b) of N and P over the 3x3 window, or 5x5 when the rejection is dilated
+    // (the 3x3 sums around each texel of the 3x3 neighbourhood). Zero outside the map and the
+    // window (function-scope arrays start zeroed). Fixed order: the same on every run.
+    let r = select(0, 1, (tp.flags & 1u) != 0u);
     var ln: array<f32, 25>;
     var lp: array<f32, 25>;
-    for (var dy = -2; dy <= 2; dy++) {
-        for (var dx = -2; dx <= 2; dx++) {
+    for (var dy = -1 - r; dy <= 1 + r; dy++) {
+        for (var dx = -1 - r; dx <= 1 + r; dx++) {
             let x = i32(gid.x) + dx;
             let y = i32(gid.y) + dy;
             let k = (dy + 2) * 5 + dx + 2;
@@ -83,7 +85,6 @@ fn blend(gid: vec3u, i: u32) {
             }
         }
     }
-    let r = select(0, 1, (tp.flags & 1u) != 0u);
     var changed = false;
     for (var cy = 2 - r; cy <= 2 + r; cy++) {
         for (var cx = 2 - r; cx <= 2 + r; cx++) {
