@@ -267,3 +267,38 @@ fn record_filters_a_callers_buffer() {
     assert_eq!(left, 0.0, "light left where only the old blob was");
     assert_eq!(out, b);
 }
+
+/// Two lights, one of them a point light (a cube of six faces): every light and face has its
+/// history, and a static frame is its input.
+#[test]
+fn every_light_and_cube_face_is_filtered() {
+    let Some(ctx) = gpu() else { return };
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut s = Scene::load(&root.join("scenes/two_spheres.json")).unwrap();
+    s.camera.height = s.camera.height * 32 / s.camera.width;
+    s.camera.width = 32;
+    let m = 32;
+    let mut filter = TemporalFilter::new(TemporalSettings::default());
+    for frame in 0..2 {
+        let out = filter.render(&ctx, &s, &settings(m), None).unwrap();
+        let raw = filter.raw_maps(&ctx).unwrap();
+        assert_eq!(raw.len(), 2);
+        assert_eq!((raw[0].len(), raw[1].len()), (1, 6));
+        for (l, faces) in raw.iter().enumerate() {
+            for (f, map) in faces.iter().enumerate() {
+                assert_eq!(bits(&out.caustic_maps[l][f]), bits(map), "frame {frame} light {l} face {f}");
+            }
+        }
+        let st = filter.stats(&ctx).unwrap();
+        assert_eq!(st[0].rejected + st[0].blended, (m * m) as u64);
+        assert_eq!(st[1].rejected + st[1].blended, (6 * m * m) as u64);
+        if frame == 1 {
+            assert_eq!(st[0].rejected + st[1].rejected, 0);
+        }
+    }
+    assert!(out_has_light(&filter.raw_maps(&ctx).unwrap()[1]), "the point light's cube has no caustic");
+}
+
+fn out_has_light(faces: &[Image]) -> bool {
+    faces.iter().any(|f| f.sum() > 0.0)
+}
