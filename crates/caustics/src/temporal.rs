@@ -23,9 +23,9 @@
 //!   Texels the blend did not change are not touched.
 //!
 //! The blend is `h + alpha (new - h)`: where the history equals the new map the result is the
-//! new map bit for bit (D = 0 everywhere, so the balance changes nothing), so a static scene (deterministic maps)
-//! is filtered to exactly its input from the first frame on, and its flux is preserved. The
-//! first frame, a change of map size or face count, and [`TemporalFilter::reset`] start from the
+//! new map bit for bit (D = 0 everywhere, so the balance changes nothing), so a static scene
+//! (deterministic maps) is filtered to exactly its input from the first frame on, and its flux
+//! is preserved. The first frame, a change of map size or face count, and [`TemporalFilter::reset`] start from the
 //! new map. Deterministic: same inputs, same outputs (fixed summation order, no float atomics).
 //!
 //! How to use it, from an engine's frame loop:
@@ -49,9 +49,11 @@
 //! usage `STORAGE | COPY_SRC | COPY_DST`) records the filter into its own command encoder with
 //! [`TemporalFilter::record`]; the buffer is replaced by the filtered maps in place.
 //!
-//! Limits: the history is kept in light-space texels without reprojection, so when the light
-//! itself moves, everything that moves in its map is rejected and shows the raw (unfiltered)
-//! map; the filter reduces flicker where the map is locally stable.
+//! Limits: the history is kept in light-space texels without reprojection, so what moves in a
+//! light's map is either rejected (shown raw) or, below the threshold, blended with a lag of about
+//! (1 − alpha) / alpha frames (a sharp caustic drifting under a texel a frame is smeared by a
+//! texel or two along its motion; its flux is kept). The filter reduces flicker where the map is
+//! locally stable; measured numbers are in `docs/splatting.md`.
 
 use crate::error::Result;
 use crate::gpu::types::TemporalParams;
