@@ -13,6 +13,7 @@ pub mod render;
 pub mod scene;
 pub mod splat;
 pub mod techniques;
+pub mod temporal;
 
 pub use error::{Error, Result};
 pub use scene::Scene;

@@ -681,10 +681,22 @@ impl RenderSettings {
 
 /// Render `scene` on the GPU with basic caustic maps. `dump` writes the intermediate buffers.
 pub fn render(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Option<&Path>) -> Result<GpuRender> {
+    render_with(ctx, scene, s, dump, None)
+}
+
+/// [`render`], with the caustic maps passed through a temporal filter before shading
+/// ([`crate::temporal::TemporalFilter::render`]).
+pub(crate) fn render_with(
+    ctx: &GpuContext,
+    scene: &Scene,
+    s: &RenderSettings,
+    dump: Option<&Path>,
+    temporal: Option<&mut crate::temporal::TemporalFilter>,
+) -> Result<GpuRender> {
     s.validate(ctx, scene)?;
     let val_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let oom_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-    let out = render_inner(ctx, scene, s, dump);
+    let out = render_inner(ctx, scene, s, dump, temporal);
     let oom = pollster::block_on(oom_scope.pop());
     let val = pollster::block_on(val_scope.pop());
     if let Some(e) = oom {
@@ -696,7 +708,13 @@ pub fn render(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Option<
     out
 }
 
-fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Option<&Path>) -> Result<GpuRender> {
+fn render_inner(
+    ctx: &GpuContext,
+    scene: &Scene,
+    s: &RenderSettings,
+    dump: Option<&Path>,
+    mut temporal: Option<&mut crate::temporal::TemporalFilter>,
+) -> Result<GpuRender> {
     let dev = &ctx.device;
     let geo = upload_geometry(ctx, scene, &s.tessellation);
     let raster = raster_pipelines(ctx);
@@ -953,6 +971,9 @@ fn render_inner(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Optio
             cp.set_pipeline(&resolve_pl);
             cp.set_bind_group(0, &rbg, &[]);
             cp.dispatch_workgroups((texels as u32).div_ceil(256), 1, 1);
+        }
+        if let Some(t) = temporal.as_deref_mut() {
+            t.record(ctx, &mut enc, Some(&mut timer), li, &irradiance, m, nf);
         }
         // Shade the camera's diffuse surfaces with this light.
         let shp = uniform(

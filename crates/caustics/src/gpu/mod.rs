@@ -13,6 +13,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("photon_trace", include_str!("../../shaders/photon_trace.wgsl")),
     ("photon_splat", include_str!("../../shaders/photon_splat.wgsl")),
     ("caustic_resolve", include_str!("../../shaders/caustic_resolve.wgsl")),
+    ("temporal_filter", include_str!("../../shaders/temporal_filter.wgsl")),
     ("shade_receivers", include_str!("../../shaders/shade_receivers.wgsl")),
     ("composite", include_str!("../../shaders/composite.wgsl")),
     ("coverage_mip", include_str!("../../shaders/coverage_mip.wgsl")),

@@ -168,6 +168,26 @@ pub struct LevelParams {
     pub _pad: u32,
 }
 
+/// Temporal filter of one light's caustic maps (`temporal_filter`, [`crate::temporal`]).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct TemporalParams {
+    /// Caustic map size M.
+    pub size: u32,
+    pub faces: u32,
+    /// 0: no history yet (the output is the new map).
+    pub has_history: u32,
+    /// 0: blend, 1: local flux correction.
+    pub stage: u32,
+    /// Weight of the new frame.
+    pub alpha: f32,
+    /// Relative change of the 3 × 3 flux sums that rejects the history.
+    pub threshold: f32,
+    /// Bit 0: dilate the rejection over the 3 × 3 neighbourhood; bits 1..: the flux radius.
+    pub flags: u32,
+    pub _pad: u32,
+}
+
 /// (Rust type name, WGSL struct name, size) for the layout test.
 pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("FaceGpu", "Face", std::mem::size_of::<FaceGpu>()),
@@ -180,6 +200,7 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("CoverParams", "CoverParams", std::mem::size_of::<CoverParams>()),
     ("LevelParams", "LevelParams", std::mem::size_of::<LevelParams>()),
     ("CountParams", "ResolveParams", std::mem::size_of::<CountParams>()),
+    ("TemporalParams", "TemporalParams", std::mem::size_of::<TemporalParams>()),
     ("ShadeParams", "ShadeParams", std::mem::size_of::<ShadeParams>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
     ("TriParams", "TriParams", std::mem::size_of::<crate::splat::TriParams>()),
