@@ -8,11 +8,13 @@
 //! - [`SplatMode::ThinLens`], [`SplatMode::ThickLens`]: each photon's splat size from the lens
 //!   equations (section 4.2) with radii of curvature from the light-space normals; the tracer
 //!   writes the beam diameter into the photon (`shared/trace.wgsl`), `splat_lens` splats it;
-//! - [`SplatMode::Triangles`]: caustic triangles from adjacent photons of the dense grid
-//!   (`caustic_triangles`): flux spread over the triangle's area on the receiver (basic
-//!   technique; the hierarchical and adaptive techniques, whose photons are not kept as a grid,
-//!   fall back to fixed Gaussians). The default: the most accurate mode measured (see
-//!   `docs/splatting.md`).
+//! - [`SplatMode::Triangles`]: caustic triangles, flux spread over the triangle's area on the
+//!   receiver. Basic technique: triangles between adjacent photons of the dense grid
+//!   (`caustic_triangles`); adaptive techniques: each emitted cell (or merged cluster) is a
+//!   self-contained *cell quad* whose four corner photons `adaptive_refine` traces
+//!   (`splat_quads`); the hierarchical technique, whose compacted photons are neither a grid nor
+//!   cells with corners, falls back to fixed Gaussians. The default: the most accurate mode
+//!   measured (see `docs/splatting.md`).
 //!
 //! Every mode puts each photon's flux into the map exactly once (normalised weights, 64-bit
 //! fixed-point atomics: deterministic maps).
@@ -33,7 +35,8 @@ pub enum SplatMode {
     ThinLens,
     /// Splat sizes from the thick-lens equations (principal planes, thickness).
     ThickLens,
-    /// Caustic triangles from the dense photon grid (basic technique).
+    /// Caustic triangles: from the dense photon grid (basic technique) or from the cell quads of
+    /// the adaptive hierarchy (adaptive techniques); fixed Gaussians with the hierarchical one.
     #[default]
     Triangles,
 }
@@ -68,14 +71,21 @@ impl SplatMode {
         }
     }
 
-    /// The splat stage that takes a photon buffer (for triangles outside the basic technique:
-    /// `splat_lens` without diameters, i.e. fixed Gaussians).
-    pub fn stage(self) -> &'static str {
+    /// The splat stage that takes a photon buffer: for triangles, `splat_quads` (cell quads) with
+    /// the adaptive techniques, otherwise `splat_lens` without diameters, i.e. fixed Gaussians
+    /// (the hierarchical technique; the basic one draws `caustic_triangles` instead).
+    pub fn stage(self, technique: crate::techniques::Technique) -> &'static str {
         match self {
             SplatMode::Fixed => "photon_splat",
             SplatMode::MultiRes => "splat_multires",
+            SplatMode::Triangles if technique.is_adaptive() => "splat_quads",
             SplatMode::ThinLens | SplatMode::ThickLens | SplatMode::Triangles => "splat_lens",
         }
+    }
+
+    /// The adaptive hierarchy traces cell corners and stores a quad per photon (`splat_quads`).
+    pub fn cell_quads(self, technique: crate::techniques::Technique) -> bool {
+        self == SplatMode::Triangles && technique.is_adaptive()
     }
 }
 
@@ -111,6 +121,8 @@ pub struct BlendParams {
 /// The compute pipelines of one splat mode.
 pub(crate) struct SplatPipelines {
     pub mode: SplatMode,
+    /// The stage of `splat` ([`SplatMode::stage`]).
+    pub stage: &'static str,
     /// The splat of a photon buffer (every technique).
     pub splat: wgpu::ComputePipeline,
     pub blend: Option<wgpu::ComputePipeline>,
@@ -121,7 +133,8 @@ impl SplatPipelines {
     pub fn new(ctx: &GpuContext, mode: SplatMode, technique: crate::techniques::Technique) -> SplatPipelines {
         SplatPipelines {
             mode,
-            splat: ctx.compute_pipeline(mode.stage()),
+            stage: mode.stage(technique),
+            splat: ctx.compute_pipeline(mode.stage(technique)),
             blend: (mode == SplatMode::MultiRes).then(|| ctx.compute_pipeline("splat_multires_blend")),
             triangles: (mode == SplatMode::Triangles && technique == crate::techniques::Technique::Basic)
                 .then(|| ctx.compute_pipeline("caustic_triangles")),
@@ -167,7 +180,9 @@ impl SplatTargets {
     }
 
     /// Bind group of the photon-buffer splat: light, params (storage, indirect layout), photons,
-    /// the caustic map, and the mode's extra maps.
+    /// the caustic map, and the mode's extra maps (`splat_quads`: the photons' corners, which
+    /// the caller passes in `corners`).
+    #[expect(clippy::too_many_arguments, reason = "a splat is described by all of these")]
     pub fn bind(
         &self,
         ctx: &GpuContext,
@@ -176,13 +191,17 @@ impl SplatTargets {
         params: wgpu::BindingResource<'_>,
         photons: &wgpu::Buffer,
         accum: &wgpu::Buffer,
+        corners: Option<&wgpu::Buffer>,
     ) -> wgpu::BindGroup {
         let mut res = vec![light.as_entire_binding(), params, photons.as_entire_binding()];
         res.push(accum.as_entire_binding());
         if p.mode == SplatMode::MultiRes {
             res.extend(self.extra[..4].iter().map(|b| b.as_entire_binding()));
         }
-        crate::techniques::bind(ctx, &p.splat, p.mode.stage(), &res)
+        if p.stage == "splat_quads" {
+            res.push(corners.expect("splat_quads needs the corner buffer").as_entire_binding());
+        }
+        crate::techniques::bind(ctx, &p.splat, p.stage, &res)
     }
 
     /// Record what the mode does after every photon of the light was splatted: the

@@ -172,6 +172,7 @@ impl Hierarchical {
             }),
             &self.compact,
             e.accum,
+            None,
         );
         let per_side = p.n / t;
         let mut first = true;
