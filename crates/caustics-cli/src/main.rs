@@ -127,6 +127,10 @@ enum Command {
         /// texels of the bilinear interpolation of its corners (0: off, the paper's rule alone).
         #[arg(long, default_value_t = 0.0)]
         quad_linearity: f32,
+        /// Maximal caustic map error: check convergence for clusters whose photons lie on a grid
+        /// of at least this size (Wyman & Nichols: 512).
+        #[arg(long, default_value_t = 512)]
+        error_check_grid: u32,
         #[arg(long, value_enum, default_value = "auto")]
         backend: Backend,
         /// Caustic map size per light-view face (texels); default 1024, or the largest that
@@ -216,6 +220,7 @@ fn run(cli: Cli) -> Result<()> {
             base_grid,
             max_error_tolerance,
             quad_linearity,
+            error_check_grid,
             backend,
             caustic_map,
             shadow_map,
@@ -254,6 +259,7 @@ fn run(cli: Cli) -> Result<()> {
                 base_grid,
                 max_error_tolerance,
                 quad_linearity,
+                error_check_grid,
                 caustic_map_size: caustic_map.unwrap_or(1024),
                 shadow_map_size: shadow_map,
                 splat_sigma,

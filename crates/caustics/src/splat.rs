@@ -61,8 +61,9 @@ impl SplatMode {
     }
 
     /// What the tracer writes into `light.splat.x`: 1 thin-lens, 2 thick-lens beam diameters.
-    /// Triangles outside the basic technique fall back to fixed Gaussians (`splat_lens` with no
-    /// diameter uses `splat_sigma`).
+    /// Triangles write none (0): with the hierarchical technique they fall back to fixed
+    /// Gaussians (`splat_lens` with no diameter uses `splat_sigma`), and the adaptive techniques
+    /// use `Photon._pad` to mark photons with a cell quad (`splat_quads`).
     pub fn lens_flag(self, _technique: crate::techniques::Technique) -> f32 {
         match self {
             SplatMode::ThinLens => 1.0,

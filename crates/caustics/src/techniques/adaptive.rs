@@ -8,7 +8,9 @@
 //! level `adaptive_refine` (indirect dispatch: discard, emit or refine each cluster, appending
 //! children and photons with atomic counters into one cell list with read and write regions and
 //! one photon buffer) and `adaptive_setup` (next level's indirect arguments, the splat's
-//! indirect arguments and photon count), then `photon_splat` (indirect).
+//! indirect arguments and photon count), then `photon_splat` (indirect), or the splat mode's
+//! stage: with caustic triangles, `adaptive_refine` also traces each emitted cell's corners and
+//! `splat_quads` spreads the cell's flux over their quad (`docs/splatting.md`).
 //!
 //! Batching: `adaptive_plan` splits each face's hierarchy into batches of at most the photon
 //! capacity the memory budget allows, from the exact relevant-photon counts of the coverage mip
