@@ -96,7 +96,8 @@ fn emit(p: Photon, level: u32) {
 
 // Emit photon p standing for the cell whose corners are lattice points (a, b), (a + d, b),
 // (a, b + d), (a + d, b + d) of cluster `parent` (children grid s); the cell is one of a
-// cells x cells grid. With FLAG_QUADS, its quad if the corners agree with p (signature: `sig`).
+// cells x cells grid. With FLAG_QUADS, with its quad if the corners agree with p (valid, on
+// p's face, same path signature flux.w, no edge over max_edge): otherwise p is a Gaussian.
 fn emit_cell(p: Photon, level: u32, parent: vec2u, a: u32, b: u32, d: u32, s: u32, cells: u32) {
     if ((lp.flags & FLAG_QUADS) == 0u || p.face == INVALID) {
         emit(p, level);
