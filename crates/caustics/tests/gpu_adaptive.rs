@@ -333,3 +333,25 @@ fn maximal_error_caustic_triangles_conserve_flux() {
     let bad = RenderSettings { quad_linearity: 0.5, ..with_splat(Technique::AdaptiveLevel, n, Triangles) };
     assert!(render(&ctx, &s, &bad, None).unwrap_err().is_input());
 }
+
+/// Cell quads under a point light (six faces: corners on face edges, light leaving one face's
+/// cells onto another face's map) and two glass balls: the map holds the flux of fixed splats.
+#[test]
+fn cell_quads_conserve_flux_with_a_point_light() {
+    use caustics::splat::SplatMode::{Fixed, Triangles};
+    let Some(ctx) = gpu() else { return };
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/two_spheres.json");
+    let mut s = Scene::load(&path).unwrap();
+    s.camera.width = 32;
+    s.camera.height = 32;
+    let set = |splat| RenderSettings { caustic_map_size: 128, ..with_splat(Technique::AdaptiveLevel, 128, splat) };
+    let fixed = render(&ctx, &s, &set(Fixed), None).unwrap();
+    let tri = render(&ctx, &s, &set(Triangles), None).unwrap();
+    let ratio = map_flux(&tri) / map_flux(&fixed);
+    eprintln!(
+        "two spheres, point light: triangles / fixed map flux {ratio:.8}; {} photons, {} corners",
+        tri.technique.photons_splatted, tri.technique.corners_traced
+    );
+    assert!(map_flux(&fixed) > 0.0);
+    assert!((ratio - 1.0).abs() < 1e-4, "flux ratio {ratio}");
+}
