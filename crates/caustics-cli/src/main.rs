@@ -69,7 +69,7 @@ enum Splat {
     ThickLens,
     /// Caustic triangles: flux spread over the area between adjacent photons (basic: the dense
     /// grid; adaptive-level, adaptive-error: each emitted cell's quad of four traced corner
-    /// photons; hierarchical falls back to fixed Gaussians). The default.
+    /// photons; hierarchical: each photon's dual quad from its neighbours). The default.
     Triangles,
 }
 

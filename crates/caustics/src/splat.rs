@@ -12,9 +12,9 @@
 //!   receiver. Basic technique: triangles between adjacent photons of the dense grid
 //!   (`caustic_triangles`); adaptive techniques: each emitted cell (or merged cluster) is a
 //!   self-contained *cell quad* whose four corner photons `adaptive_refine` traces
-//!   (`splat_quads`); the hierarchical technique, whose compacted photons are neither a grid nor
-//!   cells with corners, falls back to fixed Gaussians. The default: the most accurate mode
-//!   measured (see `docs/splatting.md`).
+//!   (`splat_quads`); the hierarchical technique gives each compacted photon its dual quad from
+//!   its neighbours in the dense tile (`hcm_traverse`, `splat_quads`). The default: the most
+//!   accurate mode measured (see `docs/splatting.md`).
 //!
 //! Every mode puts each photon's flux into the map exactly once (normalised weights, 64-bit
 //! fixed-point atomics: deterministic maps).
@@ -36,7 +36,7 @@ pub enum SplatMode {
     /// Splat sizes from the thick-lens equations (principal planes, thickness).
     ThickLens,
     /// Caustic triangles: from the dense photon grid (basic technique) or from the cell quads of
-    /// the adaptive hierarchy (adaptive techniques); fixed Gaussians with the hierarchical one.
+    /// the adaptive hierarchy (adaptive techniques) or dual quads (hierarchical technique).
     #[default]
     Triangles,
 }
@@ -61,9 +61,8 @@ impl SplatMode {
     }
 
     /// What the tracer writes into `light.splat.x`: 1 thin-lens, 2 thick-lens beam diameters.
-    /// Triangles write none (0): with the hierarchical technique they fall back to fixed
-    /// Gaussians (`splat_lens` with no diameter uses `splat_sigma`), and the adaptive techniques
-    /// use `Photon._pad` to mark photons with a cell quad (`splat_quads`).
+    /// Triangles write none (0): the hierarchical and adaptive techniques use `Photon._pad` to
+    /// mark photons that carry a quad (`splat_quads`).
     pub fn lens_flag(self, _technique: crate::techniques::Technique) -> f32 {
         match self {
             SplatMode::ThinLens => 1.0,
@@ -72,21 +71,22 @@ impl SplatMode {
         }
     }
 
-    /// The splat stage that takes a photon buffer: for triangles, `splat_quads` (cell quads) with
-    /// the adaptive techniques, otherwise `splat_lens` without diameters, i.e. fixed Gaussians
-    /// (the hierarchical technique; the basic one draws `caustic_triangles` instead).
+    /// The splat stage that takes a photon buffer: for triangles, `splat_quads` (quads, or
+    /// Gaussians where a photon has none) with the hierarchical and adaptive techniques (the
+    /// basic one draws `caustic_triangles` instead).
     pub fn stage(self, technique: crate::techniques::Technique) -> &'static str {
         match self {
             SplatMode::Fixed => "photon_splat",
             SplatMode::MultiRes => "splat_multires",
-            SplatMode::Triangles if technique.is_adaptive() => "splat_quads",
+            SplatMode::Triangles if technique != crate::techniques::Technique::Basic => "splat_quads",
             SplatMode::ThinLens | SplatMode::ThickLens | SplatMode::Triangles => "splat_lens",
         }
     }
 
-    /// The adaptive hierarchy traces cell corners and stores a quad per photon (`splat_quads`).
+    /// The photon hierarchy stores a quad per photon for `splat_quads`: the adaptive techniques
+    /// trace each cell's corners, the hierarchical one takes its dual quad from the dense tile.
     pub fn cell_quads(self, technique: crate::techniques::Technique) -> bool {
-        self == SplatMode::Triangles && technique.is_adaptive()
+        self == SplatMode::Triangles && technique != crate::techniques::Technique::Basic
     }
 }
 

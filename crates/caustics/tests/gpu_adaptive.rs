@@ -24,7 +24,7 @@ fn settings(t: Technique, n: u32) -> RenderSettings {
         caustic_map_size: 256,
         shadow_map_size: 256,
         // Fixed splats for every technique, so that their maps compare bit for bit (caustic
-        // triangles, the default, need the dense grid and exist for the basic technique only).
+        // triangles, the default, draw different quads per technique: tested below).
         splat: caustics::splat::SplatMode::Fixed,
         // The reflected branch at glass exists for the basic technique only.
         dielectric_reflection: false,
@@ -225,7 +225,8 @@ fn map_flux(r: &GpuRender) -> f64 {
 
 /// Caustic triangles from the adaptive hierarchy (cell quads, `splat_quads`): the same flux as
 /// fixed splats of the same photons, close to the dense grid's caustic triangles, closer to the
-/// CPU reference than fixed splats, bit-identical run to run and batch to batch.
+/// CPU reference than fixed splats, bit-identical run to run and batch to batch. Likewise the
+/// hierarchical technique's dual quads, in one tile and in many.
 #[test]
 fn adaptive_caustic_triangles_conserve_flux_and_beat_fixed_splats() {
     use caustics::splat::SplatMode::{Fixed, Triangles};
@@ -279,6 +280,24 @@ fn adaptive_caustic_triangles_conserve_flux_and_beat_fixed_splats() {
     assert!(many.technique.peak_photon_bytes <= small.photon_memory);
     assert!(many.technique.photon_bytes <= small.photon_memory);
     assert!(many.caustic_flux_bits == tri.caustic_flux_bits, "batching changed the map");
+    // The hierarchical technique's dual quads (from the dense tile), tile by tile.
+    for memory in [64u64 << 20, 256 << 10] {
+        let set = RenderSettings { photon_memory: memory, ..with_splat(Technique::Hierarchical, n, Triangles) };
+        let h = render(&ctx, &s, &set, None).unwrap();
+        let hfix = render(&ctx, &s, &RenderSettings { splat: Fixed, ..set.clone() }, None).unwrap();
+        let ratio = map_flux(&h) / map_flux(&hfix);
+        let vs_dense = caustics::metrics::map_agreement(&h.caustic_maps[0][0], &dense.caustic_maps[0][0]);
+        let err = caustics::metrics::map_agreement(&h.caustic_maps[0][0], &reference);
+        eprintln!(
+            "hierarchical, {} tile(s) in {} KiB: triangles / fixed map flux {ratio:.8}; vs basic triangles {vs_dense}; vs CPU reference {err}",
+            h.technique.batches,
+            memory >> 10
+        );
+        assert!((ratio - 1.0).abs() < 1e-4, "hierarchical flux ratio {ratio}");
+        assert!(vs_dense.rel_rmse < 0.05, "{vs_dense}");
+        assert!(err.rel_rmse < 0.5 * err_fixed.rel_rmse, "{err} vs {err_fixed}");
+        assert!(h.technique.peak_photon_bytes <= memory && h.technique.photon_bytes <= memory);
+    }
 }
 
 /// Maximal caustic map error with caustic triangles: merged clusters are quads of the parent
