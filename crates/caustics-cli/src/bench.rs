@@ -265,7 +265,7 @@ fn markdown(
     }
     let _ = writeln!(
         s,
-        "\n## Work, time and memory\n\nTraced: photons traced. Evaluated: cells kept over all levels of the hierarchy plus photons traced below the last level (adaptive), or cells plus photons splatted (hierarchical); divided by the relevant photons. Photon GPU ms: coverage mip, tracing, traversal and splat (timestamp queries); speed-up: basic's photon GPU ms at the same grid over this technique's.\n"
+        "\n## Work, time and memory\n\nTraced: photons traced (with caustic triangles over the adaptive hierarchy, + the cell-corner photons traced for the quads). Evaluated: cells kept over all levels of the hierarchy plus photons traced below the last level (adaptive), or cells plus photons splatted (hierarchical); divided by the relevant photons. Photon GPU ms: coverage mip, tracing, traversal and splat (timestamp queries); speed-up: basic's photon GPU ms at the same grid over this technique's.\n"
     );
     let _ = writeln!(
         s,
@@ -289,10 +289,14 @@ fn markdown(
             } else {
                 "-".into()
             };
+            let traced = if ts.corners_traced > 0 {
+                format!("{} (+{} corners)", ts.photons_traced, ts.corners_traced)
+            } else {
+                ts.photons_traced.to_string()
+            };
             let _ = writeln!(
                 s,
-                "| {n}² | {t} | {} | {eval} | {:.1} | {speed} | {:.1} | {:.0} | {} | {} | {} | {flip} |",
-                ts.photons_traced,
+                "| {n}² | {t} | {traced} | {eval} | {:.1} | {speed} | {:.1} | {:.0} | {} | {} | {} | {flip} |",
                 r.photon_ms,
                 r.frame_ms,
                 r.wall_ms,
@@ -356,6 +360,7 @@ fn to_json(scene: &str, adapter: &str, a: &BenchArgs, runs: &[Run], skipped: &[(
                 "photon_grid": r.n,
                 "photons_splatted": ts.photons_splatted,
                 "photons_traced": ts.photons_traced,
+                "corners_traced": ts.corners_traced,
                 "relevant": ts.relevant,
                 "evaluated": ts.evaluated,
                 "coverage": ts.coverage(),

@@ -70,8 +70,9 @@ enum Splat {
     /// Splat sizes from ray differentials carried through every interaction (exact first-order
     /// beam size; beyond the papers).
     Differential,
-    /// Caustic triangles from the dense photon grid: flux spread over the area between adjacent
-    /// photons (basic technique; the others fall back to fixed Gaussians). The default.
+    /// Caustic triangles: flux spread over the area between adjacent photons (basic: the dense
+    /// grid; adaptive-level, adaptive-error: each emitted cell's quad of four traced corner
+    /// photons; hierarchical: each photon's dual quad from its neighbours). The default.
     Triangles,
 }
 
@@ -125,6 +126,15 @@ enum Command {
         /// caustic-map texels (0: in one texel).
         #[arg(long, default_value_t = 0.0)]
         max_error_tolerance: f32,
+        /// Maximal caustic map error with caustic triangles: also stop refining a cluster whose
+        /// cell quad maps linearly, its corners' and children's landing points within this many
+        /// texels of the bilinear interpolation of its corners (0: off, the paper's rule alone).
+        #[arg(long, default_value_t = 0.0)]
+        quad_linearity: f32,
+        /// Maximal caustic map error: check convergence for clusters whose photons lie on a grid
+        /// of at least this size (Wyman & Nichols: 512).
+        #[arg(long, default_value_t = 512)]
+        error_check_grid: u32,
         #[arg(long, value_enum, default_value = "auto")]
         backend: Backend,
         /// Caustic map size per light-view face (texels); default 1024, or the largest that
@@ -213,6 +223,8 @@ fn run(cli: Cli) -> Result<()> {
             tessellation,
             base_grid,
             max_error_tolerance,
+            quad_linearity,
+            error_check_grid,
             backend,
             caustic_map,
             shadow_map,
@@ -250,6 +262,8 @@ fn run(cli: Cli) -> Result<()> {
                 },
                 base_grid,
                 max_error_tolerance,
+                quad_linearity,
+                error_check_grid,
                 caustic_map_size: caustic_map.unwrap_or(1024),
                 shadow_map_size: shadow_map,
                 splat_sigma,
@@ -348,6 +362,9 @@ fn report_gpu(out: &GpuRender, wall_ms: f64) {
         t.photon_bytes as f64 / (1 << 20) as f64,
         t.peak_photon_bytes as f64 / (1 << 20) as f64
     );
+    if t.corners_traced > 0 {
+        println!("caustic triangles: {} cell-corner photons traced", t.corners_traced);
+    }
     if t.levels.len() > 1 {
         for l in &t.levels {
             println!(

@@ -10,8 +10,16 @@
 //   is emitted at their flux-weighted mean position carrying the sum of their fluxes (the
 //   cluster's flux, exactly); otherwise the covered children are refined (or emitted one by
 //   one at the finest level);
+//   with FLAG_QUADS the test also covers the cell corners (see below), and lp.linearity > 0
+//   adds a second way to converge: a cell mapping close enough to affine;
 // - otherwise the covered children are appended to the write region of the cell list.
 // Appends use atomic counters; overflow of a capacity is flagged in ctrl, never silent.
+// FLAG_QUADS (caustic triangles): every emitted photon stands for a cell (a child, or the
+// merged parent); the photons through the cell's four corners are traced too (the 3 x 3 corner
+// lattice of the parent's children, each point traced at most once per thread, only where an
+// emitted cell needs it; never booked in the flux statistics) and, if they are valid, on the
+// photon's face and path, with no quad edge over the discontinuity limit, the photon is marked
+// (_pad bit 0) and its corners' landing points are stored in `corners` for splat_quads.
 
 #import hierarchy
 #import coverage
@@ -32,12 +40,90 @@
 @group(0) @binding(11) var<storage, read_write> photons: array<Photon>;
 @group(0) @binding(12) var<storage, read_write> ctrl: array<atomic<u32>>;
 @group(0) @binding(13) var<storage, read_write> stats: array<atomic<u32>>;
+@group(0) @binding(14) var<storage, read_write> corners: array<vec4f>;
 
-fn emit(p: Photon, level: u32) {
+// The corner lattice of the current cluster's children: point (a, b), a, b in 0..2, is stored
+// at a + 3 b; bit k of lattice_done says whether point k was traced.
+var<private> lattice: array<Photon, 9>;
+var<private> lattice_done: u32 = 0u;
+var<private> corner_traces: u32 = 0u;
+
+// Corner (a, b) of the children of cluster `parent` (children grid s): the light ray through
+// NDC (-1 + (2 parent.x + a) 2/s, 1 - (2 parent.y + b) 2/s), exact in f32 for power-of-two
+// grids, so a corner shared by neighbouring cells (of any level) lands at the same point.
+fn lattice_point(parent: vec2u, k: u32, s: u32) -> Photon {
+    if ((lattice_done & (1u << k)) == 0u) {
+        let cell = 2.0 / f32(s);
+        let ndc = vec2f(-1.0 + f32(2u * parent.x + k % 3u) * cell, 1.0 - f32(2u * parent.y + k / 3u) * cell);
+        // Corners only shape the quad: their flux is not booked (nor collected for later).
+        let defer = trace_defer;
+        let pending = trace_pending;
+        trace_defer = true;
+        lattice[k] = trace_photon(lp.face, ndc, vec2f(cell));
+        trace_defer = defer;
+        trace_pending = pending;
+        lattice_done |= 1u << k;
+        corner_traces += 1u;
+    }
+    return lattice[k];
+}
+
+// Longest quad edge (caustic-map texels) not taken for a discontinuity, for a cell of the
+// cells x cells grid: eight unrefracted cell widths and at least 32 texels (as the dense grid's
+// caustic triangles, splat::triangle_max_edge).
+fn max_edge(cells: u32) -> f32 {
+    return max(32.0, 8.0 * f32(light.info.w) / f32(cells));
+}
+
+fn emit_record(p: Photon, level: u32, quad: bool, top: vec4f, bottom: vec4f) {
     let k = atomicAdd(&ctrl[C_PHOTONS], 1u);
     atomicAdd(&ctrl[C_EMITTED + level], 1u);
     if (k >= lp.photon_capacity) { atomicOr(&ctrl[C_OVERFLOW], 2u); return; }
-    photons[k] = p;
+    var r = p;
+    if ((lp.flags & FLAG_QUADS) != 0u) {
+        r._pad = select(0u, 1u, quad);
+        if (quad) {
+            corners[2u * k] = top;
+            corners[2u * k + 1u] = bottom;
+        }
+    }
+    photons[k] = r;
+}
+
+fn emit(p: Photon, level: u32) {
+    emit_record(p, level, false, vec4f(0.0), vec4f(0.0));
+}
+
+// Emit photon p standing for the cell whose corners are lattice points (a, b), (a + d, b),
+// (a, b + d), (a + d, b + d) of cluster `parent` (children grid s); the cell is one of a
+// cells x cells grid. With FLAG_QUADS, with its quad if the corners agree with p (valid, on
+// p's face, same path signature flux.w, no edge over max_edge): otherwise p is a Gaussian.
+fn emit_cell(p: Photon, level: u32, parent: vec2u, a: u32, b: u32, d: u32, s: u32, cells: u32) {
+    if ((lp.flags & FLAG_QUADS) == 0u || p.face == INVALID) {
+        emit(p, level);
+        return;
+    }
+    var c: array<Photon, 4>;
+    c[0] = lattice_point(parent, a + 3u * b, s);
+    c[1] = lattice_point(parent, a + d + 3u * b, s);
+    c[2] = lattice_point(parent, a + 3u * (b + d), s);
+    c[3] = lattice_point(parent, a + d + 3u * (b + d), s);
+    var ok = true;
+    for (var q = 0u; q < 4u; q++) {
+        ok = ok && c[q].face == p.face && c[q].flux.w == p.flux.w;
+    }
+    if (ok) {
+        let e = max(max(distance(c[0].pos, c[1].pos), distance(c[0].pos, c[2].pos)),
+                    max(max(distance(c[1].pos, c[3].pos), distance(c[2].pos, c[3].pos)), distance(c[0].pos, c[3].pos)));
+        ok = e <= max_edge(cells);
+    }
+    emit_record(p, level, ok, vec4f(c[0].pos, c[1].pos), vec4f(c[2].pos, c[3].pos));
+}
+
+fn flush_corner_count() {
+    if (corner_traces == 0u) { return; }
+    let old = atomicAdd(&ctrl[C_CORNERS], corner_traces);
+    if (old > 0xffffffffu - corner_traces) { atomicAdd(&ctrl[C_CORNERS + 1u], 1u); }
 }
 
 fn append_cell(c: vec2u) {
@@ -69,6 +155,7 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     let child_level = lp.level + 1u;
     let last = (lp.flags & FLAG_LAST) != 0u;
     let check = (lp.flags & FLAG_CHECK) != 0u;
+    let quads = (lp.flags & FLAG_QUADS) != 0u;
     var kids: array<vec2u, 4>;
     var cov: array<bool, 4>;
     var ncov = 0u;
@@ -82,11 +169,12 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
             if (!cov[q]) { continue; }
             if (last) {
                 atomicAdd(&ctrl[C_TRACED + child_level], 1u);
-                emit(trace_cell(kids[q], s), child_level);
+                emit_cell(trace_cell(kids[q], s), child_level, parent, q & 1u, q >> 1u, 1u, s, s);
             } else {
                 append_cell(kids[q]);
             }
         }
+        flush_corner_count();
         return;
     }
     // Maximal caustic map error: trace the covered children, book their flux only if emitted.
@@ -94,6 +182,7 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     for (var k = 0u; k < 6u; k++) { trace_pending[k] = 0.0; }
     var ph: array<Photon, 4>;
     var converged = ncov == 4u;
+    var same_path = true;
     var lo = vec2f(1e30);
     var hi = vec2f(-1e30);
     var sum = vec3f(0.0);
@@ -102,6 +191,7 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
         if (!cov[q]) { continue; }
         ph[q] = trace_cell(kids[q], s);
         if (ph[q].face == INVALID || ph[q].face != ph[0].face) { converged = false; }
+        same_path = same_path && ph[q].flux.w == ph[0].flux.w;
         lo = min(lo, ph[q].pos);
         hi = max(hi, ph[q].pos);
         let w = ph[q].flux.r + ph[q].flux.g + ph[q].flux.b;
@@ -109,12 +199,67 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
         wpos += w * ph[q].pos;
     }
     atomicAdd(&ctrl[C_TRACED + child_level], ncov);
+    // Caustic triangles: the merged cluster is the parent cell's quad, so the test covers the
+    // corner lattice too (the parent's corners and its children's): if every lattice point is on
+    // the children's face and path, it must lie in the texel (within the tolerance) as well, and
+    // the merged quad deposits its flux where the children's quads would. (A lattice point off
+    // the path leaves the one-texel test to the children: the merged photon is then a Gaussian.)
+    var linear = false;
+    if (converged && quads && same_path) {
+        var agree = true;
+        var clo = lo;
+        var chi = hi;
+        var l: array<vec2f, 9>;
+        for (var k = 0u; k < 9u; k++) {
+            let c = lattice_point(parent, k, s);
+            if (c.face != ph[0].face || c.flux.w != ph[0].flux.w) {
+                agree = false;
+                break;
+            }
+            l[k] = c.pos;
+            clo = min(clo, c.pos);
+            chi = max(chi, c.pos);
+        }
+        if (agree) {
+            lo = clo;
+            hi = chi;
+            // Optional linearity rule (--quad-linearity): the mapping from the cell to the
+            // map is close to affine (a uniform flux density over the quad is then right): the
+            // lattice points and the children's photons lie within lp.linearity texels of the
+            // affine map fitted to the parent's corners (the corners miss it by a quarter of
+            // the quad's twist), and no edge is a discontinuity.
+            if (lp.linearity > 0.0) {
+                let c00 = l[0];
+                let c10 = l[2];
+                let c01 = l[6];
+                let c11 = l[8];
+                let mid = 0.25 * (c00 + c10 + c01 + c11);
+                let du = 0.5 * (c10 - c00 + c11 - c01);
+                let dv = 0.5 * (c01 - c00 + c11 - c10);
+                var dev = 0.0;
+                for (var k = 0u; k < 9u; k++) {
+                    let u = 0.5 * f32(k % 3u) - 0.5;
+                    let v = 0.5 * f32(k / 3u) - 0.5;
+                    dev = max(dev, distance(l[k], mid + u * du + v * dv));
+                }
+                for (var q = 0u; q < 4u; q++) {
+                    let u = 0.5 * f32(q & 1u) - 0.25;
+                    let v = 0.5 * f32(q >> 1u) - 0.25;
+                    dev = max(dev, distance(ph[q].pos, mid + u * du + v * dv));
+                }
+                let e = max(max(distance(c00, c10), distance(c00, c01)),
+                            max(max(distance(c10, c11), distance(c01, c11)), distance(c00, c11)));
+                linear = dev <= lp.linearity && e <= max_edge(lp.grid);
+            }
+        }
+    }
     if (converged) {
         if (lp.tolerance > 0.0) {
             converged = all(hi - lo <= vec2f(lp.tolerance));
         } else {
             converged = all(floor(lo) == floor(hi));
         }
+        converged = converged || linear;
     }
     let wsum = sum.r + sum.g + sum.b;
     if (converged && wsum > 0.0) {
@@ -123,17 +268,26 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
         m.face = ph[0].face;
         m.flux = vec4f(sum, 0.0);
         flush_pending();
-        emit(m, lp.level);
+        if (same_path) {
+            // The merged cluster is the parent cell: its quad is the parent's four corners.
+            m.flux.w = ph[0].flux.w;
+            emit_cell(m, lp.level, parent, 0u, 0u, 2u, s, lp.grid);
+        } else {
+            emit(m, lp.level);
+        }
+        flush_corner_count();
         return;
     }
     if (last) {
         flush_pending();
         for (var q = 0u; q < 4u; q++) {
-            if (cov[q]) { emit(ph[q], child_level); }
+            if (cov[q]) { emit_cell(ph[q], child_level, parent, q & 1u, q >> 1u, 1u, s, s); }
         }
+        flush_corner_count();
         return;
     }
     trace_defer = false;
+    flush_corner_count();
     for (var q = 0u; q < 4u; q++) {
         if (cov[q]) { append_cell(kids[q]); }
     }

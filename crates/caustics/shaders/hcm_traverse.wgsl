@@ -4,6 +4,14 @@
 // Each thread takes one cell (of the grid lp.grid over the tile) that holds valid photons and
 // keeps its children that hold some: appended to the cell list, or, at the finest level
 // (FLAG_LAST), the photon itself is copied to the compact photon buffer that is splatted.
+// FLAG_QUADS (caustic triangles): the photon also gets its *dual quad* for splat_quads: its
+// corners are the mean landing points of the 2 x 2 photon groups around it in the dense tile
+// (the bilinear estimate of where the light through the cell's corners lands; no extra
+// tracing; a neighbour beyond the tile's edge, not traced with this tile, is estimated as the
+// point reflection of the opposite neighbour through the photon). It is used (Photon._pad bit
+// 0, corners stored) only if those eight neighbours are valid, on the photon's face and path
+// (signature flux.w) and no quad edge is longer than max(32, 8 M / N) texels; otherwise the
+// photon is a Gaussian (splat_quads).
 
 #import hierarchy
 #import coverage
@@ -14,6 +22,70 @@
 @group(0) @binding(3) var<storage, read> tile: array<Photon>;
 @group(0) @binding(4) var<storage, read_write> photons: array<Photon>;
 @group(0) @binding(5) var<storage, read_write> ctrl: array<atomic<u32>>;
+@group(0) @binding(6) var<storage, read_write> corners: array<vec4f>;
+@group(0) @binding(7) var<uniform> light: LightGpu;
+
+// The photon at (x, y) of the tile, or an invalid one outside it.
+fn at(x: i32, y: i32) -> Photon {
+    var p: Photon;
+    p.face = INVALID;
+    let t = i32(lp.finest);
+    if (x < 0 || y < 0 || x >= t || y >= t) { return p; }
+    return tile[u32(y) * lp.finest + u32(x)];
+}
+
+// Copy photon c of the tile to slot k, with its dual quad when FLAG_QUADS asks for one.
+fn store(k: u32, c: vec2u) {
+    var p = tile[c.y * lp.finest + c.x];
+    if ((lp.flags & FLAG_QUADS) == 0u || p.face == INVALID) {
+        photons[k] = p;
+        return;
+    }
+    var ok = true;
+    var sum: array<vec2f, 4>;
+    for (var q = 0u; q < 4u; q++) { sum[q] = vec2f(0.0); }
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            var n = at(i32(c.x) + dx, i32(c.y) + dy);
+            let t = i32(lp.finest);
+            let ox = i32(c.x) + dx;
+            let oy = i32(c.y) + dy;
+            if (ox < 0 || oy < 0 || ox >= t || oy >= t) {
+                // Across the tile's edge (not traced with this tile): the point reflection of
+                // the opposite neighbour through the photon, exact for a locally affine map, so
+                // that the quads of neighbouring tiles meet.
+                n = at(i32(c.x) - dx, i32(c.y) - dy);
+                n.pos = 2.0 * p.pos - n.pos;
+            }
+            ok = ok && n.face == p.face && n.flux.w == p.flux.w;
+            // Neighbour (dx, dy) belongs to the corners it touches: (0, 0) top-left .. (1, 1).
+            for (var q = 0u; q < 4u; q++) {
+                let cx = i32(q & 1u);
+                let cy = i32(q >> 1u);
+                if ((dx == cx - 1 || dx == cx) && (dy == cy - 1 || dy == cy)) { sum[q] += n.pos; }
+            }
+        }
+    }
+    var quad = false;
+    var c0 = vec2f(0.0);
+    var c1 = vec2f(0.0);
+    var c2 = vec2f(0.0);
+    var c3 = vec2f(0.0);
+    if (ok) {
+        c0 = 0.25 * sum[0];
+        c1 = 0.25 * sum[1];
+        c2 = 0.25 * sum[2];
+        c3 = 0.25 * sum[3];
+        let e = max(max(distance(c0, c1), distance(c0, c2)), max(max(distance(c1, c3), distance(c2, c3)), distance(c0, c3)));
+        quad = e <= max(32.0, 8.0 * f32(light.info.w) / f32(lp.grid_n));
+    }
+    p._pad = select(0u, 1u, quad);
+    if (quad) {
+        corners[2u * k] = vec4f(c0, c1);
+        corners[2u * k + 1u] = vec4f(c2, c3);
+    }
+    photons[k] = p;
+}
 
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @builtin(local_invocation_index) lid: u32) {
@@ -28,7 +100,7 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
             let k = atomicAdd(&ctrl[C_PHOTONS], 1u);
             atomicAdd(&ctrl[C_EMITTED + lp.level + 1u], 1u);
             if (k >= lp.photon_capacity) { atomicOr(&ctrl[C_OVERFLOW], 2u); continue; }
-            photons[k] = tile[c.y * lp.finest + c.x];
+            store(k, c);
         } else {
             let k = atomicAdd(&ctrl[C_WRITE_COUNT], 1u);
             if (k >= lp.cell_capacity) { atomicOr(&ctrl[C_OVERFLOW], 1u); continue; }

@@ -41,6 +41,11 @@ pub struct RenderSettings {
     /// Maximal caustic map error: convergence is checked for clusters whose photons lie on a grid
     /// of at least this size (Wyman & Nichols check from the 512² level on).
     pub error_check_grid: u32,
+    /// Maximal caustic map error with caustic triangles: an optional second stopping rule (0:
+    /// off, the default: the paper's rule alone). A cluster also converges when its cell quad
+    /// maps linearly enough: its corner lattice and children's photons land within this many
+    /// caustic-map texels of the bilinear interpolation of its corners (`docs/adaptive.md`).
+    pub quad_linearity: f32,
     /// Keep the coverage masks (caster front-buffer texels per face) in the statistics, for
     /// tests that model the traversal on the CPU.
     pub keep_coverage: bool,
@@ -75,6 +80,7 @@ impl Default for RenderSettings {
             base_grid: 64,
             max_error_tolerance: 0.0,
             error_check_grid: 512,
+            quad_linearity: 0.0,
             keep_coverage: false,
             keep_photons: false,
             caustic_map_size: 1024,
@@ -621,6 +627,17 @@ impl RenderSettings {
             return cl(
                 "--photons",
                 format!("the {} photon grid must be 16 to {max_n} per side (got {})", self.technique, self.photons),
+            );
+        }
+        if !(self.quad_linearity >= 0.0 && self.quad_linearity <= 1e6) {
+            return cl("--quad-linearity", format!("must be 0 or more texels (got {})", self.quad_linearity));
+        }
+        if self.quad_linearity > 0.0
+            && !(self.technique == Technique::AdaptiveError && self.splat == SplatMode::Triangles)
+        {
+            return cl(
+                "--quad-linearity",
+                "needs --technique adaptive-error with --splat triangles (it stops on cell quads)".to_string(),
             );
         }
         if !(self.max_error_tolerance >= 0.0 && self.max_error_tolerance <= 1e6) {

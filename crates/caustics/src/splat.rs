@@ -8,11 +8,13 @@
 //! - [`SplatMode::ThinLens`], [`SplatMode::ThickLens`]: each photon's splat size from the lens
 //!   equations (section 4.2) with radii of curvature from the light-space normals; the tracer
 //!   writes the beam diameter into the photon (`shared/trace.wgsl`), `splat_lens` splats it;
-//! - [`SplatMode::Triangles`]: caustic triangles from adjacent photons of the dense grid
-//!   (`caustic_triangles`): flux spread over the triangle's area on the receiver (basic
-//!   technique; the hierarchical and adaptive techniques, whose photons are not kept as a grid,
-//!   fall back to fixed Gaussians). The default: the most accurate mode measured (see
-//!   `docs/splatting.md`).
+//! - [`SplatMode::Triangles`]: caustic triangles, flux spread over the triangle's area on the
+//!   receiver. Basic technique: triangles between adjacent photons of the dense grid
+//!   (`caustic_triangles`); adaptive techniques: each emitted cell (or merged cluster) is a
+//!   self-contained *cell quad* whose four corner photons `adaptive_refine` traces
+//!   (`splat_quads`); the hierarchical technique gives each compacted photon its dual quad from
+//!   its neighbours in the dense tile (`hcm_traverse`, `splat_quads`). The default: the most
+//!   accurate mode measured (see `docs/splatting.md`).
 //!
 //! Every mode puts each photon's flux into the map exactly once (normalised weights, 64-bit
 //! fixed-point atomics: deterministic maps).
@@ -36,7 +38,8 @@ pub enum SplatMode {
     /// Splat sizes from ray differentials (Igehy 1999) carried through every interaction: the
     /// exact first-order image of the photon's cell on the receiver (beyond the papers).
     Differential,
-    /// Caustic triangles from the dense photon grid (basic technique).
+    /// Caustic triangles: from the dense photon grid (basic technique) or from the cell quads of
+    /// the adaptive hierarchy (adaptive techniques) or dual quads (hierarchical technique).
     #[default]
     Triangles,
 }
@@ -68,8 +71,8 @@ impl SplatMode {
     }
 
     /// What the tracer writes into `light.splat.x`: 1 thin-lens, 2 thick-lens beam diameters.
-    /// Triangles outside the basic technique fall back to fixed Gaussians (`splat_lens` with no
-    /// diameter uses `splat_sigma`).
+    /// Triangles write none (0): the hierarchical and adaptive techniques use `Photon._pad` to
+    /// mark photons that carry a quad (`splat_quads`).
     pub fn lens_flag(self, _technique: crate::techniques::Technique) -> f32 {
         match self {
             SplatMode::ThinLens => 1.0,
@@ -79,14 +82,22 @@ impl SplatMode {
         }
     }
 
-    /// The splat stage that takes a photon buffer (for triangles outside the basic technique:
-    /// `splat_lens` without diameters, i.e. fixed Gaussians).
-    pub fn stage(self) -> &'static str {
+    /// The splat stage that takes a photon buffer: for triangles, `splat_quads` (quads, or
+    /// Gaussians where a photon has none) with the hierarchical and adaptive techniques (the
+    /// basic one draws `caustic_triangles` instead).
+    pub fn stage(self, technique: crate::techniques::Technique) -> &'static str {
         match self {
             SplatMode::Fixed => "photon_splat",
             SplatMode::MultiRes => "splat_multires",
+            SplatMode::Triangles if technique != crate::techniques::Technique::Basic => "splat_quads",
             SplatMode::ThinLens | SplatMode::ThickLens | SplatMode::Differential | SplatMode::Triangles => "splat_lens",
         }
+    }
+
+    /// The photon hierarchy stores a quad per photon for `splat_quads`: the adaptive techniques
+    /// trace each cell's corners, the hierarchical one takes its dual quad from the dense tile.
+    pub fn cell_quads(self, technique: crate::techniques::Technique) -> bool {
+        self == SplatMode::Triangles && technique != crate::techniques::Technique::Basic
     }
 }
 
@@ -122,6 +133,8 @@ pub struct BlendParams {
 /// The compute pipelines of one splat mode.
 pub(crate) struct SplatPipelines {
     pub mode: SplatMode,
+    /// The stage of `splat` ([`SplatMode::stage`]).
+    pub stage: &'static str,
     /// The splat of a photon buffer (every technique).
     pub splat: wgpu::ComputePipeline,
     pub blend: Option<wgpu::ComputePipeline>,
@@ -132,7 +145,8 @@ impl SplatPipelines {
     pub fn new(ctx: &GpuContext, mode: SplatMode, technique: crate::techniques::Technique) -> SplatPipelines {
         SplatPipelines {
             mode,
-            splat: ctx.compute_pipeline(mode.stage()),
+            stage: mode.stage(technique),
+            splat: ctx.compute_pipeline(mode.stage(technique)),
             blend: (mode == SplatMode::MultiRes).then(|| ctx.compute_pipeline("splat_multires_blend")),
             triangles: (mode == SplatMode::Triangles && technique == crate::techniques::Technique::Basic)
                 .then(|| ctx.compute_pipeline("caustic_triangles")),
@@ -178,7 +192,9 @@ impl SplatTargets {
     }
 
     /// Bind group of the photon-buffer splat: light, params (storage, indirect layout), photons,
-    /// the caustic map, and the mode's extra maps.
+    /// the caustic map, and the mode's extra maps (`splat_quads`: the photons' corners, which
+    /// the caller passes in `corners`).
+    #[expect(clippy::too_many_arguments, reason = "a splat is described by all of these")]
     pub fn bind(
         &self,
         ctx: &GpuContext,
@@ -187,13 +203,17 @@ impl SplatTargets {
         params: wgpu::BindingResource<'_>,
         photons: &wgpu::Buffer,
         accum: &wgpu::Buffer,
+        corners: Option<&wgpu::Buffer>,
     ) -> wgpu::BindGroup {
         let mut res = vec![light.as_entire_binding(), params, photons.as_entire_binding()];
         res.push(accum.as_entire_binding());
         if p.mode == SplatMode::MultiRes {
             res.extend(self.extra[..4].iter().map(|b| b.as_entire_binding()));
         }
-        crate::techniques::bind(ctx, &p.splat, p.mode.stage(), &res)
+        if p.stage == "splat_quads" {
+            res.push(corners.expect("splat_quads needs the corner buffer").as_entire_binding());
+        }
+        crate::techniques::bind(ctx, &p.splat, p.stage, &res)
     }
 
     /// Record what the mode does after every photon of the light was splatted: the

@@ -74,7 +74,10 @@ fn lens_obj(rings: u32, segs: u32) -> String {
 }
 
 fn lens_scene() -> Scene {
-    let dir = std::env::temp_dir().join(format!("caustics_lens_{}", std::process::id()));
+    // One folder per call: the tests of this file run in parallel threads of one process.
+    static CALLS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("caustics_lens_{}_{call}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("lens.obj"), lens_obj(96, 256)).unwrap();
     let json = format!(

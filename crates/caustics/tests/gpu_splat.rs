@@ -52,7 +52,8 @@ fn every_mode_conserves_the_caustic_flux() {
 
 /// A glass slab (two parallel faces) under a directional light: the caustic under it is uniform.
 /// Caustic triangles reproduce it without noise although the photon grid (200²) and the caustic
-/// map (256²) do not line up, where fixed splats show the grid's moiré.
+/// map (256²) do not line up, where fixed splats show the grid's moiré; so do the adaptive
+/// hierarchy's cell quads.
 #[test]
 fn caustic_triangles_on_a_glass_slab_are_uniform() {
     let Some(ctx) = gpu() else { return };
@@ -63,8 +64,8 @@ fn caustic_triangles_on_a_glass_slab_are_uniform() {
                    {"type":"rectangle","center":[0,0.9,0],"normal":[0,-1,0],"size":[1.2,1.2],"material":"glass"},
                    {"type":"rectangle","center":[0,0,0],"normal":[0,1,0],"size":[6,6],"material":"floor"}]}"#;
     let s = Scene::from_json(json, "slab", Path::new(".")).unwrap();
-    let cv = |mode| {
-        let out = render(&ctx, &s, &settings(200, 256, mode), None).unwrap();
+    let cv = |mode, technique, n| {
+        let out = render(&ctx, &s, &RenderSettings { technique, ..settings(n, 256, mode) }, None).unwrap();
         let map = &out.caustic_maps[0][0];
         // The texels well inside the slab's footprint (its light view: the middle of the map).
         let lum = map.luminance();
@@ -85,11 +86,15 @@ fn caustic_triangles_on_a_glass_slab_are_uniform() {
         let var = inner.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / inner.len() as f64;
         (var.sqrt() / mean, inner.len())
     };
-    let (tri, texels) = cv(SplatMode::Triangles);
-    let (fixed, _) = cv(SplatMode::Fixed);
+    let (tri, texels) = cv(SplatMode::Triangles, Technique::Basic, 200);
+    let (fixed, _) = cv(SplatMode::Fixed, Technique::Basic, 200);
+    // The adaptive hierarchy's cell quads (a power-of-two grid).
+    let (quads, quad_texels) = cv(SplatMode::Triangles, Technique::AdaptiveLevel, 256);
     eprintln!(
-        "glass slab: coefficient of variation over {texels} texels: triangles {tri:.2e}, fixed splats {fixed:.2e}"
+        "glass slab: coefficient of variation over {texels} texels: triangles {tri:.2e}, fixed splats {fixed:.2e}; \
+         adaptive-level cell quads {quads:.2e} over {quad_texels} texels"
     );
+    assert!(quads < 1e-3, "cell quads: coefficient of variation {quads}");
     assert!(texels > 300, "the slab's caustic covers {texels} texels");
     assert!(tri < 1e-3, "caustic triangles: coefficient of variation {tri}");
     assert!(tri < 0.1 * fixed, "triangles {tri} vs fixed {fixed}");

@@ -19,7 +19,9 @@ struct LevelParams {
     tile_x: u32,
     tile_y: u32,
     grid_n: u32,
-    _pad: u32,
+    // adaptive_refine with FLAG_CHECK and FLAG_QUADS: the linearity stopping rule's tolerance
+    // in caustic-map texels (0: off, the paper's rule alone).
+    linearity: f32,
 }
 
 const FLAG_LAST: u32 = 1u;
@@ -27,6 +29,9 @@ const FLAG_CHECK: u32 = 2u;
 const FLAG_BEGIN: u32 = 4u;
 const FLAG_END: u32 = 8u;
 const FLAG_NO_PLAN: u32 = 16u;
+// adaptive_refine: caustic triangles (--splat triangles): trace the corners of every emitted
+// cell and store its quad for splat_quads.
+const FLAG_QUADS: u32 = 32u;
 
 // Control buffer words (u32). The indirect arguments live in a separate buffer (written by
 // adaptive_setup only; a buffer cannot be indirect and writable storage in one dispatch): the
@@ -49,6 +54,8 @@ const C_PEAK_CELLS: u32 = 13u;
 const C_PEAK_PHOTONS: u32 = 14u;
 // Photons splatted over all batches (lo, hi).
 const C_SPLATTED: u32 = 16u;
+// Corner photons traced for caustic triangles (lo, hi).
+const C_CORNERS: u32 = 18u;
 // Per level k (32 each): cells kept, photons traced, photons emitted.
 const C_CELLS: u32 = 32u;
 const C_TRACED: u32 = 64u;

@@ -13,7 +13,8 @@ var<private> trace_pending: array<f32, 6>;
 // Splat data the tracer leaves in each photon (docs/splatting.md): flux.w = the path signature
 // (objects hit and internal reflections, 24 bits; caustic triangles do not span two paths);
 // _pad = the beam diameter on the receiver in caustic-map texels from the lens equations (f32
-// bits), when light.splat.x asks for it (1 thin lens, 2 thick lens; 0: _pad = 0).
+// bits), when light.splat.x asks for it (1 thin lens, 2 thick lens; 0: _pad = 0, which
+// adaptive_refine then uses to mark photons that carry a cell quad for splat_quads).
 var<private> trace_internal: u32 = 0u;
 var<private> lens_exit_p: vec3f;
 // Ray differentials (Igehy 1999) of the photon's cell, when light.splat.x == 3

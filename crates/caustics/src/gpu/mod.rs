@@ -26,6 +26,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("splat_multires", include_str!("../../shaders/splat_multires.wgsl")),
     ("splat_multires_blend", include_str!("../../shaders/splat_multires_blend.wgsl")),
     ("caustic_triangles", include_str!("../../shaders/caustic_triangles.wgsl")),
+    ("splat_quads", include_str!("../../shaders/splat_quads.wgsl")),
 ];
 pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 
@@ -37,6 +38,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("hierarchy", include_str!("../../shaders/shared/hierarchy.wgsl")),
     ("coverage", include_str!("../../shaders/shared/coverage.wgsl")),
     ("splat", include_str!("../../shaders/shared/splat.wgsl")),
+    ("triangles", include_str!("../../shaders/shared/triangles.wgsl")),
 ];
 
 /// Full source of a stage: the shared code, then the stage with its `#import` lines replaced by

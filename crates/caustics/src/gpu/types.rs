@@ -165,7 +165,9 @@ pub struct LevelParams {
     pub tile_x: u32,
     pub tile_y: u32,
     pub grid_n: u32,
-    pub _pad: u32,
+    /// Maximal caustic map error with caustic triangles: the linearity stopping rule's
+    /// tolerance in caustic-map texels (0: off; `RenderSettings::quad_linearity`).
+    pub linearity: f32,
 }
 
 /// Temporal filter of one light's caustic maps (`temporal_filter`, [`crate::temporal`]).

@@ -8,7 +8,9 @@
 //! level `adaptive_refine` (indirect dispatch: discard, emit or refine each cluster, appending
 //! children and photons with atomic counters into one cell list with read and write regions and
 //! one photon buffer) and `adaptive_setup` (next level's indirect arguments, the splat's
-//! indirect arguments and photon count), then `photon_splat` (indirect).
+//! indirect arguments and photon count), then `photon_splat` (indirect), or the splat mode's
+//! stage: with caustic triangles, `adaptive_refine` also traces each emitted cell's corners and
+//! `splat_quads` spreads the cell's flux over their quad (`docs/splatting.md`).
 //!
 //! Batching: `adaptive_plan` splits each face's hierarchy into batches of at most the photon
 //! capacity the memory budget allows, from the exact relevant-photon counts of the coverage mip
@@ -18,7 +20,8 @@
 //! reported after the frame.
 
 use super::{
-    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, Pending, Technique, bind, ctrl, level_params, storage, uniform,
+    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, Pending, Technique, bind, ctrl, level_params,
+    storage, uniform,
 };
 use crate::error::{Error, Result};
 use crate::gpu::PassTimer;
@@ -28,6 +31,14 @@ use crate::render::RenderSettings;
 /// Bytes per leaf photon of batch capacity: the photon (32) and its slots in the two cell
 /// regions (2 × 4).
 pub const BYTES_PER_PHOTON: u64 = 40;
+/// Further bytes per photon with caustic triangles (`--splat triangles`): the landing points of
+/// its cell's four corners (`splat_quads`).
+pub const BYTES_PER_QUAD: u64 = 32;
+
+/// Bytes per leaf photon of batch capacity for `settings`.
+pub fn bytes_per_photon(s: &RenderSettings) -> u64 {
+    BYTES_PER_PHOTON + if s.splat.cell_quads(s.technique) { BYTES_PER_QUAD } else { 0 }
+}
 /// The largest batch grid (the plan is S² words, and one workgroup walks it).
 const MAX_BATCH_GRID: u32 = 4096;
 
@@ -43,8 +54,10 @@ pub struct AdaptivePlan {
     pub capacity: u64,
     /// Leaf photons per batch the plan fills up to (capacity less the largest cell).
     pub batch_leaves: u64,
-    /// Bytes of photon storage: photon buffer, two cell regions, plan.
+    /// Bytes of photon storage: photon buffer, two cell regions, plan (and the corner buffer).
     pub bytes: u64,
+    /// Bytes per photon of capacity ([`bytes_per_photon`]).
+    pub photon_bytes: u64,
 }
 
 impl AdaptivePlan {
@@ -59,10 +72,11 @@ impl AdaptivePlan {
             return cl("--base-grid", format!("must be a power of two from 4 to 4096 (got {})", s.base_grid));
         }
         let base = s.base_grid.min(n / 2);
+        let per_photon = bytes_per_photon(s);
         let mut sb = base;
         loop {
             let plan_bytes = (sb as u64).pow(2) * 4;
-            let capacity = (s.photon_memory.saturating_sub(plan_bytes) / BYTES_PER_PHOTON).min(max_bind / 32);
+            let capacity = (s.photon_memory.saturating_sub(plan_bytes) / per_photon).min(max_bind / 32);
             let cell = ((n / sb) as u64).pow(2);
             if cell * 2 <= capacity && capacity >= 64 {
                 return Ok(AdaptivePlan {
@@ -71,7 +85,8 @@ impl AdaptivePlan {
                     batch_grid: sb,
                     capacity,
                     batch_leaves: capacity - cell,
-                    bytes: capacity * BYTES_PER_PHOTON + plan_bytes,
+                    bytes: capacity * per_photon + plan_bytes,
+                    photon_bytes: per_photon,
                 });
             }
             if sb >= n / 2 || sb >= MAX_BATCH_GRID {
@@ -79,7 +94,7 @@ impl AdaptivePlan {
                     "--photon-memory",
                     format!(
                         "{} KiB of photon memory is too small for even one batch of the {n}x{n} photon hierarchy \
-                         (a batch must hold at least two {1}x{1} cells of {BYTES_PER_PHOTON} bytes per photon, \
+                         (a batch must hold at least two {1}x{1} cells of {per_photon} bytes per photon, \
                          plus a {2}x{2} plan)",
                         s.photon_memory >> 10,
                         n / sb,
@@ -103,6 +118,10 @@ pub(crate) struct Adaptive {
     photons: wgpu::Buffer,
     plan_buf: wgpu::Buffer,
     args: wgpu::Buffer,
+    /// Caustic triangles: two vec4f per photon, its cell's corner landing points (otherwise a
+    /// 16-byte placeholder for adaptive_refine's binding).
+    corners: wgpu::Buffer,
+    quads: bool,
 }
 
 impl Adaptive {
@@ -112,12 +131,15 @@ impl Adaptive {
         let cell = ((plan.n / plan.batch_grid) as u64).pow(2);
         let need = (e.bound.iter().copied().max().unwrap_or(0) + cell).max(2 * cell).max(64);
         if need < plan.capacity {
-            plan.bytes -= (plan.capacity - need) * BYTES_PER_PHOTON;
+            plan.bytes -= (plan.capacity - need) * plan.photon_bytes;
             plan.capacity = need;
             plan.batch_leaves = need - cell;
         }
         let none = wgpu::BufferUsages::empty();
+        let quads = e.settings.splat.cell_quads(e.settings.technique);
         Ok(Adaptive {
+            corners: storage(e.ctx, "corners", if quads { plan.capacity * BYTES_PER_QUAD } else { 16 }, none),
+            quads,
             cells: storage(e.ctx, "cells", plan.capacity * 8, none),
             photons: storage(e.ctx, "photons", plan.capacity * std::mem::size_of::<Photon>() as u64, none),
             plan_buf: storage(e.ctx, "batch_plan", (plan.batch_grid as u64).pow(2) * 4, none),
@@ -144,6 +166,7 @@ impl Adaptive {
             cell_capacity: p.capacity as u32,
             photon_capacity: p.capacity as u32,
             tolerance: s.max_error_tolerance,
+            linearity: s.quad_linearity,
             batch_grid: p.batch_grid,
             batch_leaves: p.batch_leaves as u32,
             max_batches,
@@ -204,6 +227,9 @@ impl Adaptive {
             if s.technique == Technique::AdaptiveError && grid * 2 >= s.error_check_grid {
                 flags |= FLAG_CHECK;
             }
+            if self.quads {
+                flags |= FLAG_QUADS;
+            }
             let rl = LevelParams { level: p.level(grid), grid, flags, ..lp };
             let u = uniform(e.ctx, "adaptive_refine", bytemuck::bytes_of(&rl));
             let rbg = bind(
@@ -225,6 +251,7 @@ impl Adaptive {
                     self.photons.as_entire_binding(),
                     ctrl_buf.as_entire_binding(),
                     e.stats.as_entire_binding(),
+                    self.corners.as_entire_binding(),
                 ],
             );
             let sbg = setup(LevelParams { level: p.level(grid * 2), ..lp });
@@ -242,6 +269,7 @@ impl Adaptive {
             }),
             &self.photons,
             e.accum,
+            Some(&self.corners),
         );
         {
             let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -300,5 +328,6 @@ impl Adaptive {
     pub fn fill(&self, pending: &mut Pending) {
         pending.level0_grid = self.plan.base;
         pending.stats.photon_bytes = self.plan.bytes;
+        pending.record_bytes = self.plan.photon_bytes - 8;
     }
 }

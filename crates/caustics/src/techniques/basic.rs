@@ -110,6 +110,7 @@ impl Basic {
                 sp.as_entire_binding(),
                 &self.photons,
                 e.accum,
+                None,
             );
             {
                 let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {

@@ -5,10 +5,12 @@
 //! like the adaptive technique: indirect dispatches, atomic appends) to copy only the valid
 //! photons into a compact buffer that is splatted (indirect). Irrelevant regions are skipped by
 //! the traversal and the splat, but every photon of the dense grid is still created.
+//! With caustic triangles, `hcm_traverse` also gives each compacted photon its dual quad from
+//! its neighbours in the dense tile (`splat_quads`, `docs/splatting.md`).
 
 use super::{
-    Emit, FLAG_BEGIN, FLAG_END, FLAG_LAST, FLAG_NO_PLAN, Pending, bind, build_mip, ctrl, level_params, mip_words,
-    storage, uniform,
+    Emit, FLAG_BEGIN, FLAG_END, FLAG_LAST, FLAG_NO_PLAN, FLAG_QUADS, Pending, bind, build_mip, ctrl, level_params,
+    mip_words, storage, uniform,
 };
 use crate::error::{Error, Result};
 use crate::gpu::PassTimer;
@@ -22,14 +24,18 @@ pub struct HierarchicalPlan {
     /// Tile size T (photons per side) and the traversal's start grid over a tile.
     pub tile: u32,
     pub start: u32,
-    /// Bytes of photon storage: dense tile, compact buffer, cell regions, mip chain.
+    /// Bytes of photon storage: dense tile, compact buffer, cell regions, mip chain (and the
+    /// compacted photons' quad corners with caustic triangles).
     pub bytes: u64,
+    /// Caustic triangles: the compacted photons carry dual quads (`hcm_traverse`).
+    pub quads: bool,
 }
 
 impl HierarchicalPlan {
-    pub fn bytes_for(t: u32, start: u32) -> u64 {
+    pub fn bytes_for(t: u32, start: u32, quads: bool) -> u64 {
         let t2 = (t as u64).pow(2);
-        t2 * 64 + (t as u64 / 2).pow(2).max(1) * 8 + mip_words(t, start) * 4
+        let corners = if quads { t2 * QUAD_BYTES } else { 0 };
+        t2 * 64 + corners + (t as u64 / 2).pow(2).max(1) * 8 + mip_words(t, start) * 4
     }
 
     pub fn new(s: &RenderSettings, max_bind: u64) -> Result<HierarchicalPlan> {
@@ -38,12 +44,13 @@ impl HierarchicalPlan {
         if !n.is_power_of_two() || n < 32 {
             return cl("--photons", format!("hierarchical caustic maps need a power of two from 32 to 8192 (got {n})"));
         }
+        let quads = s.splat.cell_quads(s.technique);
         let mut t = n.min(2048);
         loop {
             let start = s.base_grid.min(t / 2).max(1);
-            let bytes = HierarchicalPlan::bytes_for(t, start);
+            let bytes = HierarchicalPlan::bytes_for(t, start, quads);
             if bytes <= s.photon_memory && (t as u64).pow(2) * 32 <= max_bind {
-                return Ok(HierarchicalPlan { n, tile: t, start, bytes });
+                return Ok(HierarchicalPlan { n, tile: t, start, bytes, quads });
             }
             if t <= 8 {
                 return cl(
@@ -64,8 +71,14 @@ pub(crate) struct Hierarchical {
     mip: wgpu::Buffer,
     args: wgpu::Buffer,
     dummy: wgpu::Buffer,
+    /// Caustic triangles: two vec4f per compacted photon (its dual quad's corners); otherwise a
+    /// 16-byte placeholder for hcm_traverse's binding.
+    corners: wgpu::Buffer,
     tiles: u32,
 }
+
+/// Bytes per compacted photon of its dual quad's corners (caustic triangles).
+const QUAD_BYTES: u64 = 32;
 
 impl Hierarchical {
     pub fn new(e: &Emit) -> Result<Hierarchical> {
@@ -80,6 +93,7 @@ impl Hierarchical {
             mip: storage(e.ctx, "hcm_mip", mip_words(plan.tile, plan.start) * 4, none),
             args: storage(e.ctx, "indirect_args", ctrl::SPLAT_ARGS + 16, wgpu::BufferUsages::INDIRECT),
             dummy: storage(e.ctx, "unused", 64, none),
+            corners: storage(e.ctx, "corners", if plan.quads { t2 * QUAD_BYTES } else { 16 }, none),
             plan,
             tiles: 0,
         })
@@ -141,7 +155,10 @@ impl Hierarchical {
         let mut steps = Vec::new();
         let (mut grid, mut level) = (p.start, 0);
         while grid < t {
-            let flags = if grid * 2 == t { FLAG_LAST } else { 0 };
+            let mut flags = if grid * 2 == t { FLAG_LAST } else { 0 };
+            if p.quads {
+                flags |= FLAG_QUADS;
+            }
             let hl = LevelParams { level, grid, flags, ..lp };
             let u = uniform(e.ctx, "hcm_traverse", bytemuck::bytes_of(&hl));
             let hbg = bind(
@@ -155,6 +172,8 @@ impl Hierarchical {
                     self.tile.as_entire_binding(),
                     self.compact.as_entire_binding(),
                     ctrl_buf.as_entire_binding(),
+                    self.corners.as_entire_binding(),
+                    e.light_buf.as_entire_binding(),
                 ],
             );
             steps.push((hbg, setup(LevelParams { level: level + 1, flags: 0, ..lp })));
@@ -172,6 +191,7 @@ impl Hierarchical {
             }),
             &self.compact,
             e.accum,
+            Some(&self.corners),
         );
         let per_side = p.n / t;
         let mut first = true;

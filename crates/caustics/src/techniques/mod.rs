@@ -100,6 +100,10 @@ pub struct TechniqueStats {
     pub photons_traced: u64,
     /// Photons handed to the splat pass.
     pub photons_splatted: u64,
+    /// Caustic triangles over the adaptive hierarchy: photons traced through the corners of
+    /// emitted cells (not in `photons_traced` nor in the per-level counts, and not booked in the
+    /// flux statistics; each corner is traced at most once per cluster of four cells).
+    pub corners_traced: u64,
     /// Photons of the dense N × N grid that hit a caster (a specular caustic caster).
     pub relevant: u64,
     /// Caster front-buffer texels covered by a caster, and all texels (faces × G²).
@@ -245,6 +249,9 @@ pub(crate) struct Pending {
     pub masks: Vec<wgpu::Buffer>,
     /// Copies of the traced photon batches (`keep_photons`), with their photon counts.
     pub kept: Vec<(wgpu::Buffer, u64)>,
+    /// Bytes of one emitted photon's record (adaptive: the photon, and its quad's corners with
+    /// caustic triangles), for the peak memory in use.
+    pub record_bytes: u64,
 }
 
 /// Word indices of the control buffer (mirrors `shaders/shared/hierarchy.wgsl`).
@@ -254,6 +261,7 @@ pub(crate) mod ctrl {
     pub const PEAK_CELLS: usize = 13;
     pub const PEAK_PHOTONS: usize = 14;
     pub const SPLATTED: usize = 16;
+    pub const CORNERS: usize = 18;
     pub const CELLS: usize = 32;
     pub const TRACED: usize = 64;
     pub const EMITTED: usize = 96;
@@ -267,6 +275,7 @@ pub(crate) const FLAG_CHECK: u32 = 2;
 pub(crate) const FLAG_BEGIN: u32 = 4;
 pub(crate) const FLAG_END: u32 = 8;
 pub(crate) const FLAG_NO_PLAN: u32 = 16;
+pub(crate) const FLAG_QUADS: u32 = 32;
 
 pub(crate) fn storage(ctx: &GpuContext, label: &str, size: u64, extra: wgpu::BufferUsages) -> wgpu::Buffer {
     ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -385,7 +394,7 @@ pub(crate) fn level_params(face: u32) -> LevelParams {
         tile_x: 0,
         tile_y: 0,
         grid_n: 0,
-        _pad: 0,
+        linearity: 0.0,
     }
 }
 
@@ -404,6 +413,7 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
         level0_grid: 1,
         masks: Vec::new(),
         kept: Vec::new(),
+        record_bytes: 32,
     };
     let mut adaptive = match t {
         Technique::AdaptiveLevel | Technique::AdaptiveError => Some(adaptive::Adaptive::new(e)?),
@@ -497,6 +507,7 @@ impl Pending {
                 s.batches += c[ctrl::BATCHES];
             }
             s.photons_splatted += c[ctrl::SPLATTED] as u64 | (c[ctrl::SPLATTED + 1] as u64) << 32;
+            s.corners_traced += c[ctrl::CORNERS] as u64 | (c[ctrl::CORNERS + 1] as u64) << 32;
             peak_cells = peak_cells.max(c[ctrl::PEAK_CELLS] as u64);
             peak_photons = peak_photons.max(c[ctrl::PEAK_PHOTONS] as u64);
             for k in 0..32 {
@@ -512,7 +523,7 @@ impl Pending {
             }
         }
         if s.technique.is_adaptive() {
-            s.peak_photon_bytes = peak_cells * 4 + peak_photons * 32;
+            s.peak_photon_bytes = peak_cells * 4 + peak_photons * self.record_bytes;
         } else {
             s.peak_photon_bytes = s.photon_bytes;
         }
@@ -537,6 +548,7 @@ impl TechniqueStats {
         self.grid = o.grid;
         self.photons_traced += o.photons_traced;
         self.photons_splatted += o.photons_splatted;
+        self.corners_traced += o.corners_traced;
         self.relevant += o.relevant;
         self.covered_texels += o.covered_texels;
         self.face_texels += o.face_texels;
