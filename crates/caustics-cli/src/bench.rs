@@ -132,6 +132,9 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 shadow_map_size: 1024,
                 photon_memory: a.photon_memory.saturating_mul(1 << 20),
                 splat,
+                // Table 1 counts one photon per cell, as the paper (which has no reflected
+                // branch at glass) does: the transmitted branch only.
+                dielectric_reflection: false,
                 ..Default::default()
             };
             if n > t.max_photons() {

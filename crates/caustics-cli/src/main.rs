@@ -111,8 +111,8 @@ enum Command {
         /// How photons are splatted into the caustic map.
         #[arg(long, value_enum, default_value = "triangles")]
         splat: Splat,
-        /// Basic technique: trace only the light transmitted at glass, not the second photon per
-        /// cell that carries the light reflected at the first dielectric surface (half the cost).
+        /// Trace only the light transmitted at glass, not the second photon per cell that carries
+        /// the light reflected at the first dielectric surface (half the cost; every technique).
         #[arg(long)]
         no_glass_reflection: bool,
         /// Segments around tessellated spheres and cylinders (rasterization only; the CPU

@@ -150,6 +150,7 @@ fn flush_pending() {
 fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @builtin(local_invocation_index) lid: u32) {
     let t = thread_index(wg, nwg, lid);
     if (t >= atomicLoad(&ctrl[C_READ_COUNT])) { return; }
+    trace_reflect = (lp.flags & FLAG_REFLECT) != 0u;
     let parent = unpack_cell(cells[atomicLoad(&ctrl[C_READ_OFF]) + t]);
     let s = 2u * lp.grid;
     let child_level = lp.level + 1u;
@@ -267,6 +268,13 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
         m.pos = wpos / wsum;
         m.face = ph[0].face;
         m.flux = vec4f(sum, 0.0);
+        if (light.splat.x > 0.5 && (lp.flags & FLAG_QUADS) == 0u) {
+            // Lens and differential splats: the merged photon's beam is its cluster's, whose
+            // area is the sum of the children's (and at least the cluster's spread).
+            var area = 0.0;
+            for (var q = 0u; q < 4u; q++) { let dq = bitcast<f32>(ph[q]._pad); area += dq * dq; }
+            m._pad = bitcast<u32>(max(sqrt(area), max(hi.x - lo.x, hi.y - lo.y)));
+        }
         flush_pending();
         if (same_path) {
             // The merged cluster is the parent cell: its quad is the parent's four corners.

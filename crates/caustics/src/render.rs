@@ -62,9 +62,9 @@ pub struct RenderSettings {
     pub splat_sigma: f32,
     /// How photons are splatted into the caustic map (`crate::splat`).
     pub splat: SplatMode,
-    /// Basic technique: also trace the light reflected at the first dielectric surface (a second
-    /// photon per cell, weighted by Fresnel reflectance; the first carries the transmitted
-    /// light). The other techniques trace the transmitted branch only.
+    /// Also trace the light reflected at the first dielectric surface (a second photon per cell,
+    /// weighted by Fresnel reflectance; the first carries the transmitted light): basic, a
+    /// second pass over the grid; hierarchical and adaptive, a second traversal.
     pub dielectric_reflection: bool,
     /// Memory for photon storage (bytes): the grid (basic), the tiles (hierarchical) or the
     /// hierarchy (adaptive) is processed in batches that fit.

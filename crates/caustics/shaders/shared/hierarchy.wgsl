@@ -32,6 +32,8 @@ const FLAG_NO_PLAN: u32 = 16u;
 // adaptive_refine: caustic triangles (--splat triangles): trace the corners of every emitted
 // cell and store its quad for splat_quads.
 const FLAG_QUADS: u32 = 32u;
+// adaptive_refine: trace the reflected branch at the first dielectric surface (trace_reflect).
+const FLAG_REFLECT: u32 = 64u;
 
 // Control buffer words (u32). The indirect arguments live in a separate buffer (written by
 // adaptive_setup only; a buffer cannot be indirect and writable storage in one dispatch): the

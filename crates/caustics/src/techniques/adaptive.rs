@@ -20,8 +20,8 @@
 //! reported after the frame.
 
 use super::{
-    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, Pending, Technique, bind, ctrl, level_params,
-    storage, uniform,
+    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, FLAG_REFLECT, Pending, Technique, bind, ctrl,
+    level_params, storage, uniform,
 };
 use crate::error::{Error, Result};
 use crate::gpu::PassTimer;
@@ -155,6 +155,7 @@ impl Adaptive {
         timer: &mut PassTimer,
         cover: &wgpu::Buffer,
         f: u32,
+        reflect: bool,
     ) -> wgpu::Buffer {
         let p = self.plan;
         let s = e.settings;
@@ -229,6 +230,9 @@ impl Adaptive {
             }
             if self.quads {
                 flags |= FLAG_QUADS;
+            }
+            if reflect {
+                flags |= FLAG_REFLECT;
             }
             let rl = LevelParams { level: p.level(grid), grid, flags, ..lp };
             let u = uniform(e.ctx, "adaptive_refine", bytemuck::bytes_of(&rl));

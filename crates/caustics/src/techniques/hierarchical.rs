@@ -105,6 +105,7 @@ impl Hierarchical {
         enc: &mut wgpu::CommandEncoder,
         timer: &mut PassTimer,
         f: u32,
+        reflect: bool,
     ) -> wgpu::Buffer {
         let p = self.plan;
         let t = p.tile;
@@ -201,7 +202,8 @@ impl Hierarchical {
                     e.ctx,
                     "trace_params",
                     bytemuck::bytes_of(&TraceParams {
-                        face: f,
+                        // The high bit selects the reflected branch (photon_trace).
+                        face: f | u32::from(reflect) << 31,
                         batch_offset: ty * t * p.n + tx * t,
                         batch_count: t * t,
                         tile: t,

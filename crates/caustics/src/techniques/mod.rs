@@ -276,6 +276,7 @@ pub(crate) const FLAG_BEGIN: u32 = 4;
 pub(crate) const FLAG_END: u32 = 8;
 pub(crate) const FLAG_NO_PLAN: u32 = 16;
 pub(crate) const FLAG_QUADS: u32 = 32;
+pub(crate) const FLAG_REFLECT: u32 = 64;
 
 pub(crate) fn storage(ctx: &GpuContext, label: &str, size: u64, extra: wgpu::BufferUsages) -> wgpu::Buffer {
     ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -435,11 +436,17 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
             enc.copy_buffer_to_buffer(&cover, 0, &m, 0, (g as u64).pow(2) * 4);
             pending.masks.push(m);
         }
-        if let Some(a) = &mut adaptive {
-            pending.ctrl.push(a.record_face(e, enc, timer, &cover, f));
-        }
-        if let Some(h) = &mut hier {
-            pending.ctrl.push(h.record_face(e, enc, timer, f));
+        // The transmitted branch, then (glass casters) the reflected one: a second traversal.
+        for reflect in [false, true] {
+            if reflect && !e.reflect_branch {
+                continue;
+            }
+            if let Some(a) = &mut adaptive {
+                pending.ctrl.push(a.record_face(e, enc, timer, &cover, f, reflect));
+            }
+            if let Some(h) = &mut hier {
+                pending.ctrl.push(h.record_face(e, enc, timer, f, reflect));
+            }
         }
         if let Some(b) = &mut basic {
             b.record_face(e, enc, timer, f, &mut pending.kept);
