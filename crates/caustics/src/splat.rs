@@ -73,11 +73,14 @@ impl SplatMode {
     /// What the tracer writes into `light.splat.x`: 1 thin-lens, 2 thick-lens beam diameters.
     /// Triangles write none (0): the hierarchical and adaptive techniques use `Photon._pad` to
     /// mark photons that carry a quad (`splat_quads`).
-    pub fn lens_flag(self, _technique: crate::techniques::Technique) -> f32 {
+    /// Caustic triangles from the dense grid (basic technique) take ray-differential beam sizes
+    /// too: their continuity test and their Gaussian fallback use them.
+    pub fn lens_flag(self, technique: crate::techniques::Technique) -> f32 {
         match self {
             SplatMode::ThinLens => 1.0,
             SplatMode::ThickLens => 2.0,
             SplatMode::Differential => 3.0,
+            SplatMode::Triangles if technique == crate::techniques::Technique::Basic => 3.0,
             _ => 0.0,
         }
     }
