@@ -160,45 +160,54 @@ fn march_exit(o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
     let ds = 2.2 * light.extra.x / f32(steps);
     var last_valid = vec2f(-1.0);
     var prev_front_gap = -1.0;
-    for (var k = 1u; k <= steps; k++) {
-        let p = o + d * (f32(k) * ds);
-        let q = project_face(face, p, g);
-        if (q.w < 0.5) { break; }
-        let t = texel_of(q.xy, u32(g));
-        let bp = textureLoad(back_pos, t, layer, 0);
-        if (bp.w < 0.0) {
+    // The march only finds the step where something happens (0 nothing: the ray left the view
+    // or the steps ran out, 1 it left the silhouette, 2 it passed behind the back surface, 3 a
+    // candidate crossing of a front surface); the refinements run outside its loop. (On
+    // lavapipe a loop body costs all of its branches on every iteration, taken or not.)
+    var k = 1u;
+    var event = 0u;
+    var q_event = vec2f(0.0);
+    loop {
+        for (; k <= steps; k++) {
+            let p = o + d * (f32(k) * ds);
+            let q = project_face(face, p, g);
+            if (q.w < 0.5) { break; }
+            let t = texel_of(q.xy, u32(g));
+            let bp = textureLoad(back_pos, t, layer, 0);
             // Left the silhouette between two samples: exit through the last back texel seen.
-            if (last_valid.x < 0.0) { return none; }
-            return refine_hit(back_pos, back_nrm, layer, buffer_hit(back_pos, back_nrm, layer, last_valid, o, d), o, d);
-        }
-        last_valid = q.xy;
-        let depth = light_depth(face, p);
-        var exit_tex = 0u;
-        if (depth >= light_depth(face, bp.xyz)) {
-            exit_tex = 1u;
-        } else {
+            if (bp.w < 0.0) { event = 1u; break; }
+            last_valid = q.xy;
+            let depth = light_depth(face, p);
+            if (depth >= light_depth(face, bp.xyz)) { event = 2u; q_event = q.xy; break; }
             // Out through a front surface (concave parts, rays reflected inside): only a genuine
             // crossing counts, from behind the surface to in front of it, on a continuous
             // surface, with the tangent-plane intersection inside the step.
             let fp = textureLoad(front_pos, t, layer, 0);
             let gap = depth - light_depth(face, fp.xyz);
             if (k >= 2u && fp.w >= 0.0 && gap <= 0.0 && prev_front_gap > 0.0 && -gap < 2.0 * ds) {
-                let h = refine_hit(front_pos, front_nrm, layer, buffer_hit(front_pos, front_nrm, layer, q.xy, o, d), o, d);
-                let s = dot(h.p - o, d);
-                if (h.object != INVALID && s > (f32(k) - 1.5) * ds && s <= (f32(k) + 0.5) * ds) { return h; }
+                event = 3u;
+                q_event = q.xy;
+                prev_front_gap = gap;
+                break;
             }
             prev_front_gap = select(-1.0, gap, fp.w >= 0.0);
         }
-        if (exit_tex != 0u) {
-            let h = refine_hit(back_pos, back_nrm, layer, buffer_hit(back_pos, back_nrm, layer, q.xy, o, d), o, d);
-            let s = dot(h.p - o, d);
-            if (h.object != INVALID && s > (f32(k) - 1.5) * ds && s < (f32(k) + 0.5) * ds) { return h; }
-            // The tangent plane of this texel does not cut the step: refine by bisection
-            // between the two samples against the buffer's depth.
-            return bisect_exit(o, d, layer, g, (f32(k) - 1.0) * ds, f32(k) * ds);
-        }
+        if (event != 3u) { break; }
+        let h = refine_hit(front_pos, front_nrm, layer, buffer_hit(front_pos, front_nrm, layer, q_event, o, d), o, d);
+        let s = dot(h.p - o, d);
+        if (h.object != INVALID && s > (f32(k) - 1.5) * ds && s <= (f32(k) + 0.5) * ds) { return h; }
+        // Not a crossing within the step: march on.
+        event = 0u;
+        k++;
     }
-    return none;
+    if (event == 0u || (event == 1u && last_valid.x < 0.0)) { return none; }
+    let h = refine_hit(back_pos, back_nrm, layer, buffer_hit(back_pos, back_nrm, layer, select(last_valid, q_event, event == 2u), o, d), o, d);
+    if (event == 1u) { return h; }
+    let s = dot(h.p - o, d);
+    if (h.object != INVALID && s > (f32(k) - 1.5) * ds && s < (f32(k) + 0.5) * ds) { return h; }
+    // The tangent plane of this texel does not cut the step: refine by bisection between the
+    // two samples against the buffer's depth.
+    return bisect_exit(o, d, layer, g, (f32(k) - 1.0) * ds, f32(k) * ds);
 }
 
 // Iterative search for the receiver hit by the ray o + t d in the receiver map (all faces).
@@ -394,6 +403,10 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
     var prev_side = 0.0;
     var prev_obj = INVALID;
     var prev_gap = 0.0;
+    var found = false;
+    var s_found = 0.0;
+    var q_found = vec2f(0.0);
+    var layer_found = 0u;
     for (var k = 2u; k <= steps; k++) {
         let s = f32(k) * ds;
         let p = o + d * s;
@@ -410,19 +423,25 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
         let obj = u32(fp.w);
         let side = sign(gap);
         if (prev_obj == obj && side != prev_side && abs(gap) < 3.0 * ds && abs(prev_gap) < 3.0 * ds) {
-            let h = refine_hit(front_pos, front_nrm, layer, buffer_hit(front_pos, front_nrm, layer, q.xy, o, d), o, d);
-            if (h.object == INVALID) { return none; }
-            let sh = dot(h.p - o, d);
-            var hh = h;
-            if (!(sh > s - 2.0 * ds && sh < s + ds)) { hh.p = p; }
-            if (dot(hh.p - o, d) < 1.5 * ds) { return none; }
-            return hh;
+            found = true;
+            s_found = s;
+            q_found = q.xy;
+            layer_found = layer;
+            break;
         }
         prev_obj = obj;
         prev_side = side;
         prev_gap = gap;
     }
-    return none;
+    // The refinement outside the march's loop (see march_exit).
+    if (!found) { return none; }
+    let h = refine_hit(front_pos, front_nrm, layer_found, buffer_hit(front_pos, front_nrm, layer_found, q_found, o, d), o, d);
+    if (h.object == INVALID) { return none; }
+    let sh = dot(h.p - o, d);
+    var hh = h;
+    if (!(sh > s_found - 2.0 * ds && sh < s_found + ds)) { hh.p = o + d * s_found; }
+    if (dot(hh.p - o, d) < 1.5 * ds) { return none; }
+    return hh;
 }
 
 // Move the differentials along d to the point at distance t, onto its tangent plane (normal n).
