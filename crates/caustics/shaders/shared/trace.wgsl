@@ -22,6 +22,19 @@ var<private> lens_exit_p: vec3f;
 // normal derivative from the analytic shape or the light-space buffers). On landing, the cell's
 // image in the caustic map gives the exact first-order beam diameter, which `splat_lens` uses.
 var<private> rd_on: bool = false;
+// The splat mode the pipeline was built for (light.splat.x: 0 none, 1 thin lens, 2 thick lens,
+// 3 ray differentials), or -1: read light.splat.x at run time. A fixed mode compiles the lens and
+// differential code out of the modes that do not use it (src/techniques/mod.rs builds the
+// tracing pipelines for the frame's mode): on lavapipe, code behind a branch costs its time
+// whether or not the branch is taken.
+override trace_splat_mode: i32 = -1;
+fn splat_mode() -> f32 {
+    if (trace_splat_mode >= 0) { return f32(trace_splat_mode); }
+    return light.splat.x;
+}
+fn rd_active() -> bool {
+    return rd_on && (trace_splat_mode < 0 || trace_splat_mode == 3);
+}
 var<private> rd_from: vec3f;
 var<private> rd_pu: vec3f;
 var<private> rd_pv: vec3f;
@@ -344,7 +357,7 @@ fn interact(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f, l
         // Leaving the refractor: the normal facing the ray is -n2.
         let cos2 = dot(t_in, n2);
         let t2 = refract_dir(t_in, -n2, ior / ext);
-        if (rd_on) { rd_transfer(t_in, dot(exit.p - p_in, t_in), n2); }
+        if (rd_active()) { rd_transfer(t_in, dot(exit.p - p_in, t_in), n2); }
         rd_interface(materials[exit.object], exit.p, -n2, t_in, t2.xyz, ior / ext, t2.w < 0.5);
         if (t2.w > 0.5) {
             trace_internal = k;
@@ -552,7 +565,7 @@ fn rd_reflect(d: vec3f, n: vec3f, dnu: vec3f, dnv: vec3f) {
 
 // Refract or reflect the differentials at p (normal n facing the incident ray d).
 fn rd_interface(mat: MaterialGpu, p: vec3f, n: vec3f, d: vec3f, out_dir: vec3f, eta: f32, reflected: bool) {
-    if (!rd_on) { return; }
+    if (!rd_active()) { return; }
     let dnu = surface_dn(mat, p, n, rd_pu);
     let dnv = surface_dn(mat, p, n, rd_pv);
     if (reflected) { rd_reflect(d, n, dnu, dnv); } else { rd_refract(d, n, eta, out_dir, dnu, dnv); }
@@ -604,7 +617,7 @@ fn lens_power(mat: MaterialGpu, layer: u32, uv: vec2f, d: vec3f, p_front: vec3f,
     let n = mat.a.x / mat.a.y;
     let q = project_face(light.faces[layer], lens_exit_p, g);
     let kb = buffer_curvature(back_pos, back_nrm, layer, q.xy);
-    if (light.splat.x < 1.5) {
+    if (splat_mode() < 1.5) {
         return vec4f((n - 1.0) * (kf - kb), 0.0, 1.0);
     }
     let t = length(lens_exit_p - p_front);
@@ -675,8 +688,8 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var flux = cell_flux(layer, ndc, cell, d);
     let total_in = flux.r + flux.g + flux.b;
     if (total_in <= 0.0) { return out; }
-    rd_on = light.splat.x > 2.5;
-    if (rd_on) {
+    rd_on = splat_mode() > 2.5;
+    if (rd_active()) {
         // The cell's rays: across the whole cell along each grid axis (central differences).
         let hu = vec2f(0.5 * cell.x, 0.0);
         let hv = vec2f(0.0, 0.5 * cell.y);
@@ -709,7 +722,7 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var sig = 0u;
     var lens = vec4f(0.0);
     for (var bounce = 0u; bounce < MAX_BOUNCES; bounce++) {
-        if (rd_on) { rd_transfer(dir, dot(hit_p - rd_from, dir), hit_n); }
+        if (rd_active()) { rd_transfer(dir, dot(hit_p - rd_from, dir), hit_n); }
         var r: Interaction;
         if (bounce == 0u && trace_reflect) {
             r = reflect_dielectric(materials[obj], hit_p, hit_n, dir, flux);
@@ -718,7 +731,7 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
             r = interact(materials[obj], hit_p, hit_n, dir, flux, layer, g);
         }
         sig = (sig * 31u + obj * 8u + trace_internal + 1u) & 0xffffffu;
-        if (bounce == 0u && !trace_reflect && light.splat.x > 0.5 && light.splat.x < 2.5 && r.status == STATUS_OK) {
+        if (bounce == 0u && !trace_reflect && splat_mode() > 0.5 && splat_mode() < 2.5 && r.status == STATUS_OK) {
             lens = lens_power(materials[obj], layer, uv, d, front.p, g);
         }
         if (r.status == STATUS_NO_EXIT) { add_fixed(4u, r.flux.r + r.flux.g + r.flux.b); return out; }
@@ -758,10 +771,10 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
                 out.pos = q.xy;
                 out.face = f;
                 out.flux = vec4f(flux, f32(sig));
-                if (lens.w > 0.0) {
+                if (splat_mode() > 0.5 && splat_mode() < 2.5 && lens.w > 0.0) {
                     out._pad = bitcast<u32>(lens_diameter(lens, light_dist(face, front.p), length(hit.xyz - lens_exit_p), cell.x * 0.5 * m));
                 }
-                if (rd_on) { out._pad = bitcast<u32>(beam_diameter(f, hit.xyz, dir, m, q.xy)); }
+                if (rd_active()) { out._pad = bitcast<u32>(beam_diameter(f, hit.xyz, dir, m, q.xy)); }
                 add_fixed(2u, total);
                 return out;
             }
