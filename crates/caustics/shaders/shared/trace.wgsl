@@ -23,6 +23,19 @@ var<private> lens_exit_p: vec3f;
 // normal derivative from the analytic shape or the light-space buffers). On landing, the cell's
 // image in the caustic map gives the exact first-order beam diameter, which `splat_lens` uses.
 var<private> rd_on: bool = false;
+// The splat mode the pipeline was built for (light.splat.x: 0 none, 1 thin lens, 2 thick lens,
+// 3 ray differentials), or -1: read light.splat.x at run time. A fixed mode compiles the lens and
+// differential code out of the modes that do not use it (src/techniques/mod.rs builds the
+// tracing pipelines for the frame's mode): on lavapipe, code behind a branch costs its time
+// whether or not the branch is taken.
+override trace_splat_mode: i32 = -1;
+fn splat_mode() -> f32 {
+    if (trace_splat_mode >= 0) { return f32(trace_splat_mode); }
+    return light.splat.x;
+}
+fn rd_active() -> bool {
+    return rd_on && (trace_splat_mode < 0 || trace_splat_mode == 3);
+}
 var<private> rd_from: vec3f;
 var<private> rd_pu: vec3f;
 var<private> rd_pv: vec3f;
@@ -161,45 +174,54 @@ fn march_exit(o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
     let ds = 2.2 * light.extra.x / f32(steps);
     var last_valid = vec2f(-1.0);
     var prev_front_gap = -1.0;
-    for (var k = 1u; k <= steps; k++) {
-        let p = o + d * (f32(k) * ds);
-        let q = project_face(face, p, g);
-        if (q.w < 0.5) { break; }
-        let t = texel_of(q.xy, u32(g));
-        let bp = textureLoad(back_pos, t, layer, 0);
-        if (bp.w < 0.0) {
+    // The march only finds the step where something happens (0 nothing: the ray left the view
+    // or the steps ran out, 1 it left the silhouette, 2 it passed behind the back surface, 3 a
+    // candidate crossing of a front surface); the refinements run outside its loop. (On
+    // lavapipe a loop body costs all of its branches on every iteration, taken or not.)
+    var k = 1u;
+    var event = 0u;
+    var q_event = vec2f(0.0);
+    loop {
+        for (; k <= steps; k++) {
+            let p = o + d * (f32(k) * ds);
+            let q = project_face(face, p, g);
+            if (q.w < 0.5) { break; }
+            let t = texel_of(q.xy, u32(g));
+            let bp = textureLoad(back_pos, t, layer, 0);
             // Left the silhouette between two samples: exit through the last back texel seen.
-            if (last_valid.x < 0.0) { return none; }
-            return refine_hit(back_pos, back_nrm, layer, buffer_hit(back_pos, back_nrm, layer, last_valid, o, d), o, d);
-        }
-        last_valid = q.xy;
-        let depth = light_depth(face, p);
-        var exit_tex = 0u;
-        if (depth >= light_depth(face, bp.xyz)) {
-            exit_tex = 1u;
-        } else {
+            if (bp.w < 0.0) { event = 1u; break; }
+            last_valid = q.xy;
+            let depth = light_depth(face, p);
+            if (depth >= light_depth(face, bp.xyz)) { event = 2u; q_event = q.xy; break; }
             // Out through a front surface (concave parts, rays reflected inside): only a genuine
             // crossing counts, from behind the surface to in front of it, on a continuous
             // surface, with the tangent-plane intersection inside the step.
             let fp = textureLoad(front_pos, t, layer, 0);
             let gap = depth - light_depth(face, fp.xyz);
             if (k >= 2u && fp.w >= 0.0 && gap <= 0.0 && prev_front_gap > 0.0 && -gap < 2.0 * ds) {
-                let h = refine_hit(front_pos, front_nrm, layer, buffer_hit(front_pos, front_nrm, layer, q.xy, o, d), o, d);
-                let s = dot(h.p - o, d);
-                if (h.object != INVALID && s > (f32(k) - 1.5) * ds && s <= (f32(k) + 0.5) * ds) { return h; }
+                event = 3u;
+                q_event = q.xy;
+                prev_front_gap = gap;
+                break;
             }
             prev_front_gap = select(-1.0, gap, fp.w >= 0.0);
         }
-        if (exit_tex != 0u) {
-            let h = refine_hit(back_pos, back_nrm, layer, buffer_hit(back_pos, back_nrm, layer, q.xy, o, d), o, d);
-            let s = dot(h.p - o, d);
-            if (h.object != INVALID && s > (f32(k) - 1.5) * ds && s < (f32(k) + 0.5) * ds) { return h; }
-            // The tangent plane of this texel does not cut the step: refine by bisection
-            // between the two samples against the buffer's depth.
-            return bisect_exit(o, d, layer, g, (f32(k) - 1.0) * ds, f32(k) * ds);
-        }
+        if (event != 3u) { break; }
+        let h = refine_hit(front_pos, front_nrm, layer, buffer_hit(front_pos, front_nrm, layer, q_event, o, d), o, d);
+        let s = dot(h.p - o, d);
+        if (h.object != INVALID && s > (f32(k) - 1.5) * ds && s <= (f32(k) + 0.5) * ds) { return h; }
+        // Not a crossing within the step: march on.
+        event = 0u;
+        k++;
     }
-    return none;
+    if (event == 0u || (event == 1u && last_valid.x < 0.0)) { return none; }
+    let h = refine_hit(back_pos, back_nrm, layer, buffer_hit(back_pos, back_nrm, layer, select(last_valid, q_event, event == 2u), o, d), o, d);
+    if (event == 1u) { return h; }
+    let s = dot(h.p - o, d);
+    if (h.object != INVALID && s > (f32(k) - 1.5) * ds && s < (f32(k) + 0.5) * ds) { return h; }
+    // The tangent plane of this texel does not cut the step: refine by bisection between the
+    // two samples against the buffer's depth.
+    return bisect_exit(o, d, layer, g, (f32(k) - 1.0) * ds, f32(k) * ds);
 }
 
 // Iterative search for the receiver hit by the ray o + t d in the receiver map (all faces).
@@ -213,6 +235,9 @@ fn find_receiver(o: vec3f, d: vec3f) -> vec4f {
     var t = 0.0;
     var p = o;
     var converged_once = false;
+    // A single face's view is convex (a frustum or a box): once a sample beyond one inside it
+    // is outside, every later sample is too, and the march below would find nothing.
+    var t_inside = 1e30;
     for (var it = 0u; it < 96u; it++) {
         var found = false;
         var proj = vec4f(0.0);
@@ -221,6 +246,7 @@ fn find_receiver(o: vec3f, d: vec3f) -> vec4f {
             let q = project_face(light.faces[f], p, m);
             if (q.w > 0.5) { proj = q; face = f; found = true; break; }
         }
+        if (found) { t_inside = min(t_inside, t); } else if (nfaces == 1u && t > t_inside) { return vec4f(0.0); }
         var r = vec4f(0.0, 0.0, 0.0, -1.0);
         var n = vec3f(0.0);
         if (found) {
@@ -336,7 +362,7 @@ fn interact(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f, l
         // Leaving the refractor: the normal facing the ray is -n2.
         let cos2 = dot(t_in, n2);
         let t2 = refract_dir(t_in, -n2, ior / ext);
-        if (rd_on) { rd_transfer(t_in, dot(exit.p - p_in, t_in), n2); }
+        if (rd_active()) { rd_transfer(t_in, dot(exit.p - p_in, t_in), n2); }
         rd_interface(materials[exit.object], exit.p, -n2, t_in, t2.xyz, ior / ext, t2.w < 0.5);
         if (t2.w > 0.5) {
             trace_internal = k;
@@ -395,6 +421,10 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
     var prev_side = 0.0;
     var prev_obj = INVALID;
     var prev_gap = 0.0;
+    var found = false;
+    var s_found = 0.0;
+    var q_found = vec2f(0.0);
+    var layer_found = 0u;
     for (var k = 2u; k <= steps; k++) {
         let s = f32(k) * ds;
         let p = o + d * s;
@@ -411,19 +441,25 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
         let obj = u32(fp.w);
         let side = sign(gap);
         if (prev_obj == obj && side != prev_side && abs(gap) < 3.0 * ds && abs(prev_gap) < 3.0 * ds) {
-            let h = refine_hit(front_pos, front_nrm, layer, buffer_hit(front_pos, front_nrm, layer, q.xy, o, d), o, d);
-            if (h.object == INVALID) { return none; }
-            let sh = dot(h.p - o, d);
-            var hh = h;
-            if (!(sh > s - 2.0 * ds && sh < s + ds)) { hh.p = p; }
-            if (dot(hh.p - o, d) < 1.5 * ds) { return none; }
-            return hh;
+            found = true;
+            s_found = s;
+            q_found = q.xy;
+            layer_found = layer;
+            break;
         }
         prev_obj = obj;
         prev_side = side;
         prev_gap = gap;
     }
-    return none;
+    // The refinement outside the march's loop (see march_exit).
+    if (!found) { return none; }
+    let h = refine_hit(front_pos, front_nrm, layer_found, buffer_hit(front_pos, front_nrm, layer_found, q_found, o, d), o, d);
+    if (h.object == INVALID) { return none; }
+    let sh = dot(h.p - o, d);
+    var hh = h;
+    if (!(sh > s_found - 2.0 * ds && sh < s_found + ds)) { hh.p = o + d * s_found; }
+    if (dot(hh.p - o, d) < 1.5 * ds) { return none; }
+    return hh;
 }
 
 // Move the differentials along d to the point at distance t, onto its tangent plane (normal n).
@@ -534,7 +570,7 @@ fn rd_reflect(d: vec3f, n: vec3f, dnu: vec3f, dnv: vec3f) {
 
 // Refract or reflect the differentials at p (normal n facing the incident ray d).
 fn rd_interface(mat: MaterialGpu, p: vec3f, n: vec3f, d: vec3f, out_dir: vec3f, eta: f32, reflected: bool) {
-    if (!rd_on) { return; }
+    if (!rd_active()) { return; }
     let dnu = surface_dn(mat, p, n, rd_pu);
     let dnv = surface_dn(mat, p, n, rd_pv);
     if (reflected) { rd_reflect(d, n, dnu, dnv); } else { rd_refract(d, n, eta, out_dir, dnu, dnv); }
@@ -586,7 +622,7 @@ fn lens_power(mat: MaterialGpu, layer: u32, uv: vec2f, d: vec3f, p_front: vec3f,
     let n = mat.a.x / mat.a.y;
     let q = project_face(light.faces[layer], lens_exit_p, g);
     let kb = buffer_curvature(back_pos, back_nrm, layer, q.xy);
-    if (light.splat.x < 1.5) {
+    if (splat_mode() < 1.5) {
         return vec4f((n - 1.0) * (kf - kb), 0.0, 1.0);
     }
     let t = length(lens_exit_p - p_front);
@@ -657,8 +693,8 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var flux = cell_flux(layer, ndc, cell, d);
     let total_in = flux.r + flux.g + flux.b;
     if (total_in <= 0.0) { return out; }
-    rd_on = light.splat.x > 2.5;
-    if (rd_on) {
+    rd_on = splat_mode() > 2.5;
+    if (rd_active()) {
         // The cell's rays: across the whole cell along each grid axis (central differences).
         let hu = vec2f(0.5 * cell.x, 0.0);
         let hv = vec2f(0.0, 0.5 * cell.y);
@@ -691,7 +727,7 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var sig = 0u;
     var lens = vec4f(0.0);
     for (var bounce = 0u; bounce < MAX_BOUNCES; bounce++) {
-        if (rd_on) { rd_transfer(dir, dot(hit_p - rd_from, dir), hit_n); }
+        if (rd_active()) { rd_transfer(dir, dot(hit_p - rd_from, dir), hit_n); }
         var r: Interaction;
         if (bounce == 0u && trace_reflect) {
             r = reflect_dielectric(materials[obj], hit_p, hit_n, dir, flux);
@@ -700,7 +736,7 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
             r = interact(materials[obj], hit_p, hit_n, dir, flux, layer, g);
         }
         sig = (sig * 31u + obj * 8u + trace_internal + 1u) & 0xffffffu;
-        if (bounce == 0u && !trace_reflect && light.splat.x > 0.5 && light.splat.x < 2.5 && r.status == STATUS_OK) {
+        if (bounce == 0u && !trace_reflect && splat_mode() > 0.5 && splat_mode() < 2.5 && r.status == STATUS_OK) {
             lens = lens_power(materials[obj], layer, uv, d, front.p, g);
         }
         if (r.status == STATUS_NO_EXIT) { add_fixed(4u, r.flux.r + r.flux.g + r.flux.b); return out; }
@@ -740,10 +776,10 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
                 out.pos = q.xy;
                 out.face = f;
                 out.flux = vec4f(flux, f32(sig));
-                if (lens.w > 0.0) {
+                if (splat_mode() > 0.5 && splat_mode() < 2.5 && lens.w > 0.0) {
                     out._pad = bitcast<u32>(lens_diameter(lens, light_dist(face, front.p), length(hit.xyz - lens_exit_p), cell.x * 0.5 * m));
                 }
-                if (rd_on) { out._pad = bitcast<u32>(beam_diameter(f, hit.xyz, dir, m, q.xy)); }
+                if (rd_active()) { out._pad = bitcast<u32>(beam_diameter(f, hit.xyz, dir, m, q.xy)); }
                 add_fixed(2u, total);
                 return out;
             }

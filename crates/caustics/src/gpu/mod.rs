@@ -203,6 +203,30 @@ impl GpuContext {
             .clone()
     }
 
+    /// A compute pipeline built once per context with the given values of the stage's
+    /// pipeline-overridable constants (cached by name and values).
+    pub fn compute_pipeline_with(&self, name: &str, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+        if constants.is_empty() {
+            return self.compute_pipeline(name);
+        }
+        let key = format!("{name}{constants:?}");
+        let mut cache = self.compute_cache.lock().unwrap_or_else(|e| e.into_inner());
+        cache
+            .entry(key)
+            .or_insert_with(|| {
+                let module = self.shader(name);
+                self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(name),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some("main"),
+                    compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
+                    cache: None,
+                })
+            })
+            .clone()
+    }
+
     /// A render pipeline built once per context by `make`, under `name`.
     pub fn render_pipeline(&self, name: &str, make: impl FnOnce() -> wgpu::RenderPipeline) -> wgpu::RenderPipeline {
         let mut cache = self.render_cache.lock().unwrap_or_else(|e| e.into_inner());

@@ -164,14 +164,18 @@ impl Pipelines {
     pub fn new(ctx: &GpuContext, t: Technique, splat: crate::splat::SplatMode) -> Pipelines {
         let hier = t != Technique::Basic;
         let p = |name: &str, on: bool| on.then(|| ctx.compute_pipeline(name));
+        // The tracing stages are built for the splat mode (shared/trace.wgsl, trace_splat_mode),
+        // which compiles out the lens and ray-differential code the mode does not use.
+        let mode = [("trace_splat_mode", f64::from(splat.lens_flag(t)))];
+        let traced = |name: &str, on: bool| on.then(|| ctx.compute_pipeline_with(name, &mode));
         Pipelines {
-            trace: p("photon_trace", !t.is_adaptive()),
+            trace: traced("photon_trace", !t.is_adaptive()),
             splat: crate::splat::SplatPipelines::new(ctx, splat, t),
             coverage: ctx.compute_pipeline("coverage_mip"),
             plan: p("adaptive_plan", t.is_adaptive()),
             init: p("adaptive_init", hier),
             setup: p("adaptive_setup", hier),
-            refine: p("adaptive_refine", t.is_adaptive()),
+            refine: traced("adaptive_refine", t.is_adaptive()),
             hcm: p("hcm_traverse", t == Technique::Hierarchical),
         }
     }
