@@ -19,27 +19,12 @@ fn main() {
             ..Default::default()
         };
         let out = render(&ctx, &scene, &s, None).unwrap();
-        let ph = &out.technique.photons;
-        let at = |i: u32, j: u32| &ph[(j * n + i) as usize];
         let mut r = Vec::new();
         let mut tr = Vec::new();
-        for j in 0..n - 1 {
-            for i in 0..n - 1 {
-                let (p, px, py) = (at(i, j), at(i + 1, j), at(i, j + 1));
-                if p.face == u32::MAX || px.face != p.face || py.face != p.face {
-                    continue;
-                }
-                if p.flux[3] != px.flux[3] || p.flux[3] != py.flux[3] {
-                    continue;
-                }
-                let dx = [px.pos[0] - p.pos[0], px.pos[1] - p.pos[1]];
-                let dy = [py.pos[0] - p.pos[0], py.pos[1] - p.pos[1]];
-                let t = (dx[0] * dy[1] - dx[1] * dy[0]).abs().sqrt();
-                let d = f32::from_bits(p._pad);
-                if t > 0.0 && d > 0.0 {
-                    r.push(d / t);
-                    tr.push(t);
-                }
+        for b in caustics::splat::beam_samples(&out.technique.photons, n) {
+            if b.true_size > 0.0 && b.stored > 0.0 {
+                r.push(b.stored / b.true_size);
+                tr.push(b.true_size);
             }
         }
         r.sort_by(f32::total_cmp);

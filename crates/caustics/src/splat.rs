@@ -383,3 +383,43 @@ pub(crate) fn record_grid_triangles(
     }
     (traced, batches)
 }
+
+/// One photon of a dense grid with its splat diameter and the true size of its beam.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BeamSample {
+    /// NDC centre of the photon's grid cell.
+    pub ndc: [f32; 2],
+    /// The diameter the tracer stored for the splat (`Photon._pad`, caustic-map texels).
+    pub stored: f32,
+    /// The true size of the cell's image on the receiver: the square root of the area spanned by
+    /// the photon and its +x and +y grid neighbours, in texels.
+    pub true_size: f32,
+}
+
+/// Stored splat diameters against the true beam size over a dense n × n photon grid (row-major,
+/// one photon per cell, e.g. `TechniqueStats::photons` of the basic technique's transmitted
+/// branch): every photon whose +x and +y neighbours landed on its face by its path (same path
+/// signature). For tests and tools that check the lens and ray-differential sizes.
+pub fn beam_samples(photons: &[Photon], n: u32) -> Vec<BeamSample> {
+    let at = |i: u32, j: u32| &photons[(j * n + i) as usize];
+    let mut out = Vec::new();
+    for j in 0..n.saturating_sub(1) {
+        for i in 0..n - 1 {
+            let (p, px, py) = (at(i, j), at(i + 1, j), at(i, j + 1));
+            if p.face == u32::MAX || px.face != p.face || py.face != p.face {
+                continue;
+            }
+            if p.flux[3] != px.flux[3] || p.flux[3] != py.flux[3] {
+                continue;
+            }
+            let dx = [px.pos[0] - p.pos[0], px.pos[1] - p.pos[1]];
+            let dy = [py.pos[0] - p.pos[0], py.pos[1] - p.pos[1]];
+            out.push(BeamSample {
+                ndc: [-1.0 + (i as f32 + 0.5) * 2.0 / n as f32, 1.0 - (j as f32 + 0.5) * 2.0 / n as f32],
+                stored: f32::from_bits(p._pad),
+                true_size: (dx[0] * dy[1] - dx[1] * dy[0]).abs().sqrt(),
+            });
+        }
+    }
+    out
+}

@@ -156,27 +156,11 @@ fn measure(ctx: &caustics::gpu::GpuContext, scene: &Scene, mode: SplatMode, with
     let ph = &out.technique.photons;
     assert_eq!(ph.len(), (n * n) as usize, "one photon per grid cell");
     let (mut stored, mut truth, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
-    let at = |i: u32, j: u32| &ph[(j * n + i) as usize];
-    for j in 0..n - 1 {
-        for i in 0..n - 1 {
-            let ndc = [-1.0 + (i as f32 + 0.5) * 2.0 / n as f32, 1.0 - (j as f32 + 0.5) * 2.0 / n as f32];
-            if (ndc[0] * ndc[0] + ndc[1] * ndc[1]).sqrt() > within {
-                continue;
-            }
-            let (p, px, py) = (at(i, j), at(i + 1, j), at(i, j + 1));
-            if p.face == u32::MAX || px.face != p.face || py.face != p.face {
-                continue;
-            }
-            if p.flux[3] != px.flux[3] || p.flux[3] != py.flux[3] {
-                continue;
-            }
-            let dx = [px.pos[0] - p.pos[0], px.pos[1] - p.pos[1]];
-            let dy = [py.pos[0] - p.pos[0], py.pos[1] - p.pos[1]];
-            let t = (dx[0] * dy[1] - dx[1] * dy[0]).abs().sqrt();
-            let d = f32::from_bits(p._pad);
-            stored.push(d);
-            truth.push(t);
-            ratio.push(d / t);
+    for b in caustics::splat::beam_samples(ph, n) {
+        if (b.ndc[0] * b.ndc[0] + b.ndc[1] * b.ndc[1]).sqrt() <= within {
+            stored.push(b.stored);
+            truth.push(b.true_size);
+            ratio.push(b.stored / b.true_size);
         }
     }
     Measured {
