@@ -63,17 +63,19 @@ fn syntax_error_names_line_and_column() {
 fn field_errors_name_the_field() {
     let cases = [
         (with("\"fov_y_deg\": 40", "\"fov_y_deg\": 40, \"zoom\": 2"), "zoom"),
-        // Inside tagged objects serde reports the element and the line, not the inner key.
-        (with("\"radius\": 0.5", "\"radius\": \"big\""), "objects[0]"),
+        // Inside tagged elements too the error names the key, not just the element.
+        (with("\"radius\": 0.5", "\"radius\": \"big\""), "objects[0].radius"),
         (with("\"material\": \"glass\"", "\"material\": \"crystal\""), "objects[0].material"),
         (with("\"ior\": 1.5", "\"ior\": 0"), "materials.glass.ior"),
         (with("\"ior\": 1.5", "\"ior\": -1.5"), "materials.glass.ior"),
         (with("\"intensity\": 10", "\"intensity\": -10"), "lights[0].intensity"),
-        (with("\"intensity\": 10", "\"intensity\": [1, 2]"), "lights[0]"),
+        (with("\"intensity\": 10", "\"intensity\": [1, 2]"), "lights[0].intensity"),
         (with("\"width\": 64", "\"width\": 0"), "camera.width"),
         (with("\"albedo\": 0.5", "\"albedo\": 1.5"), "materials.floor.albedo"),
         (with("\"type\": \"spot\"", "\"type\": \"laser\""), "lights[0]"),
-        (with("\"radius\": 0.5", "\"radius\": 0.5, \"spin\": 1"), "objects[0]"),
+        (with("\"radius\": 0.5", "\"radius\": 0.5, \"spin\": 1"), "objects[0].spin"),
+        (with("\"ior\": 1.5", "\"ior\": [1.5]"), "materials.glass.ior"),
+        (with("\"type\": \"sphere\", ", ""), "objects[0]"),
         (with("\"schema_version\": 1", "\"schema_version\": 2"), "schema_version"),
         (with("\"direction\": [0, -1, 0]", "\"direction\": [0, 0, 0]"), "lights[0].direction"),
         (

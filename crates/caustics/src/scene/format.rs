@@ -98,86 +98,193 @@ fn one() -> f32 {
     1.0
 }
 
-#[derive(Debug, Deserialize)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+/// Prefix of an error message that carries the path of the field inside a tagged element (see
+/// [`tagged`]); `super::Scene::from_json` moves it into the error's field.
+pub(super) const INNER_PATH: char = '\u{1}';
+
+/// The `"type"` tag and the remaining fields of a tagged element (light, material, object).
+/// serde's own internally tagged enums buffer the element, which loses the path of an error
+/// inside it (`objects[0]` instead of `objects[0].radius`); these enums are read in two steps
+/// instead: the tag, then the variant's fields by [`variant`], which keeps the path.
+fn tagged<'de, D: Deserializer<'de>>(
+    d: D,
+    variants: &'static [&'static str],
+) -> Result<(String, serde_json::Map<String, serde_json::Value>), D::Error> {
+    let mut fields = serde_json::Map::<String, serde_json::Value>::deserialize(d)?;
+    let tag = match fields.remove("type") {
+        Some(serde_json::Value::String(t)) => t,
+        Some(other) => return Err(de::Error::custom(format!("field `type`: expected a string, got {other}"))),
+        None => return Err(de::Error::missing_field("type")),
+    };
+    if !variants.contains(&tag.as_str()) {
+        return Err(de::Error::unknown_variant(&tag, variants));
+    }
+    Ok((tag, fields))
+}
+
+/// A variant's fields, with the path of any error inside them (message prefixed by
+/// [`INNER_PATH`]`path`[`INNER_PATH`]).
+fn variant<T: de::DeserializeOwned, E: de::Error>(fields: serde_json::Map<String, serde_json::Value>) -> Result<T, E> {
+    serde_path_to_error::deserialize(serde_json::Value::Object(fields))
+        .map_err(|e| E::custom(format!("{INNER_PATH}{}{INNER_PATH}{}", e.path(), e.inner())))
+}
+
+#[derive(Debug)]
 pub enum LightDesc {
-    Spot {
-        position: [f32; 3],
-        direction: [f32; 3],
-        cone_angle_deg: f32,
-        #[serde(default)]
-        falloff_start_deg: Option<f32>,
-        intensity: Rgb,
-    },
-    Point {
-        position: [f32; 3],
-        intensity: Rgb,
-    },
-    Directional {
-        direction: [f32; 3],
-        irradiance: Rgb,
-    },
+    Spot(SpotDesc),
+    Point(PointDesc),
+    Directional(DirectionalDesc),
 }
 
 #[derive(Debug, Deserialize)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+#[serde(deny_unknown_fields)]
+pub struct SpotDesc {
+    pub position: [f32; 3],
+    pub direction: [f32; 3],
+    pub cone_angle_deg: f32,
+    #[serde(default)]
+    pub falloff_start_deg: Option<f32>,
+    pub intensity: Rgb,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointDesc {
+    pub position: [f32; 3],
+    pub intensity: Rgb,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DirectionalDesc {
+    pub direction: [f32; 3],
+    pub irradiance: Rgb,
+}
+
+impl<'de> Deserialize<'de> for LightDesc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let (tag, f) = tagged(d, &["spot", "point", "directional"])?;
+        Ok(match tag.as_str() {
+            "spot" => LightDesc::Spot(variant(f)?),
+            "point" => LightDesc::Point(variant(f)?),
+            _ => LightDesc::Directional(variant(f)?),
+        })
+    }
+}
+
+#[derive(Debug)]
 pub enum MaterialDesc {
-    Diffuse {
-        albedo: Rgb,
-    },
-    Dielectric {
-        ior: f32,
-        #[serde(default = "one")]
-        ext_ior: f32,
-    },
-    Mirror {
-        reflectance: Rgb,
-    },
-    Conductor {
-        eta: Rgb,
-        k: Rgb,
-    },
+    Diffuse(DiffuseDesc),
+    Dielectric(DielectricDesc),
+    Mirror(MirrorDesc),
+    Conductor(ConductorDesc),
 }
 
 #[derive(Debug, Deserialize)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+#[serde(deny_unknown_fields)]
+pub struct DiffuseDesc {
+    pub albedo: Rgb,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DielectricDesc {
+    pub ior: f32,
+    #[serde(default = "one")]
+    pub ext_ior: f32,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MirrorDesc {
+    pub reflectance: Rgb,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConductorDesc {
+    pub eta: Rgb,
+    pub k: Rgb,
+}
+
+impl<'de> Deserialize<'de> for MaterialDesc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let (tag, f) = tagged(d, &["diffuse", "dielectric", "mirror", "conductor"])?;
+        Ok(match tag.as_str() {
+            "diffuse" => MaterialDesc::Diffuse(variant(f)?),
+            "dielectric" => MaterialDesc::Dielectric(variant(f)?),
+            "mirror" => MaterialDesc::Mirror(variant(f)?),
+            _ => MaterialDesc::Conductor(variant(f)?),
+        })
+    }
+}
+
+#[derive(Debug)]
 pub enum ObjectDesc {
-    Sphere {
-        center: [f32; 3],
-        radius: f32,
-        material: String,
-        #[serde(default)]
-        caustic_caster: Option<bool>,
-    },
-    Rectangle {
-        center: [f32; 3],
-        normal: [f32; 3],
-        size: [f32; 2],
-        material: String,
-        #[serde(default)]
-        u_axis: Option<[f32; 3]>,
-        #[serde(default)]
-        caustic_caster: Option<bool>,
-    },
-    Cylinder {
-        base_center: [f32; 3],
-        axis: [f32; 3],
-        radius: f32,
-        height: f32,
-        material: String,
-        #[serde(default)]
-        caustic_caster: Option<bool>,
-    },
-    Mesh {
-        path: String,
-        #[serde(default = "yes")]
-        smooth_normals: bool,
-        #[serde(default)]
-        transform: Option<TransformDesc>,
-        material: String,
-        #[serde(default)]
-        caustic_caster: Option<bool>,
-    },
+    Sphere(SphereDesc),
+    Rectangle(RectangleDesc),
+    Cylinder(CylinderDesc),
+    Mesh(MeshDesc),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereDesc {
+    pub center: [f32; 3],
+    pub radius: f32,
+    pub material: String,
+    #[serde(default)]
+    pub caustic_caster: Option<bool>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RectangleDesc {
+    pub center: [f32; 3],
+    pub normal: [f32; 3],
+    pub size: [f32; 2],
+    pub material: String,
+    #[serde(default)]
+    pub u_axis: Option<[f32; 3]>,
+    #[serde(default)]
+    pub caustic_caster: Option<bool>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CylinderDesc {
+    pub base_center: [f32; 3],
+    pub axis: [f32; 3],
+    pub radius: f32,
+    pub height: f32,
+    pub material: String,
+    #[serde(default)]
+    pub caustic_caster: Option<bool>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshDesc {
+    pub path: String,
+    #[serde(default = "yes")]
+    pub smooth_normals: bool,
+    #[serde(default)]
+    pub transform: Option<TransformDesc>,
+    pub material: String,
+    #[serde(default)]
+    pub caustic_caster: Option<bool>,
+}
+
+impl<'de> Deserialize<'de> for ObjectDesc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let (tag, f) = tagged(d, &["sphere", "rectangle", "cylinder", "mesh"])?;
+        Ok(match tag.as_str() {
+            "sphere" => ObjectDesc::Sphere(variant(f)?),
+            "rectangle" => ObjectDesc::Rectangle(variant(f)?),
+            "cylinder" => ObjectDesc::Cylinder(variant(f)?),
+            _ => ObjectDesc::Mesh(variant(f)?),
+        })
+    }
 }
 
 fn yes() -> bool {

@@ -254,7 +254,17 @@ impl Scene {
             if let Some(i) = message.rfind(" at line ") {
                 message.truncate(i);
             }
-            Error::Input { file: file.into(), field: if path == "." { String::new() } else { path }, line, message }
+            let mut field = if path == "." { String::new() } else { path };
+            // An error inside a tagged element carries the path within it (format::variant).
+            if let Some(rest) = message.strip_prefix(format::INNER_PATH)
+                && let Some((inner_path, msg)) = rest.split_once(format::INNER_PATH)
+            {
+                if inner_path != "." {
+                    field = format!("{field}.{inner_path}");
+                }
+                message = msg.to_string();
+            }
+            Error::Input { file: file.into(), field, line, message }
         })?;
         resolve(desc, file, base)
     }
@@ -411,7 +421,7 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
     for (i, l) in d.lights.iter().enumerate() {
         let f = |s: &str| format!("lights[{i}].{s}");
         lights.push(match l {
-            LightDesc::Spot { position, direction, cone_angle_deg, falloff_start_deg, intensity } => {
+            LightDesc::Spot(SpotDesc { position, direction, cone_angle_deg, falloff_start_deg, intensity }) => {
                 let cone = *cone_angle_deg;
                 if !(cone > 0.0 && cone < 180.0) {
                     return Err(cx.err(f("cone_angle_deg"), format!("must lie in (0, 180) degrees (got {cone})")));
@@ -431,11 +441,11 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                     intensity: cx.nonneg_rgb(&f("intensity"), *intensity)?,
                 }
             }
-            LightDesc::Point { position, intensity } => Light::Point {
+            LightDesc::Point(PointDesc { position, intensity }) => Light::Point {
                 position: cx.finite3(&f("position"), *position)?,
                 intensity: cx.nonneg_rgb(&f("intensity"), *intensity)?,
             },
-            LightDesc::Directional { direction, irradiance } => Light::Directional {
+            LightDesc::Directional(DirectionalDesc { direction, irradiance }) => Light::Directional {
                 direction: cx.dir(&f("direction"), *direction)?,
                 irradiance: cx.nonneg_rgb(&f("irradiance"), *irradiance)?,
             },
@@ -447,15 +457,17 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
     for (name, m) in &d.materials {
         let f = |s: &str| format!("materials.{name}.{s}");
         materials.push(match m {
-            MaterialDesc::Diffuse { albedo } => Material::Diffuse { albedo: cx.unit_rgb(&f("albedo"), *albedo)? },
-            MaterialDesc::Dielectric { ior, ext_ior } => Material::Dielectric {
+            MaterialDesc::Diffuse(DiffuseDesc { albedo }) => {
+                Material::Diffuse { albedo: cx.unit_rgb(&f("albedo"), *albedo)? }
+            }
+            MaterialDesc::Dielectric(DielectricDesc { ior, ext_ior }) => Material::Dielectric {
                 ior: cx.positive(&f("ior"), *ior)?,
                 ext_ior: cx.positive(&f("ext_ior"), *ext_ior)?,
             },
-            MaterialDesc::Mirror { reflectance } => {
+            MaterialDesc::Mirror(MirrorDesc { reflectance }) => {
                 Material::Mirror { reflectance: cx.unit_rgb(&f("reflectance"), *reflectance)? }
             }
-            MaterialDesc::Conductor { eta, k } => {
+            MaterialDesc::Conductor(ConductorDesc { eta, k }) => {
                 let eta = cx.nonneg_rgb(&f("eta"), *eta)?;
                 if eta.min_element() <= 0.0 {
                     return Err(cx.err(f("eta"), "must be positive"));
@@ -471,10 +483,10 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
     for (i, o) in d.objects.iter().enumerate() {
         let f = |s: &str| format!("objects[{i}].{s}");
         let (mat_name, caster) = match o {
-            ObjectDesc::Sphere { material, caustic_caster, .. }
-            | ObjectDesc::Rectangle { material, caustic_caster, .. }
-            | ObjectDesc::Cylinder { material, caustic_caster, .. }
-            | ObjectDesc::Mesh { material, caustic_caster, .. } => (material, caustic_caster),
+            ObjectDesc::Sphere(SphereDesc { material, caustic_caster, .. })
+            | ObjectDesc::Rectangle(RectangleDesc { material, caustic_caster, .. })
+            | ObjectDesc::Cylinder(CylinderDesc { material, caustic_caster, .. })
+            | ObjectDesc::Mesh(MeshDesc { material, caustic_caster, .. }) => (material, caustic_caster),
         };
         let material = material_names.iter().position(|n| n == mat_name).ok_or_else(|| {
             cx.err(
@@ -483,11 +495,11 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
             )
         })?;
         let shape = match o {
-            ObjectDesc::Sphere { center, radius, .. } => Shape::Sphere {
+            ObjectDesc::Sphere(SphereDesc { center, radius, .. }) => Shape::Sphere {
                 center: cx.finite3(&f("center"), *center)?,
                 radius: cx.positive(&f("radius"), *radius)?,
             },
-            ObjectDesc::Rectangle { center, normal, size, u_axis, .. } => {
+            ObjectDesc::Rectangle(RectangleDesc { center, normal, size, u_axis, .. }) => {
                 let normal = cx.dir(&f("normal"), *normal)?;
                 let size = Vec2::new(cx.positive(&f("size[0]"), size[0])?, cx.positive(&f("size[1]"), size[1])?);
                 let default_u = if normal.dot(Vec3::X).abs() > 25f32.to_radians().cos() { Vec3::Z } else { Vec3::X };
@@ -502,13 +514,13 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                 let u = u.normalize();
                 Shape::Rectangle { center: cx.finite3(&f("center"), *center)?, normal, u, v: normal.cross(u), size }
             }
-            ObjectDesc::Cylinder { base_center, axis, radius, height, .. } => Shape::Cylinder {
+            ObjectDesc::Cylinder(CylinderDesc { base_center, axis, radius, height, .. }) => Shape::Cylinder {
                 base_center: cx.finite3(&f("base_center"), *base_center)?,
                 axis: cx.dir(&f("axis"), *axis)?,
                 radius: cx.positive(&f("radius"), *radius)?,
                 height: cx.positive(&f("height"), *height)?,
             },
-            ObjectDesc::Mesh { path, smooth_normals, transform, .. } => {
+            ObjectDesc::Mesh(MeshDesc { path, smooth_normals, transform, .. }) => {
                 let t = transform.as_ref();
                 let scale = match t.and_then(|t| t.scale) {
                     Some(Scale(s)) => {
