@@ -39,20 +39,23 @@ fn deposit(face: u32, t: vec2i, flux: vec3f) {
 
 // A Gaussian splat of standard deviation sigma texels (cut at 3 sigma) at continuous texel
 // position pos, its weights normalised over the texels inside the map: the whole flux lands.
+// The unnormalised weight of texel t (0 outside the m x m map or beyond 3 sigma).
+fn gauss_weight(t: vec2i, pos: vec2f, sigma: f32, m: i32) -> f32 {
+    if (t.x < 0 || t.y < 0 || t.x >= m || t.y >= m) { return 0.0; }
+    let dd = vec2f(t) + 0.5 - pos;
+    let d2 = dot(dd, dd);
+    if (d2 > 9.0 * sigma * sigma) { return 0.0; }
+    return exp(-0.5 * d2 / (sigma * sigma));
+}
+
 fn gauss_splat(face: u32, pos: vec2f, flux: vec3f, sigma: f32) {
     let m = i32(light.info.w);
     let r = i32(ceil(3.0 * sigma));
     let c = vec2i(floor(pos));
-    let cut = 9.0 * sigma * sigma;
     var wsum = 0.0;
     for (var y = -r; y <= r; y++) {
         for (var x = -r; x <= r; x++) {
-            let t = c + vec2i(x, y);
-            if (t.x < 0 || t.y < 0 || t.x >= m || t.y >= m) { continue; }
-            let dd = vec2f(t) + 0.5 - pos;
-            let d2 = dot(dd, dd);
-            if (d2 > cut) { continue; }
-            wsum += exp(-0.5 * d2 / (sigma * sigma));
+            wsum += gauss_weight(c + vec2i(x, y), pos, sigma, m);
         }
     }
     if (wsum <= 0.0) {
@@ -63,11 +66,8 @@ fn gauss_splat(face: u32, pos: vec2f, flux: vec3f, sigma: f32) {
     for (var y = -r; y <= r; y++) {
         for (var x = -r; x <= r; x++) {
             let t = c + vec2i(x, y);
-            if (t.x < 0 || t.y < 0 || t.x >= m || t.y >= m) { continue; }
-            let dd = vec2f(t) + 0.5 - pos;
-            let d2 = dot(dd, dd);
-            if (d2 > cut) { continue; }
-            deposit(face, t, flux * (exp(-0.5 * d2 / (sigma * sigma)) / wsum));
+            let w = gauss_weight(t, pos, sigma, m);
+            if (w > 0.0) { deposit(face, t, flux * (w / wsum)); }
         }
     }
 }

@@ -186,30 +186,13 @@ impl GpuContext {
     /// A compute pipeline (layout derived from the shader) for a stage's `main`, built once per
     /// context.
     pub fn compute_pipeline(&self, name: &str) -> wgpu::ComputePipeline {
-        let mut cache = self.compute_cache.lock().unwrap_or_else(|e| e.into_inner());
-        cache
-            .entry(name.to_string())
-            .or_insert_with(|| {
-                let module = self.shader(name);
-                self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(name),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some("main"),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
-            })
-            .clone()
+        self.compute_pipeline_with(name, &[])
     }
 
     /// A compute pipeline built once per context with the given values of the stage's
     /// pipeline-overridable constants (cached by name and values).
     pub fn compute_pipeline_with(&self, name: &str, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-        if constants.is_empty() {
-            return self.compute_pipeline(name);
-        }
-        let key = format!("{name}{constants:?}");
+        let key = if constants.is_empty() { name.to_string() } else { format!("{name}{constants:?}") };
         let mut cache = self.compute_cache.lock().unwrap_or_else(|e| e.into_inner());
         cache
             .entry(key)

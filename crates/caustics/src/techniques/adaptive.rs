@@ -20,8 +20,8 @@
 //! reported after the frame.
 
 use super::{
-    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, FLAG_REFLECT, Pending, Technique, bind, ctrl,
-    level_params, storage, uniform,
+    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, FLAG_REFLECT, Pending, Technique, Traversal, bind,
+    ctrl, level_params, storage, uniform,
 };
 use crate::error::{Error, Result};
 use crate::gpu::PassTimer;
@@ -284,38 +284,20 @@ impl Adaptive {
             cp.set_bind_group(0, &plan_bg, &[]);
             cp.dispatch_workgroups(1, 1, 1);
         }
-        let ig = p.batch_grid.div_ceil(8);
+        let traversal = Traversal {
+            setup: setup_pl,
+            init: init_pl,
+            init_bg: &init_bg,
+            init_groups: p.batch_grid.div_ceil(8),
+            after_init: &after_init,
+            step: refine_pl,
+            steps: &steps,
+            args: &self.args,
+            splat: &e.pipelines.splat.splat,
+            splat_bg: &splat_bg,
+        };
         for b in 0..max_batches {
-            {
-                let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("adaptive_traverse"),
-                    timestamp_writes: timer.compute("adaptive_traverse"),
-                });
-                cp.set_pipeline(setup_pl);
-                cp.set_bind_group(0, if b == 0 { &begin } else { &end_begin }, &[]);
-                cp.dispatch_workgroups(1, 1, 1);
-                cp.set_pipeline(init_pl);
-                cp.set_bind_group(0, &init_bg, &[]);
-                cp.dispatch_workgroups(ig, ig, 1);
-                cp.set_pipeline(setup_pl);
-                cp.set_bind_group(0, &after_init, &[]);
-                cp.dispatch_workgroups(1, 1, 1);
-                for (rbg, sbg) in &steps {
-                    cp.set_pipeline(refine_pl);
-                    cp.set_bind_group(0, rbg, &[]);
-                    cp.dispatch_workgroups_indirect(&self.args, 0);
-                    cp.set_pipeline(setup_pl);
-                    cp.set_bind_group(0, sbg, &[]);
-                    cp.dispatch_workgroups(1, 1, 1);
-                }
-            }
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("photon_splat"),
-                timestamp_writes: timer.compute("photon_splat"),
-            });
-            cp.set_pipeline(&e.pipelines.splat.splat);
-            cp.set_bind_group(0, &splat_bg, &[]);
-            cp.dispatch_workgroups_indirect(&self.args, ctrl::SPLAT_ARGS);
+            traversal.record(enc, timer, "adaptive_traverse", if b == 0 { &begin } else { &end_begin });
         }
         {
             let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {

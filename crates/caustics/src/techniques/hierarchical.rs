@@ -9,8 +9,8 @@
 //! its neighbours in the dense tile (`splat_quads`, `docs/splatting.md`).
 
 use super::{
-    Emit, FLAG_BEGIN, FLAG_END, FLAG_LAST, FLAG_NO_PLAN, FLAG_QUADS, Pending, bind, build_mip, ctrl, level_params,
-    mip_words, storage, uniform,
+    Emit, FLAG_BEGIN, FLAG_END, FLAG_LAST, FLAG_NO_PLAN, FLAG_QUADS, Pending, Traversal, bind, build_mip, ctrl,
+    level_params, mip_words, storage, uniform,
 };
 use crate::error::{Error, Result};
 use crate::gpu::PassTimer;
@@ -194,6 +194,18 @@ impl Hierarchical {
             e.accum,
             Some(&self.corners),
         );
+        let traversal = Traversal {
+            setup: setup_pl,
+            init: init_pl,
+            init_bg: &init_bg,
+            init_groups: p.start.div_ceil(8),
+            after_init: &after_init,
+            step: hcm_pl,
+            steps: &steps,
+            args: &self.args,
+            splat: &e.pipelines.splat.splat,
+            splat_bg: &splat_bg,
+        };
         let per_side = p.n / t;
         let mut first = true;
         for ty in 0..per_side {
@@ -220,36 +232,7 @@ impl Hierarchical {
                     cp.dispatch_workgroups((t * t).div_ceil(64), 1, 1);
                 }
                 build_mip(e, enc, timer, "hcm_mip", &self.mip, &self.tile, f, t, p.start, 1);
-                {
-                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some("hcm_traverse"),
-                        timestamp_writes: timer.compute("hcm_traverse"),
-                    });
-                    cp.set_pipeline(setup_pl);
-                    cp.set_bind_group(0, if first { &begin } else { &end_begin }, &[]);
-                    cp.dispatch_workgroups(1, 1, 1);
-                    cp.set_pipeline(init_pl);
-                    cp.set_bind_group(0, &init_bg, &[]);
-                    cp.dispatch_workgroups(p.start.div_ceil(8), p.start.div_ceil(8), 1);
-                    cp.set_pipeline(setup_pl);
-                    cp.set_bind_group(0, &after_init, &[]);
-                    cp.dispatch_workgroups(1, 1, 1);
-                    for (hbg, sbg) in &steps {
-                        cp.set_pipeline(hcm_pl);
-                        cp.set_bind_group(0, hbg, &[]);
-                        cp.dispatch_workgroups_indirect(&self.args, 0);
-                        cp.set_pipeline(setup_pl);
-                        cp.set_bind_group(0, sbg, &[]);
-                        cp.dispatch_workgroups(1, 1, 1);
-                    }
-                }
-                let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("photon_splat"),
-                    timestamp_writes: timer.compute("photon_splat"),
-                });
-                cp.set_pipeline(&e.pipelines.splat.splat);
-                cp.set_bind_group(0, &splat_bg, &[]);
-                cp.dispatch_workgroups_indirect(&self.args, ctrl::SPLAT_ARGS);
+                traversal.record(enc, timer, "hcm_traverse", if first { &begin } else { &end_begin });
                 first = false;
                 self.tiles += 1;
             }

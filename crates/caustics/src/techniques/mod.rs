@@ -274,6 +274,61 @@ pub(crate) mod ctrl {
     pub const SPLAT_ARGS: u64 = 256;
 }
 
+/// The GPU-driven traversal both hierarchies share (adaptive levels, hierarchical tiles): a
+/// setup pass that begins it, the start grid's cells (`init`), then per level the stage that
+/// refines or traverses (indirect dispatch) and the setup pass that turns its output into the
+/// next level's input and dispatch arguments; then the splat, indirect too. No CPU readback.
+pub(crate) struct Traversal<'a> {
+    pub setup: &'a wgpu::ComputePipeline,
+    pub init: &'a wgpu::ComputePipeline,
+    pub init_bg: &'a wgpu::BindGroup,
+    pub init_groups: u32,
+    pub after_init: &'a wgpu::BindGroup,
+    pub step: &'a wgpu::ComputePipeline,
+    /// Per level: the step's bind group and the following setup's.
+    pub steps: &'a [(wgpu::BindGroup, wgpu::BindGroup)],
+    /// Indirect arguments: the step's at offset 0, the splat's at `ctrl::SPLAT_ARGS`.
+    pub args: &'a wgpu::Buffer,
+    pub splat: &'a wgpu::ComputePipeline,
+    pub splat_bg: &'a wgpu::BindGroup,
+}
+
+impl Traversal<'_> {
+    /// Record one traversal (pass `label`) beginning with setup bind group `begin`, and its splat.
+    pub fn record(&self, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, label: &str, begin: &wgpu::BindGroup) {
+        {
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(label),
+                timestamp_writes: timer.compute(label),
+            });
+            cp.set_pipeline(self.setup);
+            cp.set_bind_group(0, begin, &[]);
+            cp.dispatch_workgroups(1, 1, 1);
+            cp.set_pipeline(self.init);
+            cp.set_bind_group(0, self.init_bg, &[]);
+            cp.dispatch_workgroups(self.init_groups, self.init_groups, 1);
+            cp.set_pipeline(self.setup);
+            cp.set_bind_group(0, self.after_init, &[]);
+            cp.dispatch_workgroups(1, 1, 1);
+            for (step_bg, setup_bg) in self.steps {
+                cp.set_pipeline(self.step);
+                cp.set_bind_group(0, step_bg, &[]);
+                cp.dispatch_workgroups_indirect(self.args, 0);
+                cp.set_pipeline(self.setup);
+                cp.set_bind_group(0, setup_bg, &[]);
+                cp.dispatch_workgroups(1, 1, 1);
+            }
+        }
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("photon_splat"),
+            timestamp_writes: timer.compute("photon_splat"),
+        });
+        cp.set_pipeline(self.splat);
+        cp.set_bind_group(0, self.splat_bg, &[]);
+        cp.dispatch_workgroups_indirect(self.args, ctrl::SPLAT_ARGS);
+    }
+}
+
 pub(crate) const FLAG_LAST: u32 = 1;
 pub(crate) const FLAG_CHECK: u32 = 2;
 pub(crate) const FLAG_BEGIN: u32 = 4;
