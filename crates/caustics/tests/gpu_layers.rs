@@ -85,6 +85,6 @@ fn a_mesh_behind_a_glass_sphere_is_seen_through_it() {
         "through the sphere: GPU vs CPU {e_with:.4}, GPU without the bunny vs CPU {e_without:.4}, bunny's effect on the GPU image {seen:.4}"
     );
     // The bunny changes what the sphere shows, and the GPU image follows the CPU reference.
-    assert!(seen > 0.2 * e_without, "the bunny is not visible through the sphere: {seen} vs {e_without}");
+    assert!(seen > 0.5 * e_without, "the bunny is not visible through the sphere: {seen} vs {e_without}");
     assert!(e_with < 0.6 * e_without, "GPU {e_with} vs {e_without} without the bunny");
 }
