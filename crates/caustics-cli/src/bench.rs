@@ -226,14 +226,15 @@ fn markdown(
     let _ = writeln!(s, "# Photon emission techniques: {scene}\n");
     let _ = writeln!(
         s,
-        "Adapter: {adapter}. Caustic map {0}x{0}, photon memory {1} MiB, base grid {2}, max-error tolerance {3} texels (0: one texel), camera {4}x{5}. Coverage (casters in the light's view): **{6:.2} %**.\n",
+        "Adapter: {adapter}. Caustic map {0}x{0}, photon memory {1} MiB, base grid {2}, splat {7}, max-error tolerance {3} texels (0: one texel), camera {4}x{5}. Coverage (casters in the light's view): **{6:.2} %**.\n",
         a.caustic_map,
         a.photon_memory,
         a.base_grid,
         a.max_error_tolerance,
         a.size.0,
         a.size.1,
-        100.0 * coverage
+        100.0 * coverage,
+        a.splat
     );
     let _ = writeln!(s, "## Photons splatted (Table 1 of Wyman & Nichols 2009)\n");
     let mut head = String::from("| photon grid | relevant |");

@@ -12,6 +12,9 @@
 //   one at the finest level);
 //   with FLAG_QUADS the test also covers the cell corners (see below), and lp.linearity > 0
 //   adds a second way to converge: a cell mapping close enough to affine;
+//   Children above the finest level must be fully covered to merge (each stands for all the
+//   finest photons below it, so a child cut by a silhouette would bring the flux of its photons
+//   that miss the casters);
 // - otherwise the covered children are appended to the write region of the cell list.
 // Appends use atomic counters; overflow of a capacity is flagged in ctrl, never silent.
 // FLAG_QUADS (caustic triangles): every emitted photon stands for a cell (a child, or the
@@ -160,10 +163,15 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     var kids: array<vec2u, 4>;
     var cov: array<bool, 4>;
     var ncov = 0u;
+    var nfull = 0u;
+    // Level-0 coverage texels under a child: all covered = every finest photon below it hits.
+    let per_child = select((lp.gbuffer / s) * (lp.gbuffer / s), 1u, s >= lp.gbuffer);
     for (var q = 0u; q < 4u; q++) {
         kids[q] = 2u * parent + vec2u(q & 1u, q >> 1u);
-        cov[q] = covered_count(kids[q].x, kids[q].y, s) > 0u;
+        let c = covered_count(kids[q].x, kids[q].y, s);
+        cov[q] = c > 0u;
         if (cov[q]) { ncov += 1u; }
+        if (c == per_child) { nfull += 1u; }
     }
     if (!check) {
         for (var q = 0u; q < 4u; q++) {
@@ -182,7 +190,7 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     trace_defer = true;
     for (var k = 0u; k < 6u; k++) { trace_pending[k] = 0.0; }
     var ph: array<Photon, 4>;
-    var converged = ncov == 4u;
+    var converged = nfull == 4u;
     var same_path = true;
     var lo = vec2f(1e30);
     var hi = vec2f(-1e30);
