@@ -5,13 +5,14 @@
 //! (`light_caster_front2`, `light_caster_back2`), and the photon is marched through it with
 //! that layer's buffers. The GPU caustic map must then agree with the CPU reference (which
 //! traces the two refractors exactly) much better than with the second layer switched off
-//! (`RenderSettings::light_second_layer`), when the photons pass the mesh by.
+//! (`RenderSettings::light_second_layer`), when the photons pass the mesh by. The adaptive and
+//! hierarchical techniques, which trace in `adaptive_refine`, must equal the dense grid there.
 //! Without an adapter the test skips with a printed reason, except in CI (`CI=true`).
 
 mod common;
 use caustics::Scene;
 use caustics::image_io::Image;
-use caustics::render::{RenderSettings, render};
+use caustics::render::{RenderSettings, Technique, render};
 use common::gpu;
 
 const M: u32 = 256;
@@ -155,4 +156,31 @@ fn photons_refract_through_a_mesh_hidden_behind_a_glass_sphere() {
     assert!(e_with < 0.1 * e_without, "flux under the ball: error {e_with} vs {e_without} without the second layer");
     // Photons find their way out of the mesh through the second layer's back buffer.
     assert!(with.flux[0].lost_no_exit < 1e-3 * with.flux[0].emitted, "{:?}", with.flux[0]);
+}
+
+/// The adaptive and hierarchical techniques trace through the same second layer (bound to
+/// `adaptive_refine` as to `photon_trace`): with fixed splats their maps equal the dense grid's
+/// bit for bit, and the second layer changes that map.
+#[test]
+fn every_technique_traces_through_the_second_layer() {
+    let Some(ctx) = gpu() else { return };
+    let scene = scene();
+    let settings = |t: Technique, second: bool| RenderSettings {
+        photons: 256,
+        technique: t,
+        base_grid: 32,
+        caustic_map_size: 128,
+        shadow_map_size: 256,
+        splat: caustics::splat::SplatMode::Fixed,
+        light_second_layer: second,
+        ..Default::default()
+    };
+    let basic = render(&ctx, &scene, &settings(Technique::Basic, true), None).unwrap();
+    let without = render(&ctx, &scene, &settings(Technique::Basic, false), None).unwrap();
+    assert!(basic.caustic_flux_bits != without.caustic_flux_bits, "the second layer changes nothing");
+    for t in [Technique::AdaptiveLevel, Technique::Hierarchical] {
+        let out = render(&ctx, &scene, &settings(t, true), None).unwrap();
+        assert!(out.caustic_flux_bits == basic.caustic_flux_bits, "{t}: caustic map differs from basic");
+        assert_eq!(out.flux, basic.flux, "{t}: flux bookkeeping differs from basic");
+    }
 }
