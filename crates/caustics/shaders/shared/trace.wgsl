@@ -581,8 +581,10 @@ fn buffer_dn(pos_tex: texture_2d_array<f32>, nrm_tex: texture_2d_array<f32>, lay
 
 // Derivative, for the surface displacement dp, of the unit normal `nref` (either orientation)
 // of the caster surface with material `mat` at p: exact for analytic spheres, cylinders and
-// rectangles, from the light-space caster buffer that holds p (front or back, first or second
-// layer) for meshes.
+// rectangles, from the light-space caster buffer that holds p (front or back) for meshes: the
+// first layer's only (a mesh in the second layer gets the first layer's derivatives there; reading
+// the second layer here made photon_trace about 40 % slower on lavapipe, even in the pipelines
+// built for other splat modes: measured on dragon_spheres).
 fn surface_dn(mat: MaterialGpu, p: vec3f, nref: vec3f, dp_in: vec3f) -> vec3f {
     let dp = dp_in - nref * dot(dp_in, nref);
     if (mat.kind.z == 1u) {
@@ -603,23 +605,6 @@ fn surface_dn(mat: MaterialGpu, p: vec3f, nref: vec3f, dp_in: vec3f) -> vec3f {
         let t = texel_of(q.xy, u32(g));
         let fp = textureLoad(front_pos, t, f, 0);
         let bp = textureLoad(back_pos, t, f, 0);
-        if (trace_light_layer2) {
-            // p on a caster of the second layer (nearer to one of its surfaces than to both of
-            // the first layer's): that layer's buffers.
-            let fp2 = textureLoad(front_pos2, t, f, 0);
-            let bp2 = textureLoad(back_pos2, t, f, 0);
-            let d1 = min(select(1e30, length(fp.xyz - p), fp.w >= 0.0), select(1e30, length(bp.xyz - p), bp.w >= 0.0));
-            let df2 = select(1e30, length(fp2.xyz - p), fp2.w >= 0.0);
-            let db2 = select(1e30, length(bp2.xyz - p), bp2.w >= 0.0);
-            if (min(df2, db2) < d1) {
-                if (db2 < df2) {
-                    let s = select(-1.0, 1.0, dot(nref, textureLoad(back_nrm2, t, f, 0).xyz) >= 0.0);
-                    return s * buffer_dn(back_pos2, back_nrm2, f, t, dp);
-                }
-                let s = select(-1.0, 1.0, dot(nref, textureLoad(front_nrm2, t, f, 0).xyz) >= 0.0);
-                return s * buffer_dn(front_pos2, front_nrm2, f, t, dp);
-            }
-        }
         if (bp.w >= 0.0 && (fp.w < 0.0 || length(bp.xyz - p) < length(fp.xyz - p))) {
             let s = select(-1.0, 1.0, dot(nref, textureLoad(back_nrm, t, f, 0).xyz) >= 0.0);
             return s * buffer_dn(back_pos, back_nrm, f, t, dp);
