@@ -116,8 +116,8 @@ enum Command {
         #[arg(long)]
         no_glass_reflection: bool,
         /// Do not rasterize the light's second caster layer (the casters behind the nearest one;
-        /// drawn only for scenes with caster meshes): a mesh hidden from the light behind another
-        /// caster is then missed by the photons (for comparisons).
+        /// drawn only for scenes with caster meshes and two casters or more): a mesh hidden from
+        /// the light behind another caster is then missed by the photons (for comparisons).
         #[arg(long)]
         no_light_second_layer: bool,
         /// Segments around tessellated spheres and cylinders (rasterization only; the CPU

@@ -5,8 +5,9 @@
 //! 1. `eye_receivers`, `eye_specular_front`, `eye_specular_back`: camera geometry buffers;
 //! 2. per light and face: `light_shadow` (depth of everything), `light_receivers` (position and
 //!    normal of diffuse surfaces), `light_caster_front`, `light_caster_back`, and where the scene
-//!    has caster meshes the second caster layer `light_caster_front2`, `light_caster_back2`
-//!    (`raster_peel`: per texel the nearest caster of another object behind the first);
+//!    has caster meshes and two casters or more the second caster layer `light_caster_front2`,
+//!    `light_caster_back2` (`raster_peel`: per texel the nearest caster of another object
+//!    behind the first);
 //! 3. per light and face: `coverage_mip`, then the technique's passes: basic per photon batch
 //!    `photon_trace`, `photon_splat` (64-bit fixed-point atomics); hierarchical per tile
 //!    `photon_trace`, `hcm_mip`, `hcm_traverse`, `photon_splat`; adaptive `adaptive_plan`, then
@@ -70,8 +71,9 @@ pub struct RenderSettings {
     pub dielectric_reflection: bool,
     /// Rasterize the light's second caster layer (`light_caster_front2`, `light_caster_back2`:
     /// per texel, the nearest caster of another object behind the first layer's) when the scene
-    /// has caster meshes, so that photons find and traverse a mesh hidden from the light behind
-    /// another caster. Off: only the first layer (the renderer before it; for comparisons).
+    /// has caster meshes and two casters or more, so that photons find and traverse a mesh
+    /// hidden from the light behind another caster. Off: only the first layer (the renderer
+    /// before it; for comparisons).
     pub light_second_layer: bool,
     /// Memory for photon storage (bytes): the grid (basic), the tiles (hierarchical) or the
     /// hierarchy (adaptive) is processed in batches that fit.
@@ -744,11 +746,13 @@ fn render_inner(
     let geo = upload_geometry(ctx, scene, &s.tessellation);
     let raster = raster_pipelines(ctx);
     // The light's second caster layer: only for scenes with caster meshes (analytic casters
-    // met after the first are intersected exactly, and scenes without meshes keep their maps).
+    // met after the first are intersected exactly, and scenes without meshes keep their maps)
+    // and at least two casters (the peel keeps other objects only: one caster leaves it empty).
+    let specular_casters: Vec<_> =
+        scene.objects.iter().filter(|o| o.caustic_caster && scene.material_of(o).is_specular()).collect();
     let layer2 = s.light_second_layer
-        && scene.objects.iter().any(|o| {
-            o.caustic_caster && scene.material_of(o).is_specular() && matches!(o.shape, crate::scene::Shape::Mesh(_))
-        });
+        && specular_casters.len() >= 2
+        && specular_casters.iter().any(|o| matches!(o.shape, crate::scene::Shape::Mesh(_)));
     let pipelines = crate::techniques::Pipelines::new(ctx, s.technique, s.splat, layer2);
     let resolve_pl = ctx.compute_pipeline("caustic_resolve");
     let shade_pl = ctx.compute_pipeline("shade_receivers");

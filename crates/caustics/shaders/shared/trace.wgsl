@@ -37,10 +37,11 @@ fn splat_mode() -> f32 {
 fn rd_active() -> bool {
     return rd_on && (trace_splat_mode < 0 || trace_splat_mode == 3);
 }
-// Whether the light's second caster layer is used (the scene has caster meshes; built per frame,
-// src/techniques/mod.rs): the casters behind the nearest one, per texel the nearest caster of
-// another object (multi-layer deferred refraction, Wyman & Nichols 2009 section 3.1, light
-// side). Off, the second-layer code is compiled out and the first layer is bound in its place.
+// Whether the light's second caster layer is used (caster meshes, two casters or more; built
+// per frame, src/techniques/mod.rs): the casters behind the nearest one, per texel the nearest
+// caster of another object (multi-layer deferred refraction, Wyman & Nichols 2009 section 3.1,
+// light side). Off, the second-layer code is compiled out and the first layer is bound in its
+// place.
 override trace_light_layer2: bool = true;
 var<private> rd_from: vec3f;
 var<private> rd_pu: vec3f;
