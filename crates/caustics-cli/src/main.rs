@@ -115,6 +115,11 @@ enum Command {
         /// the light reflected at the first dielectric surface (half the cost; every technique).
         #[arg(long)]
         no_glass_reflection: bool,
+        /// Do not rasterize the light's second caster layer (the casters behind the nearest one;
+        /// drawn only for scenes with caster meshes and two casters or more): a mesh hidden from
+        /// the light behind another caster is then missed by the photons (for comparisons).
+        #[arg(long)]
+        no_light_second_layer: bool,
         /// Segments around tessellated spheres and cylinders (rasterization only; the CPU
         /// reference intersects them exactly).
         #[arg(long, default_value_t = 192)]
@@ -220,6 +225,7 @@ fn run(cli: Cli) -> Result<()> {
             technique,
             splat,
             no_glass_reflection,
+            no_light_second_layer,
             tessellation,
             base_grid,
             max_error_tolerance,
@@ -256,6 +262,7 @@ fn run(cli: Cli) -> Result<()> {
                 technique: technique.lib(),
                 splat: splat.lib(),
                 dielectric_reflection: !no_glass_reflection,
+                light_second_layer: !no_light_second_layer,
                 tessellation: caustics::scene::Tessellation {
                     sphere_segments: tessellation,
                     cylinder_segments: tessellation.saturating_mul(8) / 3,

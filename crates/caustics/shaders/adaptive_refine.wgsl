@@ -44,6 +44,11 @@
 @group(0) @binding(12) var<storage, read_write> ctrl: array<atomic<u32>>;
 @group(0) @binding(13) var<storage, read_write> stats: array<atomic<u32>>;
 @group(0) @binding(14) var<storage, read_write> corners: array<vec4f>;
+// The light's second caster layer (front, back), or the first where the scene needs none.
+@group(0) @binding(15) var front_pos2: texture_2d_array<f32>;
+@group(0) @binding(16) var front_nrm2: texture_2d_array<f32>;
+@group(0) @binding(17) var back_pos2: texture_2d_array<f32>;
+@group(0) @binding(18) var back_nrm2: texture_2d_array<f32>;
 
 // The corner lattice of the current cluster's children: point (a, b), a, b in 0..2, is stored
 // at a + 3 b; bit k of lattice_done says whether point k was traced.

@@ -36,6 +36,11 @@ struct TraceParams {
 // the map, 4 lost for want of a back surface, 6 lost to total internal reflection, 8 lost for
 // want of a receiver, 10 landed outside the map.
 @group(0) @binding(10) var<storage, read_write> stats: array<atomic<u32>>;
+// The light's second caster layer (front, back), or the first where the scene needs none.
+@group(0) @binding(11) var front_pos2: texture_2d_array<f32>;
+@group(0) @binding(12) var front_nrm2: texture_2d_array<f32>;
+@group(0) @binding(13) var back_pos2: texture_2d_array<f32>;
+@group(0) @binding(14) var back_nrm2: texture_2d_array<f32>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3u) {

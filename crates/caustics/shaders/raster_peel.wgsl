@@ -1,8 +1,10 @@
-// Stage: raster_peel. The camera's second specular layer (multi-layer deferred refraction,
+// Stage: raster_peel. A second layer of geometry buffers (multi-layer deferred refraction,
 // Wyman & Nichols 2009 section 3.1): like raster, but a fragment is kept only if it lies behind
-// the first layer's specular surface at its pixel and belongs to another object (one depth
-// peel per object). Drawn for the specular meshes (analytic shapes are intersected exactly in
-// `composite`), two-sided for the front buffer and back faces only for the back buffer.
+// the first layer's surface at its pixel and belongs to another object (one depth peel per
+// object); two-sided for the front buffer and back faces only for the back buffer. The camera's
+// second specular layer (`eye_specular_front2/back2`: the specular meshes; analytic shapes are
+// intersected exactly in `composite`) and the light's second caster layer per light-view face
+// (`light_caster_front2/back2`: all casters, against that face's `light_caster_front`).
 
 #import raster_common
 

@@ -4,7 +4,10 @@
 //!
 //! 1. `eye_receivers`, `eye_specular_front`, `eye_specular_back`: camera geometry buffers;
 //! 2. per light and face: `light_shadow` (depth of everything), `light_receivers` (position and
-//!    normal of diffuse surfaces), `light_caster_front`, `light_caster_back`;
+//!    normal of diffuse surfaces), `light_caster_front`, `light_caster_back`, and where the scene
+//!    has caster meshes and two casters or more the second caster layer `light_caster_front2`,
+//!    `light_caster_back2` (`raster_peel`: per texel the nearest caster of another object
+//!    behind the first);
 //! 3. per light and face: `coverage_mip`, then the technique's passes: basic per photon batch
 //!    `photon_trace`, `photon_splat` (64-bit fixed-point atomics); hierarchical per tile
 //!    `photon_trace`, `hcm_mip`, `hcm_traverse`, `photon_splat`; adaptive `adaptive_plan`, then
@@ -66,6 +69,12 @@ pub struct RenderSettings {
     /// weighted by Fresnel reflectance; the first carries the transmitted light): basic, a
     /// second pass over the grid; hierarchical and adaptive, a second traversal.
     pub dielectric_reflection: bool,
+    /// Rasterize the light's second caster layer (`light_caster_front2`, `light_caster_back2`:
+    /// per texel, the nearest caster of another object behind the first layer's) when the scene
+    /// has caster meshes and two casters or more, so that photons find and traverse a mesh
+    /// hidden from the light behind another caster. Off: only the first layer (the renderer
+    /// before it; for comparisons).
+    pub light_second_layer: bool,
     /// Memory for photon storage (bytes): the grid (basic), the tiles (hierarchical) or the
     /// hierarchy (adaptive) is processed in batches that fit.
     pub photon_memory: u64,
@@ -88,6 +97,7 @@ impl Default for RenderSettings {
             splat_sigma: 1.0,
             splat: SplatMode::default(),
             dielectric_reflection: true,
+            light_second_layer: true,
             photon_memory: 64 << 20,
             tessellation: Tessellation::default(),
         }
@@ -735,7 +745,15 @@ fn render_inner(
     let dev = &ctx.device;
     let geo = upload_geometry(ctx, scene, &s.tessellation);
     let raster = raster_pipelines(ctx);
-    let pipelines = crate::techniques::Pipelines::new(ctx, s.technique, s.splat);
+    // The light's second caster layer: only for scenes with caster meshes (analytic casters
+    // met after the first are intersected exactly, and scenes without meshes keep their maps)
+    // and at least two casters (the peel keeps other objects only: one caster leaves it empty).
+    let specular_casters: Vec<_> =
+        scene.objects.iter().filter(|o| o.caustic_caster && scene.material_of(o).is_specular()).collect();
+    let layer2 = s.light_second_layer
+        && specular_casters.len() >= 2
+        && specular_casters.iter().any(|o| matches!(o.shape, crate::scene::Shape::Mesh(_)));
+    let pipelines = crate::techniques::Pipelines::new(ctx, s.technique, s.splat, layer2);
     let resolve_pl = ctx.compute_pipeline("caustic_resolve");
     let shade_pl = ctx.compute_pipeline("shade_receivers");
     let composite_pl = ctx.compute_pipeline("composite");
@@ -867,6 +885,7 @@ fn render_inner(
         scale: f64,
         recv: GBuffer,
         casters: (GBuffer, GBuffer),
+        casters2: Option<(GBuffer, GBuffer)>,
     }
     let mut per_light = Vec::new();
     let mut pendings = Vec::new();
@@ -881,6 +900,9 @@ fn render_inner(
         let recv = GBuffer::new(ctx, "light_receivers", m, m, nf);
         let front = GBuffer::new(ctx, "light_caster_front", g, g, nf);
         let back = GBuffer::new(ctx, "light_caster_back", g, g, nf);
+        let layer2_bufs = layer2.then(|| {
+            (GBuffer::new(ctx, "light_caster_front2", g, g, nf), GBuffer::new(ctx, "light_caster_back2", g, g, nf))
+        });
         for (f, face) in view.faces.iter().enumerate() {
             let f = f as u32;
             dc.pass(
@@ -927,6 +949,31 @@ fn render_inner(
                 face.world_to_clip,
                 Subset::Casters,
             );
+            // The second caster layer: the casters again, with a per-object depth peel against
+            // this face's first layer (two-sided front, back faces), as the camera's.
+            if let Some((front2, back2)) = &layer2_bufs {
+                let (first_pos, first_depth) = (layer_view(&front.pos, f), layer_view(&front.depth, f));
+                let extra = [
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&first_pos) },
+                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&first_depth) },
+                ];
+                for (name, pl, gb) in
+                    [("light_caster_front2", &raster.peel, front2), ("light_caster_back2", &raster.peel_back, back2)]
+                {
+                    dc.pass_with(
+                        &mut enc,
+                        &mut timer,
+                        name,
+                        pl,
+                        Some((&gb.pos, &gb.nrm)),
+                        &gb.depth,
+                        f,
+                        face.world_to_clip,
+                        Subset::Casters,
+                        &extra,
+                    );
+                }
+            }
         }
         let texels = (m as u64) * (m as u64) * nf as u64;
         let accum = storage("caustic_flux", texels * 24);
@@ -941,6 +988,11 @@ fn render_inner(
             array_view(&recv.pos),
             array_view(&recv.nrm),
         );
+        let l2v = layer2_bufs.as_ref().map(|(f2, b2)| [&f2.pos, &f2.nrm, &b2.pos, &b2.nrm].map(array_view));
+        let layer2_views = match &l2v {
+            Some(v) => [&v[0], &v[1], &v[2], &v[3]],
+            None => [&fpv, &fnv, &bpv, &bnv],
+        };
         let emit = crate::techniques::Emit {
             ctx,
             settings: s,
@@ -950,6 +1002,7 @@ fn render_inner(
             front_nrm: &fnv,
             back_pos: &bpv,
             back_nrm: &bnv,
+            layer2: layer2_views,
             recv_pos: &rpv,
             recv_nrm: &rnv,
             materials: &geo.materials,
@@ -1031,7 +1084,16 @@ fn render_inner(
             cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
         }
         let _ = li;
-        per_light.push(PerLight { accum, irradiance, stats, faces: nf, scale, recv, casters: (front, back) });
+        per_light.push(PerLight {
+            accum,
+            irradiance,
+            stats,
+            faces: nf,
+            scale,
+            recv,
+            casters: (front, back),
+            casters2: layer2_bufs,
+        });
     }
 
     // 5. Composite.
@@ -1132,7 +1194,17 @@ fn render_inner(
         dump_buffers(
             ctx,
             dir,
-            &per_light.iter().map(|p| (&p.recv, &p.casters, p.faces)).collect::<Vec<_>>(),
+            &per_light
+                .iter()
+                .map(|p| {
+                    let mut bufs =
+                        vec![("receivers", &p.recv), ("caster_front", &p.casters.0), ("caster_back", &p.casters.1)];
+                    if let Some((front2, back2)) = &p.casters2 {
+                        bufs.extend([("caster_front2", front2), ("caster_back2", back2)]);
+                    }
+                    (bufs, p.faces)
+                })
+                .collect::<Vec<_>>(),
             &caustic_maps,
             scene.exposure,
         )?;
@@ -1157,14 +1229,14 @@ fn render_inner(
 fn dump_buffers(
     ctx: &GpuContext,
     dir: &Path,
-    lights: &[(&GBuffer, &(GBuffer, GBuffer), u32)],
+    lights: &[(Vec<(&str, &GBuffer)>, u32)],
     maps: &[Vec<Image>],
     exposure: f32,
 ) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::Output { path: dir.into(), message: e.to_string() })?;
-    for (li, (recv, (front, back), nf)) in lights.iter().enumerate() {
+    for (li, (bufs, nf)) in lights.iter().enumerate() {
         for f in 0..*nf {
-            for (name, gb) in [("receivers", *recv), ("caster_front", front), ("caster_back", back)] {
+            for &(name, gb) in bufs {
                 let pos = ctx.read_texture(&gb.pos, f, 16)?;
                 let nrm = ctx.read_texture(&gb.nrm, f, 16)?;
                 let (w, h) = (gb.pos.width(), gb.pos.height());

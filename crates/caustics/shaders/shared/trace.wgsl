@@ -1,7 +1,8 @@
 // Shared photon tracing (imported by photon_trace and the adaptive techniques): from a light
 // ray through NDC point `ndc` of face `layer`, carrying `flux`, find where it lands in the
 // caustic map. Uses the module-scope bindings every importing stage declares: light, front_pos,
-// front_nrm, back_pos, back_nrm, recv_pos, recv_nrm, materials, stats.
+// front_nrm, back_pos, back_nrm (the light's caster buffers), front_pos2, front_nrm2, back_pos2,
+// back_nrm2 (their second, depth-peeled layer), recv_pos, recv_nrm, materials, stats.
 // With trace_defer set (adaptive caustic maps trace children and book only the photons they
 // emit), add_fixed collects the flux per slot in trace_pending instead of adding it to stats.
 var<private> trace_defer: bool = false;
@@ -36,6 +37,12 @@ fn splat_mode() -> f32 {
 fn rd_active() -> bool {
     return rd_on && (trace_splat_mode < 0 || trace_splat_mode == 3);
 }
+// Whether the light's second caster layer is used (caster meshes, two casters or more; built
+// per frame, src/techniques/mod.rs): the casters behind the nearest one, per texel the nearest
+// caster of another object (multi-layer deferred refraction, Wyman & Nichols 2009 section 3.1,
+// light side). Off, the second-layer code is compiled out and the first layer is bound in its
+// place.
+override trace_light_layer2: bool = true;
 var<private> rd_from: vec3f;
 var<private> rd_pu: vec3f;
 var<private> rd_pv: vec3f;
@@ -142,7 +149,7 @@ fn light_depth(face: Face, p: vec3f) -> f32 {
 // from the exit texel's tangent plane. `object` = INVALID when no exit is found.
 // The back-surface crossing of o + s d between s0 (in front) and s1 (behind), by bisection on
 // the buffer depth, with the normal of the texel where it ends.
-fn bisect_exit(o: vec3f, d: vec3f, layer: u32, g: f32, s0_in: f32, s1_in: f32) -> Hit {
+fn bisect_exit(back_p: texture_2d_array<f32>, back_n: texture_2d_array<f32>, o: vec3f, d: vec3f, layer: u32, g: f32, s0_in: f32, s1_in: f32) -> Hit {
     let face = light.faces[layer];
     var s0 = s0_in;
     var s1 = s1_in;
@@ -152,21 +159,23 @@ fn bisect_exit(o: vec3f, d: vec3f, layer: u32, g: f32, s0_in: f32, s1_in: f32) -
         let sm = 0.5 * (s0 + s1);
         let p = o + d * sm;
         let q = project_face(face, p, g);
-        let bp = textureLoad(back_pos, texel_of(q.xy, u32(g)), layer, 0);
+        let bp = textureLoad(back_p, texel_of(q.xy, u32(g)), layer, 0);
         if (bp.w >= 0.0 && light_depth(face, p) >= light_depth(face, bp.xyz)) { s1 = sm; } else { s0 = sm; }
     }
     let p = o + d * s1;
     let q = project_face(face, p, g);
     let t = texel_of(q.xy, u32(g));
-    let bp = textureLoad(back_pos, t, layer, 0);
+    let bp = textureLoad(back_p, t, layer, 0);
     if (bp.w < 0.0) { return h; }
     h.p = p;
-    h.n = normalize(textureLoad(back_nrm, t, layer, 0).xyz);
+    h.n = normalize(textureLoad(back_n, t, layer, 0).xyz);
     h.object = u32(bp.w);
     return h;
 }
 
-fn march_exit(o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
+// The buffers (front_p, front_n, back_p, back_n) are the layer that holds the object traversed:
+// the light's first caster layer, or its second for a caster hidden behind another one.
+fn march_exit(front_p: texture_2d_array<f32>, front_n: texture_2d_array<f32>, back_p: texture_2d_array<f32>, back_n: texture_2d_array<f32>, o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
     var none: Hit;
     none.object = INVALID;
     let face = light.faces[layer];
@@ -187,7 +196,7 @@ fn march_exit(o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
             let q = project_face(face, p, g);
             if (q.w < 0.5) { break; }
             let t = texel_of(q.xy, u32(g));
-            let bp = textureLoad(back_pos, t, layer, 0);
+            let bp = textureLoad(back_p, t, layer, 0);
             // Left the silhouette between two samples: exit through the last back texel seen.
             if (bp.w < 0.0) { event = 1u; break; }
             last_valid = q.xy;
@@ -196,7 +205,7 @@ fn march_exit(o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
             // Out through a front surface (concave parts, rays reflected inside): only a genuine
             // crossing counts, from behind the surface to in front of it, on a continuous
             // surface, with the tangent-plane intersection inside the step.
-            let fp = textureLoad(front_pos, t, layer, 0);
+            let fp = textureLoad(front_p, t, layer, 0);
             let gap = depth - light_depth(face, fp.xyz);
             if (k >= 2u && fp.w >= 0.0 && gap <= 0.0 && prev_front_gap > 0.0 && -gap < 2.0 * ds) {
                 event = 3u;
@@ -207,7 +216,7 @@ fn march_exit(o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
             prev_front_gap = select(-1.0, gap, fp.w >= 0.0);
         }
         if (event != 3u) { break; }
-        let h = refine_hit(front_pos, front_nrm, layer, buffer_hit(front_pos, front_nrm, layer, q_event, o, d), o, d);
+        let h = refine_hit(front_p, front_n, layer, buffer_hit(front_p, front_n, layer, q_event, o, d), o, d);
         let s = dot(h.p - o, d);
         if (h.object != INVALID && s > (f32(k) - 1.5) * ds && s <= (f32(k) + 0.5) * ds) { return h; }
         // Not a crossing within the step: march on.
@@ -215,13 +224,13 @@ fn march_exit(o: vec3f, d: vec3f, layer: u32, g: f32) -> Hit {
         k++;
     }
     if (event == 0u || (event == 1u && last_valid.x < 0.0)) { return none; }
-    let h = refine_hit(back_pos, back_nrm, layer, buffer_hit(back_pos, back_nrm, layer, select(last_valid, q_event, event == 2u), o, d), o, d);
+    let h = refine_hit(back_p, back_n, layer, buffer_hit(back_p, back_n, layer, select(last_valid, q_event, event == 2u), o, d), o, d);
     if (event == 1u) { return h; }
     let s = dot(h.p - o, d);
     if (h.object != INVALID && s > (f32(k) - 1.5) * ds && s < (f32(k) + 0.5) * ds) { return h; }
     // The tangent plane of this texel does not cut the step: refine by bisection between the
     // two samples against the buffer's depth.
-    return bisect_exit(o, d, layer, g, (f32(k) - 1.0) * ds, f32(k) * ds);
+    return bisect_exit(back_p, back_n, o, d, layer, g, (f32(k) - 1.0) * ds, f32(k) * ds);
 }
 
 // Iterative search for the receiver hit by the ray o + t d in the receiver map (all faces).
@@ -313,6 +322,24 @@ const STATUS_OK: u32 = 0u;
 const STATUS_NO_EXIT: u32 = 1u;
 const STATUS_TIR: u32 = 2u;
 
+// Whether object `obj`, entered at p, is to be traversed through the light's second caster
+// layer: it is not the first layer's object at p's texel (of face `layer`), and the second
+// layer's front or back buffer holds it there (a caster hidden from the light behind another).
+fn in_second_layer(p: vec3f, obj: u32, layer: u32, g: f32) -> bool {
+    if (!trace_light_layer2) { return false; }
+    let q = project_face(light.faces[layer], p, g);
+    if (q.w < 0.5) { return false; }
+    let t = texel_of(q.xy, u32(g));
+    let f1 = textureLoad(front_pos, t, layer, 0).w;
+    if (f1 >= 0.0 && u32(f1) == obj) { return false; }
+    let f2 = textureLoad(front_pos2, t, layer, 0).w;
+    if (f2 >= 0.0 && u32(f2) == obj) { return true; }
+    let b1 = textureLoad(back_pos, t, layer, 0).w;
+    if (b1 >= 0.0 && u32(b1) == obj) { return false; }
+    let b2 = textureLoad(back_pos2, t, layer, 0).w;
+    return b2 >= 0.0 && u32(b2) == obj;
+}
+
 struct Interaction {
     o: vec3f,
     d: vec3f,
@@ -323,7 +350,9 @@ struct Interaction {
 // One specular interaction at point p (surface normal n) of a photon travelling along d:
 // mirrors and conductors reflect (weighted by their reflectance), dielectrics refract in and out
 // (Fresnel transmittance at both interfaces; the exit found in the back-surface buffer).
-fn interact(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f, layer: u32, g: f32) -> Interaction {
+// `obj` is the object hit: its exit is marched through the caster layer that holds it
+// (in_second_layer).
+fn interact(mat: MaterialGpu, obj: u32, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f, layer: u32, g: f32) -> Interaction {
     var r: Interaction;
     r.status = STATUS_OK;
     r.o = p;
@@ -354,8 +383,14 @@ fn interact(mat: MaterialGpu, p: vec3f, n_in: vec3f, d: vec3f, flux_in: vec3f, l
     // on, up to MAX_INTERNAL times. At a partial exit only the transmitted part is followed.
     var p_in = p;
     var t_in = t1.xyz;
+    let second = in_second_layer(p, obj, layer, g);
     for (var k = 0u; k <= MAX_INTERNAL; k++) {
-        let exit = march_exit(p_in, t_in, layer, g);
+        var exit: Hit;
+        if (second) {
+            exit = march_exit(front_pos2, front_nrm2, back_pos2, back_nrm2, p_in, t_in, layer, g);
+        } else {
+            exit = march_exit(front_pos, front_nrm, back_pos, back_nrm, p_in, t_in, layer, g);
+        }
         if (exit.object == INVALID) { r.status = STATUS_NO_EXIT; return r; }
         var n2 = exit.n;
         if (dot(n2, t_in) < 0.0) { n2 = -n2; }
@@ -410,7 +445,8 @@ fn exact_caster(o: vec3f, d: vec3f, t_max: f32, leaving: u32) -> Hit {
 // The first caster surface the ray o + s d (0 < s < t_max) crosses, found by marching through
 // the light-space caster front buffer: a crossing is a change of side (in front of / behind the
 // buffer's surface, seen from the light) between two samples on the same, continuous surface.
-// Exact position from the crossing texel's tangent plane.
+// With the second caster layer, crossings of its front buffer count too (a caster hidden from
+// the light behind another one). Exact position from the crossing texel's tangent plane.
 fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
     var none: Hit;
     none.object = INVALID;
@@ -421,7 +457,10 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
     var prev_side = 0.0;
     var prev_obj = INVALID;
     var prev_gap = 0.0;
-    var found = false;
+    var prev_side2 = 0.0;
+    var prev_obj2 = INVALID;
+    var prev_gap2 = 0.0;
+    var found = 0u;
     var s_found = 0.0;
     var q_found = vec2f(0.0);
     var layer_found = 0u;
@@ -434,26 +473,54 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
             let qq = project_face(light.faces[f], p, g);
             if (qq.w > 0.5) { q = qq; layer = f; break; }
         }
-        if (layer == INVALID) { prev_obj = INVALID; continue; }
-        let fp = textureLoad(front_pos, texel_of(q.xy, u32(g)), layer, 0);
-        if (fp.w < 0.0) { prev_obj = INVALID; continue; }
-        let gap = light_depth(light.faces[layer], p) - light_depth(light.faces[layer], fp.xyz);
-        let obj = u32(fp.w);
-        let side = sign(gap);
-        if (prev_obj == obj && side != prev_side && abs(gap) < 3.0 * ds && abs(prev_gap) < 3.0 * ds) {
-            found = true;
+        if (layer == INVALID) { prev_obj = INVALID; prev_obj2 = INVALID; continue; }
+        let t = texel_of(q.xy, u32(g));
+        let depth = light_depth(light.faces[layer], p);
+        if (trace_light_layer2) {
+            let fp2 = textureLoad(front_pos2, t, layer, 0);
+            if (fp2.w < 0.0) {
+                prev_obj2 = INVALID;
+            } else {
+                let gap2 = depth - light_depth(light.faces[layer], fp2.xyz);
+                let obj2 = u32(fp2.w);
+                let side2 = sign(gap2);
+                if (prev_obj2 == obj2 && side2 != prev_side2 && abs(gap2) < 3.0 * ds && abs(prev_gap2) < 3.0 * ds) {
+                    found = 2u;
+                }
+                prev_obj2 = obj2;
+                prev_side2 = side2;
+                prev_gap2 = gap2;
+            }
+        }
+        let fp = textureLoad(front_pos, t, layer, 0);
+        if (fp.w >= 0.0) {
+            let gap = depth - light_depth(light.faces[layer], fp.xyz);
+            let obj = u32(fp.w);
+            let side = sign(gap);
+            if (prev_obj == obj && side != prev_side && abs(gap) < 3.0 * ds && abs(prev_gap) < 3.0 * ds) {
+                found = 1u;
+            }
+            prev_obj = obj;
+            prev_side = side;
+            prev_gap = gap;
+        } else {
+            prev_obj = INVALID;
+        }
+        if (found != 0u) {
             s_found = s;
             q_found = q.xy;
             layer_found = layer;
             break;
         }
-        prev_obj = obj;
-        prev_side = side;
-        prev_gap = gap;
     }
     // The refinement outside the march's loop (see march_exit).
-    if (!found) { return none; }
-    let h = refine_hit(front_pos, front_nrm, layer_found, buffer_hit(front_pos, front_nrm, layer_found, q_found, o, d), o, d);
+    if (found == 0u) { return none; }
+    var h: Hit;
+    if (trace_light_layer2 && found == 2u) {
+        h = refine_hit(front_pos2, front_nrm2, layer_found, buffer_hit(front_pos2, front_nrm2, layer_found, q_found, o, d), o, d);
+    } else {
+        h = refine_hit(front_pos, front_nrm, layer_found, buffer_hit(front_pos, front_nrm, layer_found, q_found, o, d), o, d);
+    }
     if (h.object == INVALID) { return none; }
     let sh = dot(h.p - o, d);
     var hh = h;
@@ -515,7 +582,10 @@ fn buffer_dn(pos_tex: texture_2d_array<f32>, nrm_tex: texture_2d_array<f32>, lay
 
 // Derivative, for the surface displacement dp, of the unit normal `nref` (either orientation)
 // of the caster surface with material `mat` at p: exact for analytic spheres, cylinders and
-// rectangles, from the light-space caster buffer that holds p (front or back) for meshes.
+// rectangles, from the light-space caster buffer that holds p (front or back) for meshes: the
+// first layer's only (a mesh in the second layer gets the first layer's derivatives there; reading
+// the second layer here made photon_trace about 40 % slower on lavapipe, even in the pipelines
+// built for other splat modes: measured on dragon_spheres).
 fn surface_dn(mat: MaterialGpu, p: vec3f, nref: vec3f, dp_in: vec3f) -> vec3f {
     let dp = dp_in - nref * dot(dp_in, nref);
     if (mat.kind.z == 1u) {
@@ -733,7 +803,7 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
             r = reflect_dielectric(materials[obj], hit_p, hit_n, dir, flux);
             if (r.status != STATUS_OK) { return out; }
         } else {
-            r = interact(materials[obj], hit_p, hit_n, dir, flux, layer, g);
+            r = interact(materials[obj], obj, hit_p, hit_n, dir, flux, layer, g);
         }
         sig = (sig * 31u + obj * 8u + trace_internal + 1u) & 0xffffffu;
         if (bounce == 0u && !trace_reflect && splat_mode() > 0.5 && splat_mode() < 2.5 && r.status == STATUS_OK) {

@@ -256,6 +256,10 @@ impl Adaptive {
                     ctrl_buf.as_entire_binding(),
                     e.stats.as_entire_binding(),
                     self.corners.as_entire_binding(),
+                    wgpu::BindingResource::TextureView(e.layer2[0]),
+                    wgpu::BindingResource::TextureView(e.layer2[1]),
+                    wgpu::BindingResource::TextureView(e.layer2[2]),
+                    wgpu::BindingResource::TextureView(e.layer2[3]),
                 ],
             );
             let sbg = setup(LevelParams { level: p.level(grid * 2), ..lp });

@@ -161,12 +161,14 @@ pub(crate) struct Pipelines {
 }
 
 impl Pipelines {
-    pub fn new(ctx: &GpuContext, t: Technique, splat: crate::splat::SplatMode) -> Pipelines {
+    pub fn new(ctx: &GpuContext, t: Technique, splat: crate::splat::SplatMode, layer2: bool) -> Pipelines {
         let hier = t != Technique::Basic;
         let p = |name: &str, on: bool| on.then(|| ctx.compute_pipeline(name));
         // The tracing stages are built for the splat mode (shared/trace.wgsl, trace_splat_mode),
         // which compiles out the lens and ray-differential code the mode does not use.
-        let mode = [("trace_splat_mode", f64::from(splat.lens_flag(t)))];
+        // And for whether the light's second caster layer is used (trace_light_layer2).
+        let mode =
+            [("trace_splat_mode", f64::from(splat.lens_flag(t))), ("trace_light_layer2", f64::from(u8::from(layer2)))];
         let traced = |name: &str, on: bool| on.then(|| ctx.compute_pipeline_with(name, &mode));
         Pipelines {
             trace: traced("photon_trace", !t.is_adaptive()),
@@ -192,6 +194,11 @@ pub(crate) struct Emit<'a> {
     pub front_nrm: &'a wgpu::TextureView,
     pub back_pos: &'a wgpu::TextureView,
     pub back_nrm: &'a wgpu::TextureView,
+    /// The second caster layer (front position, front normal, back position, back normal): the
+    /// casters behind the nearest one (`light_caster_front2`, `light_caster_back2`), or the
+    /// first layer's views where the frame has no second layer (the tracing stages then compile
+    /// its code out).
+    pub layer2: [&'a wgpu::TextureView; 4],
     pub recv_pos: &'a wgpu::TextureView,
     pub recv_nrm: &'a wgpu::TextureView,
     pub materials: &'a wgpu::Buffer,
@@ -234,6 +241,10 @@ impl Emit<'_> {
                 self.materials.as_entire_binding(),
                 out,
                 self.stats.as_entire_binding(),
+                wgpu::BindingResource::TextureView(self.layer2[0]),
+                wgpu::BindingResource::TextureView(self.layer2[1]),
+                wgpu::BindingResource::TextureView(self.layer2[2]),
+                wgpu::BindingResource::TextureView(self.layer2[3]),
             ],
         )
     }
