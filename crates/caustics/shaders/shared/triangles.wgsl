@@ -8,45 +8,43 @@ fn cross2(a: vec2f, b: vec2f) -> f32 {
     return a.x * b.y - a.y * b.x;
 }
 
-// Area of triangle (a, b, c) inside the unit square with corner t: the triangle is clipped
-// (Sutherland-Hodgman) against the square's four sides, then the shoelace formula.
+// Integral over x in [0, 1] of clamp(y, 0, 1) along the segment p -> q (signed: negative when
+// it runs towards -x). With G(y) = integral of clamp(y, 0, 1) dy, a straight piece gives
+// (G(y1) - G(y0)) / slope; a (nearly) flat one clamp(y) times its length.
+fn clamped_g(y: f32) -> f32 {
+    return select(select(y - 0.5, 0.5 * y * y, y <= 1.0), 0.0, y <= 0.0);
+}
+
+fn edge_integral(p: vec2f, q: vec2f) -> f32 {
+    let dx = q.x - p.x;
+    if (dx == 0.0) { return 0.0; }
+    let x0 = clamp(min(p.x, q.x), 0.0, 1.0);
+    let x1 = clamp(max(p.x, q.x), 0.0, 1.0);
+    if (x1 <= x0) { return 0.0; }
+    let slope = (q.y - p.y) / dx;
+    let y0 = p.y + (x0 - p.x) * slope;
+    let y1 = p.y + (x1 - p.x) * slope;
+    var v = 0.0;
+    if (abs(y1 - y0) < 1e-4) {
+        v = clamp(0.5 * (y0 + y1), 0.0, 1.0) * (x1 - x0);
+    } else {
+        v = (clamped_g(y1) - clamped_g(y0)) / slope;
+    }
+    return select(-v, v, dx > 0.0);
+}
+
+// Area of triangle (a, b, c) inside the unit square with corner t, by Green's theorem: minus the
+// boundary integral of clamp(y, 0, 1) dx over x in [0, 1]. Loop-free on purpose: llvmpipe
+// (Mesa 22.3) caps the iterations of a loop nest at 65535 per SIMD group, and a polygon-clipping
+// loop inside the texel loops hit that cap on large triangles, cutting the clipping short
+// (areas too large, maps that depended on which triangles shared a group).
 fn clipped_area(a: vec2f, b: vec2f, c: vec2f, t: vec2f) -> f32 {
-    // Relative to the square's corner: f32 shoelace sums of absolute map coordinates (hundreds
-    // of texels) would swamp the area of small triangles.
-    var src: array<vec2f, 8>;
-    var dst: array<vec2f, 8>;
-    src[0] = a - t;
-    src[1] = b - t;
-    src[2] = c - t;
-    var n = 3u;
-    for (var side = 0u; side < 4u; side++) {
-        let axis = side / 2u;
-        let greater = (side & 1u) == 0u;
-        let bound = select(1.0, 0.0, greater);
-        var k = 0u;
-        for (var i = 0u; i < n; i++) {
-            let p = src[i];
-            let q = src[(i + 1u) % n];
-            let dp = select(bound - p[axis], p[axis] - bound, greater);
-            let dq = select(bound - q[axis], q[axis] - bound, greater);
-            if (dp >= 0.0) {
-                dst[k] = p;
-                k++;
-            }
-            if ((dp >= 0.0) != (dq >= 0.0)) {
-                dst[k] = mix(p, q, dp / (dp - dq));
-                k++;
-            }
-        }
-        n = k;
-        for (var i = 0u; i < n; i++) { src[i] = dst[i]; }
-    }
-    if (n < 3u) { return 0.0; }
-    var s = 0.0;
-    for (var i = 0u; i < n; i++) {
-        s += cross2(src[i], src[(i + 1u) % n]);
-    }
-    return abs(0.5 * s);
+    // Relative to the square's corner: the map coordinates (hundreds of texels) would swamp
+    // the area of small triangles.
+    let p0 = a - t;
+    let p1 = b - t;
+    let p2 = c - t;
+    return abs(edge_integral(p0, p1) + edge_integral(p1, p2) + edge_integral(p2, p0));
 }
 
 fn triangle(face: u32, a: vec2f, b: vec2f, c: vec2f, flux: vec3f) {

@@ -534,6 +534,7 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
     Ok(pending)
 }
 
+pub static DBG: std::sync::Mutex<Vec<wgpu::Buffer>> = std::sync::Mutex::new(Vec::new());
 impl Pending {
     /// Read back the counters after the frame was submitted.
     pub fn finish(mut self, ctx: &GpuContext) -> Result<TechniqueStats> {
@@ -553,6 +554,10 @@ impl Pending {
         for (b, count) in &self.kept {
             let data = ctx.read_buffer(b, count * std::mem::size_of::<crate::gpu::types::Photon>() as u64)?;
             s.photons.extend_from_slice(bytemuck::cast_slice(&data));
+        }
+        for (i, b) in DBG.lock().unwrap().drain(..).enumerate() {
+            let data = ctx.read_buffer(&b, b.size())?;
+            std::fs::write(format!("{}/dbg{i}.bin", std::env::var("DBG_DUMP").unwrap()), &data).unwrap();
         }
         let mut peak_cells = 0u64;
         let mut peak_photons = 0u64;
