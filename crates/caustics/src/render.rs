@@ -447,6 +447,33 @@ impl DrawCtx<'_> {
         self.pass_with(enc, timer, name, pipeline, gb_color, depth, layer, world_to_clip, subset, &[]);
     }
 
+    /// A second layer behind `first` (its texture layer `layer`): `subset` rasterized again with
+    /// the per-object depth peel (`raster_peel`: fragments of another object than the first
+    /// layer's, behind its surface), two-sided into `front2` and back faces into `back2`, in
+    /// passes named `names`. The camera's and the light's second layers.
+    #[expect(clippy::too_many_arguments, reason = "a pass is described by all of these")]
+    fn peel(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        raster: &Raster,
+        first: &GBuffer,
+        layer: u32,
+        world_to_clip: Mat4,
+        subset: Subset,
+        [(front_name, front2), (back_name, back2)]: [(&str, &GBuffer); 2],
+    ) {
+        let (first_pos, first_depth) = (layer_view(&first.pos, layer), layer_view(&first.depth, layer));
+        let extra = [
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&first_pos) },
+            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&first_depth) },
+        ];
+        for (name, pl, gb) in [(front_name, &raster.peel, front2), (back_name, &raster.peel_back, back2)] {
+            let color = Some((&gb.pos, &gb.nrm));
+            self.pass_with(enc, timer, name, pl, color, &gb.depth, layer, world_to_clip, subset, &extra);
+        }
+    }
+
     /// `pass` with further bindings after the view uniform (binding 0).
     #[expect(clippy::too_many_arguments, reason = "a pass is described by all of these")]
     fn pass_with(
@@ -807,29 +834,16 @@ fn render_inner(
     // The second specular layer (meshes behind the first layer's object), front and back.
     let eye_front2 = GBuffer::new(ctx, "eye_specular_front2", w, h, 1);
     let eye_back2 = GBuffer::new(ctx, "eye_specular_back2", w, h, 1);
-    {
-        let (first_pos, first_depth) = (layer_view(&eye_front.pos, 0), layer_view(&eye_front.depth, 0));
-        let extra = [
-            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&first_pos) },
-            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&first_depth) },
-        ];
-        for (name, pl, gb) in
-            [("eye_specular_front2", &raster.peel, &eye_front2), ("eye_specular_back2", &raster.peel_back, &eye_back2)]
-        {
-            dc.pass_with(
-                &mut enc,
-                &mut timer,
-                name,
-                pl,
-                Some((&gb.pos, &gb.nrm)),
-                &gb.depth,
-                0,
-                cam_clip,
-                Subset::SpecularMeshes,
-                &extra,
-            );
-        }
-    }
+    dc.peel(
+        &mut enc,
+        &mut timer,
+        &raster,
+        &eye_front,
+        0,
+        cam_clip,
+        Subset::SpecularMeshes,
+        [("eye_specular_front2", &eye_front2), ("eye_specular_back2", &eye_back2)],
+    );
 
     let img_bytes = (w as u64) * (h as u64) * 16;
     let storage = |label: &str, size: u64| {
@@ -952,27 +966,16 @@ fn render_inner(
             // The second caster layer: the casters again, with a per-object depth peel against
             // this face's first layer (two-sided front, back faces), as the camera's.
             if let Some((front2, back2)) = &layer2_bufs {
-                let (first_pos, first_depth) = (layer_view(&front.pos, f), layer_view(&front.depth, f));
-                let extra = [
-                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&first_pos) },
-                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&first_depth) },
-                ];
-                for (name, pl, gb) in
-                    [("light_caster_front2", &raster.peel, front2), ("light_caster_back2", &raster.peel_back, back2)]
-                {
-                    dc.pass_with(
-                        &mut enc,
-                        &mut timer,
-                        name,
-                        pl,
-                        Some((&gb.pos, &gb.nrm)),
-                        &gb.depth,
-                        f,
-                        face.world_to_clip,
-                        Subset::Casters,
-                        &extra,
-                    );
-                }
+                dc.peel(
+                    &mut enc,
+                    &mut timer,
+                    &raster,
+                    &front,
+                    f,
+                    face.world_to_clip,
+                    Subset::Casters,
+                    [("light_caster_front2", front2), ("light_caster_back2", back2)],
+                );
             }
         }
         let texels = (m as u64) * (m as u64) * nf as u64;

@@ -9,6 +9,8 @@
 //! Without an adapter the tests skip with a printed reason, except in CI (`CI=true`).
 
 mod common;
+#[path = "common/temp_scene.rs"]
+mod temp_scene;
 use caustics::Scene;
 use caustics::render::{RenderSettings, SplatMode, render};
 use caustics::techniques::Technique;
@@ -74,12 +76,6 @@ fn lens_obj(rings: u32, segs: u32) -> String {
 }
 
 fn lens_scene() -> Scene {
-    // One folder per call: the tests of this file run in parallel threads of one process.
-    static CALLS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("caustics_lens_{}_{call}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(dir.join("lens.obj"), lens_obj(96, 256)).unwrap();
     let json = format!(
         r#"{{
   "schema_version": 1,
@@ -95,11 +91,7 @@ fn lens_scene() -> Scene {
   ]
 }}"#
     );
-    let path = dir.join("lens.json");
-    std::fs::write(&path, json).unwrap();
-    let scene = Scene::load(&path).unwrap();
-    std::fs::remove_dir_all(&dir).ok();
-    scene
+    temp_scene::load("lens", &[("lens.obj", lens_obj(96, 256))], &json)
 }
 
 /// Eq. 7 with eqs. 1 and 2 (thin lens), as a ratio to the unrefracted diameter D0.

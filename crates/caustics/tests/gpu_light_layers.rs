@@ -10,6 +10,8 @@
 //! Without an adapter the test skips with a printed reason, except in CI (`CI=true`).
 
 mod common;
+#[path = "common/temp_scene.rs"]
+mod temp_scene;
 use caustics::Scene;
 use caustics::image_io::Image;
 use caustics::render::{RenderSettings, Technique, render};
@@ -51,12 +53,6 @@ fn ball_obj(r: f32, rings: u32, segs: u32) -> String {
 }
 
 fn scene() -> Scene {
-    // One folder per call: the tests of a file may run in parallel threads of one process.
-    static CALLS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("caustics_light_layers_{}_{call}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(dir.join("ball.obj"), ball_obj(BALL_R, 96, 192)).unwrap();
     let json = format!(
         r#"{{
   "schema_version": 1,
@@ -74,11 +70,7 @@ fn scene() -> Scene {
   ]
 }}"#
     );
-    let path = dir.join("scene.json");
-    std::fs::write(&path, json).unwrap();
-    let scene = Scene::load(&path).unwrap();
-    std::fs::remove_dir_all(&dir).ok();
-    scene
+    temp_scene::load("light_layers", &[("ball.obj", ball_obj(BALL_R, 96, 192))], &json)
 }
 
 /// Luminance flux (irradiance summed over texels) of a map inside the central disc of NDC

@@ -447,6 +447,29 @@ fn exact_caster(o: vec3f, d: vec3f, t_max: f32, leaving: u32) -> Hit {
 // buffer's surface, seen from the light) between two samples on the same, continuous surface.
 // With the second caster layer, crossings of its front buffer count too (a caster hidden from
 // the light behind another one). Exact position from the crossing texel's tangent plane.
+// What the march remembers of one front buffer: the last sample's object, side and gap.
+struct FrontTrack {
+    obj: u32,
+    side: f32,
+    gap: f32,
+}
+
+// Whether front-buffer texel fp (w: object, < 0 for none), sampled at light depth `depth`, shows
+// a crossing of the surface the previous sample saw (same object, side changed, both samples
+// close to it); updates the track.
+fn front_crossing(tr: ptr<function, FrontTrack>, fp: vec4f, depth: f32, face: Face, ds: f32) -> bool {
+    if (fp.w < 0.0) {
+        (*tr).obj = INVALID;
+        return false;
+    }
+    let gap = depth - light_depth(face, fp.xyz);
+    let obj = u32(fp.w);
+    let side = sign(gap);
+    let crossed = (*tr).obj == obj && side != (*tr).side && abs(gap) < 3.0 * ds && abs((*tr).gap) < 3.0 * ds;
+    *tr = FrontTrack(obj, side, gap);
+    return crossed;
+}
+
 fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
     var none: Hit;
     none.object = INVALID;
@@ -454,12 +477,8 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
     let steps = 64u;
     let reach = min(t_max, 2.2 * light.extra.x);
     let ds = reach / f32(steps);
-    var prev_side = 0.0;
-    var prev_obj = INVALID;
-    var prev_gap = 0.0;
-    var prev_side2 = 0.0;
-    var prev_obj2 = INVALID;
-    var prev_gap2 = 0.0;
+    var track = FrontTrack(INVALID, 0.0, 0.0);
+    var track2 = FrontTrack(INVALID, 0.0, 0.0);
     var found = 0u;
     var s_found = 0.0;
     var q_found = vec2f(0.0);
@@ -473,38 +492,20 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
             let qq = project_face(light.faces[f], p, g);
             if (qq.w > 0.5) { q = qq; layer = f; break; }
         }
-        if (layer == INVALID) { prev_obj = INVALID; prev_obj2 = INVALID; continue; }
-        let t = texel_of(q.xy, u32(g));
-        let depth = light_depth(light.faces[layer], p);
-        if (trace_light_layer2) {
-            let fp2 = textureLoad(front_pos2, t, layer, 0);
-            if (fp2.w < 0.0) {
-                prev_obj2 = INVALID;
-            } else {
-                let gap2 = depth - light_depth(light.faces[layer], fp2.xyz);
-                let obj2 = u32(fp2.w);
-                let side2 = sign(gap2);
-                if (prev_obj2 == obj2 && side2 != prev_side2 && abs(gap2) < 3.0 * ds && abs(prev_gap2) < 3.0 * ds) {
-                    found = 2u;
-                }
-                prev_obj2 = obj2;
-                prev_side2 = side2;
-                prev_gap2 = gap2;
-            }
+        if (layer == INVALID) {
+            track.obj = INVALID;
+            track2.obj = INVALID;
+            continue;
         }
-        let fp = textureLoad(front_pos, t, layer, 0);
-        if (fp.w >= 0.0) {
-            let gap = depth - light_depth(light.faces[layer], fp.xyz);
-            let obj = u32(fp.w);
-            let side = sign(gap);
-            if (prev_obj == obj && side != prev_side && abs(gap) < 3.0 * ds && abs(prev_gap) < 3.0 * ds) {
-                found = 1u;
-            }
-            prev_obj = obj;
-            prev_side = side;
-            prev_gap = gap;
-        } else {
-            prev_obj = INVALID;
+        let t = texel_of(q.xy, u32(g));
+        let face = light.faces[layer];
+        let depth = light_depth(face, p);
+        // Both layers are tracked; the first layer wins when both cross in one step.
+        if (trace_light_layer2 && front_crossing(&track2, textureLoad(front_pos2, t, layer, 0), depth, face, ds)) {
+            found = 2u;
+        }
+        if (front_crossing(&track, textureLoad(front_pos, t, layer, 0), depth, face, ds)) {
+            found = 1u;
         }
         if (found != 0u) {
             s_found = s;
