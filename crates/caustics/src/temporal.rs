@@ -61,8 +61,8 @@ use crate::gpu::{GpuContext, PassTimer};
 use crate::image_io::Image;
 use crate::render::{GpuRender, RenderSettings};
 use crate::scene::Scene;
+use crate::techniques::{bind, uniform};
 use std::path::Path;
-use wgpu::util::DeviceExt;
 
 /// Parameters of the temporal filter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -221,23 +221,20 @@ impl TemporalFilter {
                 flags,
                 _pad: 0,
             };
-            let pbuf = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("temporal_params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-            let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("temporal_filter"),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: pbuf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: maps.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 2, resource: l.previous.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 3, resource: l.history.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 4, resource: l.scratch.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 5, resource: l.counters.as_entire_binding() },
+            let pbuf = uniform(ctx, "temporal_params", bytemuck::bytes_of(&params));
+            let bg = bind(
+                ctx,
+                &pipeline,
+                "temporal_filter",
+                &[
+                    pbuf.as_entire_binding(),
+                    maps.as_entire_binding(),
+                    l.previous.as_entire_binding(),
+                    l.history.as_entire_binding(),
+                    l.scratch.as_entire_binding(),
+                    l.counters.as_entire_binding(),
                 ],
-            });
+            );
             let mut cp = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("temporal_filter"),
                 timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute("temporal_filter")),

@@ -34,10 +34,12 @@ fn edge_integral(p: vec2f, q: vec2f) -> f32 {
 }
 
 // Area of triangle (a, b, c) inside the unit square with corner t, by Green's theorem: minus the
-// boundary integral of clamp(y, 0, 1) dx over x in [0, 1]. Loop-free on purpose: llvmpipe
-// (Mesa 22.3) caps the iterations of a loop nest at 65535 per SIMD group, and a polygon-clipping
-// loop inside the texel loops hit that cap on large triangles, cutting the clipping short
-// (areas too large, maps that depended on which triangles shared a group).
+// boundary integral of clamp(y, 0, 1) dx over x in [0, 1]. Loop-free on purpose: with a
+// polygon-clipping loop inside the texel loops, large triangles got areas too large on llvmpipe
+// (Mesa 22.3), and maps that depended on which triangles shared a SIMD group, from identical
+// inputs (deterministic with one thread). The likely cause, inferred, not read in Mesa's
+// source: llvmpipe's cap of 65535 iterations per loop nest and SIMD group cut the clipping
+// short.
 fn clipped_area(a: vec2f, b: vec2f, c: vec2f, t: vec2f) -> f32 {
     // Relative to the square's corner: the map coordinates (hundreds of texels) would swamp
     // the area of small triangles.
