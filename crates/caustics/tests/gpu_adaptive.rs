@@ -398,9 +398,9 @@ fn cell_quads_conserve_flux_with_a_point_light() {
 #[test]
 fn cell_quads_on_a_mesh_are_deterministic_and_conserve_flux_at_a_large_map() {
     // Large quads (128² photons on a 1024² map, the glass bunny): each triangle covers thousands
-    // of texels. Their per-texel areas were once cut short on lavapipe (a loop-iteration cap
-    // per SIMD group), so the map depended on the photon order and held up to 6 % too much
-    // flux. The map must be identical run to run and hold the flux of fixed splats.
+    // of texels. Their per-texel areas once came out too large on lavapipe (likely a
+    // loop-iteration cap per SIMD group cutting the clipping loop short), so the map depended
+    // on the photon order and held up to 6 % too much flux. The map must be identical run to run and hold the flux of fixed splats.
     let Some(ctx) = gpu() else { return };
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/glass_bunny.json");
     let mut s = Scene::load(&path).unwrap();
