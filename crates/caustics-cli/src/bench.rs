@@ -85,6 +85,8 @@ struct Run {
     /// GPU ms of the photon stage (coverage, trace, traversal, splat) and of the whole frame.
     photon_ms: f64,
     frame_ms: f64,
+    /// Host milliseconds from the frame's submission to its completion (`GpuRender::frame_wall_ms`).
+    frame_wall_ms: f64,
     wall_ms: f64,
 }
 
@@ -155,20 +157,24 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 let wall_ms = t0.elapsed().as_secs_f64() * 1e3;
                 let photon_ms = out.timings.iter().filter(|(p, _)| is_photon_pass(p)).map(|(_, ms)| ms).sum();
                 let frame_ms = out.timings.iter().map(|(_, ms)| ms).sum();
-                let r = Run { technique: t, n, out, photon_ms, frame_ms, wall_ms };
-                if best.as_ref().is_none_or(|b| r.photon_ms < b.photon_ms) {
+                let frame_wall_ms = out.frame_wall_ms;
+                let r = Run { technique: t, n, out, photon_ms, frame_ms, frame_wall_ms, wall_ms };
+                // The fastest repetition by the host's clock (pass timestamps can miss work:
+                // on lavapipe the basic technique's splat escapes its own).
+                if best.as_ref().is_none_or(|b| r.frame_wall_ms < b.frame_wall_ms) {
                     best = Some(r);
                 }
             }
             if let Some(r) = best {
                 let ts = &r.out.technique;
                 println!(
-                    "{n:>6}^2 {:<15} splatted {:>11} relevant {:>11} traced {:>11} photon GPU {:>9.1} ms wall {:>8.0} ms batches {:>4} peak {:>7.2} MiB",
+                    "{n:>6}^2 {:<15} splatted {:>11} relevant {:>11} traced {:>11} photon GPU {:>9.1} ms frame {:>9.1} ms wall {:>8.0} ms batches {:>4} peak {:>7.2} MiB",
                     t.name(),
                     ts.photons_splatted,
                     ts.relevant,
                     ts.photons_traced,
                     r.photon_ms,
+                    r.frame_wall_ms,
                     r.wall_ms,
                     ts.batches,
                     ts.peak_photon_bytes as f64 / (1 << 20) as f64
@@ -269,19 +275,24 @@ fn markdown(
     }
     let _ = writeln!(
         s,
-        "\n## Work, time and memory\n\nTraced: photons traced (with caustic triangles over the adaptive hierarchy, + the cell-corner photons traced for the quads). Evaluated: cells kept over all levels of the hierarchy plus photons traced below the last level (adaptive), or cells plus photons splatted (hierarchical); divided by the relevant photons. Photon GPU ms: coverage mip, tracing, traversal and splat (timestamp queries); speed-up: basic's photon GPU ms at the same grid over this technique's.\n"
+        "\n## Work, time and memory\n\nTraced: photons traced (with caustic triangles over the adaptive hierarchy, + the cell-corner photons traced for the quads). Evaluated: cells kept over all levels of the hierarchy plus photons traced below the last level (adaptive), or cells plus photons splatted (hierarchical); divided by the relevant photons. Photon GPU ms: coverage mip, tracing, traversal and splat (timestamp queries); speed-up: basic's photon GPU ms at the same grid over this technique's. Frame ms: host wall-clock from the frame's submission to its completion (all GPU work of the frame, no recording, pipeline builds or read-back); frame speed-up: basic's frame ms over this technique's. Where pass timestamps miss work (lavapipe: the basic technique's splat escapes its own, see docs/benchmarks.md), compare the frame columns. Wall ms: the whole render call.\n"
     );
     let _ = writeln!(
         s,
-        "| photon grid | technique | traced | evaluated / relevant | photon GPU ms | speed-up vs basic | frame GPU ms | wall ms | photon memory MiB | peak used MiB | batches | FLIP vs dense |"
+        "| photon grid | technique | traced | evaluated / relevant | photon GPU ms | speed-up vs basic | frame GPU ms | frame ms | frame speed-up vs basic | wall ms | photon memory MiB | peak used MiB | batches | FLIP vs dense |"
     );
-    let _ = writeln!(s, "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
+    let _ = writeln!(
+        s,
+        "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
+    );
     for &n in grids {
         for &t in techniques {
             let Some(r) = find(runs, t, n) else { continue };
             let ts = &r.out.technique;
             let basic = find(runs, Technique::Basic, n);
             let speed = basic.map_or("-".into(), |b| format!("{:.2}", b.photon_ms / r.photon_ms.max(1e-9)));
+            let frame_speed =
+                basic.map_or("-".into(), |b| format!("{:.2}", b.frame_wall_ms / r.frame_wall_ms.max(1e-9)));
             let dense =
                 basic.or_else(|| find(runs, Technique::AdaptiveLevel, n).filter(|_| t != Technique::AdaptiveLevel));
             let flip = match dense {
@@ -300,9 +311,10 @@ fn markdown(
             };
             let _ = writeln!(
                 s,
-                "| {n}² | {t} | {traced} | {eval} | {:.1} | {speed} | {:.1} | {:.0} | {} | {} | {} | {flip} |",
+                "| {n}² | {t} | {traced} | {eval} | {:.1} | {speed} | {:.1} | {:.1} | {frame_speed} | {:.0} | {} | {} | {} | {flip} |",
                 r.photon_ms,
                 r.frame_ms,
+                r.frame_wall_ms,
                 r.wall_ms,
                 mib(ts.photon_bytes),
                 mib(ts.peak_photon_bytes),
@@ -370,8 +382,10 @@ fn to_json(scene: &str, adapter: &str, a: &BenchArgs, runs: &[Run], skipped: &[(
                 "coverage": ts.coverage(),
                 "photon_gpu_ms": r.photon_ms,
                 "frame_gpu_ms": r.frame_ms,
+                "frame_wall_ms": r.frame_wall_ms,
                 "wall_ms": r.wall_ms,
                 "speedup_vs_basic": basic.map(|b| b.photon_ms / r.photon_ms.max(1e-9)),
+                "frame_speedup_vs_basic": basic.map(|b| b.frame_wall_ms / r.frame_wall_ms.max(1e-9)),
                 "flip_vs_basic": basic.and_then(|b| map_flip(&r.out, &b.out)),
                 "photon_bytes": ts.photon_bytes,
                 "peak_photon_bytes": ts.peak_photon_bytes,

@@ -401,6 +401,7 @@ fn report_gpu(out: &GpuRender, wall_ms: f64) {
             f.emitted, f.landed, f.lost_no_exit, f.lost_tir, f.lost_no_receiver, f.lost_outside
         );
     }
+    println!("frame: {:.1} ms from submission to completion (host clock)", out.frame_wall_ms);
     println!("wall time: {wall_ms:.0} ms");
 }
 

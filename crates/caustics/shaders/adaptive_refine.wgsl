@@ -20,9 +20,15 @@
 // FLAG_QUADS (caustic triangles): every emitted photon stands for a cell (a child, or the
 // merged parent); the photons through the cell's four corners are traced too (the 3 x 3 corner
 // lattice of the parent's children, each point traced at most once per thread, only where an
-// emitted cell needs it; never booked in the flux statistics) and, if they are valid, on the
-// photon's face and path, with no quad edge over the discontinuity limit, the photon is marked
-// (_pad bit 0) and its corners' landing points are stored in `corners` for splat_quads.
+// emitted cell or the convergence test needs it; never booked in the flux statistics) and, if
+// they are valid, on the photon's face and path, with no quad edge over the discontinuity
+// limit, the photon is marked (_pad bit 0) and its corners' landing points are stored in
+// `corners` for splat_quads.
+// Every photon of a thread is traced by one call of trace_photon (trace_points): the thread
+// decides in rounds what it needs traced next (its children, then the corner lattice for the
+// test, then the corners of the cells it emits). Shader compilers inline every call site and
+// unroll loops of constant count, so tracing from several places multiplied the tracer's code:
+// building this pipeline took 11 s on lavapipe (36 s with ray differentials) before.
 
 #import hierarchy
 #import coverage
@@ -50,30 +56,53 @@
 @group(0) @binding(17) var back_pos2: texture_2d_array<f32>;
 @group(0) @binding(18) var back_nrm2: texture_2d_array<f32>;
 
-// The corner lattice of the current cluster's children: point (a, b), a, b in 0..2, is stored
-// at a + 3 b; bit k of lattice_done says whether point k was traced.
-var<private> lattice: array<Photon, 9>;
-var<private> lattice_done: u32 = 0u;
+// The points of the current cluster traced so far: the corner lattice of its children (point
+// (a, b), a, b in 0..2, at a + 3 b) and the children's centres (child q at KIDS + q, child q
+// being (2 parent.x + (q & 1), 2 parent.y + (q >> 1))); bit k of pts_done says whether point k
+// was traced. (Private memory, zero-initialised: an untraced point reads as a zero Photon.)
+const KIDS: u32 = 9u;
+var<private> pts: array<Photon, 13>;
+var<private> pts_done: u32 = 0u;
 var<private> corner_traces: u32 = 0u;
 
-// Corner (a, b) of the children of cluster `parent` (children grid s): the light ray through
-// NDC (-1 + (2 parent.x + a) 2/s, 1 - (2 parent.y + b) 2/s), exact in f32 for power-of-two
-// grids, so a corner shared by neighbouring cells (of any level) lands at the same point.
-fn lattice_point(parent: vec2u, k: u32, s: u32) -> Photon {
-    if ((lattice_done & (1u << k)) == 0u) {
-        let cell = 2.0 / f32(s);
-        let ndc = vec2f(-1.0 + f32(2u * parent.x + k % 3u) * cell, 1.0 - f32(2u * parent.y + k / 3u) * cell);
-        // Corners only shape the quad: their flux is not booked (nor collected for later).
+// Trace the points of `mask` not traced yet (cluster `parent`, children grid s): the stage's only
+// call of trace_photon, in a loop whose count the compiler cannot know. The points are integer
+// multiples of half a cell, so each is exactly the point photon_trace traces for the same cell
+// or corner: -1 + (i + 0.5) (2 / s) there, -1 + (2 i + 1) (1 / s) here, the same real number
+// rounded once. Corners only shape the quad: their flux is not booked (nor collected for later).
+fn trace_points(parent: vec2u, s: u32, mask: u32) {
+    var m = mask & ~pts_done;
+    pts_done |= m;
+    let cell = 2.0 / f32(s);
+    let h = 0.5 * cell;
+    loop {
+        if (m == 0u) { break; }
+        let k = firstTrailingBit(m);
+        m &= m - 1u;
+        let corner = k < KIDS;
+        var x2 = 2u * (2u * parent.x + k % 3u);
+        var y2 = 2u * (2u * parent.y + k / 3u);
+        if (!corner) {
+            x2 = 2u * (2u * parent.x + ((k - KIDS) & 1u)) + 1u;
+            y2 = 2u * (2u * parent.y + ((k - KIDS) >> 1u)) + 1u;
+        }
         let defer = trace_defer;
         let pending = trace_pending;
-        trace_defer = true;
-        lattice[k] = trace_photon(lp.face, ndc, vec2f(cell));
-        trace_defer = defer;
-        trace_pending = pending;
-        lattice_done |= 1u << k;
-        corner_traces += 1u;
+        if (corner) {
+            trace_defer = true;
+            corner_traces += 1u;
+        }
+        pts[k] = trace_photon(lp.face, vec2f(-1.0 + f32(x2) * h, 1.0 - f32(y2) * h), vec2f(cell));
+        if (corner) {
+            trace_defer = defer;
+            trace_pending = pending;
+        }
     }
-    return lattice[k];
+}
+
+// The lattice points at the corners of the cell (a, b), (a + d, b), (a, b + d), (a + d, b + d).
+fn cell_corners(a: u32, b: u32, d: u32) -> u32 {
+    return (1u << (a + 3u * b)) | (1u << (a + d + 3u * b)) | (1u << (a + 3u * (b + d))) | (1u << (a + d + 3u * (b + d)));
 }
 
 // Longest quad edge (caustic-map texels) not taken for a discontinuity, for a cell of the
@@ -102,20 +131,20 @@ fn emit(p: Photon, level: u32) {
     emit_record(p, level, false, vec4f(0.0), vec4f(0.0));
 }
 
-// Emit photon p standing for the cell whose corners are lattice points (a, b), (a + d, b),
-// (a, b + d), (a + d, b + d) of cluster `parent` (children grid s); the cell is one of a
-// cells x cells grid. With FLAG_QUADS, with its quad if the corners agree with p (valid, on
-// p's face, same path signature flux.w, no edge over max_edge): otherwise p is a Gaussian.
-fn emit_cell(p: Photon, level: u32, parent: vec2u, a: u32, b: u32, d: u32, s: u32, cells: u32) {
+// Emit photon p standing for the cell whose corners are lattice points cell_corners(a, b, d)
+// (traced beforehand); the cell is one of a cells x cells grid. With FLAG_QUADS, with its quad
+// if the corners agree with p (valid, on p's face, same path signature flux.w, no edge over
+// max_edge): otherwise p is a Gaussian.
+fn emit_cell(p: Photon, level: u32, a: u32, b: u32, d: u32, cells: u32) {
     if ((lp.flags & FLAG_QUADS) == 0u || p.face == INVALID) {
         emit(p, level);
         return;
     }
     var c: array<Photon, 4>;
-    c[0] = lattice_point(parent, a + 3u * b, s);
-    c[1] = lattice_point(parent, a + d + 3u * b, s);
-    c[2] = lattice_point(parent, a + 3u * (b + d), s);
-    c[3] = lattice_point(parent, a + d + 3u * (b + d), s);
+    c[0] = pts[a + 3u * b];
+    c[1] = pts[a + d + 3u * b];
+    c[2] = pts[a + 3u * (b + d)];
+    c[3] = pts[a + d + 3u * (b + d)];
     var ok = true;
     for (var q = 0u; q < 4u; q++) {
         ok = ok && c[q].face == p.face && c[q].flux.w == p.flux.w;
@@ -140,13 +169,6 @@ fn append_cell(c: vec2u) {
     cells[atomicLoad(&ctrl[C_WRITE_OFF]) + k] = pack_cell(c.x, c.y);
 }
 
-// The photon of cell c of the s x s grid (same cell geometry as photon_trace).
-fn trace_cell(c: vec2u, s: u32) -> Photon {
-    let cell = 2.0 / f32(s);
-    let ndc = vec2f(-1.0 + (f32(c.x) + 0.5) * cell, 1.0 - (f32(c.y) + 0.5) * cell);
-    return trace_photon(lp.face, ndc, vec2f(cell));
-}
-
 fn flush_pending() {
     trace_defer = false;
     for (var s = 0u; s < 6u; s++) {
@@ -154,47 +176,35 @@ fn flush_pending() {
     }
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @builtin(local_invocation_index) lid: u32) {
-    let t = thread_index(wg, nwg, lid);
-    if (t >= atomicLoad(&ctrl[C_READ_COUNT])) { return; }
-    trace_reflect = (lp.flags & FLAG_REFLECT) != 0u;
-    let parent = unpack_cell(cells[atomicLoad(&ctrl[C_READ_OFF]) + t]);
-    let s = 2u * lp.grid;
-    let child_level = lp.level + 1u;
-    let last = (lp.flags & FLAG_LAST) != 0u;
-    let check = (lp.flags & FLAG_CHECK) != 0u;
-    let quads = (lp.flags & FLAG_QUADS) != 0u;
-    var kids: array<vec2u, 4>;
-    var cov: array<bool, 4>;
-    var ncov = 0u;
-    var nfull = 0u;
-    // Level-0 coverage texels under a child: all covered = every finest photon below it hits.
-    let per_child = select((lp.gbuffer / s) * (lp.gbuffer / s), 1u, s >= lp.gbuffer);
+// What a cluster does once its points are traced.
+const ACT_REFINE: u32 = 0u;
+const ACT_MERGE: u32 = 1u;
+const ACT_EMIT_KIDS: u32 = 2u;
+var<private> action: u32 = ACT_REFINE;
+var<private> merged: Photon;
+var<private> merged_same_path: bool = false;
+
+// The lattice points needed to emit the covered children `cov` (bit q: child q) as cells.
+fn kids_corners(cov: u32) -> u32 {
+    var need = 0u;
+    if ((lp.flags & FLAG_QUADS) == 0u) { return need; }
     for (var q = 0u; q < 4u; q++) {
-        kids[q] = 2u * parent + vec2u(q & 1u, q >> 1u);
-        let c = covered_count(kids[q].x, kids[q].y, s);
-        cov[q] = c > 0u;
-        if (cov[q]) { ncov += 1u; }
-        if (c == per_child) { nfull += 1u; }
+        if ((cov & (1u << q)) != 0u && pts[KIDS + q].face != INVALID) { need |= cell_corners(q & 1u, q >> 1u, 1u); }
     }
-    if (!check) {
-        for (var q = 0u; q < 4u; q++) {
-            if (!cov[q]) { continue; }
-            if (last) {
-                atomicAdd(&ctrl[C_TRACED + child_level], 1u);
-                emit_cell(trace_cell(kids[q], s), child_level, parent, q & 1u, q >> 1u, 1u, s, s);
-            } else {
-                append_cell(kids[q]);
-            }
-        }
-        flush_corner_count();
-        return;
+    return need;
+}
+
+// Decide the cluster's action from the points traced so far (its covered children `cov` are);
+// returns the points still needed for the decision or the emission (0: decided, in `action`).
+fn decide(cov: u32, nfull: u32) -> u32 {
+    let last = (lp.flags & FLAG_LAST) != 0u;
+    let quads = (lp.flags & FLAG_QUADS) != 0u;
+    if ((lp.flags & FLAG_CHECK) == 0u) {
+        action = ACT_EMIT_KIDS;
+        return kids_corners(cov) & ~pts_done;
     }
-    // Maximal caustic map error: trace the covered children, book their flux only if emitted.
-    trace_defer = true;
-    for (var k = 0u; k < 6u; k++) { trace_pending[k] = 0.0; }
-    var ph: array<Photon, 4>;
+    // Maximal caustic map error.
+    let p0 = pts[KIDS];
     var converged = nfull == 4u;
     var same_path = true;
     var lo = vec2f(1e30);
@@ -202,17 +212,16 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     var sum = vec3f(0.0);
     var wpos = vec2f(0.0);
     for (var q = 0u; q < 4u; q++) {
-        if (!cov[q]) { continue; }
-        ph[q] = trace_cell(kids[q], s);
-        if (ph[q].face == INVALID || ph[q].face != ph[0].face) { converged = false; }
-        same_path = same_path && ph[q].flux.w == ph[0].flux.w;
-        lo = min(lo, ph[q].pos);
-        hi = max(hi, ph[q].pos);
-        let w = ph[q].flux.r + ph[q].flux.g + ph[q].flux.b;
-        sum += ph[q].flux.rgb;
-        wpos += w * ph[q].pos;
+        if ((cov & (1u << q)) == 0u) { continue; }
+        let p = pts[KIDS + q];
+        if (p.face == INVALID || p.face != p0.face) { converged = false; }
+        same_path = same_path && p.flux.w == p0.flux.w;
+        lo = min(lo, p.pos);
+        hi = max(hi, p.pos);
+        let w = p.flux.r + p.flux.g + p.flux.b;
+        sum += p.flux.rgb;
+        wpos += w * p.pos;
     }
-    atomicAdd(&ctrl[C_TRACED + child_level], ncov);
     // Caustic triangles: the merged cluster is the parent cell's quad, so the test covers the
     // corner lattice too (the parent's corners and its children's): if every lattice point is on
     // the children's face and path, it must lie in the texel (within the tolerance) as well, and
@@ -220,17 +229,13 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     // the path leaves the one-texel test to the children: the merged photon is then a Gaussian.)
     var linear = false;
     if (converged && quads && same_path) {
+        if ((pts_done & 0x1ffu) != 0x1ffu) { return 0x1ffu & ~pts_done; }
         var agree = true;
         var clo = lo;
         var chi = hi;
-        var l: array<vec2f, 9>;
         for (var k = 0u; k < 9u; k++) {
-            let c = lattice_point(parent, k, s);
-            if (c.face != ph[0].face || c.flux.w != ph[0].flux.w) {
-                agree = false;
-                break;
-            }
-            l[k] = c.pos;
+            let c = pts[k];
+            agree = agree && c.face == p0.face && c.flux.w == p0.flux.w;
             clo = min(clo, c.pos);
             chi = max(chi, c.pos);
         }
@@ -243,10 +248,10 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
             // affine map fitted to the parent's corners (the corners miss it by a quarter of
             // the quad's twist), and no edge is a discontinuity.
             if (lp.linearity > 0.0) {
-                let c00 = l[0];
-                let c10 = l[2];
-                let c01 = l[6];
-                let c11 = l[8];
+                let c00 = pts[0].pos;
+                let c10 = pts[2].pos;
+                let c01 = pts[6].pos;
+                let c11 = pts[8].pos;
                 let mid = 0.25 * (c00 + c10 + c01 + c11);
                 let du = 0.5 * (c10 - c00 + c11 - c01);
                 let dv = 0.5 * (c01 - c00 + c11 - c10);
@@ -254,12 +259,12 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
                 for (var k = 0u; k < 9u; k++) {
                     let u = 0.5 * f32(k % 3u) - 0.5;
                     let v = 0.5 * f32(k / 3u) - 0.5;
-                    dev = max(dev, distance(l[k], mid + u * du + v * dv));
+                    dev = max(dev, distance(pts[k].pos, mid + u * du + v * dv));
                 }
                 for (var q = 0u; q < 4u; q++) {
                     let u = 0.5 * f32(q & 1u) - 0.25;
                     let v = 0.5 * f32(q >> 1u) - 0.25;
-                    dev = max(dev, distance(ph[q].pos, mid + u * du + v * dv));
+                    dev = max(dev, distance(pts[KIDS + q].pos, mid + u * du + v * dv));
                 }
                 let e = max(max(distance(c00, c10), distance(c00, c01)),
                             max(max(distance(c10, c11), distance(c01, c11)), distance(c00, c11)));
@@ -277,39 +282,90 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     }
     let wsum = sum.r + sum.g + sum.b;
     if (converged && wsum > 0.0) {
-        var m: Photon;
-        m.pos = wpos / wsum;
-        m.face = ph[0].face;
-        m.flux = vec4f(sum, 0.0);
-        if (light.splat.x > 0.5 && (lp.flags & FLAG_QUADS) == 0u) {
+        action = ACT_MERGE;
+        merged.pos = wpos / wsum;
+        merged.face = p0.face;
+        merged.flux = vec4f(sum, 0.0);
+        merged._pad = 0u;
+        if (light.splat.x > 0.5 && !quads) {
             // Lens and differential splats: the merged photon's beam is its cluster's, whose
             // area is the sum of the children's (and at least the cluster's spread).
             var area = 0.0;
-            for (var q = 0u; q < 4u; q++) { let dq = bitcast<f32>(ph[q]._pad); area += dq * dq; }
-            m._pad = bitcast<u32>(max(sqrt(area), max(hi.x - lo.x, hi.y - lo.y)));
+            for (var q = 0u; q < 4u; q++) { let dq = bitcast<f32>(pts[KIDS + q]._pad); area += dq * dq; }
+            merged._pad = bitcast<u32>(max(sqrt(area), max(hi.x - lo.x, hi.y - lo.y)));
         }
-        flush_pending();
-        if (same_path) {
-            // The merged cluster is the parent cell: its quad is the parent's four corners.
-            m.flux.w = ph[0].flux.w;
-            emit_cell(m, lp.level, parent, 0u, 0u, 2u, s, lp.grid);
-        } else {
-            emit(m, lp.level);
-        }
-        flush_corner_count();
-        return;
+        // The merged cluster is the parent cell: with one path, its quad is the parent's four
+        // corners (traced for the test above when there are quads).
+        merged_same_path = same_path;
+        if (same_path) { merged.flux.w = p0.flux.w; }
+        return 0u;
     }
     if (last) {
-        flush_pending();
-        for (var q = 0u; q < 4u; q++) {
-            if (cov[q]) { emit_cell(ph[q], child_level, parent, q & 1u, q >> 1u, 1u, s, s); }
+        action = ACT_EMIT_KIDS;
+        return kids_corners(cov) & ~pts_done;
+    }
+    action = ACT_REFINE;
+    return 0u;
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @builtin(local_invocation_index) lid: u32) {
+    let t = thread_index(wg, nwg, lid);
+    if (t >= atomicLoad(&ctrl[C_READ_COUNT])) { return; }
+    trace_reflect = (lp.flags & FLAG_REFLECT) != 0u;
+    let parent = unpack_cell(cells[atomicLoad(&ctrl[C_READ_OFF]) + t]);
+    let s = 2u * lp.grid;
+    let child_level = lp.level + 1u;
+    let last = (lp.flags & FLAG_LAST) != 0u;
+    let check = (lp.flags & FLAG_CHECK) != 0u;
+    var kids: array<vec2u, 4>;
+    var cov = 0u;
+    var ncov = 0u;
+    var nfull = 0u;
+    // Level-0 coverage texels under a child: all covered = every finest photon below it hits.
+    let per_child = select((lp.gbuffer / s) * (lp.gbuffer / s), 1u, s >= lp.gbuffer);
+    for (var q = 0u; q < 4u; q++) {
+        kids[q] = 2u * parent + vec2u(q & 1u, q >> 1u);
+        let c = covered_count(kids[q].x, kids[q].y, s);
+        if (c > 0u) {
+            cov |= 1u << q;
+            ncov += 1u;
         }
-        flush_corner_count();
+        if (c == per_child) { nfull += 1u; }
+    }
+    if (!check && !last) {
+        for (var q = 0u; q < 4u; q++) {
+            if ((cov & (1u << q)) != 0u) { append_cell(kids[q]); }
+        }
         return;
     }
-    trace_defer = false;
-    flush_corner_count();
-    for (var q = 0u; q < 4u; q++) {
-        if (cov[q]) { append_cell(kids[q]); }
+    // Trace the covered children; with maximal error, book their flux only if they are emitted.
+    trace_defer = check;
+    for (var k = 0u; k < 6u; k++) { trace_pending[k] = 0.0; }
+    var need = cov << KIDS;
+    loop {
+        trace_points(parent, s, need);
+        need = decide(cov, nfull);
+        if (need == 0u) { break; }
     }
+    atomicAdd(&ctrl[C_TRACED + child_level], ncov);
+    if (action == ACT_MERGE) {
+        flush_pending();
+        if (merged_same_path) {
+            emit_cell(merged, lp.level, 0u, 0u, 2u, lp.grid);
+        } else {
+            emit(merged, lp.level);
+        }
+    } else if (action == ACT_EMIT_KIDS) {
+        flush_pending();
+        for (var q = 0u; q < 4u; q++) {
+            if ((cov & (1u << q)) != 0u) { emit_cell(pts[KIDS + q], child_level, q & 1u, q >> 1u, 1u, s); }
+        }
+    } else {
+        trace_defer = false;
+        for (var q = 0u; q < 4u; q++) {
+            if ((cov & (1u << q)) != 0u) { append_cell(kids[q]); }
+        }
+    }
+    flush_corner_count();
 }

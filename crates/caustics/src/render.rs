@@ -135,6 +135,11 @@ pub struct GpuRender {
     pub flux: Vec<FluxStats>,
     /// GPU milliseconds per named pass (empty without timestamp queries).
     pub timings: Vec<(String, f64)>,
+    /// Host wall-clock milliseconds from the frame's submission to the GPU's completion of it:
+    /// all of the frame's GPU work, without recording, pipeline builds or read-back. Where pass
+    /// timestamps are not to be trusted (on lavapipe the basic technique's `photon_splat`
+    /// escapes its own: `docs/benchmarks.md`) this is the measure to compare.
+    pub frame_wall_ms: f64,
     /// Photons traced (all lights, faces and batches).
     pub photons_traced: u64,
     /// Batches the photon grid was split into (all lights and faces).
@@ -1156,7 +1161,12 @@ fn render_inner(
         cp.set_bind_group(0, &cbg, &[]);
         cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
+    let submitted = std::time::Instant::now();
     ctx.queue.submit([enc.finish()]);
+    ctx.device
+        .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+        .map_err(|e| Error::Device(format!("{e}")))?;
+    let frame_wall_ms = submitted.elapsed().as_secs_f64() * 1e3;
 
     // Read back.
     let image = bytes_to_image(&ctx.read_buffer(&out_full, img_bytes)?, w, h);
@@ -1220,6 +1230,7 @@ fn render_inner(
         caustic_flux_bits,
         flux,
         timings,
+        frame_wall_ms,
         photons_traced: technique.photons_traced,
         batches: technique.batches,
         technique,
