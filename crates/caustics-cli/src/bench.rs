@@ -36,6 +36,10 @@ pub struct BenchArgs {
     /// Maximal caustic map error: convergence tolerance in caustic-map texels (0: one texel).
     #[arg(long, default_value_t = 0.0)]
     max_error_tolerance: f32,
+    /// Maximal caustic map error: check every level as the paper does (no skipping of the levels
+    /// where a cluster's spread predicts no convergence).
+    #[arg(long)]
+    no_error_skip: bool,
     /// Camera image size WxH (small: the bench is about the caustic map).
     #[arg(long, default_value = "64x64", value_parser = crate::parse_size)]
     size: (u32, u32),
@@ -130,6 +134,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 technique: t,
                 base_grid: a.base_grid,
                 max_error_tolerance: a.max_error_tolerance,
+                error_skip_hopeless: !a.no_error_skip,
                 caustic_map_size: a.caustic_map,
                 shadow_map_size: 1024,
                 photon_memory: a.photon_memory.saturating_mul(1 << 20),
@@ -232,7 +237,7 @@ fn markdown(
     let _ = writeln!(s, "# Photon emission techniques: {scene}\n");
     let _ = writeln!(
         s,
-        "Adapter: {adapter}. Caustic map {0}x{0}, photon memory {1} MiB, base grid {2}, splat {7}, max-error tolerance {3} texels (0: one texel), camera {4}x{5}. Coverage (casters in the light's view): **{6:.2} %**.\n",
+        "Adapter: {adapter}. Caustic map {0}x{0}, photon memory {1} MiB, base grid {2}, splat {7}, max-error tolerance {3} texels (0: one texel){8}, camera {4}x{5}. Coverage (casters in the light's view): **{6:.2} %**.\n",
         a.caustic_map,
         a.photon_memory,
         a.base_grid,
@@ -240,7 +245,12 @@ fn markdown(
         a.size.0,
         a.size.1,
         100.0 * coverage,
-        a.splat
+        a.splat,
+        if a.no_error_skip {
+            ", every level checked (the paper's traversal)"
+        } else {
+            ", hopeless check levels skipped"
+        }
     );
     let _ = writeln!(s, "## Photons splatted (Table 1 of Wyman & Nichols 2009)\n");
     let mut head = String::from("| photon grid | relevant |");
@@ -403,6 +413,7 @@ fn to_json(scene: &str, adapter: &str, a: &BenchArgs, runs: &[Run], skipped: &[(
         "photon_memory_mib": a.photon_memory,
         "base_grid": a.base_grid,
         "max_error_tolerance": a.max_error_tolerance,
+        "error_skip_hopeless": !a.no_error_skip,
         "runs": rows,
         "not_run": skipped.iter().map(|(t, n, why)| json!({"technique": t.name(), "photon_grid": n, "why": why})).collect::<Vec<_>>(),
     })

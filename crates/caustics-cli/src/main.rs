@@ -140,6 +140,10 @@ enum Command {
         /// of at least this size (Wyman & Nichols: 512).
         #[arg(long, default_value_t = 512)]
         error_check_grid: u32,
+        /// Maximal caustic map error: check every level from --error-check-grid on, as the paper
+        /// does, instead of skipping the levels where a cluster's spread predicts no convergence.
+        #[arg(long)]
+        no_error_skip: bool,
         #[arg(long, value_enum, default_value = "auto")]
         backend: Backend,
         /// Caustic map size per light-view face (texels); default 1024, or the largest that
@@ -231,6 +235,7 @@ fn run(cli: Cli) -> Result<()> {
             max_error_tolerance,
             quad_linearity,
             error_check_grid,
+            no_error_skip,
             backend,
             caustic_map,
             shadow_map,
@@ -271,6 +276,7 @@ fn run(cli: Cli) -> Result<()> {
                 max_error_tolerance,
                 quad_linearity,
                 error_check_grid,
+                error_skip_hopeless: !no_error_skip,
                 caustic_map_size: caustic_map.unwrap_or(1024),
                 shadow_map_size: shadow_map,
                 splat_sigma,

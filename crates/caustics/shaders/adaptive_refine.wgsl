@@ -163,10 +163,31 @@ fn flush_corner_count() {
     if (old > 0xffffffffu - corner_traces) { atomicAdd(&ctrl[C_CORNERS + 1u], 1u); }
 }
 
-fn append_cell(c: vec2u) {
+// Cells in the list are parents, on grids of at most 32768 (N <= 65536), so each coordinate
+// leaves its top bit free: together they hold the number of levels (0..3) over which the
+// cluster's descendants skip the convergence check (see `hopeless_levels`).
+fn append_cell(c: vec2u, skip: u32) {
     let k = atomicAdd(&ctrl[C_WRITE_COUNT], 1u);
     if (k >= lp.cell_capacity) { atomicOr(&ctrl[C_OVERFLOW], 1u); return; }
-    cells[atomicLoad(&ctrl[C_WRITE_OFF]) + k] = pack_cell(c.x, c.y);
+    cells[atomicLoad(&ctrl[C_WRITE_OFF]) + k] = pack_cell(c.x, c.y) | ((skip & 1u) << 15u) | ((skip >> 1u) << 31u);
+}
+
+fn cell_skip(raw: u32) -> u32 {
+    return ((raw >> 15u) & 1u) | ((raw >> 30u) & 2u);
+}
+
+// Maximal caustic map error: how many of the next levels cannot converge, predicted from the
+// spread of the children (texels): below a child the photons lie half as far apart, so its
+// children spread about spread / 2 where the map is smooth, and less slowly where it is not
+// (across folds and changes of path they do not shrink at all). A level whose predicted spread
+// is still four times the tolerance (one texel for the paper's rule) is skipped: its clusters
+// are refined without tracing their children, which the check would only trace to refine them.
+// Off with the linearity rule (it merges clusters of any spread that map affinely).
+fn hopeless_levels(spread: f32) -> u32 {
+    if (lp.linearity > 0.0 || (lp.flags & FLAG_SKIP) == 0u) { return 0u; }
+    let r = spread / (4.0 * max(1.0, lp.tolerance));
+    if (r < 2.0) { return 0u; }
+    return min(u32(floor(log2(r))), 3u);
 }
 
 fn flush_pending() {
@@ -183,6 +204,8 @@ const ACT_EMIT_KIDS: u32 = 2u;
 var<private> action: u32 = ACT_REFINE;
 var<private> merged: Photon;
 var<private> merged_same_path: bool = false;
+// The children's spread (texels) when the covered ones all land on one face (else 0).
+var<private> kids_spread: f32 = 0.0;
 
 // The lattice points needed to emit the covered children `cov` (bit q: child q) as cells.
 fn kids_corners(cov: u32) -> u32 {
@@ -196,16 +219,17 @@ fn kids_corners(cov: u32) -> u32 {
 
 // Decide the cluster's action from the points traced so far (its covered children `cov` are);
 // returns the points still needed for the decision or the emission (0: decided, in `action`).
-fn decide(cov: u32, nfull: u32) -> u32 {
+fn decide(cov: u32, nfull: u32, check: bool) -> u32 {
     let last = (lp.flags & FLAG_LAST) != 0u;
     let quads = (lp.flags & FLAG_QUADS) != 0u;
-    if ((lp.flags & FLAG_CHECK) == 0u) {
+    if (!check) {
         action = ACT_EMIT_KIDS;
         return kids_corners(cov) & ~pts_done;
     }
     // Maximal caustic map error.
     let p0 = pts[KIDS];
     var converged = nfull == 4u;
+    var one_face = true;
     var same_path = true;
     var lo = vec2f(1e30);
     var hi = vec2f(-1e30);
@@ -214,7 +238,10 @@ fn decide(cov: u32, nfull: u32) -> u32 {
     for (var q = 0u; q < 4u; q++) {
         if ((cov & (1u << q)) == 0u) { continue; }
         let p = pts[KIDS + q];
-        if (p.face == INVALID || p.face != p0.face) { converged = false; }
+        if (p.face == INVALID || p.face != p0.face) {
+            converged = false;
+            one_face = false;
+        }
         same_path = same_path && p.flux.w == p0.flux.w;
         lo = min(lo, p.pos);
         hi = max(hi, p.pos);
@@ -222,6 +249,7 @@ fn decide(cov: u32, nfull: u32) -> u32 {
         sum += p.flux.rgb;
         wpos += w * p.pos;
     }
+    kids_spread = select(0.0, max(hi.x - lo.x, hi.y - lo.y), one_face);
     // Caustic triangles: the merged cluster is the parent cell's quad, so the test covers the
     // corner lattice too (the parent's corners and its children's): if every lattice point is on
     // the children's face and path, it must lie in the texel (within the tolerance) as well, and
@@ -313,11 +341,15 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     let t = thread_index(wg, nwg, lid);
     if (t >= atomicLoad(&ctrl[C_READ_COUNT])) { return; }
     trace_reflect = (lp.flags & FLAG_REFLECT) != 0u;
-    let parent = unpack_cell(cells[atomicLoad(&ctrl[C_READ_OFF]) + t]);
+    let raw = cells[atomicLoad(&ctrl[C_READ_OFF]) + t];
+    let parent = vec2u(raw & 0x7fffu, (raw >> 16u) & 0x7fffu);
+    let skip = cell_skip(raw);
     let s = 2u * lp.grid;
     let child_level = lp.level + 1u;
     let last = (lp.flags & FLAG_LAST) != 0u;
-    let check = (lp.flags & FLAG_CHECK) != 0u;
+    // A level the cluster's parent predicted hopeless is not checked (its photons are then
+    // booked as they are traced, as without the check).
+    let check = (lp.flags & FLAG_CHECK) != 0u && skip == 0u;
     var kids: array<vec2u, 4>;
     var cov = 0u;
     var ncov = 0u;
@@ -335,7 +367,7 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     }
     if (!check && !last) {
         for (var q = 0u; q < 4u; q++) {
-            if ((cov & (1u << q)) != 0u) { append_cell(kids[q]); }
+            if ((cov & (1u << q)) != 0u) { append_cell(kids[q], max(skip, 1u) - 1u); }
         }
         return;
     }
@@ -345,7 +377,7 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     var need = cov << KIDS;
     loop {
         trace_points(parent, s, need);
-        need = decide(cov, nfull);
+        need = decide(cov, nfull, check);
         if (need == 0u) { break; }
     }
     atomicAdd(&ctrl[C_TRACED + child_level], ncov);
@@ -363,8 +395,9 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
         }
     } else {
         trace_defer = false;
+        let next_skip = hopeless_levels(kids_spread);
         for (var q = 0u; q < 4u; q++) {
-            if ((cov & (1u << q)) != 0u) { append_cell(kids[q]); }
+            if ((cov & (1u << q)) != 0u) { append_cell(kids[q], next_skip); }
         }
     }
     flush_corner_count();

@@ -49,6 +49,10 @@ pub struct RenderSettings {
     /// maps linearly enough: its corner lattice and children's photons land within this many
     /// caustic-map texels of the bilinear interpolation of its corners (`docs/adaptive.md`).
     pub quad_linearity: f32,
+    /// Maximal caustic map error: skip the convergence check on levels where the spread of a
+    /// cluster's children predicts that it cannot pass (`docs/adaptive.md`); the check would
+    /// only trace photons to refine them. On by default; off gives the paper's traversal.
+    pub error_skip_hopeless: bool,
     /// Keep the coverage masks (caster front-buffer texels per face) in the statistics, for
     /// tests that model the traversal on the CPU.
     pub keep_coverage: bool,
@@ -90,6 +94,7 @@ impl Default for RenderSettings {
             max_error_tolerance: 0.0,
             error_check_grid: 512,
             quad_linearity: 0.0,
+            error_skip_hopeless: true,
             keep_coverage: false,
             keep_photons: false,
             caustic_map_size: 1024,

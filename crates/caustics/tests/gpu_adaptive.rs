@@ -156,6 +156,33 @@ fn both_metrics_conserve_flux() {
 }
 
 #[test]
+fn skipping_hopeless_checks_traces_less_and_keeps_the_map() {
+    let Some(ctx) = gpu() else { return };
+    let s = scene();
+    // Check from the 128^2 level on, so that several levels are checked and can be skipped.
+    let base =
+        RenderSettings { error_check_grid: 128, caustic_map_size: 1024, ..settings(Technique::AdaptiveError, 1024) };
+    let paper = render(&ctx, &s, &RenderSettings { error_skip_hopeless: false, ..base.clone() }, None).unwrap();
+    let skip = render(&ctx, &s, &base, None).unwrap();
+    let (tp, ts) = (paper.technique.photons_traced, skip.technique.photons_traced);
+    let (sp, ss) = (paper.technique.photons_splatted, skip.technique.photons_splatted);
+    let flip = caustics::metrics::hdr_flip(&skip.caustic_maps[0][0], &paper.caustic_maps[0][0], None).unwrap().mean;
+    eprintln!(
+        "every level checked: {tp} traced, {sp} splatted; hopeless levels skipped: {ts} traced, {ss} splatted; FLIP {flip:.5}"
+    );
+    // Skipping saves traces (the children of clusters that could not converge)...
+    assert!(ts < tp * 95 / 100, "traced {ts} vs {tp}");
+    // ... and costs at most a few merges (a skipped level may hold a cluster that would pass).
+    assert!(ss >= sp && ss <= sp + sp / 100, "splatted {ss} vs {sp}");
+    // The flux is the same (merging sums children's fluxes) and so is the map, nearly.
+    let (e0, l0) = total_flux(&paper);
+    let (e1, l1) = total_flux(&skip);
+    assert!((e1 / e0 - 1.0).abs() < 1e-5, "flux onto the casters {e1} vs {e0}");
+    assert!((l1 / l0 - 1.0).abs() < 1e-5, "flux in the map {l1} vs {l0}");
+    assert!(flip < 0.005, "FLIP {flip}");
+}
+
+#[test]
 fn batching_gives_the_same_map() {
     let Some(ctx) = gpu() else { return };
     let s = scene();

@@ -34,6 +34,9 @@ const FLAG_NO_PLAN: u32 = 16u;
 const FLAG_QUADS: u32 = 32u;
 // adaptive_refine: trace the reflected branch at the first dielectric surface (trace_reflect).
 const FLAG_REFLECT: u32 = 64u;
+// adaptive_refine, maximal caustic map error: skip the check where it cannot pass
+// (RenderSettings::error_skip_hopeless).
+const FLAG_SKIP: u32 = 128u;
 
 // Control buffer words (u32). The indirect arguments live in a separate buffer (written by
 // adaptive_setup only; a buffer cannot be indirect and writable storage in one dispatch): the

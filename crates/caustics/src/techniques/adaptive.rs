@@ -20,8 +20,8 @@
 //! reported after the frame.
 
 use super::{
-    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, FLAG_REFLECT, Pending, Technique, Traversal, bind,
-    ctrl, level_params, storage, uniform,
+    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, FLAG_REFLECT, FLAG_SKIP, Pending, Technique,
+    Traversal, bind, ctrl, level_params, storage, uniform,
 };
 use crate::error::{Error, Result};
 use crate::gpu::PassTimer;
@@ -227,6 +227,9 @@ impl Adaptive {
             }
             if s.technique == Technique::AdaptiveError && grid * 2 >= s.error_check_grid {
                 flags |= FLAG_CHECK;
+                if s.error_skip_hopeless {
+                    flags |= FLAG_SKIP;
+                }
             }
             if self.quads {
                 flags |= FLAG_QUADS;

@@ -347,6 +347,7 @@ pub(crate) const FLAG_END: u32 = 8;
 pub(crate) const FLAG_NO_PLAN: u32 = 16;
 pub(crate) const FLAG_QUADS: u32 = 32;
 pub(crate) const FLAG_REFLECT: u32 = 64;
+pub(crate) const FLAG_SKIP: u32 = 128;
 
 pub(crate) fn storage(ctx: &GpuContext, label: &str, size: u64, extra: wgpu::BufferUsages) -> wgpu::Buffer {
     ctx.device.create_buffer(&wgpu::BufferDescriptor {
