@@ -112,13 +112,15 @@ fn max_edge(cells: u32) -> f32 {
     return max(32.0, 8.0 * f32(light.info.w) / f32(cells));
 }
 
-fn emit_record(p: Photon, level: u32, quad: bool, top: vec4f, bottom: vec4f) {
+// With FLAG_QUADS, _pad is 1 for a photon that carries its quad, else `fallback`: 0 for the
+// fixed splat's Gaussian, or the f32 bits (lowest bit cleared) of a wider Gaussian's sigma.
+fn emit_record(p: Photon, level: u32, quad: bool, top: vec4f, bottom: vec4f, fallback: u32) {
     let k = atomicAdd(&ctrl[C_PHOTONS], 1u);
     atomicAdd(&ctrl[C_EMITTED + level], 1u);
     if (k >= lp.photon_capacity) { atomicOr(&ctrl[C_OVERFLOW], 2u); return; }
     var r = p;
     if ((lp.flags & FLAG_QUADS) != 0u) {
-        r._pad = select(0u, 1u, quad);
+        r._pad = select(fallback, 1u, quad);
         if (quad) {
             corners[2u * k] = top;
             corners[2u * k + 1u] = bottom;
@@ -128,13 +130,18 @@ fn emit_record(p: Photon, level: u32, quad: bool, top: vec4f, bottom: vec4f) {
 }
 
 fn emit(p: Photon, level: u32) {
-    emit_record(p, level, false, vec4f(0.0), vec4f(0.0));
+    emit_record(p, level, false, vec4f(0.0), vec4f(0.0), 0u);
 }
 
 // Emit photon p standing for the cell whose corners are lattice points cell_corners(a, b, d)
 // (traced beforehand); the cell is one of a cells x cells grid. With FLAG_QUADS, with its quad
 // if the corners agree with p (valid, on p's face, same path signature flux.w, no edge over
-// max_edge): otherwise p is a Gaussian.
+// max_edge). Otherwise p is a Gaussian as wide as its cell's image where the corners on p's path
+// tell its size (light spreading thin, quads dropped at silhouettes): half the square root of
+// the image's area, at least the fixed sigma, at most 6 texels, as the dense grid's triangles
+// size theirs from ray differentials; else of the fixed sigma. The image's area is |det J|, J
+// the least-squares Jacobian of the landing point over the cell (corners at (+-1/2, +-1/2)):
+// J = A M^-1 with A = sum r d^T, M = sum d d^T over the usable corners (r: corner minus p).
 fn emit_cell(p: Photon, level: u32, a: u32, b: u32, d: u32, cells: u32) {
     if ((lp.flags & FLAG_QUADS) == 0u || p.face == INVALID) {
         emit(p, level);
@@ -146,15 +153,30 @@ fn emit_cell(p: Photon, level: u32, a: u32, b: u32, d: u32, cells: u32) {
     c[2] = pts[a + 3u * (b + d)];
     c[3] = pts[a + d + 3u * (b + d)];
     var ok = true;
+    var sum_a = vec4f(0.0);
+    var sum_m = vec3f(0.0);
     for (var q = 0u; q < 4u; q++) {
-        ok = ok && c[q].face == p.face && c[q].flux.w == p.flux.w;
+        let same = c[q].face == p.face && c[q].flux.w == p.flux.w;
+        ok = ok && same;
+        if (same) {
+            let dq = vec2f(f32(q & 1u) - 0.5, f32(q >> 1u) - 0.5);
+            let r = c[q].pos - p.pos;
+            sum_a += vec4f(r.x * dq.x, r.x * dq.y, r.y * dq.x, r.y * dq.y);
+            sum_m += vec3f(dq.x * dq.x, dq.x * dq.y, dq.y * dq.y);
+        }
     }
     if (ok) {
         let e = max(max(distance(c[0].pos, c[1].pos), distance(c[0].pos, c[2].pos)),
                     max(max(distance(c[1].pos, c[3].pos), distance(c[2].pos, c[3].pos)), distance(c[0].pos, c[3].pos)));
         ok = e <= max_edge(cells);
     }
-    emit_record(p, level, ok, vec4f(c[0].pos, c[1].pos), vec4f(c[2].pos, c[3].pos));
+    var fallback = 0u;
+    let det_m = sum_m.x * sum_m.z - sum_m.y * sum_m.y;
+    if (!ok && det_m > 1e-3) {
+        let area = abs(sum_a.x * sum_a.w - sum_a.y * sum_a.z) / det_m;
+        fallback = bitcast<u32>(clamp(0.5 * sqrt(area), light.params.z, 6.0)) & ~1u;
+    }
+    emit_record(p, level, ok, vec4f(c[0].pos, c[1].pos), vec4f(c[2].pos, c[3].pos), fallback);
 }
 
 fn flush_corner_count() {

@@ -9,7 +9,9 @@
 // exact clipped area per texel, shared/triangles.wgsl). Folds keep their flux over their
 // unsigned area. Otherwise (a silhouette, total internal reflection, another path or face inside
 // the cell) the photon is a normalised Gaussian of the fixed splat's sigma, as with fixed
-// splats: light is never smeared across a discontinuity. Either way the photon's whole flux
+// splats: light is never smeared across a discontinuity; where adaptive_refine dropped a quad on
+// one path for the length of an edge (light spreading thin), of the sigma it stored in _pad
+// (f32 bits, bit 0 clear), as wide as the cell's image, so that thin light stays smooth. Either way the photon's whole flux
 // lands once. The photon count and indirect arguments come from `sp` (written on the GPU).
 
 #import splat
@@ -35,5 +37,7 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
         triangle(ph.face, top.xy, bottom.zw, bottom.xy, half);
         return;
     }
-    gauss_splat(ph.face, ph.pos, ph.flux.rgb, light.params.z);
+    var sigma = light.params.z;
+    if (ph._pad != 0u) { sigma = bitcast<f32>(ph._pad); }
+    gauss_splat(ph.face, ph.pos, ph.flux.rgb, sigma);
 }
