@@ -11,7 +11,10 @@
 // point reflection of the opposite neighbour through the photon). It is used (Photon._pad bit
 // 0, corners stored) only if those eight neighbours are valid, on the photon's face and path
 // (signature flux.w) and no quad edge is longer than max(32, 8 M / N) texels; otherwise the
-// photon is a Gaussian (splat_quads).
+// photon is a Gaussian (splat_quads) as wide as its cell's image where the neighbours on its
+// path tell it (light spreading thin): half the square root of |det J|, J the least-squares
+// Jacobian of the landing point over the grid from those neighbours, at least the fixed sigma
+// and at most 6 texels (stored in _pad as f32 bits, bit 0 clear), else of the fixed sigma.
 
 #import hierarchy
 #import coverage
@@ -42,6 +45,8 @@ fn store(k: u32, c: vec2u) {
         return;
     }
     var ok = true;
+    var sum_a = vec4f(0.0);
+    var sum_m = vec3f(0.0);
     var sum: array<vec2f, 4>;
     for (var q = 0u; q < 4u; q++) { sum[q] = vec2f(0.0); }
     for (var dy = -1; dy <= 1; dy++) {
@@ -57,7 +62,14 @@ fn store(k: u32, c: vec2u) {
                 n = at(i32(c.x) - dx, i32(c.y) - dy);
                 n.pos = 2.0 * p.pos - n.pos;
             }
-            ok = ok && n.face == p.face && n.flux.w == p.flux.w;
+            let same = n.face == p.face && n.flux.w == p.flux.w;
+            ok = ok && same;
+            if (same && (dx != 0 || dy != 0)) {
+                let d = vec2f(f32(dx), f32(dy));
+                let r = n.pos - p.pos;
+                sum_a += vec4f(r.x * d.x, r.x * d.y, r.y * d.x, r.y * d.y);
+                sum_m += vec3f(d.x * d.x, d.x * d.y, d.y * d.y);
+            }
             // Neighbour (dx, dy) belongs to the corners it touches: (0, 0) top-left .. (1, 1).
             for (var q = 0u; q < 4u; q++) {
                 let cx = i32(q & 1u);
@@ -79,7 +91,13 @@ fn store(k: u32, c: vec2u) {
         let e = max(max(distance(c0, c1), distance(c0, c2)), max(max(distance(c1, c3), distance(c2, c3)), distance(c0, c3)));
         quad = e <= max(32.0, 8.0 * f32(light.info.w) / f32(lp.grid_n));
     }
-    p._pad = select(0u, 1u, quad);
+    var fallback = 0u;
+    let det_m = sum_m.x * sum_m.z - sum_m.y * sum_m.y;
+    if (!quad && det_m > 1e-3) {
+        let area = abs(sum_a.x * sum_a.w - sum_a.y * sum_a.z) / det_m;
+        fallback = bitcast<u32>(clamp(0.5 * sqrt(area), light.params.z, 6.0)) & ~1u;
+    }
+    p._pad = select(fallback, 1u, quad);
     if (quad) {
         corners[2u * k] = vec4f(c0, c1);
         corners[2u * k + 1u] = vec4f(c2, c3);
