@@ -137,11 +137,9 @@ fn emit(p: Photon, level: u32) {
 // (traced beforehand); the cell is one of a cells x cells grid. With FLAG_QUADS, with its quad
 // if the corners agree with p (valid, on p's face, same path signature flux.w, no edge over
 // max_edge). Otherwise p is a Gaussian as wide as its cell's image where the corners on p's path
-// tell its size (light spreading thin, quads dropped at silhouettes): half the square root of
-// the image's area, at least the fixed sigma, at most 6 texels, as the dense grid's triangles
-// size theirs from ray differentials; else of the fixed sigma. The image's area is |det J|, J
-// the least-squares Jacobian of the landing point over the cell (corners at (+-1/2, +-1/2)):
-// J = A M^-1 with A = sum r d^T, M = sum d d^T over the usable corners (r: corner minus p).
+// (at (+-1/2, +-1/2) cells) tell its size (light spreading thin, quads dropped at silhouettes;
+// fallback_sigma_bits), as the dense grid's triangles size theirs from ray differentials; else
+// of the fixed sigma.
 fn emit_cell(p: Photon, level: u32, a: u32, b: u32, d: u32, cells: u32) {
     if ((lp.flags & FLAG_QUADS) == 0u || p.face == INVALID) {
         emit(p, level);
@@ -171,11 +169,7 @@ fn emit_cell(p: Photon, level: u32, a: u32, b: u32, d: u32, cells: u32) {
         ok = e <= max_edge(cells);
     }
     var fallback = 0u;
-    let det_m = sum_m.x * sum_m.z - sum_m.y * sum_m.y;
-    if (!ok && det_m > 1e-3) {
-        let area = abs(sum_a.x * sum_a.w - sum_a.y * sum_a.z) / det_m;
-        fallback = bitcast<u32>(clamp(0.5 * sqrt(area), light.params.z, 6.0)) & ~1u;
-    }
+    if (!ok) { fallback = fallback_sigma_bits(sum_a, sum_m, light.params.z); }
     emit_record(p, level, ok, vec4f(c[0].pos, c[1].pos), vec4f(c[2].pos, c[3].pos), fallback);
 }
 

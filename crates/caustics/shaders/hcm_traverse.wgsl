@@ -12,9 +12,7 @@
 // 0, corners stored) only if those eight neighbours are valid, on the photon's face and path
 // (signature flux.w) and no quad edge is longer than max(32, 8 M / N) texels; otherwise the
 // photon is a Gaussian (splat_quads) as wide as its cell's image where the neighbours on its
-// path tell it (light spreading thin): half the square root of |det J|, J the least-squares
-// Jacobian of the landing point over the grid from those neighbours, at least the fixed sigma
-// and at most 6 texels (stored in _pad as f32 bits, bit 0 clear), else of the fixed sigma.
+// path tell it (light spreading thin; fallback_sigma_bits), else of the fixed sigma.
 
 #import hierarchy
 #import coverage
@@ -92,11 +90,7 @@ fn store(k: u32, c: vec2u) {
         quad = e <= max(32.0, 8.0 * f32(light.info.w) / f32(lp.grid_n));
     }
     var fallback = 0u;
-    let det_m = sum_m.x * sum_m.z - sum_m.y * sum_m.y;
-    if (!quad && det_m > 1e-3) {
-        let area = abs(sum_a.x * sum_a.w - sum_a.y * sum_a.z) / det_m;
-        fallback = bitcast<u32>(clamp(0.5 * sqrt(area), light.params.z, 6.0)) & ~1u;
-    }
+    if (!quad) { fallback = fallback_sigma_bits(sum_a, sum_m, light.params.z); }
     p._pad = select(fallback, 1u, quad);
     if (quad) {
         corners[2u * k] = vec4f(c0, c1);

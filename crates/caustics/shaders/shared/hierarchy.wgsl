@@ -82,6 +82,20 @@ fn mip_offset(l: u32, g: u32) -> u32 {
     return off;
 }
 
+// Caustic triangles: a photon whose quad is dropped (splat_quads) is a Gaussian as wide as its
+// cell's image where points on its path around it tell that image: sigma = half the square root
+// of |det J|, J the least-squares Jacobian of the landing point over the cell, from the sums
+// a = sum r d^T (row-major) and m = sum d d^T (xx, xy, yy) over those points (r: a point's
+// landing point minus the photon's, d: its offset in cells), J = a m^-1; at least `base` (the
+// fixed sigma), at most 6 texels. Returned as f32 bits with bit 0 cleared (Photon._pad, whose
+// bit 0 marks a quad), or 0 (the fixed sigma) when the points do not span two directions.
+fn fallback_sigma_bits(a: vec4f, m: vec3f, base: f32) -> u32 {
+    let det_m = m.x * m.z - m.y * m.y;
+    if (det_m <= 1e-3) { return 0u; }
+    let area = abs(a.x * a.w - a.y * a.z) / det_m;
+    return bitcast<u32>(clamp(0.5 * sqrt(area), base, 6.0)) & ~1u;
+}
+
 fn pack_cell(i: u32, j: u32) -> u32 {
     return i | (j << 16u);
 }
