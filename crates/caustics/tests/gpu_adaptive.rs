@@ -253,12 +253,17 @@ fn camera_motion_leaves_the_caustic_map_unchanged() {
 
 /// The glass sphere scene (`scenes/glass_sphere.json`) with a small camera, and adaptive
 /// settings with a splat mode (the reflected branch off: the basic technique alone traces it).
-fn sphere() -> Scene {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/glass_sphere.json");
+/// A scene of the catalogue (`scenes/NAME.json`) with a small square camera.
+fn catalogue(name: &str, camera: u32) -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../scenes/{name}.json"));
     let mut s = Scene::load(&path).unwrap();
-    s.camera.width = 32;
-    s.camera.height = 32;
+    s.camera.width = camera;
+    s.camera.height = camera;
     s
+}
+
+fn sphere() -> Scene {
+    catalogue("glass_sphere", 32)
 }
 
 fn with_splat(t: Technique, n: u32, splat: caustics::splat::SplatMode) -> RenderSettings {
@@ -455,10 +460,7 @@ fn maximal_error_caustic_triangles_conserve_flux() {
 fn cell_quads_conserve_flux_with_a_point_light() {
     use caustics::splat::SplatMode::{Fixed, Triangles};
     let Some(ctx) = gpu() else { return };
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/two_spheres.json");
-    let mut s = Scene::load(&path).unwrap();
-    s.camera.width = 32;
-    s.camera.height = 32;
+    let s = catalogue("two_spheres", 32);
     let set = |splat| RenderSettings { caustic_map_size: 128, ..with_splat(Technique::AdaptiveLevel, 128, splat) };
     let fixed = render(&ctx, &s, &set(Fixed), None).unwrap();
     let tri = render(&ctx, &s, &set(Triangles), None).unwrap();
@@ -478,10 +480,7 @@ fn cell_quads_on_a_mesh_are_deterministic_and_conserve_flux_at_a_large_map() {
     // loop-iteration cap per SIMD group cutting the clipping loop short), so the map depended
     // on the photon order and held up to 6 % too much flux. The map must be identical run to run and hold the flux of fixed splats.
     let Some(ctx) = gpu() else { return };
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/glass_bunny.json");
-    let mut s = Scene::load(&path).unwrap();
-    s.camera.width = 16;
-    s.camera.height = 16;
+    let s = catalogue("glass_bunny", 16);
     let set = |splat| RenderSettings {
         caustic_map_size: 1024,
         shadow_map_size: 256,
