@@ -10,6 +10,7 @@ pub mod lightspace;
 pub mod metrics;
 pub mod reference;
 pub mod render;
+pub mod renderer;
 pub mod scene;
 pub mod splat;
 pub mod techniques;

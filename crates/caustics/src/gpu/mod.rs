@@ -77,7 +77,6 @@ pub fn validate_stage(name: &str) -> Result<naga::Module> {
 
 /// A device and queue, and what the adapter can do.
 pub struct GpuContext {
-    pub adapter: wgpu::Adapter,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
@@ -140,10 +139,22 @@ impl GpuContext {
             }
         };
         let info = adapter.get_info();
-        let features = adapter.features();
-        let timestamps = features.contains(wgpu::Features::TIMESTAMP_QUERY);
+        let (required, limits) = GpuContext::device_requirements(&adapter);
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("caustics"),
+            required_features: required,
+            required_limits: limits,
+            ..Default::default()
+        }))
+        .map_err(|e| Error::Device(format!("cannot open {}: {e}", info.name)))?;
+        Ok(GpuContext::from_device(&device, &queue))
+    }
+
+    /// The features and limits the renderer needs of a device made from `adapter`: request
+    /// these when creating the device an engine shares with [`crate::renderer::Renderer`].
+    pub fn device_requirements(adapter: &wgpu::Adapter) -> (wgpu::Features, wgpu::Limits) {
         let mut required = wgpu::Features::empty();
-        if timestamps {
+        if adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
             required |= wgpu::Features::TIMESTAMP_QUERY;
         }
         let al = adapter.limits();
@@ -156,22 +167,37 @@ impl GpuContext {
             max_sampled_textures_per_shader_stage: al.max_sampled_textures_per_shader_stage.min(16),
             ..wgpu::Limits::default()
         };
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("caustics"),
-            required_features: required,
-            required_limits: limits,
-            ..Default::default()
-        }))
-        .map_err(|e| Error::Device(format!("cannot open {}: {e}", info.name)))?;
-        Ok(GpuContext {
-            adapter,
-            device,
-            queue,
-            info,
-            timestamps,
+        (required, limits)
+    }
+
+    /// A context on a device the caller made (with at least [`GpuContext::device_requirements`]);
+    /// device and queue are shared handles, so the caller keeps using its own.
+    pub fn from_device(device: &wgpu::Device, queue: &wgpu::Queue) -> GpuContext {
+        GpuContext {
+            device: device.clone(),
+            queue: queue.clone(),
+            info: device.adapter_info(),
+            timestamps: device.features().contains(wgpu::Features::TIMESTAMP_QUERY),
             compute_cache: Default::default(),
             render_cache: Default::default(),
-        })
+        }
+    }
+
+    /// Whether the device meets the renderer's needs; the error names the limit that falls short.
+    pub fn check_device(&self) -> Result<()> {
+        let l = self.device.limits();
+        let need = [
+            ("max_storage_buffers_per_shader_stage", l.max_storage_buffers_per_shader_stage, 8),
+            ("max_sampled_textures_per_shader_stage", l.max_sampled_textures_per_shader_stage, 16),
+        ];
+        for (name, have, want) in need {
+            if have < want {
+                return Err(Error::Device(format!(
+                    "the device's {name} is {have}; the renderer needs {want} (create the device with caustics::gpu::GpuContext::device_requirements)"
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// A compute or render shader module for a stage.

@@ -317,6 +317,37 @@ impl Shape {
         }
     }
 
+    /// The shape moved by `t`, a rotation, translation and uniform scale (a similarity keeps
+    /// spheres spheres); anything else is an error message.
+    pub fn transformed(&self, t: &glam::Affine3A) -> std::result::Result<Shape, String> {
+        let m = glam::Mat3::from(t.matrix3);
+        let s = m.x_axis.length();
+        let ortho = m * (1.0 / s.max(f32::MIN_POSITIVE));
+        let off = (ortho.transpose() * ortho - glam::Mat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .fold(0.0f32, |a, x| a.max(x.abs()));
+        if !(s.is_finite() && s > 1e-12) || off > 1e-4 || ortho.determinant() < 0.0 || !t.translation.is_finite() {
+            return Err("must be a rotation, translation and positive uniform scale".into());
+        }
+        let p = |x: Vec3| t.transform_point3(x);
+        let d = |x: Vec3| (ortho * x).normalize();
+        Ok(match self {
+            Shape::Sphere { center, radius } => Shape::Sphere { center: p(*center), radius: radius * s },
+            Shape::Rectangle { center, normal, u, v, size } => {
+                Shape::Rectangle { center: p(*center), normal: d(*normal), u: d(*u), v: d(*v), size: *size * s }
+            }
+            Shape::Cylinder { base_center, axis, radius, height } => {
+                Shape::Cylinder { base_center: p(*base_center), axis: d(*axis), radius: radius * s, height: height * s }
+            }
+            Shape::Mesh(mesh) => Shape::Mesh(Arc::new(TriMesh {
+                positions: mesh.positions.iter().map(|x| p(*x)).collect(),
+                normals: mesh.normals.iter().map(|x| d(*x)).collect(),
+                indices: mesh.indices.clone(),
+            })),
+        })
+    }
+
     /// Triangles for rasterization, in world space, with shading normals.
     pub fn tessellate(&self, t: &Tessellation) -> TriMesh {
         match self {
