@@ -1,8 +1,11 @@
 //! `caustics`: render scenes with caustics on the GPU (or the CPU reference), compare images,
-//! list adapters. Exit codes: 0 success, 2 bad input (scene, settings, paths), 1 anything else.
+//! list adapters, view scenes interactively. Exit codes: 0 success, 2 bad input (scene, settings,
+//! paths), 130 cancelled by Ctrl-C, 1 anything else.
 
 mod bench;
 mod compare;
+mod progress;
+mod view;
 
 use anyhow::Result;
 use caustics::render::{GpuRender, RenderSettings};
@@ -19,6 +22,7 @@ use std::process::ExitCode;
   caustics render scenes/glass_bunny.json --dump dump/   also writes the light-space buffers
   caustics render scenes/glass_sphere.json --backend cpu -o reference.exr
   caustics compare out.exr references/a_glass_sphere_caustic.exr --mask references/a_glass_sphere_specmask.png
+  caustics view scenes/two_spheres.json             the interactive viewer
   caustics info                                     adapters, features and limits")]
 struct Cli {
     #[command(subcommand)]
@@ -34,7 +38,7 @@ enum Backend {
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum Technique {
+pub(crate) enum Technique {
     /// Basic caustic maps: a dense N x N photon grid per light-view face.
     Basic,
     /// Hierarchical caustic maps: the dense grid, traversed top-down through a mip hierarchy.
@@ -46,7 +50,7 @@ enum Technique {
 }
 
 impl Technique {
-    fn lib(self) -> caustics::techniques::Technique {
+    pub(crate) fn lib(self) -> caustics::techniques::Technique {
         use caustics::techniques::Technique as T;
         match self {
             Technique::Basic => T::Basic,
@@ -58,7 +62,7 @@ impl Technique {
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum Splat {
+pub(crate) enum Splat {
     /// A Gaussian of fixed width (--splat-sigma texels).
     Fixed,
     /// Adaptive multi-resolution splatting (Wyman & Dachsbacher 2008, section 4.1).
@@ -77,7 +81,7 @@ enum Splat {
 }
 
 impl Splat {
-    fn lib(self) -> caustics::splat::SplatMode {
+    pub(crate) fn lib(self) -> caustics::splat::SplatMode {
         use caustics::splat::SplatMode as S;
         match self {
             Splat::Fixed => S::Fixed,
@@ -190,6 +194,9 @@ enum Command {
     /// Compare photon emission techniques on one scene (Table 1 of Wyman & Nichols 2009):
     /// photons splatted, relevant photons, coverage, GPU ms per pass, memory, batches.
     Bench(bench::BenchArgs),
+    /// The interactive viewer: orbit, move lights and objects, switch techniques live, compare
+    /// with the CPU reference (a window; needs a GPU adapter).
+    View(view::ViewArgs),
     /// List GPU adapters with their features and limits.
     Info,
 }
@@ -208,6 +215,10 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<Error>().is_some_and(|e| matches!(e, Error::Cancelled)) => {
+            eprintln!("cancelled: nothing was written");
+            ExitCode::from(progress::CANCELLED_EXIT)
+        }
         Err(e) => {
             let input = e.downcast_ref::<Error>().is_some_and(Error::is_input);
             eprintln!("error: {e:#}");
@@ -220,6 +231,7 @@ fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Info => info(),
         Command::Bench(args) => bench::run(&args),
+        Command::View(args) => view::run(args),
         Command::Compare { a, b, mask, heatmap } => Ok(compare::run(&a, &b, mask.as_deref(), heatmap.as_deref())?),
         Command::Render {
             scene,
@@ -319,7 +331,7 @@ fn run(cli: Cli) -> Result<()> {
                         ..Default::default()
                     };
                     let t0 = std::time::Instant::now();
-                    let out = caustics::reference::render(&scene, &rs)?;
+                    let out = progress::reference_render(&scene, &rs)?;
                     println!("backend: CPU reference, {:.1} s", t0.elapsed().as_secs_f64());
                     println!("{}", out.stats);
                     out.image.write(&output, scene.exposure)?;

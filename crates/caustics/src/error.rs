@@ -27,6 +27,10 @@ pub enum Error {
     /// A shader failed to compile (a bug: shaders are validated in the tests).
     #[error("shader {name}: {message}")]
     Shader { name: String, message: String },
+    /// The caller cancelled the work (a [`crate::reference::Progress`] was cancelled); nothing
+    /// was produced.
+    #[error("cancelled")]
+    Cancelled,
     /// Writing an output file failed.
     #[error("cannot write {}: {message}", .path.display())]
     Output { path: PathBuf, message: String },

@@ -30,6 +30,7 @@ use geometry::Accel;
 use glam::Vec3;
 use rayon::prelude::*;
 use sampling::{PathRng, hash, sobol_2d};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 pub use trace::Deposit;
 use trace::{PhotonOut, PhotonTargets, Tracer};
@@ -172,18 +173,75 @@ fn check_scene(scene: &Scene) -> Result<()> {
     Ok(())
 }
 
+/// Progress of a reference rendering, shared with another thread (a progress bar, a viewer),
+/// and the way to cancel it. Work is counted in units of one photon path or one camera path;
+/// `total` is set when the rendering starts.
+#[derive(Debug, Default)]
+pub struct Progress {
+    done: AtomicU64,
+    total: AtomicU64,
+    cancel: AtomicBool,
+}
+
+impl Progress {
+    pub fn new() -> Progress {
+        Progress::default()
+    }
+    /// Ask the rendering to stop: it returns [`Error::Cancelled`] soon after (within one wave
+    /// of photon chunks or one image row per thread).
+    pub fn cancel(&self) {
+        self.cancel.store(true, Ordering::Relaxed);
+    }
+    pub fn is_cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
+    }
+    /// Units of work done so far.
+    pub fn done(&self) -> u64 {
+        self.done.load(Ordering::Relaxed)
+    }
+    /// Units of work in all (0 until the rendering has started).
+    pub fn total(&self) -> u64 {
+        self.total.load(Ordering::Relaxed)
+    }
+    /// Done / total, in [0, 1] (0 before the start).
+    pub fn fraction(&self) -> f64 {
+        let t = self.total();
+        if t == 0 { 0.0 } else { (self.done() as f64 / t as f64).min(1.0) }
+    }
+    fn add(&self, n: u64) {
+        self.done.fetch_add(n, Ordering::Relaxed);
+    }
+    fn check(&self) -> Result<()> {
+        if self.is_cancelled() { Err(Error::Cancelled) } else { Ok(()) }
+    }
+}
+
 /// Render the full reference image, its caustic and non-caustic parts, and the light-space
 /// caustic maps.
 pub fn render(scene: &Scene, settings: &ReferenceSettings) -> Result<ReferenceOutput> {
+    render_with_progress(scene, settings, &Progress::new())
+}
+
+/// [`render`], reporting its progress to `progress` and stopping with [`Error::Cancelled`]
+/// when it is cancelled. The result does not depend on the progress reporting.
+pub fn render_with_progress(scene: &Scene, settings: &ReferenceSettings, progress: &Progress) -> Result<ReferenceOutput> {
     settings.validate()?;
     check_scene(scene)?;
+    let (w, h) = (scene.camera.width as u64, scene.camera.height as u64);
+    let lights_with_photons = (0..scene.lights.len()).filter(|&li| caustic_emitter(scene, li).is_some()).count() as u64;
+    progress.total.store(
+        lights_with_photons * settings.photons_per_light + w * h * settings.camera_spp as u64,
+        Ordering::Relaxed,
+    );
+    progress.done.store(0, Ordering::Relaxed);
+    progress.check()?;
     let t0 = Instant::now();
     let accel = Accel::new(scene);
     let bvh_seconds = t0.elapsed().as_secs_f64();
     let tracer = Tracer::new(scene, &accel, settings.max_depth);
-    let photons = photon_pass(scene, &tracer, settings, true, true)?;
+    let photons = photon_pass(scene, &tracer, settings, true, true, progress)?;
     let t1 = Instant::now();
-    let (nocaustic, nocaustic_variance, camera_rays) = camera_pass(scene, &tracer, settings);
+    let (nocaustic, nocaustic_variance, camera_rays) = camera_pass(scene, &tracer, settings, progress)?;
     let camera_seconds = t1.elapsed().as_secs_f64();
     let mut image = nocaustic.clone();
     for (p, c) in image.pixels.iter_mut().zip(&photons.caustic.pixels) {
@@ -191,7 +249,6 @@ pub fn render(scene: &Scene, settings: &ReferenceSettings) -> Result<ReferenceOu
             p[k] += c[k];
         }
     }
-    let (w, h) = (scene.camera.width as u64, scene.camera.height as u64);
     let rays = photons.rays + camera_rays;
     let busy = photons.seconds + camera_seconds;
     let stats = ReferenceStats {
@@ -225,7 +282,7 @@ pub fn caustic_maps(scene: &Scene, settings: &ReferenceSettings) -> Result<Vec<V
     check_scene(scene)?;
     let accel = Accel::new(scene);
     let tracer = Tracer::new(scene, &accel, settings.max_depth);
-    Ok(photon_pass(scene, &tracer, settings, false, true)?.maps)
+    Ok(photon_pass(scene, &tracer, settings, false, true, &Progress::new())?.maps)
 }
 
 /// The first diffuse hit of every caustic photon of light `light` (tests and tools; memory
@@ -324,6 +381,7 @@ fn photon_pass(
     settings: &ReferenceSettings,
     camera: bool,
     maps: bool,
+    progress: &Progress,
 ) -> Result<PhotonResult> {
     let t0 = Instant::now();
     let (w, h) = (scene.camera.width, scene.camera.height);
@@ -351,6 +409,7 @@ fn photon_pass(
             let nchunks = (end - start).div_ceil(CHUNK);
             let mut c0 = 0;
             while c0 < nchunks {
+                progress.check()?;
                 let c1 = (c0 + WAVE).min(nchunks);
                 let outs: Vec<PhotonOut> = (c0..c1)
                     .into_par_iter()
@@ -369,6 +428,7 @@ fn photon_pass(
                         map_acc[li][f as usize][t as usize] += v;
                     }
                 }
+                progress.add((c1 * CHUNK).min(end - start) - c0 * CHUNK);
                 c0 = c1;
             }
         }
@@ -409,7 +469,12 @@ fn photon_pass(
 
 /// The non-caustic image: `camera_spp` camera paths per pixel, stratified in the pixel; and
 /// the variance of each pixel's value.
-fn camera_pass(scene: &Scene, tracer: &Tracer, settings: &ReferenceSettings) -> (Image, Image, u64) {
+fn camera_pass(
+    scene: &Scene,
+    tracer: &Tracer,
+    settings: &ReferenceSettings,
+    progress: &Progress,
+) -> Result<(Image, Image, u64)> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let spp = settings.camera_spp;
     type Row = (Vec<[f32; 3]>, Vec<[f32; 3]>, u64);
@@ -419,6 +484,9 @@ fn camera_pass(scene: &Scene, tracer: &Tracer, settings: &ReferenceSettings) -> 
             let mut row = Vec::with_capacity(w as usize);
             let mut var = Vec::with_capacity(w as usize);
             let mut rays = 0;
+            if progress.is_cancelled() {
+                return (row, var, rays);
+            }
             for x in 0..w {
                 let pix = (y * w + x) as u64;
                 let scramble = hash(&[settings.seed, 0xCA3E, pix]);
@@ -443,9 +511,11 @@ fn camera_pass(scene: &Scene, tracer: &Tracer, settings: &ReferenceSettings) -> 
                 row.push(mean.as_vec3().to_array());
                 var.push(v.as_vec3().to_array());
             }
+            progress.add(w as u64 * spp as u64);
             (row, var, rays)
         })
         .collect();
+    progress.check()?;
     let mut img = Image::new(w, h);
     let mut vimg = Image::new(w, h);
     let mut rays = 0;
@@ -454,7 +524,7 @@ fn camera_pass(scene: &Scene, tracer: &Tracer, settings: &ReferenceSettings) -> 
         img.pixels[y * w as usize..(y + 1) * w as usize].copy_from_slice(&row);
         vimg.pixels[y * w as usize..(y + 1) * w as usize].copy_from_slice(&var);
     }
-    (img, vimg, rays)
+    Ok((img, vimg, rays))
 }
 
 /// Morton code of a point of the unit square (16 bits per axis).

@@ -1,0 +1,41 @@
+//! The CPU reference on the command line: a progress bar with an estimate (indicatif), and
+//! Ctrl-C cancels cleanly (no output file, exit code 130).
+
+use caustics::Scene;
+use caustics::reference::{Progress, ReferenceOutput, ReferenceSettings};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Exit code of a run cancelled by Ctrl-C (128 + SIGINT, as shells report it).
+pub const CANCELLED_EXIT: u8 = 130;
+
+/// Render the CPU reference with a progress bar on stderr (hidden when stderr is not a
+/// terminal); Ctrl-C returns [`caustics::Error::Cancelled`].
+pub fn reference_render(scene: &Scene, settings: &ReferenceSettings) -> caustics::Result<ReferenceOutput> {
+    let progress = Arc::new(Progress::new());
+    {
+        let p = progress.clone();
+        // A second handler cannot be installed (only one render per process): ignore that.
+        let _ = ctrlc::set_handler(move || p.cancel());
+    }
+    let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr_with_hz(4));
+    bar.set_style(
+        ProgressStyle::with_template("CPU reference {bar:40} {percent:>3}% {elapsed_precise} elapsed, about {eta} left")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let result = std::thread::scope(|s| {
+        let worker = s.spawn(|| caustics::reference::render_with_progress(scene, settings, &progress));
+        while !worker.is_finished() {
+            let total = progress.total();
+            if total > 0 {
+                bar.set_length(total);
+                bar.set_position(progress.done());
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        worker.join().unwrap_or_else(|_| Err(caustics::Error::Device("the CPU reference renderer panicked".into())))
+    });
+    bar.finish_and_clear();
+    result
+}

@@ -1,0 +1,151 @@
+//! `caustics view`: the interactive viewer (winit + egui through egui-wgpu on the renderer's
+//! own device).
+//!
+//! - `session.rs`: the viewer without a window — state, [`session::Action`]s, frames on demand,
+//!   screenshots, the CPU reference job; what the tests drive.
+//! - `camera.rs`: orbit, pan, zoom; `pick.rs`: ray-cast picking and drag geometry.
+//! - `reference.rs`: the background CPU reference and the difference view.
+//! - `ui.rs`: the egui panels and view area (input → actions); `window.rs`: winit, the
+//!   surface, egui-winit and egui-wgpu.
+
+pub mod camera;
+pub mod pick;
+pub mod reference;
+pub mod session;
+pub mod ui;
+mod window;
+
+#[cfg(test)]
+mod tests;
+
+use crate::{Splat, Technique};
+use anyhow::Result;
+use caustics::render::RenderSettings;
+use caustics::{Error, Scene};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct ViewArgs {
+    /// Scene file (JSON, see docs/scene-format.md); the built-in glass-ball scene if omitted.
+    pub scene: Option<PathBuf>,
+    /// Photon grid size N per light-view face (changeable in the panel).
+    #[arg(long, default_value_t = 512)]
+    pub photons: u32,
+    #[arg(long, value_enum, default_value = "basic")]
+    pub technique: Technique,
+    #[arg(long, value_enum, default_value = "triangles")]
+    pub splat: Splat,
+    /// Initial window size WxH (logical pixels).
+    #[arg(long, value_parser = crate::parse_size, default_value = "1280x800")]
+    pub size: (u32, u32),
+    /// Render this fraction of the view's pixels (0.25 to 1; lower is faster).
+    #[arg(long, default_value_t = 1.0)]
+    pub scale: f32,
+    /// Caustic map size per light-view face (texels); default 1024, or the largest that fits.
+    #[arg(long)]
+    pub caustic_map: Option<u32>,
+    /// Adapter to use (a part of its name, see `caustics info`).
+    #[arg(long)]
+    pub adapter: Option<String>,
+    /// Folder for screenshots (F12).
+    #[arg(long, default_value = ".")]
+    pub screenshot_dir: PathBuf,
+}
+
+/// What the viewer starts with, checked before any window opens (bad input exits 2 without
+/// flashing a window).
+pub struct Start {
+    pub scene: Scene,
+    pub settings: RenderSettings,
+    pub args: ViewArgs,
+}
+
+/// Check the command line and load the scene.
+pub fn prepare(args: ViewArgs) -> Result<Start, Error> {
+    let scene = match &args.scene {
+        Some(p) => Scene::load(p)?,
+        None => Scene::default_scene(),
+    };
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    if !(0.25..=1.0).contains(&args.scale) {
+        return Err(Error::input("<command line>", "--scale", format!("must lie in [0.25, 1] (got {})", args.scale)));
+    }
+    if !args.screenshot_dir.is_dir() {
+        return Err(Error::input(
+            "<command line>",
+            "--screenshot-dir",
+            format!("{} is not a folder", args.screenshot_dir.display()),
+        ));
+    }
+    let settings = RenderSettings {
+        photons: args.photons,
+        technique: args.technique.lib(),
+        splat: args.splat.lib(),
+        caustic_map_size: args.caustic_map.unwrap_or(1024),
+        ..Default::default()
+    };
+    Ok(Start { scene, settings, args })
+}
+
+pub fn run(args: ViewArgs) -> Result<()> {
+    let start = prepare(args)?;
+    window::run(start)
+}
+
+/// The wgpu instance the viewer (and its tests) use: Vulkan, Metal or DX12 as the library's,
+/// unless `WGPU_BACKEND` says otherwise.
+pub fn instance() -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    if std::env::var_os("WGPU_BACKEND").is_none() {
+        desc.backends = wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
+    }
+    wgpu::Instance::new(desc)
+}
+
+/// Pick an adapter (by name, or the best kind: discrete, integrated, virtual, software) that can
+/// present to `surface` if given, and open a device with the renderer's features and limits.
+pub fn open_device(
+    instance: &wgpu::Instance,
+    name: Option<&str>,
+    surface: Option<&wgpu::Surface<'_>>,
+) -> Result<(wgpu::Adapter, wgpu::Device, wgpu::Queue), Error> {
+    let adapters: Vec<wgpu::Adapter> = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()))
+        .into_iter()
+        .filter(|a| surface.is_none_or(|s| a.is_surface_supported(s)))
+        .collect();
+    let adapter = match name {
+        Some(n) => {
+            let n = n.to_lowercase();
+            adapters.into_iter().find(|a| a.get_info().name.to_lowercase().contains(&n)).ok_or_else(|| {
+                Error::input("<command line>", "--adapter", format!("no adapter named like \"{n}\" (see `caustics info`)"))
+            })?
+        }
+        None => adapters
+            .into_iter()
+            .min_by_key(|a| match a.get_info().device_type {
+                wgpu::DeviceType::DiscreteGpu => 0,
+                wgpu::DeviceType::IntegratedGpu => 1,
+                wgpu::DeviceType::VirtualGpu => 2,
+                wgpu::DeviceType::Cpu => 3,
+                wgpu::DeviceType::Other => 4,
+            })
+            .ok_or_else(|| {
+                Error::NoAdapter(
+                    "no Vulkan, Metal or DX12 adapter that can present to a window was found; the viewer needs one (install a GPU driver or Mesa's software Vulkan driver: apt-get install mesa-vulkan-drivers)".into(),
+                )
+            })?,
+    };
+    let (required_features, required_limits) = caustics::gpu::GpuContext::device_requirements(&adapter);
+    let info = adapter.get_info();
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("caustics view"),
+        required_features,
+        required_limits,
+        ..Default::default()
+    }))
+    .map_err(|e| Error::Device(format!("cannot open {}: {e}", info.name)))?;
+    Ok((adapter, device, queue))
+}

@@ -1,0 +1,283 @@
+//! The viewer without a display: a scripted session (open, orbit, drag the light, switch
+//! technique, screenshot) on one shared GPU device, compared with a golden image; the egui
+//! panels driven by synthetic input; the background reference and its cancellation.
+//!
+//! GPU tests skip with a printed reason when there is no adapter, except in CI (`CI=true`),
+//! where they fail. `CAUSTICS_BLESS=1` rewrites the golden image.
+
+use super::camera::project;
+use super::pick::Selection;
+use super::session::{Action, Mods, Session, ViewMode};
+use super::ui::{self, UiState};
+use caustics::Scene;
+use caustics::image_io::{Image, srgb_encode};
+use caustics::render::RenderSettings;
+use caustics::techniques::Technique;
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+/// The golden image of the scripted session (96 × 72, 64² photons, lavapipe).
+const GOLDEN: &str = "tests/golden/view_session.png";
+/// Tolerance against the golden image, in sRGB-encoded [0, 1] values: RMSE at most 0.01 and at
+/// most 0.5 % of the pixels off by more than 0.1 (different GPUs round differently at edges).
+const GOLDEN_RMSE: f64 = 0.01;
+const GOLDEN_OUTLIERS: f64 = 0.005;
+
+/// One device for every test of this binary.
+fn device() -> Option<&'static (wgpu::Device, wgpu::Queue)> {
+    static DEVICE: OnceLock<Option<(wgpu::Device, wgpu::Queue)>> = OnceLock::new();
+    DEVICE
+        .get_or_init(|| match super::open_device(&super::instance(), None, None) {
+            Ok((_, d, q)) => Some((d, q)),
+            Err(e) => {
+                if std::env::var("CI").is_ok_and(|v| v == "true") {
+                    panic!("CI requires a GPU adapter (install mesa-vulkan-drivers): {e}");
+                }
+                eprintln!("skipping GPU test: {e}");
+                None
+            }
+        })
+        .as_ref()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("caustics-view-test-{}", std::process::id()));
+    std::fs::create_dir_all(&d).expect("temp folder");
+    d.join(name)
+}
+
+/// Small and fast on a software rasterizer.
+fn small_settings() -> RenderSettings {
+    RenderSettings { photons: 64, caustic_map_size: 256, shadow_map_size: 512, ..Default::default() }
+}
+
+fn session(d: &(wgpu::Device, wgpu::Queue)) -> Session {
+    let s = Session::new(&d.0, &d.1, Scene::default_scene(), small_settings(), tmp(""))
+        .expect("a session on the built-in scene");
+    let mut s = s;
+    s.act(Action::Resize { width: 96, height: 72 }).expect("resize");
+    s
+}
+
+fn frame(s: &mut Session) {
+    assert!(s.render().expect("frame"), "nothing changed: no frame");
+    s.update();
+}
+
+#[test]
+fn scripted_session_matches_golden() {
+    let Some(d) = device() else { return };
+    let t0 = std::time::Instant::now();
+    let mut s = session(d);
+    frame(&mut s);
+    let cam0 = s.scene().camera.clone();
+    assert_eq!((cam0.width, cam0.height), (96, 72));
+
+    // Orbit a little.
+    s.act(Action::Orbit { dx: 25.0, dy: -8.0 }).expect("orbit");
+    s.act(Action::Zoom { steps: 1.0 }).expect("zoom");
+    assert_ne!(s.scene().camera.position, cam0.position);
+    frame(&mut s);
+
+    // Grab the spot light by its marker and drag it 6 pixels right.
+    let light0 = s.scene().lights[0].clone();
+    let p = light0.position().expect("the built-in light is a spot");
+    let (q, _) = project(&s.scene().camera, p).expect("the light is in view");
+    s.act(Action::Press { x: q.x, y: q.y, mods: Mods::default() }).expect("press");
+    assert_eq!(s.selection, Some(Selection::Light(0)));
+    assert!(s.dragging());
+    s.act(Action::Drag { x: q.x + 6.0, y: q.y }).expect("drag");
+    s.act(Action::Release).expect("release");
+    let moved = s.scene().lights[0].position().expect("spot");
+    assert!((moved - p).length() > 1e-3, "the light did not move");
+    let (q2, _) = project(&s.scene().camera, moved).expect("in view");
+    assert!((q2.x - q.x - 6.0).abs() < 0.05 && (q2.y - q.y).abs() < 0.05, "{q:?} -> {q2:?}");
+    frame(&mut s);
+
+    // Switch technique.
+    s.act(Action::SetTechnique(Technique::AdaptiveLevel)).expect("technique");
+    assert_eq!(s.settings().technique, Technique::AdaptiveLevel);
+    frame(&mut s);
+    let stats = s.stats.clone().expect("frame statistics");
+    assert_eq!(stats.technique.technique, Technique::AdaptiveLevel);
+    assert!(stats.technique.photons_traced > 0);
+    assert_eq!(stats.flux.len(), 1);
+
+    // Screenshot, PNG and EXR.
+    let png = tmp("session.png");
+    let exr = tmp("session.exr");
+    s.act(Action::Screenshot(png.clone())).expect("png");
+    s.act(Action::Screenshot(exr.clone())).expect("exr");
+    let linear = Image::read(&exr).expect("the EXR screenshot");
+    assert_eq!((linear.width, linear.height), (96, 72));
+    assert!(linear.sum() > 0.0);
+    let shot = Image::read(&png).expect("the PNG screenshot");
+    compare_with_golden(&shot, &png);
+    eprintln!("scripted session: {:.1} s", t0.elapsed().as_secs_f64());
+}
+
+fn compare_with_golden(shot: &Image, png: &std::path::Path) {
+    let golden = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(GOLDEN);
+    let bless = std::env::var("CAUSTICS_BLESS").is_ok_and(|v| v == "1");
+    if bless || !golden.exists() {
+        assert!(
+            !std::env::var("CI").is_ok_and(|v| v == "true") || bless,
+            "{} is missing (CAUSTICS_BLESS=1 writes it)",
+            golden.display()
+        );
+        std::fs::create_dir_all(golden.parent().expect("folder")).expect("golden folder");
+        std::fs::copy(png, &golden).expect("write the golden image");
+        eprintln!("wrote the golden image {}", golden.display());
+        return;
+    }
+    let g = Image::read(&golden).expect("the golden image");
+    assert_eq!((g.width, g.height), (shot.width, shot.height));
+    let (mut se, mut outliers) = (0.0f64, 0usize);
+    for (a, b) in shot.pixels.iter().zip(&g.pixels) {
+        let mut worst = 0.0f32;
+        for k in 0..3 {
+            let d = srgb_encode(a[k]) - srgb_encode(b[k]);
+            se += (d * d) as f64;
+            worst = worst.max(d.abs());
+        }
+        if worst > 0.1 {
+            outliers += 1;
+        }
+    }
+    let n = shot.pixels.len() as f64;
+    let rmse = (se / (3.0 * n)).sqrt();
+    let frac = outliers as f64 / n;
+    assert!(
+        rmse <= GOLDEN_RMSE && frac <= GOLDEN_OUTLIERS,
+        "screenshot {} differs from {}: RMSE {rmse:.4} (limit {GOLDEN_RMSE}), {:.2} % outliers (limit {:.2} %)",
+        png.display(),
+        golden.display(),
+        frac * 100.0,
+        GOLDEN_OUTLIERS * 100.0
+    );
+}
+
+#[test]
+fn invalid_settings_show_the_error_and_keep_the_state() {
+    let Some(d) = device() else { return };
+    let mut s = session(d);
+    let before = s.settings().clone();
+    let e = s.act(Action::SetPhotons(3)).expect_err("3² photons is too few");
+    assert!(e.is_input(), "{e}");
+    assert_eq!(*s.settings(), before);
+    assert!(s.error.as_deref().is_some_and(|m| m.contains("photons")), "{:?}", s.error);
+    // An impossible image size is refused and the camera stays.
+    let cam = s.scene().camera.clone();
+    assert!(s.act(Action::Resize { width: 0, height: 10 }).is_err());
+    assert_eq!(s.scene().camera, cam);
+    // IOR of something that is not glass.
+    assert!(s.act(Action::SetIor { material: usize::MAX, ior: 1.5 }).is_err());
+    // A good change clears the error.
+    s.act(Action::SetTechnique(Technique::Hierarchical)).expect("hierarchical");
+    assert!(s.error.is_none());
+}
+
+#[test]
+fn object_drag_rotate_and_ior() {
+    let Some(d) = device() else { return };
+    let mut s = session(d);
+    let scene = s.scene().clone();
+    let ball = scene
+        .objects
+        .iter()
+        .position(|o| matches!(o.shape, caustics::scene::Shape::Sphere { .. }))
+        .expect("a ball");
+    let c = super::pick::centre(&scene.objects[ball].shape);
+    let (q, _) = project(&scene.camera, c).expect("in view");
+    s.act(Action::Press { x: q.x, y: q.y, mods: Mods::default() }).expect("press");
+    assert_eq!(s.selection, Some(Selection::Object(ball)));
+    s.act(Action::Drag { x: q.x, y: q.y + 5.0 }).expect("drag");
+    s.act(Action::Release).expect("release");
+    let c2 = super::pick::centre(&s.scene().objects[ball].shape);
+    assert!((c2 - c).length() > 1e-3);
+    // Ctrl-drag rotates about the centre: the centre stays.
+    s.act(Action::Press { x: 1.0, y: 1.0, mods: Mods { rotate: true } }).expect("press");
+    s.act(Action::Drag { x: 40.0, y: 1.0 }).expect("rotate");
+    s.act(Action::Release).expect("release");
+    let c3 = super::pick::centre(&s.scene().objects[ball].shape);
+    assert!((c3 - c2).length() < 1e-3, "{c2:?} {c3:?}");
+    // The ball's glass gets another IOR (a new renderer, same state).
+    let (m, _) = s.material_of(ball).expect("material");
+    let cam = s.scene().camera.clone();
+    s.act(Action::SetIor { material: m, ior: 1.7 }).expect("ior");
+    assert!(matches!(s.material_of(ball), Some((_, caustics::scene::Material::Dielectric { ior, .. })) if ior == 1.7));
+    assert_eq!(s.scene().camera, cam);
+    assert!((super::pick::centre(&s.scene().objects[ball].shape) - c3).length() < 1e-4);
+    frame(&mut s);
+}
+
+#[test]
+fn reference_runs_in_the_background_and_is_cancelled_by_a_view_change() {
+    let Some(d) = device() else { return };
+    let mut s = session(d);
+    s.reference_settings.photons_per_light = 1 << 14;
+    s.reference_settings.camera_spp = 1;
+    frame(&mut s);
+    s.act(Action::StartReference).expect("start");
+    assert!(s.reference_progress().is_some());
+    s.act(Action::Orbit { dx: 5.0, dy: 0.0 }).expect("orbit");
+    assert!(s.reference_progress().is_none(), "the view changed: the job is cancelled");
+    frame(&mut s);
+    s.act(Action::StartReference).expect("start");
+    s.wait_reference();
+    let r = s.reference().expect("the reference of this view");
+    assert_eq!((r.image.width, r.image.height), (96, 72));
+    let (_, mean) = r.diff.as_ref().expect("a difference against the GPU frame");
+    assert!(*mean < 0.2, "mean tone-mapped difference {mean}");
+    // A settings change keeps the reference (same view); a light change drops it.
+    s.act(Action::SetTechnique(Technique::Hierarchical)).expect("technique");
+    assert!(s.reference().is_some());
+    let mut l = s.scene().lights[0].clone();
+    if let caustics::scene::Light::Spot { position, .. } = &mut l {
+        position.x += 0.01;
+    }
+    s.act(Action::SetLight(0, l)).expect("light");
+    assert!(s.reference().is_none());
+}
+
+/// The panels and the view area, driven by synthetic egui input (no window, no painting).
+#[test]
+fn panels_turn_input_into_actions() {
+    let Some(d) = device() else { return };
+    let mut s = session(d);
+    frame(&mut s);
+    let ctx = egui::Context::default();
+    let mut state = UiState::new(1.0);
+    let screen = egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(700.0, 400.0));
+    let mut run = |s: &mut Session, events: Vec<egui::Event>| {
+        let raw = egui::RawInput { screen_rect: Some(screen), events, ..Default::default() };
+        let out = ctx.run_ui(raw, |ui| ui::draw(ui, &mut state, s, None));
+        drop(out);
+    };
+    run(&mut s, vec![]);
+    run(&mut s, vec![]);
+    // The view area took the space left of the panel: the camera follows it.
+    let cam = s.scene().camera.clone();
+    assert!(cam.width > 200 && cam.width < 700 && cam.height == 400, "{}x{}", cam.width, cam.height);
+    // A left drag on empty floor orbits.
+    let down = |p: egui::Pos2, pressed| egui::Event::PointerButton {
+        pos: p,
+        button: egui::PointerButton::Primary,
+        pressed,
+        modifiers: Default::default(),
+    };
+    let a = egui::pos2(20.0, 390.0);
+    let b = egui::pos2(80.0, 380.0);
+    run(&mut s, vec![egui::Event::PointerMoved(a), down(a, true)]);
+    run(&mut s, vec![egui::Event::PointerMoved(egui::pos2(40.0, 385.0))]);
+    run(&mut s, vec![egui::Event::PointerMoved(b)]);
+    run(&mut s, vec![down(b, false)]);
+    assert_ne!(s.scene().camera.position, cam.position, "the drag did not orbit");
+    // Keys: B shows the reference, D the difference.
+    let key = |k| egui::Event::Key { key: k, physical_key: None, pressed: true, repeat: false, modifiers: Default::default() };
+    run(&mut s, vec![key(egui::Key::B)]);
+    assert_eq!(s.view_mode, ViewMode::Reference);
+    run(&mut s, vec![key(egui::Key::D)]);
+    assert_eq!(s.view_mode, ViewMode::Difference);
+    s.act(Action::CancelReference).expect("cancel");
+}

@@ -1,0 +1,265 @@
+//! The window: winit's event loop, a wgpu surface on the renderer's device, egui-winit for
+//! input and egui-wgpu for painting the panels and the renderer's display texture.
+
+use super::Start;
+use super::session::Session;
+use super::ui::{self, UiState};
+use anyhow::{Context as _, Result, anyhow};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use winit::application::ApplicationHandler;
+use winit::event::WindowEvent;
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::window::{Window, WindowId};
+
+struct Running {
+    window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    config: wgpu::SurfaceConfiguration,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    session: Session,
+    ui_state: UiState,
+    egui_ctx: egui::Context,
+    egui_state: egui_winit::State,
+    egui_renderer: egui_wgpu::Renderer,
+    display_id: Option<egui::TextureId>,
+    next_repaint: Option<Instant>,
+}
+
+struct App {
+    start: Option<Start>,
+    running: Option<Running>,
+    error: Option<anyhow::Error>,
+}
+
+pub fn run(start: Start) -> Result<()> {
+    let event_loop = EventLoop::new().map_err(|e| {
+        anyhow!("cannot open a window: {e} (the viewer needs a display: set DISPLAY or WAYLAND_DISPLAY, or run under Xvfb)")
+    })?;
+    event_loop.set_control_flow(ControlFlow::Wait);
+    let mut app = App { start: Some(start), running: None, error: None };
+    event_loop.run_app(&mut app).context("window event loop")?;
+    match app.error.take() {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+impl Running {
+    fn new(event_loop: &ActiveEventLoop, start: Start) -> Result<Running> {
+        let Start { scene, settings, args } = start;
+        let (w, h) = args.size;
+        let window = Arc::new(
+            event_loop
+                .create_window(
+                    Window::default_attributes()
+                        .with_title(format!("caustics — {}", scene.name))
+                        .with_inner_size(winit::dpi::LogicalSize::new(w as f64, h as f64)),
+                )
+                .context("cannot create the window")?,
+        );
+        let instance = super::instance();
+        let surface = instance.create_surface(window.clone()).context("cannot create a surface for the window")?;
+        let (adapter, device, queue) = super::open_device(&instance, args.adapter.as_deref(), Some(&surface))?;
+        let info = adapter.get_info();
+        eprintln!("adapter: {} ({:?})", info.name, info.backend);
+        let caps = surface.get_capabilities(&adapter);
+        let format = caps
+            .formats
+            .iter()
+            .copied()
+            .find(|f| matches!(f, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Rgba8Unorm))
+            .or_else(|| caps.formats.first().copied())
+            .ok_or_else(|| anyhow!("the surface offers no format"))?;
+        let size = window.inner_size();
+        let config = wgpu::SurfaceConfiguration {
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            format,
+            width: size.width.max(1),
+            height: size.height.max(1),
+            present_mode: wgpu::PresentMode::AutoVsync,
+            desired_maximum_frame_latency: 2,
+            alpha_mode: caps.alpha_modes.first().copied().unwrap_or(wgpu::CompositeAlphaMode::Auto),
+            view_formats: vec![],
+        };
+        surface.configure(&device, &config);
+        let mut settings = settings;
+        if args.caustic_map.is_none() {
+            let ctx = caustics::gpu::GpuContext::from_device(&device, &queue);
+            settings.caustic_map_size =
+                caustics::render::RenderSettings::fitting_caustic_map_size(&ctx, &scene, settings.caustic_map_size);
+        }
+        let session = Session::new(&device, &queue, scene, settings, args.screenshot_dir.clone())?;
+        let egui_ctx = egui::Context::default();
+        let egui_state = egui_winit::State::new(
+            egui_ctx.clone(),
+            egui::ViewportId::ROOT,
+            &window,
+            Some(window.scale_factor() as f32),
+            window.theme(),
+            Some(device.limits().max_texture_dimension_2d as usize),
+        );
+        let egui_renderer = egui_wgpu::Renderer::new(&device, format, egui_wgpu::RendererOptions::default());
+        Ok(Running {
+            window,
+            surface,
+            config,
+            device,
+            queue,
+            session,
+            ui_state: UiState::new(args.scale),
+            egui_ctx,
+            egui_state,
+            egui_renderer,
+            display_id: None,
+            next_repaint: Some(Instant::now()),
+        })
+    }
+
+    fn resize(&mut self, size: winit::dpi::PhysicalSize<u32>) {
+        self.config.width = size.width.max(1);
+        self.config.height = size.height.max(1);
+        self.surface.configure(&self.device, &self.config);
+    }
+
+    fn redraw(&mut self) {
+        self.session.update();
+        let raw = self.egui_state.take_egui_input(&self.window);
+        let (session, state, display) = (&mut self.session, &mut self.ui_state, self.display_id);
+        let full = self.egui_ctx.run_ui(raw, |ui| ui::draw(ui, state, session, display));
+        self.egui_state.handle_platform_output(&self.window, full.platform_output);
+        // A frame of the renderer when something changed; its display texture is shown in this
+        // same paint.
+        if let Ok(true) = self.session.render()
+            && let Some(tex) = self.session.display()
+        {
+            let view = tex.create_view(&wgpu::TextureViewDescriptor::default());
+            match self.display_id {
+                Some(id) => self.egui_renderer.update_egui_texture_from_wgpu_texture(
+                    &self.device,
+                    &view,
+                    wgpu::FilterMode::Linear,
+                    id,
+                ),
+                None => {
+                    self.display_id =
+                        Some(self.egui_renderer.register_native_texture(&self.device, &view, wgpu::FilterMode::Linear))
+                }
+            }
+            // The first frame's image was not known to the UI pass: paint again.
+            self.next_repaint = Some(Instant::now());
+        }
+        self.paint(full.shapes, full.pixels_per_point, &full.textures_delta);
+        let delay = full.viewport_output.get(&egui::ViewportId::ROOT).map(|v| v.repaint_delay).unwrap_or(Duration::MAX);
+        let mut next = (delay < Duration::from_secs(3600)).then(|| Instant::now() + delay);
+        if self.session.needs_frame() {
+            next = Some(Instant::now());
+        }
+        if self.session.reference_progress().is_some() {
+            // The progress bar and the finished reference.
+            let t = Instant::now() + Duration::from_millis(150);
+            next = Some(next.map_or(t, |n| n.min(t)));
+        }
+        if let Some(n) = next {
+            self.next_repaint = Some(self.next_repaint.map_or(n, |m| m.min(n)));
+        }
+    }
+
+    fn paint(&mut self, shapes: Vec<egui::epaint::ClippedShape>, ppp: f32, delta: &egui::TexturesDelta) {
+        let frame = match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                self.surface.configure(&self.device, &self.config);
+                self.next_repaint = Some(Instant::now());
+                return;
+            }
+            _ => return,
+        };
+        let view = frame.texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let clipped = self.egui_ctx.tessellate(shapes, ppp);
+        let sd = egui_wgpu::ScreenDescriptor { size_in_pixels: [self.config.width, self.config.height], pixels_per_point: ppp };
+        for (id, d) in &delta.set {
+            self.egui_renderer.update_texture(&self.device, &self.queue, *id, d);
+        }
+        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("egui") });
+        let extra = self.egui_renderer.update_buffers(&self.device, &self.queue, &mut enc, &clipped, &sd);
+        {
+            let mut pass = enc
+                .begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("egui"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: &view,
+                        resolve_target: None,
+                        depth_slice: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color { r: 0.05, g: 0.05, b: 0.05, a: 1.0 }),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })],
+                    ..Default::default()
+                })
+                .forget_lifetime();
+            self.egui_renderer.render(&mut pass, &clipped, &sd);
+        }
+        self.queue.submit(extra.into_iter().chain([enc.finish()]));
+        self.window.pre_present_notify();
+        frame.present();
+        for id in &delta.free {
+            self.egui_renderer.free_texture(id);
+        }
+    }
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.running.is_some() {
+            return;
+        }
+        let Some(start) = self.start.take() else { return };
+        match Running::new(event_loop, start) {
+            Ok(r) => {
+                r.window.request_redraw();
+                self.running = Some(r);
+            }
+            Err(e) => {
+                self.error = Some(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(r) = self.running.as_mut() else { return };
+        let response = r.egui_state.on_window_event(&r.window, &event);
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => {
+                r.resize(size);
+                r.window.request_redraw();
+            }
+            WindowEvent::RedrawRequested => {
+                r.next_repaint = None;
+                r.redraw();
+            }
+            _ => {
+                if response.repaint {
+                    r.window.request_redraw();
+                }
+            }
+        }
+    }
+
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        let Some(r) = self.running.as_mut() else { return };
+        match r.next_repaint {
+            Some(t) if t <= Instant::now() => {
+                r.next_repaint = None;
+                r.window.request_redraw();
+                event_loop.set_control_flow(ControlFlow::Wait);
+            }
+            Some(t) => event_loop.set_control_flow(ControlFlow::WaitUntil(t)),
+            None => event_loop.set_control_flow(ControlFlow::Wait),
+        }
+    }
+}
