@@ -31,7 +31,7 @@ pub struct Mods {
 
 /// What the user can ask of the viewer. Positions are image pixels of the rendered view
 /// ((0,0) = top-left), motions are pixels.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub enum Action {
     /// The view area changed size: the camera's image becomes `width` × `height`.
     Resize { width: u32, height: u32 },
@@ -357,7 +357,8 @@ impl Session {
     fn change_settings(&mut self, f: impl FnOnce(&mut RenderSettings)) -> Result<()> {
         let mut s = self.settings().clone();
         f(&mut s);
-        if s == *self.settings() {
+        // (RenderSettings has no PartialEq.)
+        if format!("{s:?}") == format!("{:?}", self.settings()) {
             return Ok(());
         }
         self.renderer.set_settings(s)?;
@@ -576,6 +577,7 @@ impl Session {
     }
 
     /// Wait for the reference in flight (tests).
+    #[cfg(test)]
     pub fn wait_reference(&mut self) {
         while self.job.as_ref().is_some_and(|j| !j.is_finished()) {
             std::thread::sleep(Duration::from_millis(20));
@@ -609,16 +611,21 @@ impl Session {
         Ok(())
     }
 
-    /// Write the current image as the next numbered PNG and EXR pair in the screenshot folder.
-    pub fn screenshot_pair(&mut self) -> Result<Vec<PathBuf>> {
-        let img = self.renderer.read_image()?;
-        let stem = loop {
+    /// The next free numbered screenshot name (no extension) in the screenshot folder.
+    pub fn next_screenshot_stem(&mut self) -> PathBuf {
+        loop {
             self.screenshots += 1;
             let s = self.screenshot_dir.join(format!("caustics-view-{:03}", self.screenshots));
             if !s.with_extension("png").exists() && !s.with_extension("exr").exists() {
-                break s;
+                return s;
             }
-        };
+        }
+    }
+
+    /// Write the current image as the next numbered PNG and EXR pair in the screenshot folder.
+    pub fn screenshot_pair(&mut self) -> Result<Vec<PathBuf>> {
+        let img = self.renderer.read_image()?;
+        let stem = self.next_screenshot_stem();
         let paths = vec![stem.with_extension("png"), stem.with_extension("exr")];
         for p in &paths {
             img.write(p, self.scene().exposure)?;

@@ -172,7 +172,7 @@ fn view_area(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session, disp
     }
 
     // Input.
-    let resp = ui.interact(rect, ui.id().with("view"), Sense::click_and_drag());
+    let resp = ui.interact(rect, ui.scope_id().with("view"), Sense::click_and_drag());
     let mods = ui.input(|i| i.modifiers);
     let origin = ui.input(|i| i.pointer.press_origin());
     let pos = resp.interact_pointer_pos();
@@ -303,6 +303,12 @@ fn side_panel(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
             if ui.button("PNG + EXR (F12)").clicked() {
                 act(session, Action::ScreenshotPair);
             }
+            for ext in ["png", "exr"] {
+                if ui.button(ext.to_uppercase()).clicked() {
+                    let path = session.next_screenshot_stem().with_extension(ext);
+                    act(session, Action::Screenshot(path));
+                }
+            }
         });
         if !session.status.is_empty() {
             ui.label(session.status.clone());
@@ -354,6 +360,12 @@ fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
     );
     if r.drag_stopped() || (r.changed() && !r.dragged()) {
         act(session, Action::SetTolerance(tol));
+    }
+    let mut reflection = s.dielectric_reflection;
+    if ui.checkbox(&mut reflection, "light reflected at glass").changed() {
+        let mut s2 = s.clone();
+        s2.dielectric_reflection = reflection;
+        act(session, Action::SetSettings(Box::new(s2)));
     }
     let mut temporal = session.temporal();
     if ui.checkbox(&mut temporal, "temporal filter").changed() {

@@ -76,6 +76,7 @@ impl Running {
         let config = wgpu::SurfaceConfiguration {
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
             format,
+            color_space: wgpu::SurfaceColorSpace::Auto,
             width: size.width.max(1),
             height: size.height.max(1),
             present_mode: wgpu::PresentMode::AutoVsync,
@@ -179,8 +180,10 @@ impl Running {
         let view = frame.texture.create_view(&wgpu::TextureViewDescriptor::default());
         let clipped = self.egui_ctx.tessellate(shapes, ppp);
         let sd = egui_wgpu::ScreenDescriptor { size_in_pixels: [self.config.width, self.config.height], pixels_per_point: ppp };
-        for (id, d) in &delta.set {
-            self.egui_renderer.update_texture(&self.device, &self.queue, *id, d);
+        for (id, deltas) in &delta.set {
+            for d in deltas {
+                self.egui_renderer.update_texture(&self.device, &self.queue, *id, d);
+            }
         }
         let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("egui") });
         let extra = self.egui_renderer.update_buffers(&self.device, &self.queue, &mut enc, &clipped, &sd);
@@ -204,7 +207,7 @@ impl Running {
         }
         self.queue.submit(extra.into_iter().chain([enc.finish()]));
         self.window.pre_present_notify();
-        frame.present();
+        self.queue.present(frame);
         for id in &delta.free {
             self.egui_renderer.free_texture(id);
         }
