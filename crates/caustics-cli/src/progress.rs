@@ -21,8 +21,10 @@ pub fn reference_render(scene: &Scene, settings: &ReferenceSettings) -> caustics
     }
     let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr_with_hz(4));
     bar.set_style(
-        ProgressStyle::with_template("CPU reference {bar:40} {percent:>3}% {elapsed_precise} elapsed, about {eta} left")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template(
+            "CPU reference {bar:40} {percent:>3}% {elapsed_precise} elapsed, about {eta} left",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let result = std::thread::scope(|s| {
         let worker = s.spawn(|| caustics::reference::render_with_progress(scene, settings, &progress));

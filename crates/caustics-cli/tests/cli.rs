@@ -54,3 +54,39 @@ fn compare_reports_metrics() {
     let e = run_err(&["compare", a.to_str().unwrap(), "/nonexistent/b.exr"]);
     assert!(e.contains("/nonexistent/b.exr"), "{e}");
 }
+
+#[test]
+fn view_bad_input_exits_2_before_any_window() {
+    let e = run_err(&["view", "/nonexistent/missing.json"]);
+    assert!(e.contains("/nonexistent/missing.json"), "{e}");
+    let e = run_err(&["view", "--technique", "nope"]);
+    assert!(e.contains("--technique") && e.contains("nope"), "{e}");
+    let e = run_err(&["view", "--screenshot-dir", "/nonexistent-dir"]);
+    assert!(e.contains("--screenshot-dir"), "{e}");
+}
+
+/// Ctrl-C during a CPU reference render: a one-line message, exit code 130, no output file.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_cancels_the_cpu_reference_cleanly() {
+    let dir = tmp("cancel");
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("cancelled.png");
+    let child = caustics()
+        .args(["render", "--backend", "cpu", "--photons", "8192", "--spp", "256", "-o", out.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let t0 = std::time::Instant::now();
+    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(status.success());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(err.contains("cancelled"), "{err}");
+    assert!(t0.elapsed().as_secs_f64() < 20.0, "cancelling took {:?}", t0.elapsed());
+    assert!(!out.exists(), "a cancelled render left {}", out.display());
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "a cancelled render left files behind");
+}

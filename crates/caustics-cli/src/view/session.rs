@@ -34,16 +34,34 @@ pub struct Mods {
 #[derive(Debug, Clone)]
 pub enum Action {
     /// The view area changed size: the camera's image becomes `width` × `height`.
-    Resize { width: u32, height: u32 },
-    Orbit { dx: f32, dy: f32 },
-    Pan { dx: f32, dy: f32 },
+    Resize {
+        width: u32,
+        height: u32,
+    },
+    Orbit {
+        dx: f32,
+        dy: f32,
+    },
+    Pan {
+        dx: f32,
+        dy: f32,
+    },
     /// Wheel notches (positive: closer).
-    Zoom { steps: f32 },
+    Zoom {
+        steps: f32,
+    },
     /// A primary-button press: picks a light or an object (or, with [`Mods::rotate`], starts
     /// rotating the selected object or aiming the selected spot light).
-    Press { x: f32, y: f32, mods: Mods },
+    Press {
+        x: f32,
+        y: f32,
+        mods: Mods,
+    },
     /// The pointer moved with the button held.
-    Drag { x: f32, y: f32 },
+    Drag {
+        x: f32,
+        y: f32,
+    },
     Release,
     Select(Option<Selection>),
     SetTechnique(Technique),
@@ -57,7 +75,10 @@ pub enum Action {
     SetLight(usize, Light),
     SetObjectTransform(usize, Affine3A),
     /// The index of refraction of dielectric material `material`.
-    SetIor { material: usize, ior: f32 },
+    SetIor {
+        material: usize,
+        ior: f32,
+    },
     /// Write the current image (PNG tone-mapped, EXR linear, by extension).
     Screenshot(PathBuf),
     /// Write the current image as the next numbered PNG + EXR pair in the screenshot folder.
@@ -192,11 +213,7 @@ impl Session {
             frames: 0,
             display: None,
             view_mode: ViewMode::Gpu,
-            reference_settings: ReferenceSettings {
-                photons_per_light: 1 << 20,
-                camera_spp: 4,
-                ..Default::default()
-            },
+            reference_settings: ReferenceSettings { photons_per_light: 1 << 20, camera_spp: 4, ..Default::default() },
             job: None,
             reference: None,
             reference_version: 0,
@@ -220,6 +237,7 @@ impl Session {
     }
     /// Counts changes of the view (camera, lights, objects, materials): a reference of another
     /// generation is stale.
+    #[cfg(test)]
     pub fn generation(&self) -> u64 {
         self.generation
     }
@@ -496,7 +514,8 @@ impl Session {
         }
         self.dirty = false;
         let t0 = Instant::now();
-        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("viewer frame") });
+        let mut enc =
+            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("viewer frame") });
         let display = match self.renderer.encode(&mut enc, FrameRequest { stats: true }) {
             Ok(out) => out.display.clone(),
             Err(e) => {

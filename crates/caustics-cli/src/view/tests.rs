@@ -182,11 +182,8 @@ fn object_drag_rotate_and_ior() {
     let Some(d) = device() else { return };
     let mut s = session(d);
     let scene = s.scene().clone();
-    let ball = scene
-        .objects
-        .iter()
-        .position(|o| matches!(o.shape, caustics::scene::Shape::Sphere { .. }))
-        .expect("a ball");
+    let ball =
+        scene.objects.iter().position(|o| matches!(o.shape, caustics::scene::Shape::Sphere { .. })).expect("a ball");
     let c = super::pick::centre(&scene.objects[ball].shape);
     let (q, _) = project(&scene.camera, c).expect("in view");
     s.act(Action::Press { x: q.x, y: q.y, mods: Mods::default() }).expect("press");
@@ -276,7 +273,13 @@ fn panels_turn_input_into_actions() {
     run(&mut s, vec![down(b, false)]);
     assert_ne!(s.scene().camera.position, cam.position, "the drag did not orbit");
     // Keys: B shows the reference, D the difference.
-    let key = |k| egui::Event::Key { key: k, physical_key: None, pressed: true, repeat: false, modifiers: Default::default() };
+    let key = |k| egui::Event::Key {
+        key: k,
+        physical_key: None,
+        pressed: true,
+        repeat: false,
+        modifiers: Default::default(),
+    };
     run(&mut s, vec![key(egui::Key::B)]);
     assert_eq!(s.view_mode, ViewMode::Reference);
     run(&mut s, vec![key(egui::Key::D)]);

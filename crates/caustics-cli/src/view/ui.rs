@@ -97,8 +97,9 @@ fn view_area(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session, disp
             (p.y - rect.min.y) / rect.height().max(1.0) * cam.height as f32,
         )
     };
-    let to_screen =
-        |q: glam::Vec2| rect.min + Vec2::new(q.x / cam.width as f32 * rect.width(), q.y / cam.height as f32 * rect.height());
+    let to_screen = |q: glam::Vec2| {
+        rect.min + Vec2::new(q.x / cam.width as f32 * rect.width(), q.y / cam.height as f32 * rect.height())
+    };
 
     // The image(s).
     let painter = ui.painter_at(rect);
@@ -152,12 +153,24 @@ fn view_area(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session, disp
             match reference {
                 Some(t) => {
                     let r = Rect::from_min_max(Pos2::new(x, rect.min.y), rect.max);
-                    painter.image(t, r, Rect::from_min_max(Pos2::new(state.split, 0.0), Pos2::new(1.0, 1.0)), Color32::WHITE);
+                    painter.image(
+                        t,
+                        r,
+                        Rect::from_min_max(Pos2::new(state.split, 0.0), Pos2::new(1.0, 1.0)),
+                        Color32::WHITE,
+                    );
                 }
                 None => waiting(&painter, "computing the CPU reference…"),
             }
-            painter.line_segment([Pos2::new(x, rect.min.y), Pos2::new(x, rect.max.y)], Stroke::new(2.0, Color32::WHITE));
-            painter.text(rect.min + Vec2::new(8.0, 8.0), Align2::LEFT_TOP, "GPU", FontId::proportional(14.0), Color32::WHITE);
+            painter
+                .line_segment([Pos2::new(x, rect.min.y), Pos2::new(x, rect.max.y)], Stroke::new(2.0, Color32::WHITE));
+            painter.text(
+                rect.min + Vec2::new(8.0, 8.0),
+                Align2::LEFT_TOP,
+                "GPU",
+                FontId::proportional(14.0),
+                Color32::WHITE,
+            );
             painter.text(
                 Pos2::new(rect.max.x - 8.0, rect.min.y + 8.0),
                 Align2::RIGHT_TOP,
@@ -178,17 +191,18 @@ fn view_area(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session, disp
     let pos = resp.interact_pointer_pos();
     if resp.drag_started() {
         let split_x = rect.min.x + rect.width() * state.split;
-        state.mode = if resp.dragged_by(PointerButton::Middle) || resp.dragged_by(PointerButton::Secondary) || mods.shift {
-            Some(DragMode::Pan)
-        } else if session.view_mode == ViewMode::Split && origin.is_some_and(|o| (o.x - split_x).abs() < 6.0) {
-            Some(DragMode::Split)
-        } else if let Some(o) = origin {
-            let (x, y) = to_px(o);
-            act(session, Action::Press { x, y, mods: Mods { rotate: mods.command || mods.ctrl } });
-            Some(if session.dragging() { DragMode::Grab } else { DragMode::Orbit })
-        } else {
-            Some(DragMode::Orbit)
-        };
+        state.mode =
+            if resp.dragged_by(PointerButton::Middle) || resp.dragged_by(PointerButton::Secondary) || mods.shift {
+                Some(DragMode::Pan)
+            } else if session.view_mode == ViewMode::Split && origin.is_some_and(|o| (o.x - split_x).abs() < 6.0) {
+                Some(DragMode::Split)
+            } else if let Some(o) = origin {
+                let (x, y) = to_px(o);
+                act(session, Action::Press { x, y, mods: Mods { rotate: mods.command || mods.ctrl } });
+                Some(if session.dragging() { DragMode::Grab } else { DragMode::Orbit })
+            } else {
+                Some(DragMode::Orbit)
+            };
     }
     if resp.dragged() {
         let d = resp.drag_delta() * ppp * state.render_scale;
@@ -397,7 +411,11 @@ fn selection(ui: &mut egui::Ui, session: &mut Session) {
             }
             for (i, o) in scene.objects.iter().enumerate() {
                 let m = scene.material_names.get(o.material).cloned().unwrap_or_default();
-                ui.selectable_value(&mut sel, Some(Selection::Object(i)), format!("object {i} ({}, {m})", shape_name(&o.shape)));
+                ui.selectable_value(
+                    &mut sel,
+                    Some(Selection::Object(i)),
+                    format!("object {i} ({}, {m})", shape_name(&o.shape)),
+                );
             }
         });
     if sel != session.selection {
@@ -475,7 +493,7 @@ fn object_panel(ui: &mut egui::Ui, session: &mut Session, i: usize) {
     }
     ui.horizontal(|ui| {
         let centre = session.scene().objects.get(i).map(|o| pick::centre(&o.shape)).unwrap_or(Vec3::ZERO);
-        for (label, yaw) in [("↺ 15°", 15f32), ("↻ 15°", -15.0)] {
+        for (label, yaw) in [("rotate +15°", 15f32), ("rotate −15°", -15.0)] {
             if ui.button(label).clicked() {
                 let t2 = pick::rotated_about(t, centre, Vec3::Y, Vec3::X, yaw.to_radians(), 0.0);
                 act(session, Action::SetObjectTransform(i, t2));
@@ -507,8 +525,12 @@ fn stats(ui: &mut egui::Ui, session: &Session) {
         "photons: {} traced, {} splatted ({} {}²)",
         t.photons_traced, t.photons_splatted, t.technique, t.grid
     ));
-    let redone: Vec<String> =
-        s.lights_redone.iter().enumerate().map(|(i, r)| format!("{i}: {}", if *r { "redone" } else { "kept" })).collect();
+    let redone: Vec<String> = s
+        .lights_redone
+        .iter()
+        .enumerate()
+        .map(|(i, r)| format!("{i}: {}", if *r { "redone" } else { "kept" }))
+        .collect();
     ui.label(format!("lights {}", redone.join(", ")));
     for (i, f) in s.flux.iter().enumerate() {
         ui.label(format!(
@@ -571,7 +593,9 @@ fn reference_panel(ui: &mut egui::Ui, session: &mut Session) {
             }
         }
         None => {
-            ui.label("A/B, split and difference views compute it automatically; it is cancelled when the view changes.");
+            ui.label(
+                "A/B, split and difference views compute it automatically; it is cancelled when the view changes.",
+            );
         }
     }
 }

@@ -35,7 +35,9 @@ struct App {
 
 pub fn run(start: Start) -> Result<()> {
     let event_loop = EventLoop::new().map_err(|e| {
-        anyhow!("cannot open a window: {e} (the viewer needs a display: set DISPLAY or WAYLAND_DISPLAY, or run under Xvfb)")
+        anyhow!(
+            "cannot open a window: {e} (the viewer needs a display: set DISPLAY or WAYLAND_DISPLAY, or run under Xvfb)"
+        )
     })?;
     event_loop.set_control_flow(ControlFlow::Wait);
     let mut app = App { start: Some(start), running: None, error: None };
@@ -132,7 +134,11 @@ impl Running {
         self.egui_state.handle_platform_output(&self.window, full.platform_output);
         // A frame of the renderer when something changed; its display texture is shown in this
         // same paint.
-        if let Ok(true) = self.session.render()
+        // (Not before egui's second pass: the first one does not know the panel's width yet,
+        // and a frame at the wrong size costs a full frame.)
+        let settled = self.egui_ctx.cumulative_pass_nr() >= 2;
+        if settled
+            && let Ok(true) = self.session.render()
             && let Some(tex) = self.session.display()
         {
             let view = tex.create_view(&wgpu::TextureViewDescriptor::default());
@@ -179,7 +185,10 @@ impl Running {
         };
         let view = frame.texture.create_view(&wgpu::TextureViewDescriptor::default());
         let clipped = self.egui_ctx.tessellate(shapes, ppp);
-        let sd = egui_wgpu::ScreenDescriptor { size_in_pixels: [self.config.width, self.config.height], pixels_per_point: ppp };
+        let sd = egui_wgpu::ScreenDescriptor {
+            size_in_pixels: [self.config.width, self.config.height],
+            pixels_per_point: ppp,
+        };
         for (id, deltas) in &delta.set {
             for d in deltas {
                 self.egui_renderer.update_texture(&self.device, &self.queue, *id, d);

@@ -224,7 +224,11 @@ pub fn render(scene: &Scene, settings: &ReferenceSettings) -> Result<ReferenceOu
 
 /// [`render`], reporting its progress to `progress` and stopping with [`Error::Cancelled`]
 /// when it is cancelled. The result does not depend on the progress reporting.
-pub fn render_with_progress(scene: &Scene, settings: &ReferenceSettings, progress: &Progress) -> Result<ReferenceOutput> {
+pub fn render_with_progress(
+    scene: &Scene,
+    settings: &ReferenceSettings,
+    progress: &Progress,
+) -> Result<ReferenceOutput> {
     settings.validate()?;
     check_scene(scene)?;
     let (w, h) = (scene.camera.width as u64, scene.camera.height as u64);
@@ -538,4 +542,56 @@ fn morton(u: glam::Vec2) -> u32 {
     }
     let q = |v: f32| ((v * 65536.0) as u32).min(65535);
     spread(q(u.x)) | (spread(q(u.y)) << 1)
+}
+
+#[cfg(test)]
+mod progress_tests {
+    use super::*;
+
+    fn small(photons: u64) -> (Scene, ReferenceSettings) {
+        let mut s = Scene::default_scene();
+        s.camera.width = 24;
+        s.camera.height = 16;
+        let rs =
+            ReferenceSettings { photons_per_light: photons, camera_spp: 2, caustic_map_size: 32, ..Default::default() };
+        (s, rs)
+    }
+
+    #[test]
+    fn progress_counts_all_the_work_and_changes_nothing() {
+        let (s, rs) = small(1 << 14);
+        let p = Progress::new();
+        let a = render_with_progress(&s, &rs, &p).expect("render");
+        assert_eq!(p.total(), (1 << 14) + 24 * 16 * 2);
+        assert_eq!(p.done(), p.total());
+        assert_eq!(p.fraction(), 1.0);
+        let b = render(&s, &rs).expect("render");
+        assert_eq!(a.image.pixels, b.image.pixels);
+        assert_eq!(a.caustic_maps[0][0].pixels, b.caustic_maps[0][0].pixels);
+    }
+
+    #[test]
+    fn a_cancelled_render_returns_cancelled() {
+        let (s, rs) = small(1 << 14);
+        let p = Progress::new();
+        p.cancel();
+        assert!(matches!(render_with_progress(&s, &rs, &p), Err(Error::Cancelled)));
+    }
+
+    #[test]
+    fn cancelling_from_another_thread_stops_soon() {
+        let (s, rs) = small(1 << 28);
+        let p = Progress::new();
+        let t0 = Instant::now();
+        let r = std::thread::scope(|sc| {
+            sc.spawn(|| {
+                std::thread::sleep(std::time::Duration::from_millis(200));
+                p.cancel();
+            });
+            render_with_progress(&s, &rs, &p)
+        });
+        assert!(matches!(r, Err(Error::Cancelled)));
+        assert!(p.done() < p.total());
+        assert!(t0.elapsed().as_secs_f64() < 15.0, "{:?}", t0.elapsed());
+    }
 }
