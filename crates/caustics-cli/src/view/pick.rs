@@ -45,6 +45,38 @@ pub fn pick(scene: &Scene, accel: &Accel, x: f32, y: f32) -> Option<(Selection, 
     Some((Selection::Object(hit.object as usize), hit.p))
 }
 
+/// The end of spot light `light`'s direction handle (drawn from the light along its axis,
+/// 15 % of the scene's size long): dragging it aims the light.
+pub fn spot_handle(scene: &Scene, light: usize) -> Option<Vec3> {
+    match scene.lights.get(light)? {
+        Light::Spot { position, direction, .. } => {
+            let (lo, hi) = scene.bounds();
+            Some(*position + direction.normalize_or_zero() * 0.15 * (hi - lo).length().max(1e-3))
+        }
+        _ => None,
+    }
+}
+
+/// The spot light whose handle end is within [`LIGHT_PICK_PIXELS`] of pixel (x, y), unless a
+/// light's marker is nearer.
+pub fn pick_handle(scene: &Scene, x: f32, y: f32) -> Option<(usize, Vec3)> {
+    let nearest_marker = scene
+        .lights
+        .iter()
+        .filter_map(|l| project(&scene.camera, l.position()?))
+        .map(|(q, _)| q.distance(Vec2::new(x, y)))
+        .fold(f32::INFINITY, f32::min);
+    (0..scene.lights.len())
+        .filter_map(|i| {
+            let h = spot_handle(scene, i)?;
+            let (q, _) = project(&scene.camera, h)?;
+            let d = q.distance(Vec2::new(x, y));
+            (d <= LIGHT_PICK_PIXELS * 0.8 && d < nearest_marker).then_some((d, i, h))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, i, h)| (i, h))
+}
+
 /// The nearest scene point under pixel (x, y), if any (for aiming a light).
 pub fn scene_point(scene: &Scene, accel: &Accel, x: f32, y: f32) -> Option<Vec3> {
     let cam = &scene.camera;

@@ -117,10 +117,30 @@ impl ViewMode {
 
 #[derive(Debug, Clone)]
 enum Drag {
-    MoveLight { light: usize, start: Vec3, anchor: Vec3 },
-    AimLight { light: usize },
-    MoveObject { object: usize, t0: Affine3A, anchor: Vec3 },
-    RotateObject { object: usize, t0: Affine3A, centre: Vec3, start: Vec2 },
+    MoveLight {
+        light: usize,
+        start: Vec3,
+        anchor: Vec3,
+    },
+    AimLight {
+        light: usize,
+    },
+    /// The end of a spot light's axis handle, dragged in the plane facing the camera.
+    AimHandle {
+        light: usize,
+        anchor: Vec3,
+    },
+    MoveObject {
+        object: usize,
+        t0: Affine3A,
+        anchor: Vec3,
+    },
+    RotateObject {
+        object: usize,
+        t0: Affine3A,
+        centre: Vec3,
+        start: Vec2,
+    },
 }
 
 /// The CPU reference of one view, and how the GPU image compares with it.
@@ -140,6 +160,8 @@ pub struct ReferenceView {
 
 /// Radians of object rotation per pixel of a ctrl-drag.
 const ROTATE_RAD_PER_PIXEL: f32 = 0.01;
+/// Frames rendered after the last change when the temporal filter is on.
+const TEMPORAL_SETTLE_FRAMES: u32 = 8;
 /// The automatic reference waits this long after the last change of the view.
 const REFERENCE_DELAY: Duration = Duration::from_millis(400);
 
@@ -159,6 +181,9 @@ pub struct Session {
     changed_at: Instant,
     dirty: bool,
     temporal: bool,
+    /// With the temporal filter on, frames still to render after the last change so that the
+    /// filter's history converges.
+    settle: u32,
     /// The latest error of the library (shown in the panel), cleared by the next success.
     pub error: Option<String>,
     /// A line about the latest thing done (screenshots).
@@ -204,6 +229,7 @@ impl Session {
             changed_at: Instant::now(),
             dirty: true,
             temporal: false,
+            settle: 0,
             error: None,
             status: String::new(),
             stats: None,
@@ -322,6 +348,7 @@ impl Session {
             Action::SetTemporal(on) => {
                 self.renderer.set_temporal(on.then(TemporalSettings::default))?;
                 self.temporal = on;
+                self.settle = if on { TEMPORAL_SETTLE_FRAMES } else { 0 };
                 self.dirty = true;
                 self.error = None;
                 Ok(())
@@ -390,6 +417,7 @@ impl Session {
         self.generation += 1;
         self.changed_at = Instant::now();
         self.dirty = true;
+        self.settle = if self.temporal { TEMPORAL_SETTLE_FRAMES } else { 0 };
         self.error = None;
         if let Some(j) = self.job.take() {
             j.cancel();
@@ -424,6 +452,11 @@ impl Session {
                 _ => {}
             }
         }
+        if let Some((i, h)) = pick::pick_handle(self.scene(), x, y) {
+            self.selection = Some(Selection::Light(i));
+            self.drag = Some(Drag::AimHandle { light: i, anchor: h });
+            return Ok(());
+        }
         let accel = self.accel();
         let picked = pick::pick(self.scene(), &accel, x, y);
         self.selection = picked.map(|(s, _)| s);
@@ -453,6 +486,11 @@ impl Session {
                 let target = pick::scene_point(self.scene(), &accel, x, y)
                     .unwrap_or_else(|| cam.position + cam.ray_dir(x, y) * self.orbit.distance);
                 let l = pick::aimed(&self.scene().lights[light], target);
+                self.apply(Action::SetLight(light, l))
+            }
+            Drag::AimHandle { light, anchor } => {
+                let Some(p) = pick::on_view_plane(&cam, anchor, x, y) else { return Ok(()) };
+                let l = pick::aimed(&self.scene().lights[light], p);
                 self.apply(Action::SetLight(light, l))
             }
             Drag::MoveObject { object, t0, anchor } => {
@@ -512,7 +550,8 @@ impl Session {
         if !self.dirty {
             return Ok(false);
         }
-        self.dirty = false;
+        self.dirty = self.settle > 0;
+        self.settle = self.settle.saturating_sub(1);
         let t0 = Instant::now();
         let mut enc =
             self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("viewer frame") });

@@ -286,3 +286,36 @@ fn panels_turn_input_into_actions() {
     assert_eq!(s.view_mode, ViewMode::Difference);
     s.act(Action::CancelReference).expect("cancel");
 }
+
+#[test]
+fn spot_handle_aims_the_light_and_temporal_frames_settle() {
+    let Some(d) = device() else { return };
+    let mut s = session(d);
+    let h = super::pick::spot_handle(s.scene(), 0).expect("a spot light");
+    let (q, _) = project(&s.scene().camera, h).expect("the handle is in view");
+    let dir0 = match &s.scene().lights[0] {
+        caustics::scene::Light::Spot { direction, .. } => *direction,
+        _ => unreachable!(),
+    };
+    s.act(Action::Press { x: q.x, y: q.y, mods: Mods::default() }).expect("press");
+    assert_eq!(s.selection, Some(Selection::Light(0)));
+    s.act(Action::Drag { x: q.x + 8.0, y: q.y }).expect("drag");
+    s.act(Action::Release).expect("release");
+    let (pos, dir) = match &s.scene().lights[0] {
+        caustics::scene::Light::Spot { position, direction, .. } => (*position, *direction),
+        _ => unreachable!(),
+    };
+    assert!(dir.dot(dir0) < 0.9999, "the light was not aimed");
+    let h2 = super::pick::spot_handle(s.scene(), 0).expect("spot");
+    let (q2, _) = project(&s.scene().camera, h2).expect("in view");
+    assert!(q2.x > q.x + 1.0, "the handle did not follow the mouse: {q:?} -> {q2:?}");
+    assert_eq!(s.scene().lights[0].position(), Some(pos));
+    // The temporal filter renders a few frames more after a change, then stops.
+    s.act(Action::SetTemporal(true)).expect("temporal");
+    let mut n = 0;
+    while s.render().expect("frame") {
+        n += 1;
+        assert!(n < 20, "frames never stop");
+    }
+    assert!(n > 1, "{n} frames");
+}

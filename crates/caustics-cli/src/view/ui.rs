@@ -246,8 +246,6 @@ fn view_area(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session, disp
 fn overlays(painter: &egui::Painter, session: &Session, to_screen: &dyn Fn(glam::Vec2) -> Pos2) {
     let scene = session.scene();
     let cam = &scene.camera;
-    let (lo, hi) = scene.bounds();
-    let scale = (hi - lo).length().max(1e-3);
     for (i, l) in scene.lights.iter().enumerate() {
         let Some(p) = l.position() else { continue };
         let Some((q, _)) = project(cam, p) else { continue };
@@ -256,10 +254,12 @@ fn overlays(painter: &egui::Painter, session: &Session, to_screen: &dyn Fn(glam:
         let colour = if selected { Color32::WHITE } else { Color32::from_rgb(255, 210, 60) };
         painter.circle_filled(c, if selected { 6.0 } else { 4.5 }, Color32::from_rgb(255, 210, 60));
         painter.circle_stroke(c, 9.0, Stroke::new(1.5, colour));
-        if let Light::Spot { direction, .. } = l
-            && let Some((q2, _)) = project(cam, p + *direction * 0.15 * scale)
+        if let Some(h) = pick::spot_handle(scene, i)
+            && let Some((q2, _)) = project(cam, h)
         {
-            painter.line_segment([c, to_screen(q2)], Stroke::new(1.5, colour));
+            let e = to_screen(q2);
+            painter.line_segment([c, e], Stroke::new(1.5, colour));
+            painter.circle_stroke(e, 4.0, Stroke::new(1.5, colour));
         }
     }
     if let Some(Selection::Object(i)) = session.selection
@@ -333,6 +333,7 @@ fn side_panel(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
             "Left drag: orbit (on a light or object: move it in the plane facing you)\n\
              Middle/right or Shift+left drag: pan · Wheel: zoom\n\
              Click: select · Ctrl+drag: rotate the selected object, aim the selected spot light\n\
+             Drag the circle at the end of a spot light's axis: aim it\n\
              F12/P: screenshot (PNG + EXR) · B: A/B (GPU ↔ reference) · D: difference · Esc: deselect",
         );
     });
