@@ -3,7 +3,8 @@
 //! panels driven by synthetic input; the background reference and its cancellation.
 //!
 //! GPU tests skip with a printed reason when there is no adapter, except in CI (`CI=true`),
-//! where they fail. `CAUSTICS_BLESS=1` rewrites the golden image.
+//! where they fail. `CAUSTICS_ACCEPT_GOLDEN=1` rewrites the golden image (as the library's
+//! golden tests); on a mismatch the screenshot is written beside it (`*.actual.png`).
 
 use super::camera::project;
 use super::pick::Selection;
@@ -18,10 +19,11 @@ use std::sync::OnceLock;
 
 /// The golden image of the scripted session (96 × 72, 64² photons, lavapipe).
 const GOLDEN: &str = "tests/golden/view_session.png";
-/// Tolerance against the golden image, in sRGB-encoded [0, 1] values: RMSE at most 0.01 and at
-/// most 0.5 % of the pixels off by more than 0.1 (different GPUs round differently at edges).
-const GOLDEN_RMSE: f64 = 0.01;
-const GOLDEN_OUTLIERS: f64 = 0.005;
+/// Tolerance against the golden image, in sRGB-encoded [0, 1] values: RMSE at most 0.02 and at
+/// most 1 % of the pixels off by more than 0.1 (other GPUs round differently at edges; a wrong
+/// camera, light or technique after the script is far outside this).
+const GOLDEN_RMSE: f64 = 0.02;
+const GOLDEN_OUTLIERS: f64 = 0.01;
 
 /// One device for every test of this binary.
 fn device() -> Option<&'static (wgpu::Device, wgpu::Queue)> {
@@ -118,11 +120,11 @@ fn scripted_session_matches_golden() {
 
 fn compare_with_golden(shot: &Image, png: &std::path::Path) {
     let golden = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(GOLDEN);
-    let bless = std::env::var("CAUSTICS_BLESS").is_ok_and(|v| v == "1");
+    let bless = std::env::var("CAUSTICS_ACCEPT_GOLDEN").is_ok_and(|v| v == "1");
     if bless || !golden.exists() {
         assert!(
             !std::env::var("CI").is_ok_and(|v| v == "true") || bless,
-            "{} is missing (CAUSTICS_BLESS=1 writes it)",
+            "{} is missing (CAUSTICS_ACCEPT_GOLDEN=1 writes it; commit it)",
             golden.display()
         );
         std::fs::create_dir_all(golden.parent().expect("folder")).expect("golden folder");
@@ -147,9 +149,12 @@ fn compare_with_golden(shot: &Image, png: &std::path::Path) {
     let n = shot.pixels.len() as f64;
     let rmse = (se / (3.0 * n)).sqrt();
     let frac = outliers as f64 / n;
+    if rmse > GOLDEN_RMSE || frac > GOLDEN_OUTLIERS {
+        let _ = std::fs::copy(png, golden.with_extension("actual.png"));
+    }
     assert!(
         rmse <= GOLDEN_RMSE && frac <= GOLDEN_OUTLIERS,
-        "screenshot {} differs from {}: RMSE {rmse:.4} (limit {GOLDEN_RMSE}), {:.2} % outliers (limit {:.2} %)",
+        "screenshot {} differs from {}: RMSE {rmse:.4} (limit {GOLDEN_RMSE}), {:.2} % outliers (limit {:.2} %); wrote *.actual.png beside it",
         png.display(),
         golden.display(),
         frac * 100.0,
