@@ -277,6 +277,22 @@ fn panels_turn_input_into_actions() {
     run(&mut s, vec![egui::Event::PointerMoved(b)]);
     run(&mut s, vec![down(b, false)]);
     assert_ne!(s.scene().camera.position, cam.position, "the drag did not orbit");
+    // Grab the ball and move it; the last motion arrives with the release in one pass (as after
+    // a slow frame) and still counts.
+    let scene = s.scene().clone();
+    let ball =
+        scene.objects.iter().position(|o| matches!(o.shape, caustics::scene::Shape::Sphere { .. })).expect("a ball");
+    let c = super::pick::centre(&scene.objects[ball].shape);
+    let (q, _) = project(&scene.camera, c).expect("in view");
+    let a = egui::pos2(q.x, q.y);
+    let b = egui::pos2(q.x + 30.0, q.y);
+    run(&mut s, vec![egui::Event::PointerMoved(a), down(a, true)]);
+    run(&mut s, vec![egui::Event::PointerMoved(egui::pos2(q.x + 10.0, q.y))]);
+    run(&mut s, vec![egui::Event::PointerMoved(b), down(b, false)]);
+    assert_eq!(s.selection, Some(Selection::Object(ball)));
+    let (q2, _) = project(&s.scene().camera, super::pick::centre(&s.scene().objects[ball].shape)).expect("in view");
+    // The grabbed surface point follows the mouse; the centre, further away, moves a little less.
+    assert!(q2.x - q.x > 20.0 && q2.x - q.x <= 30.5 && (q2.y - q.y).abs() < 0.5, "the ball went from {q:?} to {q2:?}");
     // Keys: B shows the reference, D the difference.
     let key = |k| egui::Event::Key {
         key: k,

@@ -204,11 +204,13 @@ fn view_area(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session, disp
                 Some(DragMode::Orbit)
             };
     }
-    if resp.dragged() {
+    // (A slow frame can deliver the last motion and the release in one pass: apply the motion
+    // before the release.)
+    if resp.dragged() || resp.drag_stopped() {
         let d = resp.drag_delta() * ppp * state.render_scale;
         match state.mode {
             Some(DragMode::Grab) => {
-                if let Some(p) = pos {
+                if let Some(p) = pos.or_else(|| ui.input(|i| i.pointer.latest_pos())) {
                     let (x, y) = to_px(p);
                     act(session, Action::Drag { x, y });
                 }
