@@ -5,7 +5,7 @@ use super::Start;
 use super::session::Session;
 use super::ui::{self, UiState};
 use anyhow::{Context as _, Result, anyhow};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use winit::application::ApplicationHandler;
 use winit::event::WindowEvent;
@@ -25,6 +25,9 @@ struct Running {
     egui_renderer: egui_wgpu::Renderer,
     display_id: Option<egui::TextureId>,
     next_repaint: Option<Instant>,
+    /// GPU errors outside the renderer's error scopes (shown in the panel instead of wgpu's
+    /// default panic).
+    gpu_error: Arc<Mutex<Option<String>>>,
 }
 
 struct App {
@@ -66,6 +69,16 @@ impl Running {
         let (adapter, device, queue) = super::open_device(&instance, args.adapter.as_deref(), Some(&surface))?;
         let info = adapter.get_info();
         eprintln!("adapter: {} ({:?})", info.name, info.backend);
+        let gpu_error = Arc::new(Mutex::new(None::<String>));
+        {
+            let slot = gpu_error.clone();
+            device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+                eprintln!("GPU error: {e}");
+                if let Ok(mut s) = slot.lock() {
+                    *s = Some(e.to_string());
+                }
+            }));
+        }
         let caps = surface.get_capabilities(&adapter);
         let format = caps
             .formats
@@ -117,6 +130,7 @@ impl Running {
             egui_renderer,
             display_id: None,
             next_repaint: Some(Instant::now()),
+            gpu_error,
         })
     }
 
@@ -128,6 +142,9 @@ impl Running {
 
     fn redraw(&mut self) {
         self.session.update();
+        if let Some(e) = self.gpu_error.lock().ok().and_then(|mut s| s.take()) {
+            self.session.error = Some(format!("GPU error: {e}"));
+        }
         let raw = self.egui_state.take_egui_input(&self.window);
         let (session, state, display) = (&mut self.session, &mut self.ui_state, self.display_id);
         let full = self.egui_ctx.run_ui(raw, |ui| ui::draw(ui, state, session, display));
