@@ -50,8 +50,9 @@ pub enum Action {
     Zoom {
         steps: f32,
     },
-    /// A primary-button press: picks a light or an object (or, with [`Mods::rotate`], starts
-    /// rotating the selected object or aiming the selected spot light).
+    /// A primary-button press: picks a light or an object, or a spot light's axis handle (or,
+    /// with [`Mods::rotate`], starts rotating the selected object or aiming the selected spot
+    /// light). A press on nothing keeps the selection.
     Press {
         x: f32,
         y: f32,
@@ -459,7 +460,11 @@ impl Session {
         }
         let accel = self.accel();
         let picked = pick::pick(self.scene(), &accel, x, y);
-        self.selection = picked.map(|(s, _)| s);
+        // A press on nothing keeps the selection (it starts an orbit); a click on nothing
+        // deselects (the panel sends `Select(None)`).
+        if let Some((s, _)) = picked {
+            self.selection = Some(s);
+        }
         self.drag = match picked {
             Some((Selection::Light(i), p)) => Some(Drag::MoveLight { light: i, start: p, anchor: p }),
             Some((Selection::Object(i), p)) => Some(Drag::MoveObject {

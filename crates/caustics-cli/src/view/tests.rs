@@ -197,6 +197,11 @@ fn object_drag_rotate_and_ior() {
     s.act(Action::Release).expect("release");
     let c2 = super::pick::centre(&s.scene().objects[ball].shape);
     assert!((c2 - c).length() > 1e-3);
+    // A press on the floor (the start of an orbit) keeps the selection.
+    s.act(Action::Press { x: 1.0, y: 70.0, mods: Mods::default() }).expect("press");
+    assert!(!s.dragging());
+    assert_eq!(s.selection, Some(Selection::Object(ball)));
+    s.act(Action::Release).expect("release");
     // Ctrl-drag rotates about the centre: the centre stays.
     s.act(Action::Press { x: 1.0, y: 1.0, mods: Mods { rotate: true } }).expect("press");
     s.act(Action::Drag { x: 40.0, y: 1.0 }).expect("rotate");

@@ -234,6 +234,9 @@ fn view_area(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session, disp
     {
         let (x, y) = to_px(p);
         act(session, Action::Press { x, y, mods: Mods::default() });
+        if !session.dragging() {
+            act(session, Action::Select(None));
+        }
         act(session, Action::Release);
     }
     if resp.hovered() {
@@ -334,7 +337,7 @@ fn side_panel(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
         ui.label(
             "Left drag: orbit (on a light or object: move it in the plane facing you)\n\
              Middle/right or Shift+left drag: pan · Wheel: zoom\n\
-             Click: select · Ctrl+drag: rotate the selected object, aim the selected spot light\n\
+             Click: select (on nothing: deselect) · Ctrl+drag: rotate the selected object, aim the selected spot light\n\
              Drag the circle at the end of a spot light's axis: aim it\n\
              F12/P: screenshot (PNG + EXR) · B: A/B (GPU ↔ reference) · D: difference · Esc: deselect",
         );
