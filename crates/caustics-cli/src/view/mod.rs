@@ -5,10 +5,12 @@
 //!   screenshots, the CPU reference job; what the tests drive.
 //! - `camera.rs`: orbit, pan, zoom; `pick.rs`: ray-cast picking and drag geometry.
 //! - `reference.rs`: the background CPU reference and the difference view.
-//! - `ui.rs`: the egui panels and view area (input → actions); `window.rs`: winit, the
-//!   surface, egui-winit and egui-wgpu.
+//! - `ui.rs`: the egui panels and view area (input → actions); `paint.rs`: egui-wgpu painting
+//!   of the panels and the display texture into any target; `window.rs`: winit, the surface,
+//!   egui-winit.
 
 pub mod camera;
+pub mod paint;
 pub mod pick;
 pub mod reference;
 pub mod session;

@@ -345,3 +345,66 @@ fn spot_handle_aims_the_light_and_temporal_frames_settle() {
     }
     assert!(n > 1, "{n} frames");
 }
+
+/// The window's painting path offscreen: panels plus the renderer's display texture through
+/// egui-wgpu. The view area shows the display texture's values unchanged (no second sRGB
+/// encoding or decoding on the way).
+#[test]
+fn painting_shows_the_display_texture_unchanged() {
+    let Some(d) = device() else { return };
+    let mut s = session(d);
+    let ctx = egui::Context::default();
+    let mut state = UiState::new(1.0);
+    state.overlays = false;
+    let (w, h) = (700u32, 400u32);
+    let format = wgpu::TextureFormat::Rgba8Unorm;
+    let target = d.0.create_texture(&wgpu::TextureDescriptor {
+        label: Some("offscreen window"),
+        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let view = target.create_view(&wgpu::TextureViewDescriptor::default());
+    let mut painter = super::paint::Painter::new(&d.0, format);
+    let screen = egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(w as f32, h as f32));
+    let mut pass = |s: &mut Session, painter: &mut super::paint::Painter| {
+        let raw = egui::RawInput { screen_rect: Some(screen), ..Default::default() };
+        let display = painter.display_id();
+        let out = ctx.run_ui(raw, |ui| ui::draw(ui, &mut state, s, display));
+        painter.paint(&d.0, &d.1, &view, [w, h], &ctx, out);
+    };
+    pass(&mut s, &mut painter);
+    pass(&mut s, &mut painter);
+    assert!(s.render().expect("frame"));
+    painter.set_display(&d.0, s.display().expect("a display texture"));
+    pass(&mut s, &mut painter);
+    let gpu = caustics::gpu::GpuContext::from_device(&d.0, &d.1);
+    let shown = gpu.read_texture(&target, 0, 4).expect("read the window");
+    let display = s.display().expect("display").clone();
+    let want = gpu.read_texture(&display, 0, 4).expect("read the display texture");
+    let (dw, dh) = (display.width(), display.height());
+    assert_eq!(dh, h, "the view area is the window's height");
+    let (mut abs, mut signed, mut n) = (0.0f64, 0.0f64, 0.0f64);
+    // Away from the view area's right edge, where the panel's border lies.
+    for y in 0..dh {
+        for x in 0..dw.saturating_sub(4) {
+            for c in 0..3 {
+                let a = shown[((y * w + x) * 4 + c) as usize] as f64;
+                let b = want[((y * dw + x) * 4 + c) as usize] as f64;
+                abs += (a - b).abs();
+                signed += a - b;
+                n += 1.0;
+            }
+        }
+    }
+    let (abs, signed) = (abs / n, signed / n);
+    eprintln!("window vs display texture: mean abs diff {abs:.3}, mean diff {signed:.3} of 255");
+    assert!(
+        abs < 3.0 && signed.abs() < 1.0,
+        "the window shows the display texture off by {abs:.2} (mean |diff|), {signed:.2} (mean diff) of 255"
+    );
+}

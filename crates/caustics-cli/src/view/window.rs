@@ -2,6 +2,7 @@
 //! input and egui-wgpu for painting the panels and the renderer's display texture.
 
 use super::Start;
+use super::paint::Painter;
 use super::session::Session;
 use super::ui::{self, UiState};
 use anyhow::{Context as _, Result, anyhow};
@@ -22,8 +23,7 @@ struct Running {
     ui_state: UiState,
     egui_ctx: egui::Context,
     egui_state: egui_winit::State,
-    egui_renderer: egui_wgpu::Renderer,
-    display_id: Option<egui::TextureId>,
+    painter: Painter,
     next_repaint: Option<Instant>,
     /// GPU errors outside the renderer's error scopes (shown in the panel instead of wgpu's
     /// default panic).
@@ -116,7 +116,7 @@ impl Running {
             window.theme(),
             Some(device.limits().max_texture_dimension_2d as usize),
         );
-        let egui_renderer = egui_wgpu::Renderer::new(&device, format, egui_wgpu::RendererOptions::default());
+        let painter = Painter::new(&device, format);
         Ok(Running {
             window,
             surface,
@@ -127,8 +127,7 @@ impl Running {
             ui_state: UiState::new(args.scale),
             egui_ctx,
             egui_state,
-            egui_renderer,
-            display_id: None,
+            painter,
             next_repaint: Some(Instant::now()),
             gpu_error,
         })
@@ -146,36 +145,26 @@ impl Running {
             self.session.error = Some(format!("GPU error: {e}"));
         }
         let raw = self.egui_state.take_egui_input(&self.window);
-        let (session, state, display) = (&mut self.session, &mut self.ui_state, self.display_id);
-        let full = self.egui_ctx.run_ui(raw, |ui| ui::draw(ui, state, session, display));
-        self.egui_state.handle_platform_output(&self.window, full.platform_output);
+        let (session, state, display) = (&mut self.session, &mut self.ui_state, self.painter.display_id());
+        let mut full = self.egui_ctx.run_ui(raw, |ui| ui::draw(ui, state, session, display));
+        self.egui_state.handle_platform_output(&self.window, std::mem::take(&mut full.platform_output));
         // A frame of the renderer when something changed; its display texture is shown in this
-        // same paint.
-        // (Not before egui's second pass: the first one does not know the panel's width yet,
-        // and a frame at the wrong size costs a full frame.)
+        // same paint. (Not before egui's second pass: the first one does not know the panel's
+        // width yet, and a frame at the wrong size costs a full frame.)
         let settled = self.egui_ctx.cumulative_pass_nr() >= 2;
         if settled
             && let Ok(true) = self.session.render()
             && let Some(tex) = self.session.display()
         {
-            let view = tex.create_view(&wgpu::TextureViewDescriptor::default());
-            match self.display_id {
-                Some(id) => self.egui_renderer.update_egui_texture_from_wgpu_texture(
-                    &self.device,
-                    &view,
-                    wgpu::FilterMode::Linear,
-                    id,
-                ),
-                None => {
-                    self.display_id =
-                        Some(self.egui_renderer.register_native_texture(&self.device, &view, wgpu::FilterMode::Linear))
-                }
+            let first = self.painter.display_id().is_none();
+            self.painter.set_display(&self.device, tex);
+            if first {
+                // The UI pass did not know the first frame's texture: paint again.
+                self.next_repaint = Some(Instant::now());
             }
-            // The first frame's image was not known to the UI pass: paint again.
-            self.next_repaint = Some(Instant::now());
         }
-        self.paint(full.shapes, full.pixels_per_point, &full.textures_delta);
         let delay = full.viewport_output.get(&egui::ViewportId::ROOT).map(|v| v.repaint_delay).unwrap_or(Duration::MAX);
+        self.paint(full);
         let mut next = (delay < Duration::from_secs(3600)).then(|| Instant::now() + delay);
         if self.session.needs_frame() {
             next = Some(Instant::now());
@@ -190,7 +179,7 @@ impl Running {
         }
     }
 
-    fn paint(&mut self, shapes: Vec<egui::epaint::ClippedShape>, ppp: f32, delta: &egui::TexturesDelta) {
+    fn paint(&mut self, full: egui::FullOutput) {
         let frame = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
             wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
@@ -201,42 +190,10 @@ impl Running {
             _ => return,
         };
         let view = frame.texture.create_view(&wgpu::TextureViewDescriptor::default());
-        let clipped = self.egui_ctx.tessellate(shapes, ppp);
-        let sd = egui_wgpu::ScreenDescriptor {
-            size_in_pixels: [self.config.width, self.config.height],
-            pixels_per_point: ppp,
-        };
-        for (id, deltas) in &delta.set {
-            for d in deltas {
-                self.egui_renderer.update_texture(&self.device, &self.queue, *id, d);
-            }
-        }
-        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("egui") });
-        let extra = self.egui_renderer.update_buffers(&self.device, &self.queue, &mut enc, &clipped, &sd);
-        {
-            let mut pass = enc
-                .begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("egui"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &view,
-                        resolve_target: None,
-                        depth_slice: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color { r: 0.05, g: 0.05, b: 0.05, a: 1.0 }),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })],
-                    ..Default::default()
-                })
-                .forget_lifetime();
-            self.egui_renderer.render(&mut pass, &clipped, &sd);
-        }
-        self.queue.submit(extra.into_iter().chain([enc.finish()]));
+        let size = [self.config.width, self.config.height];
+        self.painter.paint(&self.device, &self.queue, &view, size, &self.egui_ctx, full);
         self.window.pre_present_notify();
         self.queue.present(frame);
-        for id in &delta.free {
-            self.egui_renderer.free_texture(id);
-        }
     }
 }
 
