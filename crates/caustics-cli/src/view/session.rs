@@ -88,6 +88,8 @@ pub enum Action {
     /// Start the CPU reference of the current view now.
     StartReference,
     CancelReference,
+    /// HDR-FLIP of the GPU frame against the reference of this view (blocking, about a second).
+    ComputeFlip,
 }
 
 /// What the view area shows.
@@ -154,6 +156,11 @@ pub struct ReferenceView {
     pub diff: Option<(Rgba, f64)>,
     /// Relative MSE of the GPU frame against the reference.
     pub rel_mse: Option<f64>,
+    /// HDR-FLIP mean of the GPU frame against the reference, when asked for
+    /// ([`Action::ComputeFlip`]; it takes about a second at window sizes).
+    pub flip: Option<f64>,
+    /// The GPU frame compared.
+    gpu: Option<Image>,
     pub seconds: f64,
     /// Bumped whenever `rgba` or `diff` change (the window re-uploads them).
     pub version: u64,
@@ -379,6 +386,15 @@ impl Session {
             }
             Action::CancelReference => {
                 self.job = None;
+                Ok(())
+            }
+            Action::ComputeFlip => {
+                let generation = self.generation;
+                if let Some(r) = self.reference.as_mut().filter(|r| r.generation == generation)
+                    && let Some(gpu) = &r.gpu
+                {
+                    r.flip = Some(caustics::metrics::hdr_flip(gpu, &r.image, None)?.mean);
+                }
                 Ok(())
             }
         }
@@ -615,6 +631,8 @@ impl Session {
                         image: out.image,
                         diff: None,
                         rel_mse: None,
+                        flip: None,
+                        gpu: None,
                         seconds: out.stats.seconds,
                         version: self.reference_version,
                     });
@@ -662,6 +680,8 @@ impl Session {
         if let Some(r) = self.reference.as_mut() {
             r.diff = reference::difference(&gpu, &r.image, exposure);
             r.rel_mse = caustics::metrics::rel_mse(&gpu, &r.image, None).ok();
+            r.flip = None;
+            r.gpu = Some(gpu);
             r.version = version;
         }
     }

@@ -238,6 +238,9 @@ fn reference_runs_in_the_background_and_is_cancelled_by_a_view_change() {
     assert_eq!((r.image.width, r.image.height), (96, 72));
     let (_, mean) = r.diff.as_ref().expect("a difference against the GPU frame");
     assert!(*mean < 0.2, "mean tone-mapped difference {mean}");
+    s.act(Action::ComputeFlip).expect("flip");
+    let flip = s.reference().and_then(|r| r.flip).expect("HDR-FLIP");
+    assert!(flip > 0.0 && flip < 0.5, "HDR-FLIP {flip}");
     // A settings change keeps the reference (same view); a light change drops it.
     s.act(Action::SetTechnique(Technique::Hierarchical)).expect("technique");
     assert!(s.reference().is_some());

@@ -597,6 +597,16 @@ fn reference_panel(ui: &mut egui::Ui, session: &mut Session) {
             if let Some((_, d)) = &r.diff {
                 ui.label(format!("mean |difference| (tone-mapped): {:.2} %", d * 100.0));
             }
+            match r.flip {
+                Some(f) => {
+                    ui.label(format!("HDR-FLIP: {f:.4}"));
+                }
+                None => {
+                    if ui.button("HDR-FLIP against the reference").clicked() {
+                        act(session, Action::ComputeFlip);
+                    }
+                }
+            }
         }
         None => {
             ui.label(
