@@ -207,6 +207,8 @@ pub struct Session {
     pub reference_settings: ReferenceSettings,
     job: Option<Job>,
     reference: Option<ReferenceView>,
+    /// The generation whose reference failed (not restarted automatically).
+    reference_failed: Option<u64>,
     reference_version: u64,
     screenshot_dir: PathBuf,
     screenshots: u32,
@@ -250,6 +252,7 @@ impl Session {
             reference_settings: ReferenceSettings { photons_per_light: 1 << 20, camera_spp: 4, ..Default::default() },
             job: None,
             reference: None,
+            reference_failed: None,
             reference_version: 0,
             screenshot_dir,
             screenshots: 0,
@@ -639,12 +642,16 @@ impl Session {
                     self.compare_with_reference();
                 }
                 Ok(_) | Err(Error::Cancelled) => {}
-                Err(e) => self.error = Some(format!("CPU reference: {e}")),
+                Err(e) => {
+                    self.error = Some(format!("CPU reference: {e}"));
+                    self.reference_failed = Some(generation);
+                }
             }
         }
         if self.view_mode != ViewMode::Gpu
             && self.job.is_none()
             && self.reference().is_none()
+            && self.reference_failed != Some(self.generation)
             && self.drag.is_none()
             && self.changed_at.elapsed() >= REFERENCE_DELAY
         {
