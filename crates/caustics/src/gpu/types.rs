@@ -190,6 +190,26 @@ pub struct TemporalParams {
     pub _pad: u32,
 }
 
+/// An object's placement relative to the pose in the scene file (`shared/raster_common.wgsl`):
+/// positions by `model`, normals by `normal` (the rotation alone; the transform is a
+/// similarity). Identity for objects that never moved, which leaves every vertex bit for bit.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct ObjectTransform {
+    pub model: [[f32; 4]; 4],
+    pub normal: [[f32; 4]; 4],
+}
+
+/// Tone mapping of the radiance image for display (`display`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct DisplayParams {
+    pub width: u32,
+    pub height: u32,
+    pub exposure: f32,
+    pub _pad: u32,
+}
+
 /// (Rust type name, WGSL struct name, size) for the layout test.
 pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("FaceGpu", "Face", std::mem::size_of::<FaceGpu>()),
@@ -207,4 +227,6 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
     ("TriParams", "TriParams", std::mem::size_of::<crate::splat::TriParams>()),
     ("BlendParams", "BlendParams", std::mem::size_of::<crate::splat::BlendParams>()),
+    ("ObjectTransform", "ObjectTransform", std::mem::size_of::<ObjectTransform>()),
+    ("DisplayParams", "DisplayParams", std::mem::size_of::<DisplayParams>()),
 ];

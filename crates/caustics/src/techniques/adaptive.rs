@@ -306,13 +306,6 @@ impl Adaptive {
         for b in 0..max_batches {
             traversal.record(enc, timer, "adaptive_traverse", if b == 0 { &begin } else { &end_begin });
         }
-        if std::env::var_os("DBG_DUMP").is_some() {
-            for src in [&self.photons, &self.corners] {
-                let copy = storage(e.ctx, "dbg", src.size(), wgpu::BufferUsages::empty());
-                enc.copy_buffer_to_buffer(src, 0, &copy, 0, src.size());
-                super::DBG.lock().unwrap().push(copy);
-            }
-        }
         {
             let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("adaptive_end"),

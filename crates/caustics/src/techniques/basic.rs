@@ -157,10 +157,5 @@ impl Basic {
 
 /// A small read-only storage buffer holding `v`.
 pub(crate) fn storage_init<T: bytemuck::Pod>(e: &Emit, v: &T) -> wgpu::Buffer {
-    use wgpu::util::DeviceExt;
-    e.ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("splat_params"),
-        contents: bytemuck::bytes_of(v),
-        usage: wgpu::BufferUsages::STORAGE,
-    })
+    e.ctx.buffer_init("splat_params", bytemuck::bytes_of(v), wgpu::BufferUsages::STORAGE)
 }

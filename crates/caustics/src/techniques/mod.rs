@@ -22,7 +22,6 @@ use crate::error::{Error, Result};
 use crate::gpu::types::{CoverParams, LevelParams};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::render::RenderSettings;
-use wgpu::util::DeviceExt;
 
 /// How photons are emitted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
@@ -350,20 +349,11 @@ pub(crate) const FLAG_REFLECT: u32 = 64;
 pub(crate) const FLAG_SKIP: u32 = 128;
 
 pub(crate) fn storage(ctx: &GpuContext, label: &str, size: u64, extra: wgpu::BufferUsages) -> wgpu::Buffer {
-    ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size: size.max(16),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST | extra,
-        mapped_at_creation: false,
-    })
+    ctx.buffer(label, size.max(16), wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | extra)
 }
 
 pub(crate) fn uniform(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
-    ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents: bytes,
-        usage: wgpu::BufferUsages::UNIFORM,
-    })
+    ctx.uniform(label, bytes)
 }
 
 /// A bind group of `pl`'s group 0 with the resources bound at 0, 1, 2, … in order.
@@ -378,11 +368,7 @@ pub(crate) fn bind(
         .enumerate()
         .map(|(i, r)| wgpu::BindGroupEntry { binding: i as u32, resource: r.clone() })
         .collect();
-    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout: &pl.get_bind_group_layout(0),
-        entries: &entries,
-    })
+    ctx.bind_group(label, crate::gpu::pool::LayoutOf::Compute(pl.clone()), &entries)
 }
 
 /// Word offset of level `l` of a mip chain whose level 0 is g × g.
@@ -535,11 +521,22 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
     Ok(pending)
 }
 
-pub static DBG: std::sync::Mutex<Vec<wgpu::Buffer>> = std::sync::Mutex::new(Vec::new());
 impl Pending {
-    /// Read back the counters after the frame was submitted.
-    pub fn finish(mut self, ctx: &GpuContext) -> Result<TechniqueStats> {
-        let cov = ctx.read_buffer(&self.coverage, self.faces as u64 * 4)?;
+    /// The buffers (and byte counts) [`Pending::finish`] reads, in the order it reads them.
+    pub fn sources(&self) -> Vec<(wgpu::Buffer, u64)> {
+        let mut out = vec![(self.coverage.clone(), self.faces as u64 * 4)];
+        out.extend(self.masks.iter().map(|m| (m.clone(), m.size())));
+        let photon = std::mem::size_of::<crate::gpu::types::Photon>() as u64;
+        out.extend(self.kept.iter().map(|(b, count)| (b.clone(), count * photon)));
+        out.extend(self.ctrl.iter().map(|b| (b.clone(), ctrl::WORDS * 4)));
+        out
+    }
+
+    /// The statistics, from the contents of [`Pending::sources`] (read after the frame ran).
+    pub fn finish(mut self, data: &[Vec<u8>]) -> Result<TechniqueStats> {
+        let mut data = data.iter();
+        let mut next = || data.next().cloned().ok_or_else(|| Error::Device("technique statistics incomplete".into()));
+        let cov = next()?;
         let words: &[u32] = bytemuck::cast_slice(&cov);
         let s = &mut self.stats;
         let covered: u64 = words.iter().map(|&w| w as u64).sum();
@@ -548,22 +545,16 @@ impl Pending {
         s.face_texels += self.faces as u64 * (g as u64).pow(2);
         let r = (s.grid as u64 / g as u64).pow(2);
         s.relevant += covered * r;
-        for m in &self.masks {
-            let data = ctx.read_buffer(m, m.size())?;
-            s.coverage_masks.push(bytemuck::cast_slice(&data).to_vec());
+        for _ in &self.masks {
+            s.coverage_masks.push(bytemuck::cast_slice(&next()?).to_vec());
         }
-        for (b, count) in &self.kept {
-            let data = ctx.read_buffer(b, count * std::mem::size_of::<crate::gpu::types::Photon>() as u64)?;
-            s.photons.extend_from_slice(bytemuck::cast_slice(&data));
-        }
-        for (i, b) in DBG.lock().unwrap().drain(..).enumerate() {
-            let data = ctx.read_buffer(&b, b.size())?;
-            std::fs::write(format!("{}/dbg{i}.bin", std::env::var("DBG_DUMP").unwrap()), &data).unwrap();
+        for _ in &self.kept {
+            s.photons.extend_from_slice(bytemuck::cast_slice(&next()?));
         }
         let mut peak_cells = 0u64;
         let mut peak_photons = 0u64;
-        for buf in &self.ctrl {
-            let data = ctx.read_buffer(buf, ctrl::WORDS * 4)?;
+        for _ in &self.ctrl {
+            let data = next()?;
             let c: &[u32] = bytemuck::cast_slice(&data);
             let overflow = c[ctrl::OVERFLOW];
             if overflow != 0 {
