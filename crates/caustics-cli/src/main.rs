@@ -208,11 +208,36 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
+        Err(mut e) => {
+            flag_names(&mut e);
             let input = e.downcast_ref::<Error>().is_some_and(Error::is_input);
             eprintln!("error: {e:#}");
             ExitCode::from(if input { 2 } else { 1 })
         }
+    }
+}
+
+/// The library names a bad setting by its field (`<settings>`, `photons`); the user gave it as a
+/// flag: say so.
+fn flag_names(e: &mut anyhow::Error) {
+    const FLAGS: &[(&str, &str)] = &[
+        ("photons", "--photons"),
+        ("base_grid", "--base-grid"),
+        ("caustic_map_size", "--caustic-map"),
+        ("max_error_tolerance", "--max-error-tolerance"),
+        ("photon_memory", "--photon-memory"),
+        ("quad_linearity", "--quad-linearity"),
+        ("shadow_map_size", "--shadow-map"),
+        ("camera.size", "--size"),
+        ("splat_sigma", "--splat-sigma"),
+        ("tessellation", "--tessellation"),
+    ];
+    if let Some(Error::Input { file, field, .. }) = e.downcast_mut::<Error>()
+        && file == "<settings>"
+        && let Some((_, flag)) = FLAGS.iter().find(|(f, _)| f == field)
+    {
+        *file = "<command line>".into();
+        *field = flag.to_string();
     }
 }
 

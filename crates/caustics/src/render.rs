@@ -236,10 +236,10 @@ pub(crate) fn material_records(scene: &Scene) -> Vec<MaterialGpu> {
     for o in &scene.objects {
         let caster = u32::from(o.caustic_caster);
         let (kind, a, b) = match *scene.material_of(o) {
-            Material::Diffuse { albedo } => (0, albedo.extend(0.0).to_array(), [0.0; 4]),
-            Material::Dielectric { ior, ext_ior } => (1, [ior, ext_ior, 0.0, 0.0], [0.0; 4]),
-            Material::Mirror { reflectance } => (2, reflectance.extend(0.0).to_array(), [0.0; 4]),
-            Material::Conductor { eta, k } => (3, eta.extend(0.0).to_array(), k.extend(0.0).to_array()),
+            Material::Diffuse { albedo } => (KIND_DIFFUSE, albedo.extend(0.0).to_array(), [0.0; 4]),
+            Material::Dielectric { ior, ext_ior } => (KIND_DIELECTRIC, [ior, ext_ior, 0.0, 0.0], [0.0; 4]),
+            Material::Mirror { reflectance } => (KIND_MIRROR, reflectance.extend(0.0).to_array(), [0.0; 4]),
+            Material::Conductor { eta, k } => (KIND_CONDUCTOR, eta.extend(0.0).to_array(), k.extend(0.0).to_array()),
         };
         let (shape_kind, shape) = analytic_shape(&o.shape);
         mats.push(MaterialGpu { kind: [kind, caster, shape_kind, 0], a, b, shape });
@@ -251,12 +251,15 @@ pub(crate) fn material_records(scene: &Scene) -> Vec<MaterialGpu> {
 fn analytic_shape(shape: &crate::scene::Shape) -> (u32, [[f32; 4]; 4]) {
     use crate::scene::Shape;
     match shape {
-        Shape::Sphere { center, radius } => (1, [center.extend(*radius).to_array(), [0.0; 4], [0.0; 4], [0.0; 4]]),
-        Shape::Cylinder { base_center, axis, radius, height } => {
-            (2, [base_center.extend(*radius).to_array(), axis.extend(*height).to_array(), [0.0; 4], [0.0; 4]])
+        Shape::Sphere { center, radius } => {
+            (SHAPE_SPHERE, [center.extend(*radius).to_array(), [0.0; 4], [0.0; 4], [0.0; 4]])
         }
+        Shape::Cylinder { base_center, axis, radius, height } => (
+            SHAPE_CYLINDER,
+            [base_center.extend(*radius).to_array(), axis.extend(*height).to_array(), [0.0; 4], [0.0; 4]],
+        ),
         Shape::Rectangle { center, normal, u, v, size } => (
-            3,
+            SHAPE_RECTANGLE,
             [
                 center.extend(0.0).to_array(),
                 normal.extend(0.0).to_array(),
@@ -264,7 +267,7 @@ fn analytic_shape(shape: &crate::scene::Shape) -> (u32, [[f32; 4]; 4]) {
                 v.extend(size.y).to_array(),
             ],
         ),
-        Shape::Mesh(_) => (0, [[0.0; 4]; 4]),
+        Shape::Mesh(_) => (SHAPE_MESH, [[0.0; 4]; 4]),
     }
 }
 
@@ -585,10 +588,12 @@ fn light_gpu(
     }
     let (kind, power, axis, cone, start) = match light {
         Light::Spot { direction, cone_angle, falloff_start, intensity, .. } => {
-            (0, *intensity, *direction, *cone_angle, *falloff_start)
+            (LIGHT_SPOT, *intensity, *direction, *cone_angle, *falloff_start)
         }
-        Light::Point { intensity, .. } => (1, *intensity, Vec3::Y, std::f32::consts::PI, std::f32::consts::PI),
-        Light::Directional { direction, irradiance } => (2, *irradiance, *direction, 0.0, 0.0),
+        Light::Point { intensity, .. } => {
+            (LIGHT_POINT, *intensity, Vec3::Y, std::f32::consts::PI, std::f32::consts::PI)
+        }
+        Light::Directional { direction, irradiance } => (LIGHT_DIRECTIONAL, *irradiance, *direction, 0.0, 0.0),
     };
     LightGpu {
         faces,
@@ -668,57 +673,60 @@ impl RenderSettings {
         m
     }
 
-    /// Check the settings against the adapter's limits; errors name the command-line option.
+    /// Check the settings against the adapter's limits; errors name the setting (the command line turns it into its flag).
     pub fn validate(&self, ctx: &GpuContext, scene: &Scene) -> Result<()> {
-        let cl = |f: &str, m: String| Err(Error::input("<command line>", f, m));
+        let cl = |f: &str, m: String| Err(Error::input("<settings>", f, m));
         let t = &self.tessellation;
         if !(8..=8192).contains(&t.sphere_segments) || !(8..=8192).contains(&t.cylinder_segments) {
-            return cl("--tessellation", format!("must be 8 to 8192 segments (got {})", t.sphere_segments));
+            return cl("tessellation", format!("must be 8 to 8192 segments (got {})", t.sphere_segments));
         }
         let max_n = self.technique.max_photons();
         if !(16..=max_n).contains(&self.photons) {
             return cl(
-                "--photons",
+                "photons",
                 format!("the {} photon grid must be 16 to {max_n} per side (got {})", self.technique, self.photons),
             );
         }
         if !(self.quad_linearity >= 0.0 && self.quad_linearity <= 1e6) {
-            return cl("--quad-linearity", format!("must be 0 or more texels (got {})", self.quad_linearity));
+            return cl("quad_linearity", format!("must be 0 or more texels (got {})", self.quad_linearity));
         }
         if self.quad_linearity > 0.0
             && !(self.technique == Technique::AdaptiveError && self.splat == SplatMode::Triangles)
         {
             return cl(
-                "--quad-linearity",
+                "quad_linearity",
                 "needs --technique adaptive-error with --splat triangles (it stops on cell quads)".to_string(),
             );
         }
         if !(self.max_error_tolerance >= 0.0 && self.max_error_tolerance <= 1e6) {
-            return cl("--max-error-tolerance", format!("must be 0 or more texels (got {})", self.max_error_tolerance));
+            return cl("max_error_tolerance", format!("must be 0 or more texels (got {})", self.max_error_tolerance));
         }
         let max_tex = ctx.device.limits().max_texture_dimension_2d;
         if !(16..=2048).contains(&self.caustic_map_size) || self.caustic_map_size > max_tex {
             return cl(
-                "--caustic-map",
+                "caustic_map_size",
                 format!("must be 16 to {} texels (got {})", max_tex.min(2048), self.caustic_map_size),
             );
         }
         if !(16..=max_tex).contains(&self.shadow_map_size) {
-            return cl("--shadow-map", format!("must be 16 to {max_tex} texels (got {})", self.shadow_map_size));
+            return cl("shadow_map_size", format!("must be 16 to {max_tex} texels (got {})", self.shadow_map_size));
         }
         if !(self.splat_sigma > 0.1 && self.splat_sigma <= 16.0) {
-            return cl("--splat-sigma", format!("must lie in (0.1, 16] texels (got {})", self.splat_sigma));
+            return cl("splat_sigma", format!("must lie in (0.1, 16] texels (got {})", self.splat_sigma));
         }
         let c = &scene.camera;
         if c.width > max_tex || c.height > max_tex {
-            return cl("--size", format!("{}x{} exceeds this adapter's texture limit {max_tex}", c.width, c.height));
+            return cl(
+                "camera.size",
+                format!("{}x{} exceeds this adapter's texture limit {max_tex}", c.width, c.height),
+            );
         }
         let max_bind = ctx.device.limits().max_storage_buffer_binding_size;
         let faces = scene.lights.iter().map(|l| LightView::new(scene, l).faces.len() as u64).max().unwrap_or(1);
         let accum = (self.caustic_map_size as u64).pow(2) * faces * 24;
         if accum > max_bind {
             return cl(
-                "--caustic-map",
+                "caustic_map_size",
                 format!(
                     "a {0}x{0} caustic map with {faces} face(s) needs {1} MiB, over this adapter's {2} MiB storage-binding limit",
                     self.caustic_map_size,
@@ -728,10 +736,10 @@ impl RenderSettings {
             );
         }
         if self.photon_memory < 64 * 32 {
-            return cl("--photon-memory", "must be at least 2 KiB".into());
+            return cl("photon_memory", "must be at least 2 KiB".into());
         }
         if self.technique == Technique::Basic && self.photon_memory > max_bind {
-            return cl("--photon-memory", format!("must be between 2 KiB and {} MiB", max_bind >> 20));
+            return cl("photon_memory", format!("must be between 2 KiB and {} MiB", max_bind >> 20));
         }
         match self.technique {
             Technique::Basic => {}
@@ -743,7 +751,7 @@ impl RenderSettings {
             }
         }
         if (c.width as u64 * c.height as u64 * 16) > max_bind {
-            return cl("--size", "the image exceeds this adapter's storage-binding limit".into());
+            return cl("camera.size", "the image exceeds this adapter's storage-binding limit".into());
         }
         Ok(())
     }

@@ -37,3 +37,23 @@ fn gpu_structs_match_wgsl() {
     }
     assert!(checked >= LAYOUTS.len());
 }
+
+#[test]
+fn gpu_constants_match_wgsl() {
+    // Every named constant (material kinds, shapes, light kinds) has the Rust value in every
+    // stage that declares it.
+    let mut checked = 0;
+    for (name, _) in gpu::STAGES {
+        let module = gpu::validate_stage(name).unwrap();
+        for (_, c) in module.constants.iter() {
+            let Some(cname) = &c.name else { continue };
+            let Some((_, want)) = gpu::types::CONSTANTS.iter().find(|(n, _)| n == cname) else { continue };
+            let naga::Expression::Literal(naga::Literal::U32(v)) = module.global_expressions[c.init] else {
+                panic!("{name}: {cname} is not a u32 literal");
+            };
+            assert_eq!(v, *want, "{name}: WGSL {cname} = {v}, Rust {want}");
+            checked += 1;
+        }
+    }
+    assert!(checked >= gpu::types::CONSTANTS.len() * 10, "only {checked} constants checked");
+}

@@ -210,6 +210,36 @@ pub struct DisplayParams {
     pub _pad: u32,
 }
 
+/// `MaterialGpu.kind.x`: the material (WGSL `KIND_*`).
+pub const KIND_DIFFUSE: u32 = 0;
+pub const KIND_DIELECTRIC: u32 = 1;
+pub const KIND_MIRROR: u32 = 2;
+pub const KIND_CONDUCTOR: u32 = 3;
+/// `MaterialGpu.kind.z`: the analytic shape (WGSL `SHAPE_*`).
+pub const SHAPE_MESH: u32 = 0;
+pub const SHAPE_SPHERE: u32 = 1;
+pub const SHAPE_CYLINDER: u32 = 2;
+pub const SHAPE_RECTANGLE: u32 = 3;
+/// `LightGpu.info.y`: the light's kind (WGSL `LIGHT_*`).
+pub const LIGHT_SPOT: u32 = 0;
+pub const LIGHT_POINT: u32 = 1;
+pub const LIGHT_DIRECTIONAL: u32 = 2;
+
+/// (name, value) of the constants the WGSL declares under the same name, for the layout test.
+pub const CONSTANTS: &[(&str, u32)] = &[
+    ("KIND_DIFFUSE", KIND_DIFFUSE),
+    ("KIND_DIELECTRIC", KIND_DIELECTRIC),
+    ("KIND_MIRROR", KIND_MIRROR),
+    ("KIND_CONDUCTOR", KIND_CONDUCTOR),
+    ("SHAPE_MESH", SHAPE_MESH),
+    ("SHAPE_SPHERE", SHAPE_SPHERE),
+    ("SHAPE_CYLINDER", SHAPE_CYLINDER),
+    ("SHAPE_RECTANGLE", SHAPE_RECTANGLE),
+    ("LIGHT_SPOT", LIGHT_SPOT),
+    ("LIGHT_POINT", LIGHT_POINT),
+    ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
+];
+
 /// (Rust type name, WGSL struct name, size) for the layout test.
 pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("FaceGpu", "Face", std::mem::size_of::<FaceGpu>()),

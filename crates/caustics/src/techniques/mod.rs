@@ -456,6 +456,36 @@ pub(crate) fn level_params(face: u32) -> LevelParams {
     }
 }
 
+/// A photon emission technique: what the light-space buffers of one light become in its
+/// caustic map. A new technique is a module implementing this trait, a [`Technique`] variant
+/// and its arm in [`emission`]; the frame around it (light-space passes, resolve, shading,
+/// statistics) is shared.
+pub(crate) trait Emission {
+    /// Record face `face`'s photon stage (both branches, where the reflected one at glass is a
+    /// separate traversal), given the face's coverage mip `cover`; buffers whose contents the
+    /// statistics need go into `pending`.
+    fn record_face(
+        &mut self,
+        e: &Emit,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        cover: &wgpu::Buffer,
+        face: u32,
+        pending: &mut Pending,
+    );
+    /// Fill in what the host knows of the statistics after the last face.
+    fn fill(&self, pending: &mut Pending);
+}
+
+/// The registry: the emission of technique `t` for the light `e` describes.
+fn emission(t: Technique, e: &Emit) -> Result<Box<dyn Emission>> {
+    Ok(match t {
+        Technique::Basic => Box::new(basic::Basic::new(e)),
+        Technique::Hierarchical => Box::new(hierarchical::Hierarchical::new(e)?),
+        Technique::AdaptiveLevel | Technique::AdaptiveError => Box::new(adaptive::Adaptive::new(e)?),
+    })
+}
+
 /// Record the photon stage of one light: per face, the coverage mip, then the technique.
 pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, faces: u32) -> Result<Pending> {
     let t = e.settings.technique;
@@ -473,18 +503,7 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
         kept: Vec::new(),
         record_bytes: 32,
     };
-    let mut adaptive = match t {
-        Technique::AdaptiveLevel | Technique::AdaptiveError => Some(adaptive::Adaptive::new(e)?),
-        _ => None,
-    };
-    let mut hier = match t {
-        Technique::Hierarchical => Some(hierarchical::Hierarchical::new(e)?),
-        _ => None,
-    };
-    let mut basic = match t {
-        Technique::Basic => Some(basic::Basic::new(e)),
-        _ => None,
-    };
+    let mut emission = emission(t, e)?;
     for f in 0..faces {
         build_mip(e, enc, timer, "coverage_mip", &cover, &dummy, f, g, 1, 0);
         enc.copy_buffer_to_buffer(&cover, mip_offset(g.trailing_zeros(), g) * 4, &pending.coverage, f as u64 * 4, 4);
@@ -493,31 +512,9 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
             enc.copy_buffer_to_buffer(&cover, 0, &m, 0, (g as u64).pow(2) * 4);
             pending.masks.push(m);
         }
-        // The transmitted branch, then (glass casters) the reflected one: a second traversal.
-        for reflect in [false, true] {
-            if reflect && !e.reflect_branch {
-                continue;
-            }
-            if let Some(a) = &mut adaptive {
-                pending.ctrl.push(a.record_face(e, enc, timer, &cover, f, reflect));
-            }
-            if let Some(h) = &mut hier {
-                pending.ctrl.push(h.record_face(e, enc, timer, f, reflect));
-            }
-        }
-        if let Some(b) = &mut basic {
-            b.record_face(e, enc, timer, f, &mut pending.kept);
-        }
+        emission.record_face(e, enc, timer, &cover, f, &mut pending);
     }
-    if let Some(a) = &adaptive {
-        a.fill(&mut pending);
-    }
-    if let Some(h) = &hier {
-        h.fill(&mut pending);
-    }
-    if let Some(b) = &basic {
-        b.fill(&mut pending);
-    }
+    emission.fill(&mut pending);
     Ok(pending)
 }
 
