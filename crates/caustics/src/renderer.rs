@@ -562,6 +562,16 @@ impl Renderer {
             .device
             .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
             .map_err(|e| Error::Device(format!("{e}")))?;
+        // On a device that other threads poll too, one of them may be about to run a mapping's
+        // callback when our wait returns: wait for it.
+        let start = std::time::Instant::now();
+        while self.ring.iter().any(|s| s.state.load(Ordering::Acquire) == 2) {
+            if start.elapsed().as_secs() > 60 {
+                return Err(Error::Device("the frame statistics were never mapped".into()));
+            }
+            let _ = self.ctx.device.poll(wgpu::PollType::Poll);
+            std::thread::sleep(std::time::Duration::from_micros(200));
+        }
         self.collect()?;
         Ok(self.latest.take())
     }
