@@ -1,6 +1,9 @@
 //! The time-budget controller on a real scene (lavapipe in CI): the built-in scene at 160x120,
 //! a budget between the measured costs of two photon grids; the controller must settle on a
-//! grid between them whose cost lies within the band. One device for the whole binary.
+//! grid between them whose cost lies within the band. The light moves a little every frame, so
+//! every frame redoes its photon stage (a renderer that keeps unchanged maps makes a static
+//! frame's cost independent of the grid: the budget is about frames where something moves).
+//! One device for the whole binary.
 
 mod common;
 
@@ -8,8 +11,18 @@ use caustics::budget::{BudgetController, BudgetSettings};
 use caustics::render::{RenderSettings, Technique};
 use caustics::renderer::{FrameRequest, Renderer};
 
-/// Host milliseconds of one frame: `encode` to the GPU's completion.
+/// Host milliseconds of one frame: `encode` to the GPU's completion. The spot light first
+/// moves on a small circle (a new position every frame).
 fn frame_ms(r: &mut Renderer) -> f64 {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static FRAME: AtomicU32 = AtomicU32::new(0);
+    let phi = FRAME.fetch_add(1, Ordering::Relaxed) as f32 * 0.1;
+    let mut light = r.scene().lights[0].clone();
+    if let caustics::scene::Light::Spot { position, direction, .. } = &mut light {
+        let (u, v) = direction.any_orthonormal_pair();
+        *position += 0.002 * (phi.cos() * u + phi.sin() * v);
+    }
+    r.set_light(0, light).unwrap();
     let t0 = std::time::Instant::now();
     let mut enc = r.context().device.create_command_encoder(&Default::default());
     r.encode(&mut enc, FrameRequest { stats: false }).unwrap();
