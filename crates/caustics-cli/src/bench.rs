@@ -3,6 +3,9 @@
 //! relevant photons, coverage, photons traced and evaluated, GPU milliseconds per pass, speed
 //! relative to basic caustic maps, photon memory, batches, and how far each caustic map lies from
 //! the dense one (HDR-FLIP). Printed, and written as markdown and JSON.
+//!
+//! With `--frames N`, the frame-loop benchmark instead ([`frame_loop`]): the persistent renderer
+//! driven frame by frame through the phases `full`, `camera`, `light` and `object`.
 
 use anyhow::{Context, Result, bail};
 use caustics::Scene;
