@@ -14,6 +14,13 @@
 //! # let _ = q; Ok(()) }
 //! ```
 //!
+//! **Which frames to feed.** The renderer keeps the caustic maps of lights that nothing moved,
+//! so a frame that only moved the camera (or moved nothing) does no photon work and its cost
+//! does not depend on the grid. Feed the controller the frames that redid a light
+//! ([`crate::renderer::FrameStats::lights_redone`] has a `true`), or every frame while
+//! something that lights see moves; feeding camera-only frames would let it climb to the
+//! largest grid on a static scene and make the next light drag slow.
+//!
 //! # Algorithm
 //!
 //! The controller moves along a **ladder of levels** ordered by quality, each a valid setting
