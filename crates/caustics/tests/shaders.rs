@@ -57,3 +57,25 @@ fn gpu_constants_match_wgsl() {
     }
     assert!(checked >= gpu::types::CONSTANTS.len() * 10, "only {checked} constants checked");
 }
+
+#[test]
+fn every_compute_stage_has_an_explicit_layout() {
+    // Group 0 of every compute stage is derived from its WGSL; stages with the same interface
+    // share one bind group layout.
+    let mut distinct: Vec<Vec<wgpu::BindGroupLayoutEntry>> = Vec::new();
+    let mut stages = 0;
+    for (name, _) in gpu::STAGES {
+        if name.starts_with("raster") {
+            continue;
+        }
+        let entries = gpu::stage_bindings(name).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!entries.is_empty(), "{name} binds nothing");
+        assert!(entries.windows(2).all(|w| w[0].binding < w[1].binding), "{name}: bindings out of order");
+        stages += 1;
+        if !distinct.contains(&entries) {
+            distinct.push(entries);
+        }
+    }
+    eprintln!("{stages} compute stages, {} distinct bind group layouts", distinct.len());
+    assert!(distinct.len() <= stages);
+}

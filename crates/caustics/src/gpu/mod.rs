@@ -80,6 +80,93 @@ pub fn validate_stage(name: &str) -> Result<naga::Module> {
     Ok(module)
 }
 
+/// Group 0 of compute stage `name` as layout entries: every binding its `main` uses, typed from
+/// the WGSL (naga reflection). Float textures are non-filterable (the stages read them with
+/// `textureLoad`; a stage with a filtering sampler is refused).
+pub fn stage_bindings(name: &str) -> Result<Vec<wgpu::BindGroupLayoutEntry>> {
+    let src = stage_source(name);
+    let module = naga::front::wgsl::parse_str(&src)
+        .map_err(|e| Error::Shader { name: name.into(), message: e.emit_to_string(&src) })?;
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+        .validate(&module)
+        .map_err(|e| Error::Shader { name: name.into(), message: format!("{e:?}") })?;
+    let ep = module
+        .entry_points
+        .iter()
+        .position(|e| e.name == "main")
+        .ok_or_else(|| Error::Shader { name: name.into(), message: "no entry point main".into() })?;
+    let uses = info.get_entry_point(ep);
+    let mut entries = Vec::new();
+    for (handle, var) in module.global_variables.iter() {
+        let Some(binding) = &var.binding else { continue };
+        if uses[handle].is_empty() {
+            continue;
+        }
+        let bad = |m: &str| Error::Shader { name: name.into(), message: format!("binding {}: {m}", binding.binding) };
+        if binding.group != 0 {
+            return Err(bad("only group 0 is used"));
+        }
+        let ty = match (&module.types[var.ty].inner, var.space) {
+            (_, naga::AddressSpace::Uniform) => wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            (_, naga::AddressSpace::Storage { access }) => wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: access == naga::StorageAccess::LOAD },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            (naga::TypeInner::Sampler { comparison: true }, _) => {
+                wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison)
+            }
+            (naga::TypeInner::Sampler { comparison: false }, _) => return Err(bad("filtering samplers are not used")),
+            (naga::TypeInner::Image { dim, arrayed, class }, _) => {
+                let view_dimension = match (dim, arrayed) {
+                    (naga::ImageDimension::D2, false) => wgpu::TextureViewDimension::D2,
+                    (naga::ImageDimension::D2, true) => wgpu::TextureViewDimension::D2Array,
+                    _ => return Err(bad("only 2D textures and 2D arrays are used")),
+                };
+                match class {
+                    naga::ImageClass::Sampled { kind, multi } => wgpu::BindingType::Texture {
+                        sample_type: match kind {
+                            naga::ScalarKind::Float => wgpu::TextureSampleType::Float { filterable: false },
+                            naga::ScalarKind::Uint => wgpu::TextureSampleType::Uint,
+                            _ => wgpu::TextureSampleType::Sint,
+                        },
+                        view_dimension,
+                        multisampled: *multi,
+                    },
+                    naga::ImageClass::Depth { multi } => wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension,
+                        multisampled: *multi,
+                    },
+                    naga::ImageClass::Storage { format: naga::StorageFormat::Rgba8Unorm, access }
+                        if *access == naga::StorageAccess::STORE =>
+                    {
+                        wgpu::BindingType::StorageTexture {
+                            access: wgpu::StorageTextureAccess::WriteOnly,
+                            format: wgpu::TextureFormat::Rgba8Unorm,
+                            view_dimension,
+                        }
+                    }
+                    _ => return Err(bad("unsupported texture class")),
+                }
+            }
+            _ => return Err(bad("unsupported binding")),
+        };
+        entries.push(wgpu::BindGroupLayoutEntry {
+            binding: binding.binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty,
+            count: None,
+        });
+    }
+    entries.sort_by_key(|e| e.binding);
+    Ok(entries)
+}
+
 /// A device and queue, and what the adapter can do.
 #[derive(Clone)]
 pub struct GpuContext {
@@ -93,6 +180,10 @@ pub struct GpuContext {
     /// with the count of those created ([`pool`]).
     compute_cache: std::sync::Arc<std::sync::Mutex<std::collections::HashMap<String, wgpu::ComputePipeline>>>,
     render_cache: std::sync::Arc<std::sync::Mutex<std::collections::HashMap<String, wgpu::RenderPipeline>>>,
+    /// Bind group layouts by their entries: stages with the same interface share one.
+    layouts: std::sync::Arc<
+        std::sync::Mutex<std::collections::HashMap<Vec<wgpu::BindGroupLayoutEntry>, wgpu::BindGroupLayout>>,
+    >,
     pool: std::sync::Arc<std::sync::Mutex<pool::Pool>>,
 }
 
@@ -189,6 +280,7 @@ impl GpuContext {
             timestamps: device.features().contains(wgpu::Features::TIMESTAMP_QUERY),
             compute_cache: Default::default(),
             render_cache: Default::default(),
+            layouts: Default::default(),
             pool: Default::default(),
         }
     }
@@ -234,9 +326,10 @@ impl GpuContext {
             .entry(key)
             .or_insert_with(|| {
                 let module = self.shader(name);
+                let layout = self.stage_layout(name);
                 self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                     label: Some(name),
-                    layout: None,
+                    layout: Some(&layout),
                     module: &module,
                     entry_point: Some("main"),
                     compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
@@ -244,6 +337,33 @@ impl GpuContext {
                 })
             })
             .clone()
+    }
+
+    /// The pipeline layout of compute stage `name`: group 0 as its WGSL declares it (the
+    /// bindings its entry point uses, as wgpu's derived layouts have them), with the bind group
+    /// layout shared by every stage whose group 0 is the same.
+    pub fn stage_layout(&self, name: &str) -> wgpu::PipelineLayout {
+        let entries = stage_bindings(name).unwrap_or_else(|e| panic!("{e}"));
+        let bgl = self
+            .layouts
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .entry(entries.clone())
+            .or_insert_with(|| {
+                self.device
+                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(name), entries: &entries })
+            })
+            .clone();
+        self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(name),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
+        })
+    }
+
+    /// Distinct bind group layouts of the compute stages built so far.
+    pub fn shared_layouts(&self) -> usize {
+        self.layouts.lock().unwrap_or_else(|e| e.into_inner()).len()
     }
 
     /// A render pipeline built once per context by `make`, under `name`.
