@@ -211,7 +211,28 @@ pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+/// Keep Mesa's device-selection layer from printing "error: XDG_RUNTIME_DIR is invalid or not
+/// set in the environment." (twice) on machines without a Wayland session. The layer
+/// (`VK_LAYER_MESA_device_select`, an implicit Vulkan layer installed with Mesa's drivers)
+/// calls `wl_display_connect` inside every `vkEnumeratePhysicalDevices` when the instance
+/// enables `VK_KHR_wayland_surface`, which wgpu always does; libwayland-client prints that line
+/// when the connection cannot even be attempted. Only where no Wayland display can be reached
+/// (no `WAYLAND_SOCKET`, neither `XDG_RUNTIME_DIR` nor `WAYLAND_DISPLAY` an absolute path) and
+/// the user chose nothing about the layer, it is switched off through the variable its manifest
+/// names for that (`disable_environment`: `NODEVICE_SELECT=1`). Real errors still print.
+#[expect(unsafe_code, reason = "std::env::set_var is unsafe in edition 2024; called before any thread exists")]
+fn quiet_headless_vulkan() {
+    let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty());
+    let absolute = |k: &str| var(k).is_some_and(|v| std::path::Path::new(&v).is_absolute());
+    let wayland = var("WAYLAND_SOCKET").is_some() || absolute("XDG_RUNTIME_DIR") || absolute("WAYLAND_DISPLAY");
+    if !wayland && var("NODEVICE_SELECT").is_none() && var("MESA_VK_DEVICE_SELECT").is_none() {
+        // SAFETY: called first thing in `main`, before any other thread exists.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
+}
+
 fn main() -> ExitCode {
+    quiet_headless_vulkan();
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
@@ -219,11 +240,36 @@ fn main() -> ExitCode {
             eprintln!("cancelled: nothing was written");
             ExitCode::from(progress::CANCELLED_EXIT)
         }
-        Err(e) => {
+        Err(mut e) => {
+            flag_names(&mut e);
             let input = e.downcast_ref::<Error>().is_some_and(Error::is_input);
             eprintln!("error: {e:#}");
             ExitCode::from(if input { 2 } else { 1 })
         }
+    }
+}
+
+/// The library names a bad setting by its field (`<settings>`, `photons`); the user gave it as a
+/// flag: say so.
+fn flag_names(e: &mut anyhow::Error) {
+    const FLAGS: &[(&str, &str)] = &[
+        ("photons", "--photons"),
+        ("base_grid", "--base-grid"),
+        ("caustic_map_size", "--caustic-map"),
+        ("max_error_tolerance", "--max-error-tolerance"),
+        ("photon_memory", "--photon-memory"),
+        ("quad_linearity", "--quad-linearity"),
+        ("shadow_map_size", "--shadow-map"),
+        ("camera.size", "--size"),
+        ("splat_sigma", "--splat-sigma"),
+        ("tessellation", "--tessellation"),
+    ];
+    if let Some(Error::Input { file, field, .. }) = e.downcast_mut::<Error>()
+        && file == "<settings>"
+        && let Some((_, flag)) = FLAGS.iter().find(|(f, _)| f == field)
+    {
+        *file = "<command line>".into();
+        *field = flag.to_string();
     }
 }
 

@@ -125,7 +125,7 @@ fn shade_ray(o_in: vec3f, d_in: vec3f, leaving_in: u32) -> vec3f {
             l += w * f1 * trace_receivers(h.p, reflect(d, n));
             w *= 1.0 - f1;
             let t1 = refract_dir(d, n, ext / ior);
-            if (m.kind.z != 1u) {
+            if (m.kind.z != SHAPE_SPHERE) {
                 // Open cylinders and rectangles have no inside: a thin sheet, out the other side.
                 w *= 1.0 - f1;
             } else {

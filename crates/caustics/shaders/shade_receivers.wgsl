@@ -121,7 +121,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let cos_t = dot(n, l.xyz);
     if (cos_t <= 0.0) { return; }
     var e_direct: vec3f;
-    if (light.info.y == 2u) {
+    if (light.info.y == LIGHT_DIRECTIONAL) {
         e_direct = light.power.rgb * cos_t;
     } else {
         e_direct = intensity_toward(light, -l.xyz) * cos_t / (l.w * l.w);

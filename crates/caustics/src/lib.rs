@@ -3,6 +3,9 @@
 //! - [`scene`]: the scene format, meshes, the validated [`scene::Scene`].
 //! - [`image_io`]: HDR images, EXR and PNG output, tone mapping.
 
+#![forbid(unsafe_code)]
+
+pub mod budget;
 pub mod error;
 pub mod gpu;
 pub mod image_io;

@@ -16,6 +16,7 @@
 //! 5. `shade_receivers` per light, then `composite` (image-space refraction and reflection).
 
 use crate::error::{Error, Result};
+use crate::gpu::pool::LayoutOf;
 use crate::gpu::types::*;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::image_io::Image;
@@ -26,10 +27,9 @@ pub use crate::techniques::{LevelStats, Technique, TechniqueStats};
 use glam::{Mat4, Vec3};
 use std::ops::Range;
 use std::path::Path;
-use wgpu::util::DeviceExt;
 
 /// Settings of a GPU render.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct RenderSettings {
     /// Photon grid size N per light-view face: N × N photons (the equivalent, finest grid of
     /// the adaptive techniques).
@@ -160,12 +160,17 @@ const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// The largest caster geometry buffer; denser photon grids interpolate between its texels.
 pub(crate) const MAX_GBUFFER: u32 = 2048;
 
-struct Geometry {
+/// The scene's triangles, uploaded once (in the pose of the scene file), and the per-object
+/// records the frame rewrites when objects move.
+pub(crate) struct Geometry {
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
     /// Index ranges per object.
     ranges: Vec<Range<u32>>,
-    materials: wgpu::Buffer,
+    /// Per object: material and analytic shape (in the current pose).
+    pub materials: wgpu::Buffer,
+    /// Per object: [`ObjectTransform`] from the scene file's pose to the current one.
+    pub transforms: wgpu::Buffer,
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -190,11 +195,11 @@ fn in_subset(scene: &Scene, i: usize, s: Subset) -> bool {
     }
 }
 
-fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation) -> Geometry {
+/// Upload the triangles of `scene` (the pose of its file) with identity transforms.
+pub(crate) fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation) -> Geometry {
     let mut vertices: Vec<Vertex> = Vec::new();
     let mut indices: Vec<u32> = Vec::new();
     let mut ranges = Vec::new();
-    let mut mats = Vec::new();
     for (i, o) in scene.objects.iter().enumerate() {
         let m = o.shape.tessellate(t);
         let base = vertices.len() as u32;
@@ -204,47 +209,57 @@ fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation) -> Geometr
         let start = indices.len() as u32;
         indices.extend(m.indices.iter().flat_map(|t| t.map(|x| x + base)));
         ranges.push(start..indices.len() as u32);
+    }
+    let storage = wgpu::BufferUsages::STORAGE;
+    let identity = glam::Affine3A::IDENTITY;
+    let transforms: Vec<ObjectTransform> = scene.objects.iter().map(|_| object_transform(&identity)).collect();
+    Geometry {
+        vertices: ctx.buffer_init("vertices", bytemuck::cast_slice(&vertices), wgpu::BufferUsages::VERTEX),
+        indices: ctx.buffer_init("indices", bytemuck::cast_slice(&indices), wgpu::BufferUsages::INDEX),
+        ranges,
+        materials: ctx.buffer_init("materials", bytemuck::cast_slice(&material_records(scene)), storage),
+        transforms: ctx.buffer_init("object_transforms", bytemuck::cast_slice(&transforms), storage),
+    }
+}
+
+/// The GPU record of a transform (positions by the affine map, normals by its rotation).
+pub(crate) fn object_transform(t: &glam::Affine3A) -> ObjectTransform {
+    let m = glam::Mat3::from(t.matrix3);
+    let s = m.x_axis.length();
+    let rot = if s == 1.0 { m } else { m * (1.0 / s) };
+    ObjectTransform { model: Mat4::from(*t).to_cols_array_2d(), normal: Mat4::from_mat3(rot).to_cols_array_2d() }
+}
+
+/// Per object: material and analytic shape of `scene` as it is now.
+pub(crate) fn material_records(scene: &Scene) -> Vec<MaterialGpu> {
+    let mut mats = Vec::new();
+    for o in &scene.objects {
         let caster = u32::from(o.caustic_caster);
         let (kind, a, b) = match *scene.material_of(o) {
-            Material::Diffuse { albedo } => (0, albedo.extend(0.0).to_array(), [0.0; 4]),
-            Material::Dielectric { ior, ext_ior } => (1, [ior, ext_ior, 0.0, 0.0], [0.0; 4]),
-            Material::Mirror { reflectance } => (2, reflectance.extend(0.0).to_array(), [0.0; 4]),
-            Material::Conductor { eta, k } => (3, eta.extend(0.0).to_array(), k.extend(0.0).to_array()),
+            Material::Diffuse { albedo } => (KIND_DIFFUSE, albedo.extend(0.0).to_array(), [0.0; 4]),
+            Material::Dielectric { ior, ext_ior } => (KIND_DIELECTRIC, [ior, ext_ior, 0.0, 0.0], [0.0; 4]),
+            Material::Mirror { reflectance } => (KIND_MIRROR, reflectance.extend(0.0).to_array(), [0.0; 4]),
+            Material::Conductor { eta, k } => (KIND_CONDUCTOR, eta.extend(0.0).to_array(), k.extend(0.0).to_array()),
         };
         let (shape_kind, shape) = analytic_shape(&o.shape);
         mats.push(MaterialGpu { kind: [kind, caster, shape_kind, 0], a, b, shape });
     }
-    let d = &ctx.device;
-    Geometry {
-        vertices: d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("vertices"),
-            contents: bytemuck::cast_slice(&vertices),
-            usage: wgpu::BufferUsages::VERTEX,
-        }),
-        indices: d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("indices"),
-            contents: bytemuck::cast_slice(&indices),
-            usage: wgpu::BufferUsages::INDEX,
-        }),
-        ranges,
-        materials: d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("materials"),
-            contents: bytemuck::cast_slice(&mats),
-            usage: wgpu::BufferUsages::STORAGE,
-        }),
-    }
+    mats
 }
 
 /// An object's analytic shape for exact intersection in the shaders: (kind, parameters).
 fn analytic_shape(shape: &crate::scene::Shape) -> (u32, [[f32; 4]; 4]) {
     use crate::scene::Shape;
     match shape {
-        Shape::Sphere { center, radius } => (1, [center.extend(*radius).to_array(), [0.0; 4], [0.0; 4], [0.0; 4]]),
-        Shape::Cylinder { base_center, axis, radius, height } => {
-            (2, [base_center.extend(*radius).to_array(), axis.extend(*height).to_array(), [0.0; 4], [0.0; 4]])
+        Shape::Sphere { center, radius } => {
+            (SHAPE_SPHERE, [center.extend(*radius).to_array(), [0.0; 4], [0.0; 4], [0.0; 4]])
         }
+        Shape::Cylinder { base_center, axis, radius, height } => (
+            SHAPE_CYLINDER,
+            [base_center.extend(*radius).to_array(), axis.extend(*height).to_array(), [0.0; 4], [0.0; 4]],
+        ),
         Shape::Rectangle { center, normal, u, v, size } => (
-            3,
+            SHAPE_RECTANGLE,
             [
                 center.extend(0.0).to_array(),
                 normal.extend(0.0).to_array(),
@@ -252,14 +267,14 @@ fn analytic_shape(shape: &crate::scene::Shape) -> (u32, [[f32; 4]; 4]) {
                 v.extend(size.y).to_array(),
             ],
         ),
-        Shape::Mesh(_) => (0, [[0.0; 4]; 4]),
+        Shape::Mesh(_) => (SHAPE_MESH, [[0.0; 4]; 4]),
     }
 }
 
 /// Raster pipelines: geometry buffers with a cull mode, and depth only. The "front" buffers of
 /// specular objects are drawn two-sided: the nearest surface of a closed dielectric faces the
 /// viewer anyway, and mirrors and conductors are two-sided (the inside of the mirror ring).
-struct Raster {
+pub(crate) struct Raster {
     none: wgpu::RenderPipeline,
     back: wgpu::RenderPipeline,
     depth_only: wgpu::RenderPipeline,
@@ -278,7 +293,7 @@ fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
 }
 
 /// The raster pipelines, built on the context's first frame and reused after.
-fn raster_pipelines(ctx: &GpuContext) -> Raster {
+pub(crate) fn raster_pipelines(ctx: &GpuContext) -> Raster {
     let mut built = None;
     let mut get = |i: usize, label: &str| {
         ctx.render_pipeline(label, || built.get_or_insert_with(|| build_raster_pipelines(ctx))[i].clone())
@@ -321,7 +336,18 @@ fn build_raster_pipelines(ctx: &GpuContext) -> [wgpu::RenderPipeline; 5] {
             immediate_size: 0,
         })
     };
-    let raster = (ctx.shader("raster"), layout("raster", &[view_entry]));
+    // The objects' transforms, read by the vertex shader.
+    let transforms_entry = wgpu::BindGroupLayoutEntry {
+        binding: 3,
+        visibility: wgpu::ShaderStages::VERTEX,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let raster = (ctx.shader("raster"), layout("raster", &[view_entry, transforms_entry]));
     let peel = (
         ctx.shader("raster_peel"),
         layout(
@@ -330,6 +356,7 @@ fn build_raster_pipelines(ctx: &GpuContext) -> [wgpu::RenderPipeline; 5] {
                 view_entry,
                 texture_entry(1, wgpu::TextureSampleType::Float { filterable: false }),
                 texture_entry(2, wgpu::TextureSampleType::Depth),
+                transforms_entry,
             ],
         ),
     );
@@ -386,41 +413,24 @@ fn texture(
     layers: u32,
     format: wgpu::TextureFormat,
 ) -> wgpu::Texture {
-    ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d { width: size, height: size_y, depth_or_array_layers: layers },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-            | wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    })
+    let usage =
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
+    ctx.texture(label, wgpu::Extent3d { width: size, height: size_y, depth_or_array_layers: layers }, format, usage)
 }
 
-fn layer_view(t: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
-    t.create_view(&wgpu::TextureViewDescriptor {
-        dimension: Some(wgpu::TextureViewDimension::D2),
-        base_array_layer: layer,
-        array_layer_count: Some(1),
-        ..Default::default()
-    })
+fn layer_view(ctx: &GpuContext, t: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
+    ctx.view(t, Some(wgpu::TextureViewDimension::D2), layer, Some(1))
 }
 
-fn array_view(t: &wgpu::Texture) -> wgpu::TextureView {
-    t.create_view(&wgpu::TextureViewDescriptor {
-        dimension: Some(wgpu::TextureViewDimension::D2Array),
-        ..Default::default()
-    })
+fn array_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::TextureView {
+    ctx.view(t, Some(wgpu::TextureViewDimension::D2Array), 0, None)
 }
 
 /// A geometry buffer: position + object id, normal, depth; `layers` faces.
-struct GBuffer {
-    pos: wgpu::Texture,
-    nrm: wgpu::Texture,
-    depth: wgpu::Texture,
+pub(crate) struct GBuffer {
+    pub pos: wgpu::Texture,
+    pub nrm: wgpu::Texture,
+    pub depth: wgpu::Texture,
 }
 
 impl GBuffer {
@@ -433,10 +443,10 @@ impl GBuffer {
     }
 }
 
-struct DrawCtx<'a> {
-    ctx: &'a GpuContext,
-    geo: &'a Geometry,
-    scene: &'a Scene,
+pub(crate) struct DrawCtx<'a> {
+    pub ctx: &'a GpuContext,
+    pub geo: &'a Geometry,
+    pub scene: &'a Scene,
 }
 
 impl DrawCtx<'_> {
@@ -473,7 +483,8 @@ impl DrawCtx<'_> {
         subset: Subset,
         [(front_name, front2), (back_name, back2)]: [(&str, &GBuffer); 2],
     ) {
-        let (first_pos, first_depth) = (layer_view(&first.pos, layer), layer_view(&first.depth, layer));
+        let (first_pos, first_depth) =
+            (layer_view(self.ctx, &first.pos, layer), layer_view(self.ctx, &first.depth, layer));
         let extra = [
             wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&first_pos) },
             wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&first_depth) },
@@ -499,17 +510,15 @@ impl DrawCtx<'_> {
         subset: Subset,
         extra: &[wgpu::BindGroupEntry],
     ) {
-        let ubuf = self.ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(name),
-            contents: bytemuck::bytes_of(&RasterView { world_to_clip: world_to_clip.to_cols_array_2d() }),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let bg = self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(name),
-            layout: &pipeline.get_bind_group_layout(0),
-            entries: &[&[wgpu::BindGroupEntry { binding: 0, resource: ubuf.as_entire_binding() }], extra].concat(),
-        });
-        let views = gb_color.map(|(p, n)| (layer_view(p, layer), layer_view(n, layer)));
+        let ctx = self.ctx;
+        let ubuf =
+            ctx.uniform(name, bytemuck::bytes_of(&RasterView { world_to_clip: world_to_clip.to_cols_array_2d() }));
+        let own = [
+            wgpu::BindGroupEntry { binding: 0, resource: ubuf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 3, resource: self.geo.transforms.as_entire_binding() },
+        ];
+        let bg = ctx.bind_group(name, LayoutOf::Render(pipeline.clone()), &[&own[..], extra].concat());
+        let views = gb_color.map(|(p, n)| (layer_view(ctx, p, layer), layer_view(ctx, n, layer)));
         let clear_pos = wgpu::Color { r: 0.0, g: 0.0, b: 0.0, a: -1.0 };
         let attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = match &views {
             Some((p, n)) => vec![
@@ -531,7 +540,7 @@ impl DrawCtx<'_> {
             ],
             None => vec![],
         };
-        let dview = layer_view(depth, layer);
+        let dview = layer_view(ctx, depth, layer);
         let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(name),
             color_attachments: &attachments,
@@ -579,10 +588,12 @@ fn light_gpu(
     }
     let (kind, power, axis, cone, start) = match light {
         Light::Spot { direction, cone_angle, falloff_start, intensity, .. } => {
-            (0, *intensity, *direction, *cone_angle, *falloff_start)
+            (LIGHT_SPOT, *intensity, *direction, *cone_angle, *falloff_start)
         }
-        Light::Point { intensity, .. } => (1, *intensity, Vec3::Y, std::f32::consts::PI, std::f32::consts::PI),
-        Light::Directional { direction, irradiance } => (2, *irradiance, *direction, 0.0, 0.0),
+        Light::Point { intensity, .. } => {
+            (LIGHT_POINT, *intensity, Vec3::Y, std::f32::consts::PI, std::f32::consts::PI)
+        }
+        Light::Directional { direction, irradiance } => (LIGHT_DIRECTIONAL, *irradiance, *direction, 0.0, 0.0),
     };
     LightGpu {
         faces,
@@ -643,7 +654,7 @@ fn relevant_bound(scene: &Scene, face: &crate::lightspace::LightFace, n: u32, g:
     ((side(a.x, b.x) * side(a.y, b.y)).ceil() as u64).min(all)
 }
 
-fn bytes_to_image(data: &[u8], w: u32, h: u32) -> Image {
+pub(crate) fn bytes_to_image(data: &[u8], w: u32, h: u32) -> Image {
     let px: &[[f32; 4]] = bytemuck::cast_slice(data);
     Image { width: w, height: h, pixels: px.iter().map(|p| [p[0], p[1], p[2]]).collect() }
 }
@@ -662,57 +673,60 @@ impl RenderSettings {
         m
     }
 
-    /// Check the settings against the adapter's limits; errors name the command-line option.
+    /// Check the settings against the adapter's limits; errors name the setting (the command line turns it into its flag).
     pub fn validate(&self, ctx: &GpuContext, scene: &Scene) -> Result<()> {
-        let cl = |f: &str, m: String| Err(Error::input("<command line>", f, m));
+        let cl = |f: &str, m: String| Err(Error::input("<settings>", f, m));
         let t = &self.tessellation;
         if !(8..=8192).contains(&t.sphere_segments) || !(8..=8192).contains(&t.cylinder_segments) {
-            return cl("--tessellation", format!("must be 8 to 8192 segments (got {})", t.sphere_segments));
+            return cl("tessellation", format!("must be 8 to 8192 segments (got {})", t.sphere_segments));
         }
         let max_n = self.technique.max_photons();
         if !(16..=max_n).contains(&self.photons) {
             return cl(
-                "--photons",
+                "photons",
                 format!("the {} photon grid must be 16 to {max_n} per side (got {})", self.technique, self.photons),
             );
         }
         if !(self.quad_linearity >= 0.0 && self.quad_linearity <= 1e6) {
-            return cl("--quad-linearity", format!("must be 0 or more texels (got {})", self.quad_linearity));
+            return cl("quad_linearity", format!("must be 0 or more texels (got {})", self.quad_linearity));
         }
         if self.quad_linearity > 0.0
             && !(self.technique == Technique::AdaptiveError && self.splat == SplatMode::Triangles)
         {
             return cl(
-                "--quad-linearity",
+                "quad_linearity",
                 "needs --technique adaptive-error with --splat triangles (it stops on cell quads)".to_string(),
             );
         }
         if !(self.max_error_tolerance >= 0.0 && self.max_error_tolerance <= 1e6) {
-            return cl("--max-error-tolerance", format!("must be 0 or more texels (got {})", self.max_error_tolerance));
+            return cl("max_error_tolerance", format!("must be 0 or more texels (got {})", self.max_error_tolerance));
         }
         let max_tex = ctx.device.limits().max_texture_dimension_2d;
         if !(16..=2048).contains(&self.caustic_map_size) || self.caustic_map_size > max_tex {
             return cl(
-                "--caustic-map",
+                "caustic_map_size",
                 format!("must be 16 to {} texels (got {})", max_tex.min(2048), self.caustic_map_size),
             );
         }
         if !(16..=max_tex).contains(&self.shadow_map_size) {
-            return cl("--shadow-map", format!("must be 16 to {max_tex} texels (got {})", self.shadow_map_size));
+            return cl("shadow_map_size", format!("must be 16 to {max_tex} texels (got {})", self.shadow_map_size));
         }
         if !(self.splat_sigma > 0.1 && self.splat_sigma <= 16.0) {
-            return cl("--splat-sigma", format!("must lie in (0.1, 16] texels (got {})", self.splat_sigma));
+            return cl("splat_sigma", format!("must lie in (0.1, 16] texels (got {})", self.splat_sigma));
         }
         let c = &scene.camera;
         if c.width > max_tex || c.height > max_tex {
-            return cl("--size", format!("{}x{} exceeds this adapter's texture limit {max_tex}", c.width, c.height));
+            return cl(
+                "camera.size",
+                format!("{}x{} exceeds this adapter's texture limit {max_tex}", c.width, c.height),
+            );
         }
         let max_bind = ctx.device.limits().max_storage_buffer_binding_size;
         let faces = scene.lights.iter().map(|l| LightView::new(scene, l).faces.len() as u64).max().unwrap_or(1);
         let accum = (self.caustic_map_size as u64).pow(2) * faces * 24;
         if accum > max_bind {
             return cl(
-                "--caustic-map",
+                "caustic_map_size",
                 format!(
                     "a {0}x{0} caustic map with {faces} face(s) needs {1} MiB, over this adapter's {2} MiB storage-binding limit",
                     self.caustic_map_size,
@@ -722,10 +736,10 @@ impl RenderSettings {
             );
         }
         if self.photon_memory < 64 * 32 {
-            return cl("--photon-memory", "must be at least 2 KiB".into());
+            return cl("photon_memory", "must be at least 2 KiB".into());
         }
         if self.technique == Technique::Basic && self.photon_memory > max_bind {
-            return cl("--photon-memory", format!("must be between 2 KiB and {} MiB", max_bind >> 20));
+            return cl("photon_memory", format!("must be between 2 KiB and {} MiB", max_bind >> 20));
         }
         match self.technique {
             Technique::Basic => {}
@@ -737,426 +751,437 @@ impl RenderSettings {
             }
         }
         if (c.width as u64 * c.height as u64 * 16) > max_bind {
-            return cl("--size", "the image exceeds this adapter's storage-binding limit".into());
+            return cl("camera.size", "the image exceeds this adapter's storage-binding limit".into());
         }
         Ok(())
     }
 }
 
-/// Render `scene` on the GPU with basic caustic maps. `dump` writes the intermediate buffers.
+/// Render `scene` once on the GPU: a [`crate::renderer::Renderer`] made for one frame, with
+/// everything read back. `dump` writes the intermediate buffers.
 pub fn render(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Option<&Path>) -> Result<GpuRender> {
-    render_with(ctx, scene, s, dump, None)
+    crate::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s.clone())?.render_once(dump)
 }
 
-/// [`render`], with the caustic maps passed through a temporal filter before shading
-/// ([`crate::temporal::TemporalFilter::render`]).
-pub(crate) fn render_with(
-    ctx: &GpuContext,
-    scene: &Scene,
-    s: &RenderSettings,
-    dump: Option<&Path>,
-    temporal: Option<&mut crate::temporal::TemporalFilter>,
-) -> Result<GpuRender> {
-    s.validate(ctx, scene)?;
-    let val_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let oom_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-    let out = render_inner(ctx, scene, s, dump, temporal);
-    let oom = pollster::block_on(oom_scope.pop());
-    let val = pollster::block_on(val_scope.pop());
-    if let Some(e) = oom {
-        return Err(Error::Device(format!("out of GPU memory: {e}")));
-    }
-    if let Some(e) = val {
-        return Err(Error::Device(format!("{e}")));
-    }
-    out
+/// What the passes of a frame share, derived from the scene and the settings.
+pub(crate) struct FrameConsts {
+    /// Photon grid N, caster buffer size G, caustic map size M.
+    pub n: u32,
+    pub g: u32,
+    pub m: u32,
+    /// The light's second caster layer is drawn.
+    pub layer2: bool,
+    /// 0: no search for a second caster; 1: analytic casters only; 2: mesh casters too.
+    pub multi_bounce: f32,
+    pub caster_radius: f32,
+    /// The reflected branch at glass is traced.
+    pub reflect_branch: bool,
 }
 
-fn render_inner(
-    ctx: &GpuContext,
-    scene: &Scene,
-    s: &RenderSettings,
-    dump: Option<&Path>,
-    mut temporal: Option<&mut crate::temporal::TemporalFilter>,
-) -> Result<GpuRender> {
-    let dev = &ctx.device;
-    let geo = upload_geometry(ctx, scene, &s.tessellation);
-    let raster = raster_pipelines(ctx);
-    // The light's second caster layer: only for scenes with caster meshes (analytic casters
-    // met after the first are intersected exactly, and scenes without meshes keep their maps)
-    // and at least two casters (the peel keeps other objects only: one caster leaves it empty).
-    let specular_casters: Vec<_> =
-        scene.objects.iter().filter(|o| o.caustic_caster && scene.material_of(o).is_specular()).collect();
-    let layer2 = s.light_second_layer
-        && specular_casters.len() >= 2
-        && specular_casters.iter().any(|o| matches!(o.shape, crate::scene::Shape::Mesh(_)));
-    let pipelines = crate::techniques::Pipelines::new(ctx, s.technique, s.splat, layer2);
-    let resolve_pl = ctx.compute_pipeline("caustic_resolve");
-    let shade_pl = ctx.compute_pipeline("shade_receivers");
-    let composite_pl = ctx.compute_pipeline("composite");
-    let dc = DrawCtx { ctx, geo: &geo, scene };
-    let mut timer = PassTimer::new(ctx, 2048);
-    let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+impl FrameConsts {
+    pub fn new(scene: &Scene, s: &RenderSettings) -> FrameConsts {
+        // The light's second caster layer: only for scenes with caster meshes (analytic casters
+        // met after the first are intersected exactly, and scenes without meshes keep their
+        // maps) and at least two casters (the peel keeps other objects only: one caster leaves
+        // it empty).
+        let casters: Vec<_> =
+            scene.objects.iter().filter(|o| o.caustic_caster && scene.material_of(o).is_specular()).collect();
+        let meshes = casters.iter().any(|o| matches!(o.shape, crate::scene::Shape::Mesh(_)));
+        let layer2 = s.light_second_layer && casters.len() >= 2 && meshes;
+        // Whether a photon leaving a caster can meet a caster again: not for a lone convex
+        // caster (a sphere), where the search would only cost time.
+        let multi_bounce = if casters.len() == 1 && matches!(casters[0].shape, crate::scene::Shape::Sphere { .. }) {
+            0.0
+        } else if meshes {
+            2.0
+        } else {
+            1.0
+        };
+        FrameConsts {
+            n: s.photons,
+            g: s.photons.min(MAX_GBUFFER),
+            m: s.caustic_map_size,
+            layer2,
+            multi_bounce,
+            caster_radius: scene.caster_bounds().map_or(1.0, |(a, b)| (b - a).length() * 0.5),
+            reflect_branch: s.dielectric_reflection
+                && scene
+                    .objects
+                    .iter()
+                    .any(|o| o.caustic_caster && matches!(scene.material_of(o), Material::Dielectric { .. })),
+        }
+    }
+}
 
-    // 1. Camera geometry buffers.
+/// The camera's geometry buffers and the frame's radiance accumulators.
+pub(crate) struct EyeFrame {
+    pub recv: GBuffer,
+    pub front: GBuffer,
+    pub back: GBuffer,
+    pub front2: GBuffer,
+    pub back2: GBuffer,
+    pub cam_clip: Mat4,
+    /// Radiance of the diffuse surfaces, all light and caustic light only (vec4 per pixel).
+    pub radiance: wgpu::Buffer,
+    pub caustic: wgpu::Buffer,
+}
+
+/// The camera's passes: `eye_receivers`, `eye_specular_front`, `eye_specular_back` and the
+/// second specular layer.
+pub(crate) fn record_eye(
+    dc: &DrawCtx,
+    raster: &Raster,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> EyeFrame {
+    let (ctx, scene) = (dc.ctx, dc.scene);
     let cam = &scene.camera;
     let (lo, hi) = scene.bounds();
     let far = (cam.position.distance((lo + hi) * 0.5) + (hi - lo).length() * 0.5) * 1.05;
     let near = (far * 1e-4).max(1e-3);
     let cam_clip = cam.view_to_clip(near, far) * cam.world_to_view();
     let (w, h) = (cam.width, cam.height);
-    let eye_recv = GBuffer::new(ctx, "eye_receivers", w, h, 1);
-    let eye_front = GBuffer::new(ctx, "eye_specular_front", w, h, 1);
-    let eye_back = GBuffer::new(ctx, "eye_specular_back", w, h, 1);
-    dc.pass(
-        &mut enc,
-        &mut timer,
-        "eye_receivers",
-        &raster.none,
-        Some((&eye_recv.pos, &eye_recv.nrm)),
-        &eye_recv.depth,
-        0,
-        cam_clip,
-        Subset::Diffuse,
-    );
-    dc.pass(
-        &mut enc,
-        &mut timer,
-        "eye_specular_front",
-        &raster.none,
-        Some((&eye_front.pos, &eye_front.nrm)),
-        &eye_front.depth,
-        0,
-        cam_clip,
-        Subset::Specular,
-    );
-    dc.pass(
-        &mut enc,
-        &mut timer,
-        "eye_specular_back",
-        &raster.back,
-        Some((&eye_back.pos, &eye_back.nrm)),
-        &eye_back.depth,
-        0,
-        cam_clip,
-        Subset::Specular,
-    );
+    let recv = GBuffer::new(ctx, "eye_receivers", w, h, 1);
+    let front = GBuffer::new(ctx, "eye_specular_front", w, h, 1);
+    let back = GBuffer::new(ctx, "eye_specular_back", w, h, 1);
+    for (name, pl, gb, subset) in [
+        ("eye_receivers", &raster.none, &recv, Subset::Diffuse),
+        ("eye_specular_front", &raster.none, &front, Subset::Specular),
+        ("eye_specular_back", &raster.back, &back, Subset::Specular),
+    ] {
+        dc.pass(enc, timer, name, pl, Some((&gb.pos, &gb.nrm)), &gb.depth, 0, cam_clip, subset);
+    }
     // The second specular layer (meshes behind the first layer's object), front and back.
-    let eye_front2 = GBuffer::new(ctx, "eye_specular_front2", w, h, 1);
-    let eye_back2 = GBuffer::new(ctx, "eye_specular_back2", w, h, 1);
+    let front2 = GBuffer::new(ctx, "eye_specular_front2", w, h, 1);
+    let back2 = GBuffer::new(ctx, "eye_specular_back2", w, h, 1);
     dc.peel(
-        &mut enc,
-        &mut timer,
-        &raster,
-        &eye_front,
+        enc,
+        timer,
+        raster,
+        &front,
         0,
         cam_clip,
         Subset::SpecularMeshes,
-        [("eye_specular_front2", &eye_front2), ("eye_specular_back2", &eye_back2)],
+        [("eye_specular_front2", &front2), ("eye_specular_back2", &back2)],
     );
-
     let img_bytes = (w as u64) * (h as u64) * 16;
-    let storage = |label: &str, size: u64| {
-        dev.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        })
-    };
-    let uniform = |label: &str, bytes: &[u8]| {
-        dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: bytes,
-            usage: wgpu::BufferUsages::UNIFORM,
-        })
-    };
-    let radiance = storage("radiance", img_bytes);
-    let caustic_rad = storage("caustic_radiance", img_bytes);
-    let shadow_sampler = dev.create_sampler(&wgpu::SamplerDescriptor {
-        label: Some("shadow"),
-        compare: Some(wgpu::CompareFunction::LessEqual),
-        mag_filter: wgpu::FilterMode::Linear,
-        min_filter: wgpu::FilterMode::Linear,
-        address_mode_u: wgpu::AddressMode::ClampToEdge,
-        address_mode_v: wgpu::AddressMode::ClampToEdge,
-        ..Default::default()
+    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+    EyeFrame {
+        recv,
+        front,
+        back,
+        front2,
+        back2,
+        cam_clip,
+        radiance: ctx.buffer("radiance", img_bytes, usage),
+        caustic: ctx.buffer("caustic_radiance", img_bytes, usage),
+    }
+}
+
+/// A light's view, its uniform record and the fixed-point scale of its flux sums.
+pub(crate) fn light_record(
+    scene: &Scene,
+    light: &Light,
+    s: &RenderSettings,
+    fc: &FrameConsts,
+) -> (LightView, LightGpu, f64) {
+    let view = LightView::new(scene, light);
+    let scale = (1u64 << 52) as f64 / flux_bound(&view, light);
+    let lens = s.splat.lens_flag(s.technique);
+    let lg = light_gpu(&view, light, fc.n, fc.m, fc.g, s.splat_sigma, scale, fc.caster_radius, fc.multi_bounce, lens);
+    (view, lg, scale)
+}
+
+/// What a light's passes made: kept (in the light's resource scope) for the frames that do not
+/// redo them.
+pub(crate) struct LightFrame {
+    pub light_buf: wgpu::Buffer,
+    pub faces: u32,
+    pub scale: f64,
+    pub shadow: wgpu::Texture,
+    pub recv: GBuffer,
+    pub casters: (GBuffer, GBuffer),
+    pub casters2: Option<(GBuffer, GBuffer)>,
+    /// Fixed-point flux per texel (r, g, b as 64-bit words), irradiance (vec4 per texel), and
+    /// the flux bookkeeping (six 64-bit sums).
+    pub accum: wgpu::Buffer,
+    pub irradiance: wgpu::Buffer,
+    pub stats: wgpu::Buffer,
+    /// The irradiance as an M × M × faces Rgba32Float texture (the renderer's output).
+    pub irradiance_tex: wgpu::Texture,
+}
+
+/// Everything one light does in a frame: the light-space buffers of every face, the technique's
+/// photon stage, `caustic_resolve`, the temporal filter, and the copy of the map into a texture.
+#[expect(clippy::too_many_arguments, reason = "a light's passes are described by all of these")]
+pub(crate) fn record_light(
+    dc: &DrawCtx,
+    raster: &Raster,
+    pipelines: &crate::techniques::Pipelines,
+    s: &RenderSettings,
+    fc: &FrameConsts,
+    (li, view, lg, scale): (usize, &LightView, &LightGpu, f64),
+    temporal: Option<&mut crate::temporal::TemporalFilter>,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> Result<(LightFrame, crate::techniques::Pending)> {
+    let (ctx, scene) = (dc.ctx, dc.scene);
+    let (n, g, m) = (fc.n, fc.g, fc.m);
+    let nf = view.faces.len() as u32;
+    let light_buf = ctx.uniform("light", bytemuck::bytes_of(lg));
+    let shadow = texture(ctx, "light_shadow", s.shadow_map_size, s.shadow_map_size, nf, DEPTH_FORMAT);
+    let recv = GBuffer::new(ctx, "light_receivers", m, m, nf);
+    let front = GBuffer::new(ctx, "light_caster_front", g, g, nf);
+    let back = GBuffer::new(ctx, "light_caster_back", g, g, nf);
+    let layer2_bufs = fc.layer2.then(|| {
+        (GBuffer::new(ctx, "light_caster_front2", g, g, nf), GBuffer::new(ctx, "light_caster_back2", g, g, nf))
     });
-
-    let m = s.caustic_map_size;
-    let n = s.photons;
-    let g = n.min(MAX_GBUFFER);
-    let caster_radius = scene.caster_bounds().map_or(1.0, |(a, b)| (b - a).length() * 0.5);
-    // Whether a photon leaving a caster can meet a caster again: not for a lone convex caster (a
-    // sphere), where the search would only cost time.
-    let casters: Vec<_> =
-        scene.objects.iter().filter(|o| o.caustic_caster && scene.material_of(o).is_specular()).collect();
-    // 0: no search; 1: analytic casters only, intersected exactly; 2: mesh casters too, found
-    // by marching through the light's caster buffer.
-    let multi_bounce = if casters.len() == 1 && matches!(casters[0].shape, crate::scene::Shape::Sphere { .. }) {
-        0.0
-    } else if casters.iter().any(|o| matches!(o.shape, crate::scene::Shape::Mesh(_))) {
-        2.0
-    } else {
-        1.0
+    for (f, face) in view.faces.iter().enumerate() {
+        let (f, clip) = (f as u32, face.world_to_clip);
+        dc.pass(enc, timer, "light_shadow", &raster.depth_only, None, &shadow, f, clip, Subset::All);
+        for (name, pl, gb, subset) in [
+            ("light_receivers", &raster.none, &recv, Subset::Diffuse),
+            ("light_caster_front", &raster.none, &front, Subset::Casters),
+            ("light_caster_back", &raster.back, &back, Subset::Casters),
+        ] {
+            dc.pass(enc, timer, name, pl, Some((&gb.pos, &gb.nrm)), &gb.depth, f, clip, subset);
+        }
+        // The second caster layer: the casters again, with a per-object depth peel against
+        // this face's first layer (two-sided front, back faces), as the camera's.
+        if let Some((front2, back2)) = &layer2_bufs {
+            dc.peel(
+                enc,
+                timer,
+                raster,
+                &front,
+                f,
+                clip,
+                Subset::Casters,
+                [("light_caster_front2", front2), ("light_caster_back2", back2)],
+            );
+        }
+    }
+    let texels = (m as u64) * (m as u64) * nf as u64;
+    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+    let accum = ctx.buffer("caustic_flux", texels * 24, usage);
+    let irradiance = ctx.buffer("caustic_irradiance", texels * 16, usage);
+    let stats = ctx.buffer("flux_stats", 48, usage);
+    let splat_targets = crate::splat::SplatTargets::new(ctx, s.splat, texels, nf);
+    let [fpv, fnv, bpv, bnv, rpv, rnv] =
+        [&front.pos, &front.nrm, &back.pos, &back.nrm, &recv.pos, &recv.nrm].map(|t| array_view(ctx, t));
+    let l2v = layer2_bufs.as_ref().map(|(f2, b2)| [&f2.pos, &f2.nrm, &b2.pos, &b2.nrm].map(|t| array_view(ctx, t)));
+    let layer2_views = match &l2v {
+        Some(v) => [&v[0], &v[1], &v[2], &v[3]],
+        None => [&fpv, &fnv, &bpv, &bnv],
     };
-
-    struct PerLight {
-        accum: wgpu::Buffer,
-        irradiance: wgpu::Buffer,
-        stats: wgpu::Buffer,
-        faces: u32,
-        scale: f64,
-        recv: GBuffer,
-        casters: (GBuffer, GBuffer),
-        casters2: Option<(GBuffer, GBuffer)>,
-    }
-    let mut per_light = Vec::new();
-    let mut pendings = Vec::new();
-    for (li, light) in scene.lights.iter().enumerate() {
-        let view = LightView::new(scene, light);
-        let nf = view.faces.len() as u32;
-        let scale = (1u64 << 52) as f64 / flux_bound(&view, light);
-        let lens = s.splat.lens_flag(s.technique);
-        let lg = light_gpu(&view, light, n, m, g, s.splat_sigma, scale, caster_radius, multi_bounce, lens);
-        let light_buf = uniform("light", bytemuck::bytes_of(&lg));
-        let shadow = texture(ctx, "light_shadow", s.shadow_map_size, s.shadow_map_size, nf, DEPTH_FORMAT);
-        let recv = GBuffer::new(ctx, "light_receivers", m, m, nf);
-        let front = GBuffer::new(ctx, "light_caster_front", g, g, nf);
-        let back = GBuffer::new(ctx, "light_caster_back", g, g, nf);
-        let layer2_bufs = layer2.then(|| {
-            (GBuffer::new(ctx, "light_caster_front2", g, g, nf), GBuffer::new(ctx, "light_caster_back2", g, g, nf))
-        });
-        for (f, face) in view.faces.iter().enumerate() {
-            let f = f as u32;
-            dc.pass(
-                &mut enc,
-                &mut timer,
-                "light_shadow",
-                &raster.depth_only,
-                None,
-                &shadow,
-                f,
-                face.world_to_clip,
-                Subset::All,
-            );
-            dc.pass(
-                &mut enc,
-                &mut timer,
-                "light_receivers",
-                &raster.none,
-                Some((&recv.pos, &recv.nrm)),
-                &recv.depth,
-                f,
-                face.world_to_clip,
-                Subset::Diffuse,
-            );
-            dc.pass(
-                &mut enc,
-                &mut timer,
-                "light_caster_front",
-                &raster.none,
-                Some((&front.pos, &front.nrm)),
-                &front.depth,
-                f,
-                face.world_to_clip,
-                Subset::Casters,
-            );
-            dc.pass(
-                &mut enc,
-                &mut timer,
-                "light_caster_back",
-                &raster.back,
-                Some((&back.pos, &back.nrm)),
-                &back.depth,
-                f,
-                face.world_to_clip,
-                Subset::Casters,
-            );
-            // The second caster layer: the casters again, with a per-object depth peel against
-            // this face's first layer (two-sided front, back faces), as the camera's.
-            if let Some((front2, back2)) = &layer2_bufs {
-                dc.peel(
-                    &mut enc,
-                    &mut timer,
-                    &raster,
-                    &front,
-                    f,
-                    face.world_to_clip,
-                    Subset::Casters,
-                    [("light_caster_front2", front2), ("light_caster_back2", back2)],
-                );
-            }
-        }
-        let texels = (m as u64) * (m as u64) * nf as u64;
-        let accum = storage("caustic_flux", texels * 24);
-        let irradiance = storage("caustic_irradiance", texels * 16);
-        let stats = storage("flux_stats", 48);
-        let splat_targets = crate::splat::SplatTargets::new(ctx, s.splat, texels, nf);
-        let (fpv, fnv, bpv, bnv, rpv, rnv) = (
-            array_view(&front.pos),
-            array_view(&front.nrm),
-            array_view(&back.pos),
-            array_view(&back.nrm),
-            array_view(&recv.pos),
-            array_view(&recv.nrm),
-        );
-        let l2v = layer2_bufs.as_ref().map(|(f2, b2)| [&f2.pos, &f2.nrm, &b2.pos, &b2.nrm].map(array_view));
-        let layer2_views = match &l2v {
-            Some(v) => [&v[0], &v[1], &v[2], &v[3]],
-            None => [&fpv, &fnv, &bpv, &bnv],
-        };
-        let emit = crate::techniques::Emit {
-            ctx,
-            settings: s,
-            pipelines: &pipelines,
-            light_buf: &light_buf,
-            front_pos: &fpv,
-            front_nrm: &fnv,
-            back_pos: &bpv,
-            back_nrm: &bnv,
-            layer2: layer2_views,
-            recv_pos: &rpv,
-            recv_nrm: &rnv,
-            materials: &geo.materials,
-            stats: &stats,
-            accum: &accum,
-            splat_targets: &splat_targets,
-            n,
-            g,
-            bound: view.faces.iter().map(|f| relevant_bound(scene, f, n, g)).collect(),
-            reflect_branch: s.dielectric_reflection
-                && scene
-                    .objects
-                    .iter()
-                    .any(|o| o.caustic_caster && matches!(scene.material_of(o), Material::Dielectric { .. })),
-        };
-        pendings.push(crate::techniques::emit(&emit, &mut enc, &mut timer, nf)?);
-        splat_targets.finish(ctx, &pipelines.splat, &light_buf, &accum, &mut enc, &mut timer);
-        let rp = uniform("resolve_params", bytemuck::bytes_of(&CountParams { count: texels as u32, _pad: [0; 3] }));
-        let rbg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+    let emit = crate::techniques::Emit {
+        ctx,
+        settings: s,
+        pipelines,
+        light_buf: &light_buf,
+        front_pos: &fpv,
+        front_nrm: &fnv,
+        back_pos: &bpv,
+        back_nrm: &bnv,
+        layer2: layer2_views,
+        recv_pos: &rpv,
+        recv_nrm: &rnv,
+        materials: &dc.geo.materials,
+        stats: &stats,
+        accum: &accum,
+        splat_targets: &splat_targets,
+        n,
+        g,
+        bound: view.faces.iter().map(|f| relevant_bound(scene, f, n, g)).collect(),
+        reflect_branch: fc.reflect_branch,
+    };
+    let pending = crate::techniques::emit(&emit, enc, timer, nf)?;
+    splat_targets.finish(ctx, &pipelines.splat, &light_buf, &accum, enc, timer);
+    let resolve_pl = ctx.compute_pipeline("caustic_resolve");
+    let rp = ctx.uniform("resolve_params", bytemuck::bytes_of(&CountParams { count: texels as u32, _pad: [0; 3] }));
+    let rbg = crate::techniques::bind(
+        ctx,
+        &resolve_pl,
+        "caustic_resolve",
+        &[
+            light_buf.as_entire_binding(),
+            rp.as_entire_binding(),
+            accum.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&rpv),
+            wgpu::BindingResource::TextureView(&rnv),
+            irradiance.as_entire_binding(),
+        ],
+    );
+    {
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("caustic_resolve"),
-            layout: &resolve_pl.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: light_buf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: rp.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: accum.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&rpv) },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&rnv) },
-                wgpu::BindGroupEntry { binding: 5, resource: irradiance.as_entire_binding() },
-            ],
+            timestamp_writes: timer.compute("caustic_resolve"),
         });
-        {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("caustic_resolve"),
-                timestamp_writes: timer.compute("caustic_resolve"),
-            });
-            cp.set_pipeline(&resolve_pl);
-            cp.set_bind_group(0, &rbg, &[]);
-            cp.dispatch_workgroups((texels as u32).div_ceil(256), 1, 1);
-        }
-        if let Some(t) = temporal.as_deref_mut() {
-            t.record(ctx, &mut enc, Some(&mut timer), li, &irradiance, m, nf);
-        }
-        // Shade the camera's diffuse surfaces with this light.
-        let shp = uniform(
-            "shade_params",
-            bytemuck::bytes_of(&ShadeParams {
-                width: w,
-                height: h,
-                shadow_size: s.shadow_map_size,
-                _pad: 0,
-                camera: cam.position.extend(1.0).to_array(),
-            }),
-        );
-        let (erp, ern, shv) = (layer_view(&eye_recv.pos, 0), layer_view(&eye_recv.nrm, 0), array_view(&shadow));
-        let shbg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shade_receivers"),
-            layout: &shade_pl.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: light_buf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: shp.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&erp) },
-                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&ern) },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&shv) },
-                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::Sampler(&shadow_sampler) },
-                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&rpv) },
-                wgpu::BindGroupEntry { binding: 7, resource: irradiance.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 8, resource: geo.materials.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 9, resource: radiance.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 10, resource: caustic_rad.as_entire_binding() },
-            ],
-        });
-        {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("shade_receivers"),
-                timestamp_writes: timer.compute("shade_receivers"),
-            });
-            cp.set_pipeline(&shade_pl);
-            cp.set_bind_group(0, &shbg, &[]);
-            cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-        }
-        let _ = li;
-        per_light.push(PerLight {
-            accum,
-            irradiance,
-            stats,
-            faces: nf,
-            scale,
-            recv,
-            casters: (front, back),
-            casters2: layer2_bufs,
-        });
+        cp.set_pipeline(&resolve_pl);
+        cp.set_bind_group(0, &rbg, &[]);
+        cp.dispatch_workgroups((texels as u32).div_ceil(256), 1, 1);
     }
+    if let Some(t) = temporal {
+        t.record(ctx, enc, Some(timer), li, &irradiance, m, nf);
+    }
+    let irradiance_tex = ctx.texture(
+        "caustic_irradiance",
+        wgpu::Extent3d { width: m, height: m, depth_or_array_layers: nf },
+        wgpu::TextureFormat::Rgba32Float,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::COPY_SRC,
+    );
+    enc.copy_buffer_to_texture(
+        wgpu::TexelCopyBufferInfo {
+            buffer: &irradiance,
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(m * 16), rows_per_image: Some(m) },
+        },
+        irradiance_tex.as_image_copy(),
+        wgpu::Extent3d { width: m, height: m, depth_or_array_layers: nf },
+    );
+    let frame = LightFrame {
+        light_buf,
+        faces: nf,
+        scale,
+        shadow,
+        recv,
+        casters: (front, back),
+        casters2: layer2_bufs,
+        accum,
+        irradiance,
+        stats,
+        irradiance_tex,
+    };
+    Ok((frame, pending))
+}
 
-    // 5. Composite.
-    let out_full = storage("image", img_bytes);
-    let out_caustic = storage("caustic_image", img_bytes);
-    let cpar = uniform(
+/// `shade_receivers`: the camera's diffuse surfaces lit by one light (added into the eye's
+/// radiance accumulators).
+pub(crate) fn record_shade(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    lf: &LightFrame,
+    s: &RenderSettings,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let ctx = dc.ctx;
+    let cam = &dc.scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let shade_pl = ctx.compute_pipeline("shade_receivers");
+    let shadow_sampler = ctx.sampler(
+        "shadow",
+        &wgpu::SamplerDescriptor {
+            label: Some("shadow"),
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            ..Default::default()
+        },
+    );
+    let shp = ctx.uniform(
+        "shade_params",
+        bytemuck::bytes_of(&ShadeParams {
+            width: w,
+            height: h,
+            shadow_size: s.shadow_map_size,
+            _pad: 0,
+            camera: cam.position.extend(1.0).to_array(),
+        }),
+    );
+    let (erp, ern) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
+    let (shv, rpv) = (array_view(ctx, &lf.shadow), array_view(ctx, &lf.recv.pos));
+    let shbg = crate::techniques::bind(
+        ctx,
+        &shade_pl,
+        "shade_receivers",
+        &[
+            lf.light_buf.as_entire_binding(),
+            shp.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&erp),
+            wgpu::BindingResource::TextureView(&ern),
+            wgpu::BindingResource::TextureView(&shv),
+            wgpu::BindingResource::Sampler(&shadow_sampler),
+            wgpu::BindingResource::TextureView(&rpv),
+            lf.irradiance.as_entire_binding(),
+            dc.geo.materials.as_entire_binding(),
+            eye.radiance.as_entire_binding(),
+            eye.caustic.as_entire_binding(),
+        ],
+    );
+    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("shade_receivers"),
+        timestamp_writes: timer.compute("shade_receivers"),
+    });
+    cp.set_pipeline(&shade_pl);
+    cp.set_bind_group(0, &shbg, &[]);
+    cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+}
+
+/// `composite` (image-space refraction and reflection of the camera's specular surfaces) and
+/// `display` (the tone-mapped image): (radiance image, caustic-only image, display texture).
+pub(crate) fn record_composite(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Texture) {
+    let ctx = dc.ctx;
+    let cam = &dc.scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+    let img_bytes = (w as u64) * (h as u64) * 16;
+    let out_full = ctx.buffer("image", img_bytes, usage);
+    let out_caustic = ctx.buffer("caustic_image", img_bytes, usage);
+    let cpar = ctx.uniform(
         "composite_params",
         bytemuck::bytes_of(&CompositeParams {
-            world_to_clip: cam_clip.to_cols_array_2d(),
+            world_to_clip: eye.cam_clip.to_cols_array_2d(),
             camera: cam.position.extend(1.0).to_array(),
             width: w,
             height: h,
             _pad: [0; 2],
         }),
     );
-    let views = [
-        &eye_recv.pos,
-        &eye_recv.nrm,
-        &eye_front.pos,
-        &eye_front.nrm,
-        &eye_back.pos,
-        &eye_back.nrm,
-        &eye_front2.pos,
-        &eye_front2.nrm,
-        &eye_back2.pos,
-        &eye_back2.nrm,
+    let v = [
+        &eye.recv.pos,
+        &eye.recv.nrm,
+        &eye.front.pos,
+        &eye.front.nrm,
+        &eye.back.pos,
+        &eye.back.nrm,
+        &eye.front2.pos,
+        &eye.front2.nrm,
+        &eye.back2.pos,
+        &eye.back2.nrm,
     ]
-    .map(|t| layer_view(t, 0));
-    let cbg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("composite"),
-        layout: &composite_pl.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: cpar.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&views[0]) },
-            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&views[1]) },
-            wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&views[2]) },
-            wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&views[3]) },
-            wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&views[4]) },
-            wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&views[5]) },
-            wgpu::BindGroupEntry { binding: 7, resource: geo.materials.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 8, resource: radiance.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 9, resource: caustic_rad.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 10, resource: out_full.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 11, resource: out_caustic.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 12, resource: wgpu::BindingResource::TextureView(&views[6]) },
-            wgpu::BindGroupEntry { binding: 13, resource: wgpu::BindingResource::TextureView(&views[7]) },
-            wgpu::BindGroupEntry { binding: 14, resource: wgpu::BindingResource::TextureView(&views[8]) },
-            wgpu::BindGroupEntry { binding: 15, resource: wgpu::BindingResource::TextureView(&views[9]) },
+    .map(|t| layer_view(ctx, t, 0));
+    let tv = |i: usize| wgpu::BindingResource::TextureView(&v[i]);
+    let composite_pl = ctx.compute_pipeline("composite");
+    let cbg = crate::techniques::bind(
+        ctx,
+        &composite_pl,
+        "composite",
+        &[
+            cpar.as_entire_binding(),
+            tv(0),
+            tv(1),
+            tv(2),
+            tv(3),
+            tv(4),
+            tv(5),
+            dc.geo.materials.as_entire_binding(),
+            eye.radiance.as_entire_binding(),
+            eye.caustic.as_entire_binding(),
+            out_full.as_entire_binding(),
+            out_caustic.as_entire_binding(),
+            tv(6),
+            tv(7),
+            tv(8),
+            tv(9),
         ],
-    });
+    );
     {
         let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("composite"),
@@ -1166,86 +1191,53 @@ fn render_inner(
         cp.set_bind_group(0, &cbg, &[]);
         cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
-    let submitted = std::time::Instant::now();
-    ctx.queue.submit([enc.finish()]);
-    ctx.device
-        .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
-        .map_err(|e| Error::Device(format!("{e}")))?;
-    let frame_wall_ms = submitted.elapsed().as_secs_f64() * 1e3;
-
-    // Read back.
-    let image = bytes_to_image(&ctx.read_buffer(&out_full, img_bytes)?, w, h);
-    let caustic = bytes_to_image(&ctx.read_buffer(&out_caustic, img_bytes)?, w, h);
-    let mut caustic_maps = Vec::new();
-    let mut caustic_flux_bits = Vec::new();
-    let mut flux = Vec::new();
-    for pl in &per_light {
-        let texels = (m as u64) * (m as u64);
-        let irr = ctx.read_buffer(&pl.irradiance, texels * pl.faces as u64 * 16)?;
-        caustic_maps.push(
-            (0..pl.faces as u64)
-                .map(|f| bytes_to_image(&irr[(f * texels * 16) as usize..((f + 1) * texels * 16) as usize], m, m))
-                .collect(),
-        );
-        let acc = ctx.read_buffer(&pl.accum, texels * pl.faces as u64 * 24)?;
-        let words: &[u32] = bytemuck::cast_slice(&acc);
-        caustic_flux_bits.push(words.chunks_exact(2).map(|c| (c[1] as u64) << 32 | c[0] as u64).collect());
-        let st = ctx.read_buffer(&pl.stats, 48)?;
-        let sw: &[u32] = bytemuck::cast_slice(&st);
-        let v = |i: usize| ((sw[i + 1] as u64) << 32 | sw[i] as u64) as f64 / pl.scale;
-        flux.push(FluxStats {
-            emitted: v(0),
-            landed: v(2),
-            lost_no_exit: v(4),
-            lost_tir: v(6),
-            lost_no_receiver: v(8),
-            lost_outside: v(10),
+    let display = ctx.texture(
+        "display",
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        wgpu::TextureFormat::Rgba8Unorm,
+        wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+    );
+    let dv = ctx.view(&display, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
+    let dp = ctx.uniform(
+        "display_params",
+        bytemuck::bytes_of(&DisplayParams { width: w, height: h, exposure: dc.scene.exposure, _pad: 0 }),
+    );
+    let display_pl = ctx.compute_pipeline("display");
+    let dbg = crate::techniques::bind(
+        ctx,
+        &display_pl,
+        "display",
+        &[dp.as_entire_binding(), out_full.as_entire_binding(), wgpu::BindingResource::TextureView(&dv)],
+    );
+    {
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("display"),
+            timestamp_writes: timer.compute("display"),
         });
+        cp.set_pipeline(&display_pl);
+        cp.set_bind_group(0, &dbg, &[]);
+        cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
-    let timings = timer.finish(ctx)?;
-    let mut technique = TechniqueStats::default();
-    for p in pendings {
-        technique.merge(&p.finish(ctx)?);
-    }
+    (out_full, out_caustic, display)
+}
 
-    if let Some(dir) = dump {
-        dump_buffers(
-            ctx,
-            dir,
-            &per_light
-                .iter()
-                .map(|p| {
-                    let mut bufs =
-                        vec![("receivers", &p.recv), ("caster_front", &p.casters.0), ("caster_back", &p.casters.1)];
-                    if let Some((front2, back2)) = &p.casters2 {
-                        bufs.extend([("caster_front2", front2), ("caster_back2", back2)]);
-                    }
-                    (bufs, p.faces)
-                })
-                .collect::<Vec<_>>(),
-            &caustic_maps,
-            scene.exposure,
-        )?;
+/// The flux bookkeeping from a light's `flux_stats` words (fixed point, `scale` per watt).
+pub(crate) fn flux_stats(words: &[u8], scale: f64) -> FluxStats {
+    let sw: Vec<u32> = words.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect();
+    let v = |i: usize| ((sw[i + 1] as u64) << 32 | sw[i] as u64) as f64 / scale;
+    FluxStats {
+        emitted: v(0),
+        landed: v(2),
+        lost_no_exit: v(4),
+        lost_tir: v(6),
+        lost_no_receiver: v(8),
+        lost_outside: v(10),
     }
-
-    Ok(GpuRender {
-        image,
-        caustic,
-        caustic_maps,
-        caustic_flux_bits,
-        flux,
-        timings,
-        frame_wall_ms,
-        photons_traced: technique.photons_traced,
-        batches: technique.batches,
-        technique,
-        adapter: format!("{} ({:?}, {})", ctx.info.name, ctx.info.backend, ctx.info.driver),
-    })
 }
 
 /// Write the light-space buffers as images a person can look at: normals (0.5 + 0.5 n), depths
 /// (distance from the light, normalised), and the caustic maps (tone-mapped irradiance and EXR).
-fn dump_buffers(
+pub(crate) fn dump_buffers(
     ctx: &GpuContext,
     dir: &Path,
     lights: &[(Vec<(&str, &GBuffer)>, u32)],

@@ -22,19 +22,35 @@
 //! # Ok(()) }
 //! ```
 //!
+//! Call order: the encoder `encode` records into is submitted before the next call of `encode`
+//! or `poll_stats`.
+//!
+//! Work that did not change is not redone: every frame records the camera's passes, shading and
+//! composite; a light's passes (its light-space buffers, photon stage, resolve and temporal
+//! filter) only when the light, the settings, or an object it sees changed, or when asked by
+//! [`Renderer::invalidate`]. Resources come from the context's pool ([`crate::gpu::pool`]): after
+//! the first frame of a configuration, frames create no GPU objects ([`Renderer::created`]).
+//!
 //! State is the loaded scene plus what changed since: the camera, the lights, a transform per
 //! object (relative to the pose the scene file gives, a rotation, translation and uniform
 //! scale), the settings and the temporal filter. A fresh renderer brought to the same state
 //! renders the same maps and image bit for bit as one that got there frame by frame.
 
 use crate::error::{Error, Result};
-use crate::gpu::GpuContext;
+pub use crate::gpu::ResourceCounts;
+use crate::gpu::types::LightGpu;
+use crate::gpu::{GpuContext, PassTimer};
 use crate::image_io::Image;
-use crate::render::{FluxStats, GpuRender, RenderSettings};
+use crate::render::{
+    DrawCtx, EyeFrame, FluxStats, FrameConsts, Geometry, GpuRender, LightFrame, RenderSettings, bytes_to_image,
+};
 use crate::scene::{Camera, Light, Scene};
-use crate::techniques::TechniqueStats;
+use crate::techniques::{Pending, TechniqueStats};
 use crate::temporal::{TemporalFilter, TemporalSettings};
 use glam::Affine3A;
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 
 /// What a frame should produce beyond the image.
 #[derive(Debug, Clone, Copy, Default)]
@@ -44,7 +60,7 @@ pub struct FrameRequest {
     pub stats: bool,
 }
 
-/// Textures of one light, valid until the next [`Renderer::encode`].
+/// Textures of one light, valid until the light's maps are next redone.
 pub struct LightOutputs<'a> {
     /// Caustic irradiance (W/m²) per face: a 2D array texture (M × M × faces, Rgba32Float).
     pub irradiance: &'a wgpu::Texture,
@@ -75,47 +91,70 @@ pub struct FrameStats {
     pub frame: u64,
     /// GPU milliseconds per named pass (empty without timestamp queries).
     pub timings: Vec<(String, f64)>,
-    /// Per light: flux bookkeeping of the light's last photon stage.
+    /// Per light: flux bookkeeping of the light's latest photon stage.
     pub flux: Vec<FluxStats>,
     /// Photon work done in this frame (zero when every light's maps were kept).
     pub technique: TechniqueStats,
     /// Per light: whether this frame redid the light's passes.
     pub lights_redone: Vec<bool>,
+    /// An overflow the GPU detected (the frame's caustic map is incomplete), as a message.
+    pub overflow: Option<String>,
 }
 
-/// GPU objects the renderer created, counted since it was made.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct ResourceCounts {
-    pub buffers: u64,
-    pub textures: u64,
-    pub texture_views: u64,
-    pub bind_groups: u64,
-    pub query_sets: u64,
-    pub samplers: u64,
+/// A light's kept products and what they were made from.
+struct LightState {
+    record: LightGpu,
+    frame: LightFrame,
 }
 
-impl ResourceCounts {
-    pub fn total(&self) -> u64 {
-        self.buffers + self.textures + self.texture_views + self.bind_groups + self.query_sets + self.samplers
-    }
+/// One slot of the statistics ring: a staging buffer the frame's counters are copied into.
+struct StatsSlot {
+    staging: wgpu::Buffer,
+    /// 0 free, 1 recorded (not yet mapped), 2 mapping, 3 mapped, 4 failed.
+    state: Arc<AtomicU8>,
+    job: Option<StatsJob>,
 }
+
+/// How to read a slot: its frame, and what lies where in the staging buffer.
+struct StatsJob {
+    frame: u64,
+    timer: Option<(Vec<String>, u64, u64)>,
+    /// Per light: offset of its flux words and its fixed-point scale.
+    flux: Vec<(u64, f64)>,
+    /// Per redone light: its technique's pending statistics and their (offset, size) pieces.
+    pendings: Vec<(Pending, Vec<(u64, u64)>)>,
+    lights_redone: Vec<bool>,
+}
+
+const STATS_SLOTS: usize = 3;
+static NEXT_ID: AtomicU64 = AtomicU64::new(0);
 
 /// The persistent GPU renderer (module documentation).
 pub struct Renderer {
     ctx: GpuContext,
+    /// Scope names of this renderer's resources (unique per renderer on a shared context).
+    id: u64,
     /// The scene as loaded, and as it is now (object transforms baked in).
     base: Scene,
     scene: Scene,
     transforms: Vec<Affine3A>,
     settings: RenderSettings,
     temporal: Option<TemporalFilter>,
+    geometry: Option<(crate::scene::Tessellation, Geometry)>,
+    objects_dirty: bool,
+    lights: Vec<Option<LightState>>,
+    light_dirty: Vec<bool>,
     frame: u64,
-    last: Option<GpuRender>,
-    stats: Option<FrameStats>,
-    display: Option<wgpu::Texture>,
-    outputs: Vec<(wgpu::Texture, wgpu::Texture, wgpu::Texture)>,
-    radiance: Option<(wgpu::Buffer, wgpu::Buffer)>,
-    counts: ResourceCounts,
+    outputs: Option<(wgpu::Buffer, wgpu::Buffer, wgpu::Texture)>,
+    ring: Vec<StatsSlot>,
+    latest: Option<FrameStats>,
+    last_error: Option<String>,
+}
+
+impl Drop for Renderer {
+    fn drop(&mut self) {
+        self.ctx.drop_scopes(&format!("r{}/", self.id));
+    }
 }
 
 impl Renderer {
@@ -125,25 +164,30 @@ impl Renderer {
         Renderer::with_context(GpuContext::from_device(device, queue), scene, settings)
     }
 
-    /// A renderer on an existing context (the command line's convenience).
+    /// A renderer on a context (the command line's convenience; clones of a context share its
+    /// pipelines and resource pool).
     pub fn with_context(ctx: GpuContext, scene: Scene, settings: RenderSettings) -> Result<Renderer> {
         ctx.check_device()?;
         settings.validate(&ctx, &scene)?;
-        let transforms = vec![Affine3A::IDENTITY; scene.objects.len()];
+        let n = scene.objects.len();
+        let lights = scene.lights.len();
         Ok(Renderer {
             ctx,
+            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
             base: scene.clone(),
             scene,
-            transforms,
+            transforms: vec![Affine3A::IDENTITY; n],
             settings,
             temporal: None,
+            geometry: None,
+            objects_dirty: true,
+            lights: (0..lights).map(|_| None).collect(),
+            light_dirty: vec![true; lights],
             frame: 0,
-            last: None,
-            stats: None,
-            display: None,
-            outputs: Vec::new(),
-            radiance: None,
-            counts: ResourceCounts::default(),
+            outputs: None,
+            ring: Vec::new(),
+            latest: None,
+            last_error: None,
         })
     }
 
@@ -160,21 +204,31 @@ impl Renderer {
         &self.settings
     }
 
+    /// Move the camera or change the image size (no light is redone).
     pub fn set_camera(&mut self, camera: Camera) -> Result<()> {
         if camera.width == 0 || camera.height == 0 {
             return Err(Error::input("<renderer>", "camera.width", "the image must be at least 1x1"));
         }
-        self.scene.camera = camera;
-        self.settings.validate(&self.ctx, &self.scene)
+        let old = std::mem::replace(&mut self.scene.camera, camera);
+        if let Err(e) = self.settings.validate(&self.ctx, &self.scene) {
+            self.scene.camera = old;
+            return Err(e);
+        }
+        Ok(())
     }
 
-    /// Replace light `index` (its kind may change; a point light's six faces are made on the
-    /// next frame).
+    /// Replace light `index` (its kind may change: a point light's six faces are made on the
+    /// next frame). Only this light is redone.
     pub fn set_light(&mut self, index: usize, light: Light) -> Result<()> {
         if index >= self.scene.lights.len() {
             return Err(Error::input("<renderer>", format!("lights[{index}]"), "no such light"));
         }
-        self.scene.lights[index] = light;
+        let old = std::mem::replace(&mut self.scene.lights[index], light);
+        if let Err(e) = self.settings.validate(&self.ctx, &self.scene) {
+            self.scene.lights[index] = old;
+            return Err(e);
+        }
+        self.light_dirty[index] = true;
         Ok(())
     }
 
@@ -184,7 +238,7 @@ impl Renderer {
     }
 
     /// Move object `index`: `transform` (a rotation, translation and uniform scale) is applied to
-    /// its pose in the scene file.
+    /// its pose in the scene file. The lights that see the object before or after are redone.
     pub fn set_object_transform(&mut self, index: usize, transform: Affine3A) -> Result<()> {
         let Some(o) = self.base.objects.get(index) else {
             return Err(Error::input("<renderer>", format!("objects[{index}]"), "no such object"));
@@ -193,159 +247,497 @@ impl Renderer {
             .shape
             .transformed(&transform)
             .map_err(|m| Error::input("<renderer>", format!("objects[{index}].transform"), m))?;
+        if transform == self.transforms[index] {
+            return Ok(());
+        }
+        let before = self.scene.objects[index].shape.bounds();
         self.scene.objects[index].shape = shape;
+        let after = self.scene.objects[index].shape.bounds();
         self.transforms[index] = transform;
+        for (l, light) in self.scene.lights.iter().enumerate() {
+            let view = crate::lightspace::LightView::new(&self.scene, light);
+            if view.faces.iter().any(|f| box_in_view(before, f.world_to_clip) || box_in_view(after, f.world_to_clip)) {
+                self.light_dirty[l] = true;
+            }
+        }
+        self.objects_dirty = true;
         Ok(())
     }
 
-    /// Change the settings; an error (named by setting) leaves the old ones in place.
+    /// Change the settings; an error (named by setting) leaves the old ones in place. Every
+    /// light is redone when anything changed.
     pub fn set_settings(&mut self, settings: RenderSettings) -> Result<()> {
         settings.validate(&self.ctx, &self.scene)?;
-        self.settings = settings;
+        if settings != self.settings {
+            self.settings = settings;
+            self.light_dirty.iter_mut().for_each(|d| *d = true);
+        }
         Ok(())
     }
 
-    /// Turn the temporal filter of the caustic maps on (with these settings) or off.
+    /// Turn the temporal filter of the caustic maps on (with these settings) or off. The
+    /// filter runs when a light's maps are redone; kept maps stay as they were filtered.
     pub fn set_temporal(&mut self, temporal: Option<TemporalSettings>) -> Result<()> {
         match temporal {
-            None => self.temporal = None,
+            None => {
+                if self.temporal.take().is_some() {
+                    self.invalidate();
+                }
+            }
             Some(t) => {
                 t.validate()?;
                 match &mut self.temporal {
-                    Some(f) if f.settings == t => {}
-                    _ => self.temporal = Some(TemporalFilter::new(t)),
+                    Some(f) => f.settings = t,
+                    None => {
+                        self.temporal = Some(TemporalFilter::new(t));
+                        self.invalidate();
+                    }
                 }
             }
         }
         Ok(())
     }
 
-    /// GPU objects created so far.
-    pub fn created(&self) -> ResourceCounts {
-        self.counts
+    /// Redo every light on the next frame (what a full frame does).
+    pub fn invalidate(&mut self) {
+        self.light_dirty.iter_mut().for_each(|d| *d = true);
     }
 
-    /// Record a frame into `encoder`.
-    pub fn encode(&mut self, _encoder: &mut wgpu::CommandEncoder, request: FrameRequest) -> Result<FrameOutputs<'_>> {
-        let out = crate::render::render_with(&self.ctx, &self.scene, &self.settings, None, self.temporal.as_mut())?;
-        let (w, h) = (out.image.width, out.image.height);
-        let exposure = self.scene.exposure;
-        let bytes: Vec<u8> = out
-            .image
-            .pixels
-            .iter()
-            .flat_map(|p| {
-                let [r, g, b] = crate::image_io::tonemap(*p, exposure);
-                [r, g, b, 255]
-            })
-            .collect();
-        let display = self.ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("display"),
-            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8Unorm,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        self.ctx.queue.write_texture(
-            display.as_image_copy(),
-            &bytes,
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(w * 4), rows_per_image: Some(h) },
-            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-        );
-        self.display = Some(display);
-        let buf = |label: &str| {
-            self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: (w as u64 * h as u64 * 16).max(16),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            })
-        };
-        self.radiance = Some((buf("radiance"), buf("caustic_radiance")));
-        let tex = |label: &str, size: u32, layers: u32| {
-            self.ctx.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: layers },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba32Float,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            })
-        };
-        let m = self.settings.caustic_map_size;
-        self.outputs = out
-            .caustic_maps
-            .iter()
-            .map(|faces| {
-                let n = faces.len() as u32;
-                (
-                    tex("caustic_irradiance", m, n),
-                    tex("light_receivers_position", m, n),
-                    tex("light_receivers_normal", m, n),
-                )
-            })
-            .collect();
-        let lights_redone = vec![true; self.scene.lights.len()];
+    /// GPU objects created so far on this renderer's context (all renderers sharing it).
+    pub fn created(&self) -> ResourceCounts {
+        self.ctx.created()
+    }
+
+    /// The last overflow or failure reported by the GPU statistics, if any.
+    pub fn last_error(&self) -> Option<&str> {
+        self.last_error.as_deref()
+    }
+
+    fn scope(&self, name: &str) -> String {
+        format!("r{}/{name}", self.id)
+    }
+
+    /// Record a frame into `encoder` (module documentation: what is redone, call order).
+    pub fn encode(&mut self, encoder: &mut wgpu::CommandEncoder, request: FrameRequest) -> Result<FrameOutputs<'_>> {
+        let enc = encoder;
+        let ctx = self.ctx.clone();
+        let s = self.settings.clone();
+        // Geometry: uploaded once (again when the tessellation changes); moved objects rewrite
+        // their transforms and analytic shapes.
+        if self.geometry.as_ref().is_none_or(|(t, _)| *t != s.tessellation) {
+            ctx.drop_scopes(&self.scope(""));
+            self.geometry = Some((s.tessellation, crate::render::upload_geometry(&ctx, &self.base, &s.tessellation)));
+            self.objects_dirty = true;
+            self.lights.iter_mut().for_each(|l| *l = None);
+        }
+        let geo = &self.geometry.as_ref().unwrap().1;
+        if self.objects_dirty {
+            let t: Vec<_> = self.transforms.iter().map(crate::render::object_transform).collect();
+            ctx.queue.write_buffer(&geo.transforms, 0, bytemuck::cast_slice(&t));
+            let m = crate::render::material_records(&self.scene);
+            ctx.queue.write_buffer(&geo.materials, 0, bytemuck::cast_slice(&m));
+            self.objects_dirty = false;
+        }
+        let scene = &self.scene;
+        let fc = FrameConsts::new(scene, &s);
+        let raster = crate::render::raster_pipelines(&ctx);
+        let dc = DrawCtx { ctx: &ctx, geo, scene };
+
+        ctx.begin_scope(&self.scope("frame"), enc);
+        let mut timer = PassTimer::new(&ctx, 2048);
+        ctx.end_scope();
+
+        ctx.begin_scope(&self.scope("eye"), enc);
+        let eye: EyeFrame = crate::render::record_eye(&dc, &raster, enc, &mut timer);
+        ctx.end_scope();
+
+        // The lights: redone when dirty or when their uniform record changed (a moved object
+        // changes the views' bounds or the casters' extent).
+        if self.lights.len() != scene.lights.len() {
+            self.lights.resize_with(scene.lights.len(), || None);
+            self.light_dirty.resize(scene.lights.len(), true);
+        }
+        let mut pipelines = None;
+        let mut pendings = Vec::new();
+        let mut redone = vec![false; scene.lights.len()];
+        for (li, light) in scene.lights.iter().enumerate() {
+            let (view, record, scale) = crate::render::light_record(scene, light, &s, &fc);
+            let same = self.lights[li]
+                .as_ref()
+                .is_some_and(|st| bytemuck::bytes_of(&st.record) == bytemuck::bytes_of(&record));
+            if same && !self.light_dirty[li] {
+                continue;
+            }
+            let pl = pipelines
+                .get_or_insert_with(|| crate::techniques::Pipelines::new(&ctx, s.technique, s.splat, fc.layer2));
+            ctx.begin_scope(&self.scope(&format!("light{li}")), enc);
+            let out = crate::render::record_light(
+                &dc,
+                &raster,
+                pl,
+                &s,
+                &fc,
+                (li, &view, &record, scale),
+                self.temporal.as_mut(),
+                enc,
+                &mut timer,
+            );
+            ctx.end_scope();
+            let (frame, pending) = out?;
+            self.lights[li] = Some(LightState { record, frame });
+            self.light_dirty[li] = false;
+            redone[li] = true;
+            pendings.push(pending);
+        }
+        let light_frames: Vec<&LightFrame> = self.lights.iter().map(|l| &l.as_ref().unwrap().frame).collect();
+
+        for (li, lf) in light_frames.iter().enumerate() {
+            ctx.begin_scope(&self.scope(&format!("shade{li}")), enc);
+            crate::render::record_shade(&dc, &eye, lf, &s, enc, &mut timer);
+            ctx.end_scope();
+        }
+        ctx.begin_scope(&self.scope("composite"), enc);
+        self.outputs = Some(crate::render::record_composite(&dc, &eye, enc, &mut timer));
+        ctx.end_scope();
+
         if request.stats {
-            self.stats = Some(FrameStats {
-                frame: self.frame,
-                timings: out.timings.clone(),
-                flux: out.flux.clone(),
-                technique: out.technique.clone(),
-                lights_redone: lights_redone.clone(),
+            ctx.begin_scope(&self.scope("stats"), enc);
+            let timestamps = timer.resolve(&ctx, enc);
+            ctx.end_scope();
+            let mut sources: Vec<(wgpu::Buffer, u64)> = Vec::new();
+            let timer_job = timestamps.map(|(b, size)| {
+                sources.push((b, size));
+                (timer.names().to_vec(), 0, size)
             });
+            for lf in &light_frames {
+                sources.push((lf.stats.clone(), 48));
+            }
+            let piece_lists: Vec<Vec<(wgpu::Buffer, u64)>> = pendings.iter().map(|p| p.sources()).collect();
+            for list in &piece_lists {
+                sources.extend(list.iter().cloned());
+            }
+            // Offsets in the staging buffer (copies are 4-byte aligned; every size is).
+            let mut offsets = Vec::with_capacity(sources.len());
+            let mut total = 0u64;
+            for (_, size) in &sources {
+                offsets.push(total);
+                total += size.div_ceil(8) * 8;
+            }
+            if let Some(slot) = free_slot(&mut self.ring, &ctx, total.max(8)) {
+                let staging = &self.ring[slot].staging;
+                for ((b, size), off) in sources.iter().zip(&offsets) {
+                    if *size > 0 {
+                        enc.copy_buffer_to_buffer(b, 0, staging, *off, *size);
+                    }
+                }
+                let mut k = usize::from(timer_job.is_some());
+                let timer_job = timer_job.map(|(names, _, size)| (names, offsets[0], size));
+                let mut flux = Vec::new();
+                for lf in &light_frames {
+                    flux.push((offsets[k], lf.scale));
+                    k += 1;
+                }
+                let mut pend = Vec::new();
+                for (p, list) in pendings.into_iter().zip(&piece_lists) {
+                    let pieces = list.iter().map(|(_, size)| {
+                        let piece = (offsets[k], *size);
+                        k += 1;
+                        piece
+                    });
+                    pend.push((p, pieces.collect()));
+                }
+                self.ring[slot].job = Some(StatsJob {
+                    frame: self.frame,
+                    timer: timer_job,
+                    flux,
+                    pendings: pend,
+                    lights_redone: redone.clone(),
+                });
+                self.ring[slot].state.store(1, Ordering::Release);
+            }
         }
         self.frame += 1;
-        self.last = Some(out);
-        let (radiance, caustic_radiance) = self.radiance.as_ref().unwrap();
+        let (radiance, caustic_radiance, display) = self.outputs.as_ref().unwrap();
         Ok(FrameOutputs {
-            display: self.display.as_ref().unwrap(),
+            display,
             radiance,
             caustic_radiance,
             lights: self
-                .outputs
+                .lights
                 .iter()
-                .map(|(irradiance, receiver_position, receiver_normal)| LightOutputs {
-                    irradiance,
-                    receiver_position,
-                    receiver_normal,
-                    redone: true,
+                .zip(&redone)
+                .map(|(l, redone)| {
+                    let f = &l.as_ref().unwrap().frame;
+                    LightOutputs {
+                        irradiance: &f.irradiance_tex,
+                        receiver_position: &f.recv.pos,
+                        receiver_normal: &f.recv.nrm,
+                        redone: *redone,
+                    }
                 })
                 .collect(),
         })
     }
 
-    /// The statistics of the latest frame that asked for them and that the GPU has finished, if
-    /// not returned before. Never blocks.
-    pub fn poll_stats(&mut self) -> Result<Option<FrameStats>> {
-        Ok(self.stats.take())
+    /// Start mapping the slots recorded by submitted frames.
+    fn map_recorded(&mut self) {
+        for slot in &self.ring {
+            if slot.state.compare_exchange(1, 2, Ordering::AcqRel, Ordering::Acquire).is_ok() {
+                let state = slot.state.clone();
+                slot.staging.map_async(wgpu::MapMode::Read, .., move |r| {
+                    state.store(if r.is_ok() { 3 } else { 4 }, Ordering::Release);
+                });
+            }
+        }
     }
 
-    /// Wait for the statistics of the latest frame that asked for them (tests, command line).
+    /// Read the mapped slots; keep the newest frame's statistics.
+    fn collect(&mut self) -> Result<()> {
+        let period = self.ctx.queue.get_timestamp_period();
+        let mut order: Vec<usize> = (0..self.ring.len()).collect();
+        order.sort_by_key(|&i| self.ring[i].job.as_ref().map_or(0, |j| j.frame));
+        for i in order {
+            let slot = &mut self.ring[i];
+            match slot.state.load(Ordering::Acquire) {
+                3 => {}
+                4 => {
+                    slot.job = None;
+                    slot.state.store(0, Ordering::Release);
+                    return Err(Error::Device("reading the frame statistics failed".into()));
+                }
+                _ => continue,
+            }
+            let job = slot.job.take().expect("a mapped slot has a job");
+            let data = slot.staging.get_mapped_range(..).map_err(|e| Error::Device(format!("{e:?}")))?.to_vec();
+            slot.staging.unmap();
+            slot.state.store(0, Ordering::Release);
+            let piece = |off: u64, size: u64| data[off as usize..(off + size) as usize].to_vec();
+            let mut stats = FrameStats {
+                frame: job.frame,
+                timings: job
+                    .timer
+                    .as_ref()
+                    .map(|(names, off, size)| PassTimer::timings(names, &piece(*off, *size), period))
+                    .unwrap_or_default(),
+                flux: job.flux.iter().map(|&(off, scale)| crate::render::flux_stats(&piece(off, 48), scale)).collect(),
+                lights_redone: job.lights_redone,
+                ..Default::default()
+            };
+            stats.technique = TechniqueStats {
+                technique: self.settings.technique,
+                grid: self.settings.photons,
+                ..Default::default()
+            };
+            for (p, pieces) in job.pendings {
+                let bytes: Vec<Vec<u8>> = pieces.iter().map(|&(off, size)| piece(off, size)).collect();
+                match p.finish(&bytes) {
+                    Ok(t) => stats.technique.merge(&t),
+                    Err(e) => {
+                        let m = e.to_string();
+                        self.last_error = Some(m.clone());
+                        stats.overflow = Some(m);
+                    }
+                }
+            }
+            if self.latest.as_ref().is_none_or(|l| l.frame <= stats.frame) {
+                self.latest = Some(stats);
+            }
+        }
+        Ok(())
+    }
+
+    /// The statistics of the newest frame that asked for them and that the GPU has finished,
+    /// if not returned before. Never blocks.
+    pub fn poll_stats(&mut self) -> Result<Option<FrameStats>> {
+        self.map_recorded();
+        let _ = self.ctx.device.poll(wgpu::PollType::Poll);
+        self.collect()?;
+        Ok(self.latest.take())
+    }
+
+    /// Wait for the statistics of every submitted frame that asked for them; the newest.
     pub fn wait_stats(&mut self) -> Result<Option<FrameStats>> {
-        self.poll_stats()
+        self.map_recorded();
+        self.ctx
+            .device
+            .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+            .map_err(|e| Error::Device(format!("{e}")))?;
+        // On a device that other threads poll too, one of them may be about to run a mapping's
+        // callback when our wait returns: wait for it.
+        let start = std::time::Instant::now();
+        while self.ring.iter().any(|s| s.state.load(Ordering::Acquire) == 2) {
+            if start.elapsed().as_secs() > 60 {
+                return Err(Error::Device("the frame statistics were never mapped".into()));
+            }
+            let _ = self.ctx.device.poll(wgpu::PollType::Poll);
+            std::thread::sleep(std::time::Duration::from_micros(200));
+        }
+        self.collect()?;
+        Ok(self.latest.take())
+    }
+
+    fn last_outputs(&self) -> Result<&(wgpu::Buffer, wgpu::Buffer, wgpu::Texture)> {
+        self.outputs.as_ref().ok_or_else(|| Error::Device("no frame rendered yet".into()))
     }
 
     /// Read the last frame's linear radiance back (blocking; screenshots, tests).
     pub fn read_image(&self) -> Result<Image> {
-        self.last.as_ref().map(|o| o.image.clone()).ok_or_else(|| Error::Device("no frame rendered yet".into()))
+        let c = &self.scene.camera;
+        let data = self.ctx.read_buffer(&self.last_outputs()?.0, c.width as u64 * c.height as u64 * 16)?;
+        Ok(bytes_to_image(&data, c.width, c.height))
     }
 
     /// Read the last frame's caustic-only radiance back (blocking).
     pub fn read_caustic_image(&self) -> Result<Image> {
-        self.last.as_ref().map(|o| o.caustic.clone()).ok_or_else(|| Error::Device("no frame rendered yet".into()))
+        let c = &self.scene.camera;
+        let data = self.ctx.read_buffer(&self.last_outputs()?.1, c.width as u64 * c.height as u64 * 16)?;
+        Ok(bytes_to_image(&data, c.width, c.height))
+    }
+
+    fn light_frame(&self, light: usize) -> Result<&LightFrame> {
+        self.lights
+            .get(light)
+            .and_then(|l| l.as_ref())
+            .map(|l| &l.frame)
+            .ok_or_else(|| Error::Device(format!("light {light}: no such light, or no frame rendered yet")))
     }
 
     /// Read light `light`'s caustic irradiance maps back, one image per face (blocking).
     pub fn read_caustic_maps(&self, light: usize) -> Result<Vec<Image>> {
-        self.last
-            .as_ref()
-            .and_then(|o| o.caustic_maps.get(light).cloned())
-            .ok_or_else(|| Error::Device("no such light or no frame rendered yet".into()))
+        let lf = self.light_frame(light)?;
+        let m = self.settings.caustic_map_size;
+        let texels = m as u64 * m as u64;
+        let irr = self.ctx.read_buffer(&lf.irradiance, texels * lf.faces as u64 * 16)?;
+        Ok((0..lf.faces as u64)
+            .map(|f| bytes_to_image(&irr[(f * texels * 16) as usize..((f + 1) * texels * 16) as usize], m, m))
+            .collect())
     }
+
+    /// Read light `light`'s raw fixed-point flux per texel (r, g, b words per texel, all faces).
+    pub fn read_caustic_flux_bits(&self, light: usize) -> Result<Vec<u64>> {
+        let lf = self.light_frame(light)?;
+        let m = self.settings.caustic_map_size as u64;
+        let acc = self.ctx.read_buffer(&lf.accum, m * m * lf.faces as u64 * 24)?;
+        Ok(acc.chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().unwrap())).collect())
+    }
+
+    /// Render one frame, wait for it and read everything back (the one-shot render of
+    /// [`crate::render::render`]; `dump` writes the light-space buffers).
+    pub fn render_once(&mut self, dump: Option<&Path>) -> Result<GpuRender> {
+        let ctx = self.ctx.clone();
+        let val_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let oom_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        let recorded = self.encode(&mut enc, FrameRequest { stats: true }).map(|_| ());
+        let submitted = std::time::Instant::now();
+        let polled = if recorded.is_ok() {
+            ctx.queue.submit([enc.finish()]);
+            ctx.device.poll(wgpu::PollType::Wait { submission_index: None, timeout: None }).map(|_| ())
+        } else {
+            Ok(())
+        };
+        let frame_wall_ms = submitted.elapsed().as_secs_f64() * 1e3;
+        let oom = pollster::block_on(oom_scope.pop());
+        let val = pollster::block_on(val_scope.pop());
+        recorded?;
+        if let Some(e) = oom {
+            return Err(Error::Device(format!("out of GPU memory: {e}")));
+        }
+        if let Some(e) = val {
+            return Err(Error::Device(format!("{e}")));
+        }
+        polled.map_err(|e| Error::Device(format!("{e}")))?;
+        let stats = self.wait_stats()?.ok_or_else(|| Error::Device("the frame's statistics were not read".into()))?;
+        if let Some(m) = stats.overflow {
+            return Err(Error::Device(m));
+        }
+        let n = self.scene.lights.len();
+        let caustic_maps = (0..n).map(|l| self.read_caustic_maps(l)).collect::<Result<Vec<_>>>()?;
+        let caustic_flux_bits = (0..n).map(|l| self.read_caustic_flux_bits(l)).collect::<Result<Vec<_>>>()?;
+        if let Some(dir) = dump {
+            let lights: Vec<_> = (0..n)
+                .map(|l| {
+                    let p = self.light_frame(l).expect("rendered");
+                    let mut bufs =
+                        vec![("receivers", &p.recv), ("caster_front", &p.casters.0), ("caster_back", &p.casters.1)];
+                    if let Some((front2, back2)) = &p.casters2 {
+                        bufs.extend([("caster_front2", front2), ("caster_back2", back2)]);
+                    }
+                    (bufs, p.faces)
+                })
+                .collect();
+            crate::render::dump_buffers(&ctx, dir, &lights, &caustic_maps, self.scene.exposure)?;
+        }
+        let technique = stats.technique;
+        Ok(GpuRender {
+            image: self.read_image()?,
+            caustic: self.read_caustic_image()?,
+            caustic_maps,
+            caustic_flux_bits,
+            flux: stats.flux,
+            timings: stats.timings,
+            frame_wall_ms,
+            photons_traced: technique.photons_traced,
+            batches: technique.batches,
+            technique,
+            adapter: format!("{} ({:?}, {})", ctx.info.name, ctx.info.backend, ctx.info.driver),
+        })
+    }
+
+    /// [`Renderer::render_once`] with `filter` as the temporal filter (it is handed back).
+    pub(crate) fn render_once_filtered(
+        &mut self,
+        filter: &mut TemporalFilter,
+        dump: Option<&Path>,
+    ) -> Result<GpuRender> {
+        self.temporal = Some(std::mem::replace(filter, TemporalFilter::new(filter.settings)));
+        let out = self.render_once(dump);
+        if let Some(f) = self.temporal.take() {
+            *filter = f;
+        }
+        out
+    }
+}
+
+/// A free statistics slot whose staging buffer holds `size` bytes (grown if needed); None when
+/// every slot waits to be read (the frame's statistics are then not copied).
+fn free_slot(ring: &mut Vec<StatsSlot>, ctx: &GpuContext, size: u64) -> Option<usize> {
+    let staging = |size: u64| {
+        let usage = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
+        ctx.kept_buffer("frame_statistics", size.next_power_of_two(), usage)
+    };
+    let i = match ring.iter().position(|s| s.state.load(Ordering::Acquire) == 0) {
+        Some(i) => i,
+        None if ring.len() < STATS_SLOTS => {
+            ring.push(StatsSlot { staging: staging(size), state: Arc::new(AtomicU8::new(0)), job: None });
+            ring.len() - 1
+        }
+        None => return None,
+    };
+    if ring[i].staging.size() < size {
+        ring[i].staging = staging(size);
+    }
+    Some(i)
+}
+
+/// Whether an axis-aligned box can be seen in a view (conservative: a box reaching behind the
+/// viewer counts as seen).
+fn box_in_view((lo, hi): (glam::Vec3, glam::Vec3), world_to_clip: glam::Mat4) -> bool {
+    let mut outside = [true; 6];
+    for k in 0..8 {
+        let p = glam::Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        let c = world_to_clip * p.extend(1.0);
+        if c.w <= 0.0 {
+            return true;
+        }
+        let planes = [c.x < -c.w, c.x > c.w, c.y < -c.w, c.y > c.w, c.z < 0.0, c.z > c.w];
+        for (o, p) in outside.iter_mut().zip(planes) {
+            *o &= p;
+        }
+    }
+    !outside.iter().any(|&o| o)
 }

@@ -22,7 +22,6 @@
 use crate::gpu::types::{Photon, TraceParams};
 use crate::gpu::{GpuContext, PassTimer};
 use bytemuck::{Pod, Zeroable};
-use wgpu::util::DeviceExt;
 
 /// How photons are splatted into the caustic map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
@@ -170,12 +169,7 @@ pub(crate) struct SplatTargets {
 }
 
 fn buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
-    ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size: size.max(16),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    })
+    ctx.buffer(label, size.max(16), wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC)
 }
 
 impl SplatTargets {
@@ -233,15 +227,10 @@ impl SplatTargets {
         let Some(pl) = &p.blend else { return };
         let groups: Vec<wgpu::BindGroup> = (0..2u32)
             .map(|pass| {
-                let u = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("blend_params"),
-                    contents: bytemuck::bytes_of(&BlendParams {
-                        count: self.texels as u32,
-                        pass_index: pass,
-                        _pad: [0; 2],
-                    }),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                });
+                let u = ctx.uniform(
+                    "blend_params",
+                    bytemuck::bytes_of(&BlendParams { count: self.texels as u32, pass_index: pass, _pad: [0; 2] }),
+                );
                 let mut res = vec![light.as_entire_binding(), u.as_entire_binding(), accum.as_entire_binding()];
                 res.extend(self.extra.iter().map(|b| b.as_entire_binding()));
                 crate::techniques::bind(ctx, pl, "splat_multires_blend", &res)
@@ -307,13 +296,7 @@ pub(crate) fn record_grid_triangles(
 ) -> (u64, u32) {
     let (n, stride) = (g.n, std::mem::size_of::<Photon>() as u64);
     let (pad, _) = triangle_buffer_layout(n, g.rows);
-    let uniform = |label: &str, bytes: &[u8]| {
-        g.ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: bytes,
-            usage: wgpu::BufferUsages::UNIFORM,
-        })
-    };
+    let uniform = |label: &str, bytes: &[u8]| g.ctx.uniform(label, bytes);
     let (mut r0, mut traced, mut batches) = (0u32, 0u64, 0u32);
     while r0 < n {
         let rows = g.rows.min(n - r0);

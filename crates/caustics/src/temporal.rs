@@ -159,7 +159,8 @@ impl TemporalFilter {
         dump: Option<&Path>,
     ) -> Result<GpuRender> {
         self.settings.validate()?;
-        let out = crate::render::render_with(ctx, scene, settings, dump, Some(self));
+        let mut r = crate::renderer::Renderer::with_context(ctx.clone(), scene.clone(), settings.clone())?;
+        let out = r.render_once_filtered(self, dump);
         self.lights.truncate(scene.lights.len());
         out
     }
@@ -180,7 +181,6 @@ impl TemporalFilter {
         size: u32,
         faces: u32,
     ) {
-        let dev = &ctx.device;
         if self.lights.len() <= light {
             self.lights.resize_with(light + 1, || None);
         }
@@ -188,12 +188,11 @@ impl TemporalFilter {
         if slot.as_ref().is_none_or(|l| l.size != size || l.faces != faces) {
             let bytes = size as u64 * size as u64 * faces as u64 * 16;
             let buffer = |label: &str, bytes: u64| {
-                dev.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size: bytes,
-                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                })
+                ctx.kept_buffer(
+                    label,
+                    bytes,
+                    wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                )
             };
             *slot = Some(LightHistory {
                 size,

@@ -221,7 +221,7 @@ fn a_budget_too_small_for_one_batch_is_an_input_error() {
         let e = render(&ctx, &s, &set, None).unwrap_err();
         assert!(e.is_input(), "{e}");
         let msg = e.to_string();
-        assert!(msg.contains("--photon-memory") && msg.contains("too small"), "{msg}");
+        assert!(msg.contains("photon_memory") && msg.contains("too small"), "{msg}");
     }
     // Grids beyond what a technique supports, and grids that are not powers of two.
     for set in [

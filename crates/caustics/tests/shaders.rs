@@ -37,3 +37,45 @@ fn gpu_structs_match_wgsl() {
     }
     assert!(checked >= LAYOUTS.len());
 }
+
+#[test]
+fn gpu_constants_match_wgsl() {
+    // Every named constant (material kinds, shapes, light kinds) has the Rust value in every
+    // stage that declares it.
+    let mut checked = 0;
+    for (name, _) in gpu::STAGES {
+        let module = gpu::validate_stage(name).unwrap();
+        for (_, c) in module.constants.iter() {
+            let Some(cname) = &c.name else { continue };
+            let Some((_, want)) = gpu::types::CONSTANTS.iter().find(|(n, _)| n == cname) else { continue };
+            let naga::Expression::Literal(naga::Literal::U32(v)) = module.global_expressions[c.init] else {
+                panic!("{name}: {cname} is not a u32 literal");
+            };
+            assert_eq!(v, *want, "{name}: WGSL {cname} = {v}, Rust {want}");
+            checked += 1;
+        }
+    }
+    assert!(checked >= gpu::types::CONSTANTS.len() * 10, "only {checked} constants checked");
+}
+
+#[test]
+fn every_compute_stage_has_an_explicit_layout() {
+    // Group 0 of every compute stage is derived from its WGSL; stages with the same interface
+    // share one bind group layout.
+    let mut distinct: Vec<Vec<wgpu::BindGroupLayoutEntry>> = Vec::new();
+    let mut stages = 0;
+    for (name, _) in gpu::STAGES {
+        if name.starts_with("raster") {
+            continue;
+        }
+        let entries = gpu::stage_bindings(name).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!entries.is_empty(), "{name} binds nothing");
+        assert!(entries.windows(2).all(|w| w[0].binding < w[1].binding), "{name}: bindings out of order");
+        stages += 1;
+        if !distinct.contains(&entries) {
+            distinct.push(entries);
+        }
+    }
+    eprintln!("{stages} compute stages, {} distinct bind group layouts", distinct.len());
+    assert!(distinct.len() <= stages);
+}

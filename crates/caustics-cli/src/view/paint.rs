@@ -5,6 +5,9 @@
 pub struct Painter {
     renderer: egui_wgpu::Renderer,
     display_id: Option<egui::TextureId>,
+    /// The texture registered under `display_id` (a persistent renderer keeps the same one:
+    /// then nothing is re-registered).
+    display: Option<wgpu::Texture>,
 }
 
 impl Painter {
@@ -14,6 +17,7 @@ impl Painter {
         Painter {
             renderer: egui_wgpu::Renderer::new(device, format, egui_wgpu::RendererOptions::default()),
             display_id: None,
+            display: None,
         }
     }
 
@@ -24,6 +28,10 @@ impl Painter {
 
     /// Show `display` (the renderer's Rgba8Unorm display texture) under the display id.
     pub fn set_display(&mut self, device: &wgpu::Device, display: &wgpu::Texture) {
+        if self.display.as_ref() == Some(display) {
+            return;
+        }
+        self.display = Some(display.clone());
         let view = display.create_view(&wgpu::TextureViewDescriptor::default());
         match self.display_id {
             Some(id) => {

@@ -201,6 +201,8 @@ pub struct Session {
     pub frame_ms: Option<f64>,
     frame_started: Option<Instant>,
     frame_done: Arc<Mutex<Option<Instant>>>,
+    /// A rendered frame's statistics have not arrived yet.
+    stats_pending: bool,
     frames: u64,
     display: Option<wgpu::Texture>,
     pub view_mode: ViewMode,
@@ -246,6 +248,7 @@ impl Session {
             frame_ms: None,
             frame_started: None,
             frame_done: Arc::new(Mutex::new(None)),
+            stats_pending: false,
             frames: 0,
             display: None,
             view_mode: ViewMode::Gpu,
@@ -597,6 +600,7 @@ impl Session {
             }
         });
         self.frame_started = Some(t0);
+        self.stats_pending = true;
         self.display = Some(display);
         self.frames += 1;
         if self.reference().is_some() {
@@ -617,9 +621,18 @@ impl Session {
             self.frame_started = None;
         }
         match self.renderer.poll_stats() {
-            Ok(Some(s)) => self.stats = Some(s),
+            Ok(Some(s)) => {
+                self.stats = Some(s);
+                self.stats_pending = false;
+            }
             Ok(None) => {}
-            Err(e) => self.error = Some(e.to_string()),
+            Err(e) => {
+                self.error = Some(e.to_string());
+                self.stats_pending = false;
+            }
+        }
+        if let Some(e) = self.renderer.last_error() {
+            self.error = Some(e.to_string());
         }
         if self.job.as_ref().is_some_and(Job::is_finished)
             && let Some(job) = self.job.take()
@@ -659,6 +672,24 @@ impl Session {
         }
     }
 
+    /// Whether the latest frame's statistics or completion time are still to come (the window
+    /// keeps polling).
+    pub fn awaiting_gpu(&self) -> bool {
+        self.stats_pending || self.frame_started.is_some()
+    }
+
+    /// Wait for the statistics of the frames rendered so far (tests).
+    #[cfg(test)]
+    pub fn wait_stats(&mut self) {
+        match self.renderer.wait_stats() {
+            Ok(Some(s)) => self.stats = Some(s),
+            Ok(None) => {}
+            Err(e) => self.error = Some(e.to_string()),
+        }
+        self.stats_pending = false;
+        self.update();
+    }
+
     /// Start the CPU reference of the current view (cancelling one in flight).
     pub fn start_reference(&mut self) {
         self.job = Some(Job::start(self.scene().clone(), self.reference_settings.clone(), self.generation));
@@ -695,6 +726,7 @@ impl Session {
 
     /// Write the current image to `path` (.png tone-mapped, .exr linear radiance), atomically.
     pub fn screenshot(&mut self, path: &Path) -> Result<()> {
+        self.render()?; // (if the view changed since the last frame)
         let img = self.renderer.read_image()?;
         img.write(path, self.scene().exposure)?;
         self.status = format!("wrote {}", path.display());
@@ -714,6 +746,7 @@ impl Session {
 
     /// Write the current image as the next numbered PNG and EXR pair in the screenshot folder.
     pub fn screenshot_pair(&mut self) -> Result<Vec<PathBuf>> {
+        self.render()?;
         let img = self.renderer.read_image()?;
         let stem = self.next_screenshot_stem();
         let paths = vec![stem.with_extension("png"), stem.with_extension("exr")];

@@ -100,6 +100,7 @@ fn scripted_session_matches_golden() {
     s.act(Action::SetTechnique(Technique::AdaptiveLevel)).expect("technique");
     assert_eq!(s.settings().technique, Technique::AdaptiveLevel);
     frame(&mut s);
+    s.wait_stats();
     let stats = s.stats.clone().expect("frame statistics");
     assert_eq!(stats.technique.technique, Technique::AdaptiveLevel);
     assert!(stats.technique.photons_traced > 0);

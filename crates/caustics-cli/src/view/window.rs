@@ -169,6 +169,11 @@ impl Running {
         if self.session.needs_frame() {
             next = Some(Instant::now());
         }
+        if self.session.awaiting_gpu() {
+            // The frame's statistics and completion time arrive asynchronously.
+            let t = Instant::now() + Duration::from_millis(30);
+            next = Some(next.map_or(t, |n| n.min(t)));
+        }
         if self.session.reference_progress().is_some() {
             // The progress bar and the finished reference.
             let t = Instant::now() + Duration::from_millis(150);

@@ -60,6 +60,15 @@ const KIND_DIFFUSE: u32 = 0u;
 const KIND_DIELECTRIC: u32 = 1u;
 const KIND_MIRROR: u32 = 2u;
 const KIND_CONDUCTOR: u32 = 3u;
+// MaterialGpu.kind.z: the object's analytic shape (none for meshes).
+const SHAPE_MESH: u32 = 0u;
+const SHAPE_SPHERE: u32 = 1u;
+const SHAPE_CYLINDER: u32 = 2u;
+const SHAPE_RECTANGLE: u32 = 3u;
+// LightGpu.info.y: the light's kind.
+const LIGHT_SPOT: u32 = 0u;
+const LIGHT_POINT: u32 = 1u;
+const LIGHT_DIRECTIONAL: u32 = 2u;
 const INVALID: u32 = 0xffffffffu;
 const PI: f32 = 3.14159265358979;
 
@@ -114,7 +123,7 @@ fn project_face(face: Face, p: vec3f, size: f32) -> vec4f {
 
 // Direction from p toward the light (unit), and distance (infinite for directional lights).
 fn to_light(light: LightGpu, p: vec3f) -> vec4f {
-    if (light.info.y == 2u) { return vec4f(-light.axis.xyz, 1e30); }
+    if (light.info.y == LIGHT_DIRECTIONAL) { return vec4f(-light.axis.xyz, 1e30); }
     let o = light.faces[0].origin.xyz;
     let v = o - p;
     let d = length(v);
@@ -123,7 +132,7 @@ fn to_light(light: LightGpu, p: vec3f) -> vec4f {
 
 // Radiant intensity (W/sr) of a spot or point light toward unit direction dir (from the light).
 fn intensity_toward(light: LightGpu, dir: vec3f) -> vec3f {
-    if (light.info.y == 1u) { return light.power.rgb; }
+    if (light.info.y == LIGHT_POINT) { return light.power.rgb; }
     let angle = acos(clamp(dot(dir, light.axis.xyz), -1.0, 1.0));
     let cone = light.axis.w;
     let start = light.params.x;

@@ -24,13 +24,13 @@ fn exact_shape(o: vec3f, d: vec3f, t_max: f32, leaving: u32, casters_only: bool)
     let count = arrayLength(&materials);
     for (var i = 0u; i < count; i++) {
         let m = materials[i];
-        if ((casters_only && m.kind.y == 0u) || m.kind.x == KIND_DIFFUSE || m.kind.z == 0u) { continue; }
-        if (i == leaving && m.kind.z != 2u) { continue; }
+        if ((casters_only && m.kind.y == 0u) || m.kind.x == KIND_DIFFUSE || m.kind.z == SHAPE_MESH) { continue; }
+        if (i == leaving && m.kind.z != SHAPE_CYLINDER) { continue; }
         var t_min = eps;
         if (i == leaving) { t_min = max(eps, 0.01 * m.s0.w); }
         var t = -1.0;
         var n = vec3f(0.0);
-        if (m.kind.z == 1u) {
+        if (m.kind.z == SHAPE_SPHERE) {
             let w = o - m.s0.xyz;
             let b = dot(w, d);
             let c = dot(w, w) - m.s0.w * m.s0.w;
@@ -41,7 +41,7 @@ fn exact_shape(o: vec3f, d: vec3f, t_max: f32, leaving: u32, casters_only: bool)
                 if (tt <= eps) { tt = -b + q; }
                 if (tt > eps) { t = tt; n = normalize(w + tt * d); }
             }
-        } else if (m.kind.z == 2u) {
+        } else if (m.kind.z == SHAPE_CYLINDER) {
             let axis = m.s1.xyz;
             let w = o - m.s0.xyz;
             let dp = d - axis * dot(d, axis);
@@ -60,7 +60,7 @@ fn exact_shape(o: vec3f, d: vec3f, t_max: f32, leaving: u32, casters_only: bool)
                     }
                 }
             }
-        } else if (m.kind.z == 3u) {
+        } else if (m.kind.z == SHAPE_RECTANGLE) {
             let nn = m.s1.xyz;
             let dn = dot(d, nn);
             if (abs(dn) > 1e-8) {

@@ -589,17 +589,17 @@ fn buffer_dn(pos_tex: texture_2d_array<f32>, nrm_tex: texture_2d_array<f32>, lay
 // built for other splat modes: measured on dragon_spheres).
 fn surface_dn(mat: MaterialGpu, p: vec3f, nref: vec3f, dp_in: vec3f) -> vec3f {
     let dp = dp_in - nref * dot(dp_in, nref);
-    if (mat.kind.z == 1u) {
+    if (mat.kind.z == SHAPE_SPHERE) {
         let s = select(-1.0, 1.0, dot(nref, p - mat.s0.xyz) >= 0.0);
         return s * dp / mat.s0.w;
     }
-    if (mat.kind.z == 2u) {
+    if (mat.kind.z == SHAPE_CYLINDER) {
         let a = mat.s1.xyz;
         let w = p - mat.s0.xyz;
         let s = select(-1.0, 1.0, dot(nref, w - a * dot(w, a)) >= 0.0);
         return s * (dp - a * dot(dp, a)) / mat.s0.w;
     }
-    if (mat.kind.z == 3u) { return vec3f(0.0); }
+    if (mat.kind.z == SHAPE_RECTANGLE) { return vec3f(0.0); }
     let g = f32(light.params.w);
     for (var f = 0u; f < light.info.x; f++) {
         let q = project_face(light.faces[f], p, g);
@@ -829,7 +829,7 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
                 var reach = t_recv;
                 if (next.object != INVALID) { reach = dot(next.p - o, dir); }
                 let m = find_caster(o, dir, reach);
-                if (m.object != INVALID && materials[m.object].kind.z == 0u) { next = m; }
+                if (m.object != INVALID && materials[m.object].kind.z == SHAPE_MESH) { next = m; }
             }
         }
         if (next.object != INVALID) {

@@ -1,7 +1,11 @@
 //! The GPU side: device creation, shader loading, timing and readback. Techniques live in
 //! [`crate::render`].
 
+pub mod pool;
 pub mod types;
+
+pub use pool::ResourceCounts;
+use pool::{BoundKey, LayoutOf, Slot, TextureKey, keep};
 
 use crate::error::{Error, Result};
 use std::sync::mpsc;
@@ -27,6 +31,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("splat_multires_blend", include_str!("../../shaders/splat_multires_blend.wgsl")),
     ("caustic_triangles", include_str!("../../shaders/caustic_triangles.wgsl")),
     ("splat_quads", include_str!("../../shaders/splat_quads.wgsl")),
+    ("display", include_str!("../../shaders/display.wgsl")),
 ];
 pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 
@@ -75,7 +80,95 @@ pub fn validate_stage(name: &str) -> Result<naga::Module> {
     Ok(module)
 }
 
+/// Group 0 of compute stage `name` as layout entries: every binding its `main` uses, typed from
+/// the WGSL (naga reflection). Float textures are non-filterable (the stages read them with
+/// `textureLoad`; a stage with a filtering sampler is refused).
+pub fn stage_bindings(name: &str) -> Result<Vec<wgpu::BindGroupLayoutEntry>> {
+    let src = stage_source(name);
+    let module = naga::front::wgsl::parse_str(&src)
+        .map_err(|e| Error::Shader { name: name.into(), message: e.emit_to_string(&src) })?;
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+        .validate(&module)
+        .map_err(|e| Error::Shader { name: name.into(), message: format!("{e:?}") })?;
+    let ep = module
+        .entry_points
+        .iter()
+        .position(|e| e.name == "main")
+        .ok_or_else(|| Error::Shader { name: name.into(), message: "no entry point main".into() })?;
+    let uses = info.get_entry_point(ep);
+    let mut entries = Vec::new();
+    for (handle, var) in module.global_variables.iter() {
+        let Some(binding) = &var.binding else { continue };
+        if uses[handle].is_empty() {
+            continue;
+        }
+        let bad = |m: &str| Error::Shader { name: name.into(), message: format!("binding {}: {m}", binding.binding) };
+        if binding.group != 0 {
+            return Err(bad("only group 0 is used"));
+        }
+        let ty = match (&module.types[var.ty].inner, var.space) {
+            (_, naga::AddressSpace::Uniform) => wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            (_, naga::AddressSpace::Storage { access }) => wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: access == naga::StorageAccess::LOAD },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            (naga::TypeInner::Sampler { comparison: true }, _) => {
+                wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison)
+            }
+            (naga::TypeInner::Sampler { comparison: false }, _) => return Err(bad("filtering samplers are not used")),
+            (naga::TypeInner::Image { dim, arrayed, class }, _) => {
+                let view_dimension = match (dim, arrayed) {
+                    (naga::ImageDimension::D2, false) => wgpu::TextureViewDimension::D2,
+                    (naga::ImageDimension::D2, true) => wgpu::TextureViewDimension::D2Array,
+                    _ => return Err(bad("only 2D textures and 2D arrays are used")),
+                };
+                match class {
+                    naga::ImageClass::Sampled { kind, multi } => wgpu::BindingType::Texture {
+                        sample_type: match kind {
+                            naga::ScalarKind::Float => wgpu::TextureSampleType::Float { filterable: false },
+                            naga::ScalarKind::Uint => wgpu::TextureSampleType::Uint,
+                            _ => wgpu::TextureSampleType::Sint,
+                        },
+                        view_dimension,
+                        multisampled: *multi,
+                    },
+                    naga::ImageClass::Depth { multi } => wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension,
+                        multisampled: *multi,
+                    },
+                    naga::ImageClass::Storage { format: naga::StorageFormat::Rgba8Unorm, access }
+                        if *access == naga::StorageAccess::STORE =>
+                    {
+                        wgpu::BindingType::StorageTexture {
+                            access: wgpu::StorageTextureAccess::WriteOnly,
+                            format: wgpu::TextureFormat::Rgba8Unorm,
+                            view_dimension,
+                        }
+                    }
+                    _ => return Err(bad("unsupported texture class")),
+                }
+            }
+            _ => return Err(bad("unsupported binding")),
+        };
+        entries.push(wgpu::BindGroupLayoutEntry {
+            binding: binding.binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty,
+            count: None,
+        });
+    }
+    entries.sort_by_key(|e| e.binding);
+    Ok(entries)
+}
+
 /// A device and queue, and what the adapter can do.
+#[derive(Clone)]
 pub struct GpuContext {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
@@ -83,8 +176,15 @@ pub struct GpuContext {
     /// Timestamp queries are available (pass timings are measured on the GPU).
     pub timestamps: bool,
     /// Pipelines already built, by name: a frame after the first compiles no shader.
-    compute_cache: std::sync::Mutex<std::collections::HashMap<String, wgpu::ComputePipeline>>,
-    render_cache: std::sync::Mutex<std::collections::HashMap<String, wgpu::RenderPipeline>>,
+    /// Clones of a context share these: pipelines, and the resources kept from frame to frame
+    /// with the count of those created ([`pool`]).
+    compute_cache: std::sync::Arc<std::sync::Mutex<std::collections::HashMap<String, wgpu::ComputePipeline>>>,
+    render_cache: std::sync::Arc<std::sync::Mutex<std::collections::HashMap<String, wgpu::RenderPipeline>>>,
+    /// Bind group layouts by their entries: stages with the same interface share one.
+    layouts: std::sync::Arc<
+        std::sync::Mutex<std::collections::HashMap<Vec<wgpu::BindGroupLayoutEntry>, wgpu::BindGroupLayout>>,
+    >,
+    pool: std::sync::Arc<std::sync::Mutex<pool::Pool>>,
 }
 
 fn instance() -> wgpu::Instance {
@@ -180,6 +280,8 @@ impl GpuContext {
             timestamps: device.features().contains(wgpu::Features::TIMESTAMP_QUERY),
             compute_cache: Default::default(),
             render_cache: Default::default(),
+            layouts: Default::default(),
+            pool: Default::default(),
         }
     }
 
@@ -224,9 +326,10 @@ impl GpuContext {
             .entry(key)
             .or_insert_with(|| {
                 let module = self.shader(name);
+                let layout = self.stage_layout(name);
                 self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                     label: Some(name),
-                    layout: None,
+                    layout: Some(&layout),
                     module: &module,
                     entry_point: Some("main"),
                     compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
@@ -236,10 +339,315 @@ impl GpuContext {
             .clone()
     }
 
+    /// The pipeline layout of compute stage `name`: group 0 as its WGSL declares it (the
+    /// bindings its entry point uses, as wgpu's derived layouts have them), with the bind group
+    /// layout shared by every stage whose group 0 is the same.
+    pub fn stage_layout(&self, name: &str) -> wgpu::PipelineLayout {
+        let entries = stage_bindings(name).unwrap_or_else(|e| panic!("{e}"));
+        let bgl = self
+            .layouts
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .entry(entries.clone())
+            .or_insert_with(|| {
+                self.device
+                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(name), entries: &entries })
+            })
+            .clone();
+        self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(name),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
+        })
+    }
+
+    /// Distinct bind group layouts of the compute stages built so far.
+    pub fn shared_layouts(&self) -> usize {
+        self.layouts.lock().unwrap_or_else(|e| e.into_inner()).len()
+    }
+
     /// A render pipeline built once per context by `make`, under `name`.
     pub fn render_pipeline(&self, name: &str, make: impl FnOnce() -> wgpu::RenderPipeline) -> wgpu::RenderPipeline {
         let mut cache = self.render_cache.lock().unwrap_or_else(|e| e.into_inner());
         cache.entry(name.to_string()).or_insert_with(make).clone()
+    }
+
+    fn pool(&self) -> std::sync::MutexGuard<'_, pool::Pool> {
+        self.pool.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// GPU objects created through this context so far.
+    pub fn created(&self) -> ResourceCounts {
+        self.pool().counts
+    }
+
+    /// Open the resource scope `name` ([`pool`]): its requests are answered, in order, by the
+    /// resources it handed out last time; those of them that were handed out as fresh storage
+    /// buffers are cleared first, in `enc`.
+    pub fn begin_scope(&self, name: &str, enc: &mut wgpu::CommandEncoder) {
+        let mut pool = self.pool();
+        let scope = pool.scopes.entry(name.to_string()).or_default();
+        scope.cursor = 0;
+        for slot in &scope.slots {
+            if let Slot::Buffer { zeroed: true, buffer, .. } = slot {
+                enc.clear_buffer(buffer, 0, None);
+            }
+        }
+        pool.current = Some(name.to_string());
+    }
+
+    /// Close the open scope; what it did not ask for this time is released.
+    pub fn end_scope(&self) {
+        let mut pool = self.pool();
+        if let Some(name) = pool.current.take()
+            && let Some(scope) = pool.scopes.get_mut(&name)
+        {
+            scope.slots.truncate(scope.cursor);
+        }
+    }
+
+    /// Release every kept resource of the scopes whose name starts with `prefix`.
+    pub fn drop_scopes(&self, prefix: &str) {
+        self.pool().scopes.retain(|name, _| !name.starts_with(prefix));
+    }
+
+    /// A buffer its owner keeps itself across frames (not pooled; counted).
+    pub fn kept_buffer(&self, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        self.pool().counts.buffers += 1;
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// A storage (or other) buffer of `size` bytes, zeroed as a new buffer is.
+    pub fn buffer(&self, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        let usage = usage | wgpu::BufferUsages::COPY_DST;
+        let mut guard = self.pool();
+        let pool = &mut *guard;
+        let make = |counts: &mut ResourceCounts| {
+            counts.buffers += 1;
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
+        if let Some(Slot::Buffer { size: s, usage: u, zeroed: true, buffer, .. }) = scope.slots.get(i)
+            && *s == size
+            && *u == usage
+        {
+            return buffer.clone();
+        }
+        let name = pool.current.clone().unwrap();
+        let buffer = make(&mut pool.counts);
+        let slot = Slot::Buffer { size, usage, zeroed: true, contents: Vec::new(), buffer: buffer.clone() };
+        keep(pool.scopes.get_mut(&name).unwrap(), i, slot);
+        buffer
+    }
+
+    /// A buffer holding `contents` (a uniform, or initial data): kept from frame to frame and
+    /// rewritten with `queue.write_buffer` when the contents changed (always, for buffers the
+    /// GPU may write).
+    pub fn buffer_init(&self, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        use wgpu::util::DeviceExt;
+        let usage = usage | wgpu::BufferUsages::COPY_DST;
+        let mut guard = self.pool();
+        let pool = &mut *guard;
+        let make = |counts: &mut ResourceCounts| {
+            counts.buffers += 1;
+            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+        };
+        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
+        if let Some(Slot::Buffer { size, usage: u, zeroed: false, contents: old, buffer }) = scope.slots.get_mut(i)
+            && *size == contents.len() as u64
+            && *u == usage
+        {
+            if old != contents || usage.contains(wgpu::BufferUsages::STORAGE) {
+                self.queue.write_buffer(buffer, 0, contents);
+                old.clear();
+                old.extend_from_slice(contents);
+            }
+            return buffer.clone();
+        }
+        let name = pool.current.clone().unwrap();
+        let buffer = make(&mut pool.counts);
+        let scope = pool.scopes.get_mut(&name).unwrap();
+        keep(
+            scope,
+            i,
+            Slot::Buffer {
+                size: contents.len() as u64,
+                usage,
+                zeroed: false,
+                contents: contents.to_vec(),
+                buffer: buffer.clone(),
+            },
+        );
+        buffer
+    }
+
+    /// A uniform buffer with `contents`.
+    pub fn uniform(&self, label: &str, contents: &[u8]) -> wgpu::Buffer {
+        self.buffer_init(label, contents, wgpu::BufferUsages::UNIFORM)
+    }
+
+    /// A texture (one mip level, one sample).
+    pub fn texture(
+        &self,
+        label: &str,
+        size: wgpu::Extent3d,
+        format: wgpu::TextureFormat,
+        usage: wgpu::TextureUsages,
+    ) -> wgpu::Texture {
+        let key = TextureKey { size, format, usage };
+        let mut guard = self.pool();
+        let pool = &mut *guard;
+        let make = |counts: &mut ResourceCounts| {
+            counts.textures += 1;
+            self.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
+        if let Some(Slot::Texture { key: k, texture }) = scope.slots.get(i)
+            && *k == key
+        {
+            return texture.clone();
+        }
+        let name = pool.current.clone().unwrap();
+        let texture = make(&mut pool.counts);
+        keep(pool.scopes.get_mut(&name).unwrap(), i, Slot::Texture { key, texture: texture.clone() });
+        texture
+    }
+
+    /// A view of `layers` (None: all from `base`) of a texture, as `dimension`.
+    pub fn view(
+        &self,
+        texture: &wgpu::Texture,
+        dimension: Option<wgpu::TextureViewDimension>,
+        base: u32,
+        layers: Option<u32>,
+    ) -> wgpu::TextureView {
+        let key = (texture.clone(), dimension, base, layers);
+        let mut guard = self.pool();
+        let pool = &mut *guard;
+        let make = |counts: &mut ResourceCounts| {
+            counts.texture_views += 1;
+            texture.create_view(&wgpu::TextureViewDescriptor {
+                dimension,
+                base_array_layer: base,
+                array_layer_count: layers,
+                ..Default::default()
+            })
+        };
+        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
+        if let Some(Slot::View { key: k, view }) = scope.slots.get(i)
+            && *k == key
+        {
+            return view.clone();
+        }
+        let name = pool.current.clone().unwrap();
+        let view = make(&mut pool.counts);
+        keep(pool.scopes.get_mut(&name).unwrap(), i, Slot::View { key, view: view.clone() });
+        view
+    }
+
+    /// A bind group of group 0 of `pipeline` binding `entries`.
+    pub(crate) fn bind_group(
+        &self,
+        label: &str,
+        pipeline: LayoutOf,
+        entries: &[wgpu::BindGroupEntry],
+    ) -> wgpu::BindGroup {
+        let key: Vec<(u32, BoundKey)> = entries
+            .iter()
+            .map(|e| {
+                let k = match &e.resource {
+                    wgpu::BindingResource::Buffer(b) => BoundKey::Buffer(b.buffer.clone(), b.offset, b.size),
+                    wgpu::BindingResource::TextureView(v) => BoundKey::View((*v).clone()),
+                    wgpu::BindingResource::Sampler(s) => BoundKey::Sampler((*s).clone()),
+                    _ => unreachable!("the renderer binds buffers, texture views and samplers only"),
+                };
+                (e.binding, k)
+            })
+            .collect();
+        let mut guard = self.pool();
+        let pool = &mut *guard;
+        let make = |counts: &mut ResourceCounts| {
+            counts.bind_groups += 1;
+            self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &pipeline.layout(),
+                entries,
+            })
+        };
+        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
+        if let Some(Slot::BindGroup { layout, key: k, group }) = scope.slots.get(i)
+            && *layout == pipeline
+            && *k == key
+        {
+            return group.clone();
+        }
+        let name = pool.current.clone().unwrap();
+        let group = make(&mut pool.counts);
+        keep(pool.scopes.get_mut(&name).unwrap(), i, Slot::BindGroup { layout: pipeline, key, group: group.clone() });
+        group
+    }
+
+    /// A sampler, kept under `key` (its description does not change between frames).
+    pub fn sampler(&self, key: &str, desc: &wgpu::SamplerDescriptor) -> wgpu::Sampler {
+        let mut guard = self.pool();
+        let pool = &mut *guard;
+        let make = |counts: &mut ResourceCounts| {
+            counts.samplers += 1;
+            self.device.create_sampler(desc)
+        };
+        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
+        if let Some(Slot::Sampler { key: k, sampler }) = scope.slots.get(i)
+            && k == key
+        {
+            return sampler.clone();
+        }
+        let name = pool.current.clone().unwrap();
+        let sampler = make(&mut pool.counts);
+        keep(pool.scopes.get_mut(&name).unwrap(), i, Slot::Sampler { key: key.to_string(), sampler: sampler.clone() });
+        sampler
+    }
+
+    /// A timestamp query set of `count` queries.
+    pub fn timestamp_set(&self, count: u32) -> wgpu::QuerySet {
+        let mut guard = self.pool();
+        let pool = &mut *guard;
+        let make = |counts: &mut ResourceCounts| {
+            counts.query_sets += 1;
+            self.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("pass timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count,
+            })
+        };
+        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
+        if let Some(Slot::QuerySet { count: c, set }) = scope.slots.get(i)
+            && *c == count
+        {
+            return set.clone();
+        }
+        let name = pool.current.clone().unwrap();
+        let set = make(&mut pool.counts);
+        keep(pool.scopes.get_mut(&name).unwrap(), i, Slot::QuerySet { count, set: set.clone() });
+        set
     }
 
     /// Copy a buffer back to the CPU (blocking).
@@ -308,7 +716,8 @@ impl GpuContext {
     }
 }
 
-/// GPU pass timer: a pair of timestamps per named pass, when the adapter supports them.
+/// GPU pass timer: a pair of timestamps per named pass, when the adapter supports them. Its
+/// query set and resolve buffer come from the open resource scope, so a renderer keeps them.
 pub struct PassTimer {
     set: Option<wgpu::QuerySet>,
     names: Vec<String>,
@@ -317,13 +726,7 @@ pub struct PassTimer {
 
 impl PassTimer {
     pub fn new(ctx: &GpuContext, capacity: u32) -> PassTimer {
-        let set = ctx.timestamps.then(|| {
-            ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("pass timestamps"),
-                ty: wgpu::QueryType::Timestamp,
-                count: capacity * 2,
-            })
-        });
+        let set = ctx.timestamps.then(|| ctx.timestamp_set(capacity * 2));
         PassTimer { set, names: Vec::new(), capacity }
     }
 
@@ -357,34 +760,38 @@ impl PassTimer {
         Some(i)
     }
 
-    /// Resolve and read the timings: (pass name, milliseconds), summed over passes of one name,
-    /// in first-use order. Empty when timestamps are unsupported.
-    pub fn finish(self, ctx: &GpuContext) -> Result<Vec<(String, f64)>> {
-        let Some(set) = self.set else { return Ok(Vec::new()) };
+    /// The passes timed so far, in order.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Record the resolve of the timestamps into a buffer of the open scope: (buffer, bytes to
+    /// read), None without timestamps.
+    pub fn resolve(&self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder) -> Option<(wgpu::Buffer, u64)> {
+        let set = self.set.as_ref()?;
         let n = self.names.len() as u32;
         if n == 0 {
-            return Ok(Vec::new());
+            return None;
         }
-        let buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("timestamps"),
-            size: (n * 2 * 8) as u64,
-            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        enc.resolve_query_set(&set, 0..n * 2, &buf, 0);
-        ctx.queue.submit([enc.finish()]);
-        let data = ctx.read_buffer(&buf, (n * 2 * 8) as u64)?;
-        let ts: &[u64] = bytemuck::cast_slice(&data);
-        let period = ctx.queue.get_timestamp_period() as f64;
+        let usage = wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC;
+        let buf = ctx.buffer("timestamps", self.capacity as u64 * 16, usage);
+        enc.resolve_query_set(set, 0..n * 2, &buf, 0);
+        Some((buf, n as u64 * 16))
+    }
+
+    /// (pass name, milliseconds) from the resolved timestamps `data`, summed over passes of one
+    /// name, in first-use order.
+    pub fn timings(names: &[String], data: &[u8], period: f32) -> Vec<(String, f64)> {
+        let ts: Vec<u64> = data.chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().unwrap())).collect();
         let mut out: Vec<(String, f64)> = Vec::new();
-        for (i, name) in self.names.iter().enumerate() {
-            let ms = ts[2 * i + 1].saturating_sub(ts[2 * i]) as f64 * period * 1e-6;
+        for (i, name) in names.iter().enumerate() {
+            let (Some(a), Some(b)) = (ts.get(2 * i), ts.get(2 * i + 1)) else { break };
+            let ms = b.saturating_sub(*a) as f64 * period as f64 * 1e-6;
             match out.iter_mut().find(|(n, _)| n == name) {
                 Some(e) => e.1 += ms,
                 None => out.push((name.clone(), ms)),
             }
         }
-        Ok(out)
+        out
     }
 }

@@ -190,6 +190,56 @@ pub struct TemporalParams {
     pub _pad: u32,
 }
 
+/// An object's placement relative to the pose in the scene file (`shared/raster_common.wgsl`):
+/// positions by `model`, normals by `normal` (the rotation alone; the transform is a
+/// similarity). Identity for objects that never moved, which leaves every vertex bit for bit.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct ObjectTransform {
+    pub model: [[f32; 4]; 4],
+    pub normal: [[f32; 4]; 4],
+}
+
+/// Tone mapping of the radiance image for display (`display`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct DisplayParams {
+    pub width: u32,
+    pub height: u32,
+    pub exposure: f32,
+    pub _pad: u32,
+}
+
+/// `MaterialGpu.kind.x`: the material (WGSL `KIND_*`).
+pub const KIND_DIFFUSE: u32 = 0;
+pub const KIND_DIELECTRIC: u32 = 1;
+pub const KIND_MIRROR: u32 = 2;
+pub const KIND_CONDUCTOR: u32 = 3;
+/// `MaterialGpu.kind.z`: the analytic shape (WGSL `SHAPE_*`).
+pub const SHAPE_MESH: u32 = 0;
+pub const SHAPE_SPHERE: u32 = 1;
+pub const SHAPE_CYLINDER: u32 = 2;
+pub const SHAPE_RECTANGLE: u32 = 3;
+/// `LightGpu.info.y`: the light's kind (WGSL `LIGHT_*`).
+pub const LIGHT_SPOT: u32 = 0;
+pub const LIGHT_POINT: u32 = 1;
+pub const LIGHT_DIRECTIONAL: u32 = 2;
+
+/// (name, value) of the constants the WGSL declares under the same name, for the layout test.
+pub const CONSTANTS: &[(&str, u32)] = &[
+    ("KIND_DIFFUSE", KIND_DIFFUSE),
+    ("KIND_DIELECTRIC", KIND_DIELECTRIC),
+    ("KIND_MIRROR", KIND_MIRROR),
+    ("KIND_CONDUCTOR", KIND_CONDUCTOR),
+    ("SHAPE_MESH", SHAPE_MESH),
+    ("SHAPE_SPHERE", SHAPE_SPHERE),
+    ("SHAPE_CYLINDER", SHAPE_CYLINDER),
+    ("SHAPE_RECTANGLE", SHAPE_RECTANGLE),
+    ("LIGHT_SPOT", LIGHT_SPOT),
+    ("LIGHT_POINT", LIGHT_POINT),
+    ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
+];
+
 /// (Rust type name, WGSL struct name, size) for the layout test.
 pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("FaceGpu", "Face", std::mem::size_of::<FaceGpu>()),
@@ -207,4 +257,6 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
     ("TriParams", "TriParams", std::mem::size_of::<crate::splat::TriParams>()),
     ("BlendParams", "BlendParams", std::mem::size_of::<crate::splat::BlendParams>()),
+    ("ObjectTransform", "ObjectTransform", std::mem::size_of::<ObjectTransform>()),
+    ("DisplayParams", "DisplayParams", std::mem::size_of::<DisplayParams>()),
 ];

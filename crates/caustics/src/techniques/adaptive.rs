@@ -64,12 +64,12 @@ impl AdaptivePlan {
     /// The plan for `settings`, or an input error naming the option at fault.
     pub fn new(s: &RenderSettings, max_bind: u64) -> Result<AdaptivePlan> {
         let n = s.photons;
-        let cl = |f: &str, m: String| Err(Error::input("<command line>", f, m));
+        let cl = |f: &str, m: String| Err(Error::input("<settings>", f, m));
         if !n.is_power_of_two() || !(32..=65536).contains(&n) {
-            return cl("--photons", format!("adaptive caustic maps need a power of two from 32 to 65536 (got {n})"));
+            return cl("photons", format!("adaptive caustic maps need a power of two from 32 to 65536 (got {n})"));
         }
         if !s.base_grid.is_power_of_two() || !(4..=4096).contains(&s.base_grid) {
-            return cl("--base-grid", format!("must be a power of two from 4 to 4096 (got {})", s.base_grid));
+            return cl("base_grid", format!("must be a power of two from 4 to 4096 (got {})", s.base_grid));
         }
         let base = s.base_grid.min(n / 2);
         let per_photon = bytes_per_photon(s);
@@ -91,7 +91,7 @@ impl AdaptivePlan {
             }
             if sb >= n / 2 || sb >= MAX_BATCH_GRID {
                 return cl(
-                    "--photon-memory",
+                    "photon_memory",
                     format!(
                         "{} KiB of photon memory is too small for even one batch of the {n}x{n} photon hierarchy \
                          (a batch must hold at least two {1}x{1} cells of {per_photon} bytes per photon, \
@@ -148,7 +148,7 @@ impl Adaptive {
         })
     }
 
-    pub fn record_face(
+    fn record_face_inner(
         &mut self,
         e: &Emit,
         enc: &mut wgpu::CommandEncoder,
@@ -306,13 +306,6 @@ impl Adaptive {
         for b in 0..max_batches {
             traversal.record(enc, timer, "adaptive_traverse", if b == 0 { &begin } else { &end_begin });
         }
-        if std::env::var_os("DBG_DUMP").is_some() {
-            for src in [&self.photons, &self.corners] {
-                let copy = storage(e.ctx, "dbg", src.size(), wgpu::BufferUsages::empty());
-                enc.copy_buffer_to_buffer(src, 0, &copy, 0, src.size());
-                super::DBG.lock().unwrap().push(copy);
-            }
-        }
         {
             let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("adaptive_end"),
@@ -325,9 +318,32 @@ impl Adaptive {
         ctrl_buf
     }
 
-    pub fn fill(&self, pending: &mut Pending) {
+    fn fill_inner(&self, pending: &mut Pending) {
         pending.level0_grid = self.plan.base;
         pending.stats.photon_bytes = self.plan.bytes;
         pending.record_bytes = self.plan.photon_bytes - 8;
+    }
+}
+
+impl super::Emission for Adaptive {
+    fn record_face(
+        &mut self,
+        e: &Emit,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        cover: &wgpu::Buffer,
+        face: u32,
+        pending: &mut Pending,
+    ) {
+        for reflect in [false, true] {
+            if reflect && !e.reflect_branch {
+                continue;
+            }
+            pending.ctrl.push(self.record_face_inner(e, enc, timer, cover, face, reflect));
+        }
+    }
+
+    fn fill(&self, pending: &mut Pending) {
+        self.fill_inner(pending);
     }
 }

@@ -43,7 +43,7 @@ impl Basic {
     /// Trace and splat the grid of face `f`: the transmitted branch, then, when the scene has
     /// dielectric casters, the reflected branch (the face index's high bit tells the tracer).
     /// `kept` receives copies of the traced photons when `RenderSettings::keep_photons` is set.
-    pub fn record_face(
+    fn record_face_inner(
         &mut self,
         e: &Emit,
         enc: &mut wgpu::CommandEncoder,
@@ -142,7 +142,7 @@ impl Basic {
         }
     }
 
-    pub fn fill(&self, p: &mut Pending) {
+    fn fill_inner(&self, p: &mut Pending) {
         let s = &mut p.stats;
         s.photons_traced = self.traced;
         s.photons_splatted = self.traced;
@@ -157,10 +157,23 @@ impl Basic {
 
 /// A small read-only storage buffer holding `v`.
 pub(crate) fn storage_init<T: bytemuck::Pod>(e: &Emit, v: &T) -> wgpu::Buffer {
-    use wgpu::util::DeviceExt;
-    e.ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("splat_params"),
-        contents: bytemuck::bytes_of(v),
-        usage: wgpu::BufferUsages::STORAGE,
-    })
+    e.ctx.buffer_init("splat_params", bytemuck::bytes_of(v), wgpu::BufferUsages::STORAGE)
+}
+
+impl super::Emission for Basic {
+    fn record_face(
+        &mut self,
+        e: &Emit,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        _cover: &wgpu::Buffer,
+        face: u32,
+        pending: &mut Pending,
+    ) {
+        self.record_face_inner(e, enc, timer, face, &mut pending.kept);
+    }
+
+    fn fill(&self, pending: &mut Pending) {
+        self.fill_inner(pending);
+    }
 }

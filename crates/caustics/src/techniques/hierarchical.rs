@@ -40,9 +40,9 @@ impl HierarchicalPlan {
 
     pub fn new(s: &RenderSettings, max_bind: u64) -> Result<HierarchicalPlan> {
         let n = s.photons;
-        let cl = |f: &str, m: String| Err(Error::input("<command line>", f, m));
+        let cl = |f: &str, m: String| Err(Error::input("<settings>", f, m));
         if !n.is_power_of_two() || n < 32 {
-            return cl("--photons", format!("hierarchical caustic maps need a power of two from 32 to 8192 (got {n})"));
+            return cl("photons", format!("hierarchical caustic maps need a power of two from 32 to 8192 (got {n})"));
         }
         let quads = s.splat.cell_quads(s.technique);
         let mut t = n.min(2048);
@@ -54,7 +54,7 @@ impl HierarchicalPlan {
             }
             if t <= 8 {
                 return cl(
-                    "--photon-memory",
+                    "photon_memory",
                     format!("{} KiB is too small for one 8x8 tile of hierarchical caustic maps", s.photon_memory >> 10),
                 );
             }
@@ -99,7 +99,7 @@ impl Hierarchical {
         })
     }
 
-    pub fn record_face(
+    fn record_face_inner(
         &mut self,
         e: &Emit,
         enc: &mut wgpu::CommandEncoder,
@@ -246,12 +246,35 @@ impl Hierarchical {
         ctrl_buf
     }
 
-    pub fn fill(&self, pending: &mut Pending) {
+    fn fill_inner(&self, pending: &mut Pending) {
         let p = self.plan;
         pending.level0_grid = p.start * (p.n / p.tile);
         let s = &mut pending.stats;
         s.photon_bytes = p.bytes;
         s.batches = self.tiles;
         s.photons_traced = (p.n as u64).pow(2) * pending.ctrl.len() as u64;
+    }
+}
+
+impl super::Emission for Hierarchical {
+    fn record_face(
+        &mut self,
+        e: &Emit,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        _cover: &wgpu::Buffer,
+        face: u32,
+        pending: &mut Pending,
+    ) {
+        for reflect in [false, true] {
+            if reflect && !e.reflect_branch {
+                continue;
+            }
+            pending.ctrl.push(self.record_face_inner(e, enc, timer, face, reflect));
+        }
+    }
+
+    fn fill(&self, pending: &mut Pending) {
+        self.fill_inner(pending);
     }
 }

@@ -22,7 +22,6 @@ use crate::error::{Error, Result};
 use crate::gpu::types::{CoverParams, LevelParams};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::render::RenderSettings;
-use wgpu::util::DeviceExt;
 
 /// How photons are emitted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
@@ -350,20 +349,11 @@ pub(crate) const FLAG_REFLECT: u32 = 64;
 pub(crate) const FLAG_SKIP: u32 = 128;
 
 pub(crate) fn storage(ctx: &GpuContext, label: &str, size: u64, extra: wgpu::BufferUsages) -> wgpu::Buffer {
-    ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size: size.max(16),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST | extra,
-        mapped_at_creation: false,
-    })
+    ctx.buffer(label, size.max(16), wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | extra)
 }
 
 pub(crate) fn uniform(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
-    ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents: bytes,
-        usage: wgpu::BufferUsages::UNIFORM,
-    })
+    ctx.uniform(label, bytes)
 }
 
 /// A bind group of `pl`'s group 0 with the resources bound at 0, 1, 2, … in order.
@@ -378,11 +368,7 @@ pub(crate) fn bind(
         .enumerate()
         .map(|(i, r)| wgpu::BindGroupEntry { binding: i as u32, resource: r.clone() })
         .collect();
-    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout: &pl.get_bind_group_layout(0),
-        entries: &entries,
-    })
+    ctx.bind_group(label, crate::gpu::pool::LayoutOf::Compute(pl.clone()), &entries)
 }
 
 /// Word offset of level `l` of a mip chain whose level 0 is g × g.
@@ -470,6 +456,36 @@ pub(crate) fn level_params(face: u32) -> LevelParams {
     }
 }
 
+/// A photon emission technique: what the light-space buffers of one light become in its
+/// caustic map. A new technique is a module implementing this trait, a [`Technique`] variant
+/// and its arm in [`emission`]; the frame around it (light-space passes, resolve, shading,
+/// statistics) is shared.
+pub(crate) trait Emission {
+    /// Record face `face`'s photon stage (both branches, where the reflected one at glass is a
+    /// separate traversal), given the face's coverage mip `cover`; buffers whose contents the
+    /// statistics need go into `pending`.
+    fn record_face(
+        &mut self,
+        e: &Emit,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        cover: &wgpu::Buffer,
+        face: u32,
+        pending: &mut Pending,
+    );
+    /// Fill in what the host knows of the statistics after the last face.
+    fn fill(&self, pending: &mut Pending);
+}
+
+/// The registry: the emission of technique `t` for the light `e` describes.
+fn emission(t: Technique, e: &Emit) -> Result<Box<dyn Emission>> {
+    Ok(match t {
+        Technique::Basic => Box::new(basic::Basic::new(e)),
+        Technique::Hierarchical => Box::new(hierarchical::Hierarchical::new(e)?),
+        Technique::AdaptiveLevel | Technique::AdaptiveError => Box::new(adaptive::Adaptive::new(e)?),
+    })
+}
+
 /// Record the photon stage of one light: per face, the coverage mip, then the technique.
 pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, faces: u32) -> Result<Pending> {
     let t = e.settings.technique;
@@ -487,18 +503,7 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
         kept: Vec::new(),
         record_bytes: 32,
     };
-    let mut adaptive = match t {
-        Technique::AdaptiveLevel | Technique::AdaptiveError => Some(adaptive::Adaptive::new(e)?),
-        _ => None,
-    };
-    let mut hier = match t {
-        Technique::Hierarchical => Some(hierarchical::Hierarchical::new(e)?),
-        _ => None,
-    };
-    let mut basic = match t {
-        Technique::Basic => Some(basic::Basic::new(e)),
-        _ => None,
-    };
+    let mut emission = emission(t, e)?;
     for f in 0..faces {
         build_mip(e, enc, timer, "coverage_mip", &cover, &dummy, f, g, 1, 0);
         enc.copy_buffer_to_buffer(&cover, mip_offset(g.trailing_zeros(), g) * 4, &pending.coverage, f as u64 * 4, 4);
@@ -507,39 +512,28 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
             enc.copy_buffer_to_buffer(&cover, 0, &m, 0, (g as u64).pow(2) * 4);
             pending.masks.push(m);
         }
-        // The transmitted branch, then (glass casters) the reflected one: a second traversal.
-        for reflect in [false, true] {
-            if reflect && !e.reflect_branch {
-                continue;
-            }
-            if let Some(a) = &mut adaptive {
-                pending.ctrl.push(a.record_face(e, enc, timer, &cover, f, reflect));
-            }
-            if let Some(h) = &mut hier {
-                pending.ctrl.push(h.record_face(e, enc, timer, f, reflect));
-            }
-        }
-        if let Some(b) = &mut basic {
-            b.record_face(e, enc, timer, f, &mut pending.kept);
-        }
+        emission.record_face(e, enc, timer, &cover, f, &mut pending);
     }
-    if let Some(a) = &adaptive {
-        a.fill(&mut pending);
-    }
-    if let Some(h) = &hier {
-        h.fill(&mut pending);
-    }
-    if let Some(b) = &basic {
-        b.fill(&mut pending);
-    }
+    emission.fill(&mut pending);
     Ok(pending)
 }
 
-pub static DBG: std::sync::Mutex<Vec<wgpu::Buffer>> = std::sync::Mutex::new(Vec::new());
 impl Pending {
-    /// Read back the counters after the frame was submitted.
-    pub fn finish(mut self, ctx: &GpuContext) -> Result<TechniqueStats> {
-        let cov = ctx.read_buffer(&self.coverage, self.faces as u64 * 4)?;
+    /// The buffers (and byte counts) [`Pending::finish`] reads, in the order it reads them.
+    pub fn sources(&self) -> Vec<(wgpu::Buffer, u64)> {
+        let mut out = vec![(self.coverage.clone(), self.faces as u64 * 4)];
+        out.extend(self.masks.iter().map(|m| (m.clone(), m.size())));
+        let photon = std::mem::size_of::<crate::gpu::types::Photon>() as u64;
+        out.extend(self.kept.iter().map(|(b, count)| (b.clone(), count * photon)));
+        out.extend(self.ctrl.iter().map(|b| (b.clone(), ctrl::WORDS * 4)));
+        out
+    }
+
+    /// The statistics, from the contents of [`Pending::sources`] (read after the frame ran).
+    pub fn finish(mut self, data: &[Vec<u8>]) -> Result<TechniqueStats> {
+        let mut data = data.iter();
+        let mut next = || data.next().cloned().ok_or_else(|| Error::Device("technique statistics incomplete".into()));
+        let cov = next()?;
         let words: &[u32] = bytemuck::cast_slice(&cov);
         let s = &mut self.stats;
         let covered: u64 = words.iter().map(|&w| w as u64).sum();
@@ -548,22 +542,16 @@ impl Pending {
         s.face_texels += self.faces as u64 * (g as u64).pow(2);
         let r = (s.grid as u64 / g as u64).pow(2);
         s.relevant += covered * r;
-        for m in &self.masks {
-            let data = ctx.read_buffer(m, m.size())?;
-            s.coverage_masks.push(bytemuck::cast_slice(&data).to_vec());
+        for _ in &self.masks {
+            s.coverage_masks.push(bytemuck::cast_slice(&next()?).to_vec());
         }
-        for (b, count) in &self.kept {
-            let data = ctx.read_buffer(b, count * std::mem::size_of::<crate::gpu::types::Photon>() as u64)?;
-            s.photons.extend_from_slice(bytemuck::cast_slice(&data));
-        }
-        for (i, b) in DBG.lock().unwrap().drain(..).enumerate() {
-            let data = ctx.read_buffer(&b, b.size())?;
-            std::fs::write(format!("{}/dbg{i}.bin", std::env::var("DBG_DUMP").unwrap()), &data).unwrap();
+        for _ in &self.kept {
+            s.photons.extend_from_slice(bytemuck::cast_slice(&next()?));
         }
         let mut peak_cells = 0u64;
         let mut peak_photons = 0u64;
-        for buf in &self.ctrl {
-            let data = ctx.read_buffer(buf, ctrl::WORDS * 4)?;
+        for _ in &self.ctrl {
+            let data = next()?;
             let c: &[u32] = bytemuck::cast_slice(&data);
             let overflow = c[ctrl::OVERFLOW];
             if overflow != 0 {

@@ -1,12 +1,15 @@
 //! Shared by the GPU test files.
 
 use caustics::gpu::GpuContext;
+use std::sync::OnceLock;
 
 /// The GPU, or `None` with a printed reason when there is no adapter; in CI (`CI=true`) a
-/// missing adapter fails the test instead.
+/// missing adapter fails the test instead. One device per test binary: its clones share the
+/// pipelines, so a binary compiles each shader once.
 pub fn gpu() -> Option<GpuContext> {
-    match GpuContext::new(None) {
-        Ok(c) => Some(c),
+    static CTX: OnceLock<Result<GpuContext, String>> = OnceLock::new();
+    match CTX.get_or_init(|| GpuContext::new(None).map_err(|e| e.to_string())) {
+        Ok(c) => Some(c.clone()),
         Err(e) => {
             if std::env::var("CI").is_ok_and(|v| v == "true") {
                 panic!("CI requires a GPU adapter (install mesa-vulkan-drivers): {e}");

@@ -1,0 +1,220 @@
+//! The persistent renderer: what a frame loop gets.
+//!
+//! - steady state: after the first frame of a configuration, frames (full, camera-only, moved
+//!   light, moved object) create no GPU object;
+//! - camera-only frames do no photon work, and a moved light redoes that light alone;
+//! - a renderer brought to a state frame by frame (moved light, moved and rotated objects,
+//!   changed settings, moved camera) renders the image and caustic maps of a fresh renderer
+//!   set to that state, bit for bit.
+
+mod common;
+use caustics::Scene;
+use caustics::render::{RenderSettings, SplatMode};
+use caustics::renderer::{FrameRequest, FrameStats, Renderer};
+use caustics::scene::Light;
+use common::gpu;
+use glam::{Affine3A, Quat, Vec3};
+use std::path::Path;
+
+fn small(mut scene: Scene) -> Scene {
+    scene.camera.width = 96;
+    scene.camera.height = 72;
+    scene
+}
+
+fn settings() -> RenderSettings {
+    RenderSettings { photons: 64, caustic_map_size: 64, shadow_map_size: 256, ..Default::default() }
+}
+
+fn catalogue(name: &str) -> Scene {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    small(Scene::load(&dir.join(format!("{name}.json"))).unwrap())
+}
+
+/// One frame: encode, submit, wait; its statistics, and the GPU objects the encoding created.
+fn frame(r: &mut Renderer) -> (FrameStats, u64) {
+    let ctx = r.context().clone();
+    let before = r.created();
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    r.encode(&mut enc, FrameRequest { stats: true }).unwrap();
+    let created = (r.created() - before).total();
+    ctx.queue.submit([enc.finish()]);
+    (r.wait_stats().unwrap().expect("the frame asked for statistics"), created)
+}
+
+fn moved_spot(light: &Light, dx: f32) -> Light {
+    let mut l = light.clone();
+    if let Light::Spot { position, .. } = &mut l {
+        position.x += dx;
+    }
+    l
+}
+
+/// The image's and every light's fixed-point caustic flux, as bits.
+fn bits(r: &Renderer) -> (Vec<u32>, Vec<Vec<u64>>) {
+    let img = r.read_image().unwrap();
+    let pixels = img.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect();
+    let flux = (0..r.scene().lights.len()).map(|l| r.read_caustic_flux_bits(l).unwrap()).collect();
+    (pixels, flux)
+}
+
+#[test]
+fn steady_state_creates_nothing_and_redoes_only_what_changed() {
+    let Some(ctx) = gpu() else { return };
+    let mut scene = catalogue("glass_sphere");
+    // A second spot light, off to the side.
+    let second = moved_spot(&scene.lights[0], 1.0);
+    scene.lights.push(second);
+    let mut r = Renderer::with_context(ctx, scene, settings()).unwrap();
+    let (first, created) = frame(&mut r);
+    assert!(created > 0);
+    assert_eq!(first.lights_redone, [true, true]);
+    assert!(first.technique.photons_traced > 0);
+    // A frame like the first (every light redone): nothing created.
+    r.invalidate();
+    let (full, created) = frame(&mut r);
+    assert_eq!(created, 0, "a full frame after the first created GPU objects");
+    assert_eq!(full.lights_redone, [true, true]);
+    assert_eq!(full.technique.photons_traced, first.technique.photons_traced);
+    // Camera only: no light redone, no photon traced, nothing created.
+    let mut cam = r.scene().camera.clone();
+    cam.position += Vec3::new(0.3, 0.1, -0.2);
+    r.set_camera(cam).unwrap();
+    let (camera, created) = frame(&mut r);
+    assert_eq!(created, 0);
+    assert_eq!(camera.lights_redone, [false, false]);
+    assert_eq!(camera.technique.photons_traced, 0);
+    assert!(camera.timings.iter().all(|(name, _)| !name.starts_with("light_") && !name.starts_with("photon_")));
+    // The flux bookkeeping of kept maps is still reported.
+    assert_eq!(camera.flux, full.flux);
+    // A moved light redoes that light alone.
+    let l1 = moved_spot(&r.scene().lights[1], 0.2);
+    r.set_light(1, l1).unwrap();
+    let (light, created) = frame(&mut r);
+    assert_eq!(created, 0);
+    assert_eq!(light.lights_redone, [false, true]);
+    assert_eq!(light.technique.photons_traced, first.technique.photons_traced / 2);
+    // A moved object redoes the lights that see it (both see the ball).
+    r.set_object_transform(0, Affine3A::from_translation(Vec3::new(0.1, 0.0, 0.05))).unwrap();
+    let (object, created) = frame(&mut r);
+    assert_eq!(created, 0);
+    assert_eq!(object.lights_redone, [true, true]);
+    // A new setting makes what it needs once; the frames after it create nothing.
+    let mut s = r.settings().clone();
+    s.splat = SplatMode::Fixed;
+    r.set_settings(s).unwrap();
+    let (_, created) = frame(&mut r);
+    assert!(created > 0);
+    r.invalidate();
+    let (_, created) = frame(&mut r);
+    assert_eq!(created, 0);
+}
+
+/// Bring `r` to the state `steps` describe one frame at a time, then compare with a fresh
+/// renderer set to the final state at once.
+fn same_as_fresh(scene: Scene, object: usize, light_dx: f32, rotate: Quat) {
+    let Some(ctx) = gpu() else { return };
+    let mut r = Renderer::with_context(ctx.clone(), scene.clone(), settings()).unwrap();
+    frame(&mut r);
+    let light = moved_spot(&scene.lights[0], light_dx);
+    r.set_light(0, light.clone()).unwrap();
+    frame(&mut r);
+    let t = Affine3A::from_rotation_translation(rotate, Vec3::new(0.15, 0.05, -0.1));
+    r.set_object_transform(object, t).unwrap();
+    frame(&mut r);
+    let mut s = settings();
+    s.photons = 128;
+    r.set_settings(s.clone()).unwrap();
+    frame(&mut r);
+    let mut cam = scene.camera.clone();
+    cam.position += Vec3::new(-0.4, 0.2, 0.3);
+    r.set_camera(cam.clone()).unwrap();
+    let (last, _) = frame(&mut r);
+    assert_eq!(last.lights_redone, [false]);
+    let kept = bits(&r);
+
+    let mut fresh = Renderer::with_context(ctx, scene, s).unwrap();
+    fresh.set_light(0, light).unwrap();
+    fresh.set_object_transform(object, t).unwrap();
+    fresh.set_camera(cam).unwrap();
+    frame(&mut fresh);
+    let want = bits(&fresh);
+    assert!(want.1[0].iter().any(|&b| b != 0), "the caustic map is empty");
+    assert!(kept.0 == want.0, "the image differs from a fresh renderer's");
+    assert!(kept.1 == want.1, "the caustic map differs from a fresh renderer's");
+    // And the object did move: the map differs from the unmoved scene's.
+    let unmoved = {
+        let mut u = Renderer::with_context(r.context().clone(), r.scene().clone(), r.settings().clone()).unwrap();
+        u.set_object_transform(object, Affine3A::IDENTITY).unwrap();
+        frame(&mut u);
+        bits(&u)
+    };
+    assert!(unmoved.1 != want.1);
+}
+
+#[test]
+fn frame_by_frame_matches_a_fresh_renderer_analytic() {
+    // The glass ball (an analytic sphere: exact intersection moves with it) rotated and moved.
+    same_as_fresh(catalogue("glass_sphere"), 0, 0.3, Quat::from_rotation_y(0.7));
+}
+
+#[test]
+fn frame_by_frame_matches_a_fresh_renderer_mesh() {
+    // A glass mesh (the Stanford bunny), rotated about two axes and moved.
+    let scene = catalogue("glass_bunny");
+    let bunny = scene.objects.iter().position(|o| matches!(o.shape, caustics::scene::Shape::Mesh(_))).unwrap();
+    same_as_fresh(scene, bunny, -0.2, Quat::from_rotation_y(0.5) * Quat::from_rotation_x(0.3));
+}
+
+#[test]
+fn one_shot_render_is_the_renderers_first_frame() {
+    let Some(ctx) = gpu() else { return };
+    let scene = catalogue("glass_sphere");
+    let once = caustics::render::render(&ctx, &scene, &settings(), None).unwrap();
+    let mut r = Renderer::with_context(ctx, scene, settings()).unwrap();
+    frame(&mut r);
+    assert!(once.image == r.read_image().unwrap());
+    assert!(once.caustic_flux_bits[0] == r.read_caustic_flux_bits(0).unwrap());
+    // The display texture is the PNG tone mapping of the image (within one 8-bit step: the GPU's
+    // pow and the CPU's differ in the last bits).
+    let img = r.read_image().unwrap();
+    let tex = r_display(&mut r).clone();
+    let disp = r.context().read_texture(&tex, 0, 4).unwrap();
+    let mut worst = 0i32;
+    for (p, d) in img.pixels.iter().zip(disp.chunks_exact(4)) {
+        let want = caustics::image_io::tonemap(*p, r.scene().exposure);
+        for c in 0..3 {
+            worst = worst.max((want[c] as i32 - d[c] as i32).abs());
+        }
+    }
+    assert!(worst <= 1, "display differs from the tone-mapped image by {worst} steps");
+}
+
+/// The display texture of a fresh frame.
+fn r_display(r: &mut Renderer) -> &wgpu::Texture {
+    let ctx = r.context().clone();
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    r.encode(&mut enc, FrameRequest::default()).unwrap();
+    ctx.queue.submit([enc.finish()]);
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    let out = r.encode(&mut enc, FrameRequest::default()).unwrap();
+    ctx.queue.submit([enc.finish()]);
+    out.display
+}
+
+#[test]
+fn bad_updates_are_input_errors() {
+    let Some(ctx) = gpu() else { return };
+    let scene = catalogue("glass_sphere");
+    let mut r = Renderer::with_context(ctx, scene, settings()).unwrap();
+    let shear = Affine3A::from_cols_array(&[1.0, 0.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
+    let e = r.set_object_transform(0, shear).unwrap_err();
+    assert!(e.is_input() && e.to_string().contains("objects[0].transform"), "{e}");
+    assert!(r.set_object_transform(9, Affine3A::IDENTITY).unwrap_err().to_string().contains("objects[9]"));
+    assert!(r.set_light(3, r.scene().lights[0].clone()).unwrap_err().is_input());
+    let mut s = r.settings().clone();
+    s.photons = 3;
+    let e = r.set_settings(s).unwrap_err();
+    assert!(e.to_string().contains("photons"), "{e}");
+    assert_eq!(r.settings().photons, 64, "a refused setting leaves the old one");
+}
