@@ -26,7 +26,6 @@ pub use crate::splat::SplatMode;
 pub use crate::techniques::{LevelStats, Technique, TechniqueStats};
 use glam::{Mat4, Vec3};
 use std::ops::Range;
-use std::path::Path;
 
 /// Settings of a GPU render.
 #[derive(Debug, Clone, PartialEq)]
@@ -758,9 +757,17 @@ impl RenderSettings {
 }
 
 /// Render `scene` once on the GPU: a [`crate::renderer::Renderer`] made for one frame, with
-/// everything read back. `dump` writes the intermediate buffers.
-pub fn render(ctx: &GpuContext, scene: &Scene, s: &RenderSettings, dump: Option<&Path>) -> Result<GpuRender> {
-    crate::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s.clone())?.render_once(dump)
+/// everything read back.
+pub fn render(ctx: &GpuContext, scene: &Scene, s: &RenderSettings) -> Result<GpuRender> {
+    crate::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s.clone())?.render_once()
+}
+
+/// [`render`], and the frame's light-space buffers as images ([`DumpImage`]).
+pub fn render_dump(ctx: &GpuContext, scene: &Scene, s: &RenderSettings) -> Result<(GpuRender, Vec<DumpImage>)> {
+    let mut r = crate::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s.clone())?;
+    let out = r.render_once()?;
+    let dump = r.dump_images(&out.caustic_maps)?;
+    Ok((out, dump))
 }
 
 /// What the passes of a frame share, derived from the scene and the settings.
@@ -1235,16 +1242,34 @@ pub(crate) fn flux_stats(words: &[u8], scale: f64) -> FluxStats {
     }
 }
 
-/// Write the light-space buffers as images a person can look at: normals (0.5 + 0.5 n), depths
-/// (distance from the light, normalised), and the caustic maps (tone-mapped irradiance and EXR).
-pub(crate) fn dump_buffers(
+/// An image of a frame's intermediate buffers, for people to look at
+/// ([`crate::renderer::Renderer::dump_images`]; `caustics render --dump` writes them).
+#[derive(Debug, Clone)]
+pub struct DumpImage {
+    /// File name without extension (`light0_face0_caster_front_normal`).
+    pub name: String,
+    pub image: Image,
+    pub kind: DumpKind,
+}
+
+/// How a [`DumpImage`] is meant to be shown.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DumpKind {
+    /// Values already meant for display (normals as 0.5 + 0.5 n, normalised depths), linear.
+    Display,
+    /// Irradiance or radiance: shown with this exposure (and kept linear in EXR).
+    Radiance { exposure: f32 },
+}
+
+/// The light-space buffers as images: normals (0.5 + 0.5 n), depths (distance from the light,
+/// normalised), and the caustic maps (with the exposure that maps their 99.9th percentile to
+/// white: they span orders of magnitude).
+pub(crate) fn dump_images(
     ctx: &GpuContext,
-    dir: &Path,
     lights: &[(Vec<(&str, &GBuffer)>, u32)],
     maps: &[Vec<Image>],
-    exposure: f32,
-) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::Output { path: dir.into(), message: e.to_string() })?;
+) -> Result<Vec<DumpImage>> {
+    let mut out = Vec::new();
     for (li, (bufs, nf)) in lights.iter().enumerate() {
         for f in 0..*nf {
             for &(name, gb) in bufs {
@@ -1267,20 +1292,20 @@ pub(crate) fn dump_buffers(
                         di.pixels[i] = [crate::image_io::srgb_decode(t); 3];
                     }
                 }
-                // Normals and depths are written as data, not radiance: bypass the tone curve by
-                // writing them with exposure chosen so that the PNG shows the stored values.
-                crate::image_io::write_display_png(&ni, &dir.join(format!("light{li}_face{f}_{name}_normal.png")))?;
-                crate::image_io::write_display_png(&di, &dir.join(format!("light{li}_face{f}_{name}_depth.png")))?;
+                let stem = format!("light{li}_face{f}_{name}");
+                out.push(DumpImage { name: format!("{stem}_normal"), image: ni, kind: DumpKind::Display });
+                out.push(DumpImage { name: format!("{stem}_depth"), image: di, kind: DumpKind::Display });
             }
             let map = &maps[li][f as usize];
-            map.write(&dir.join(format!("light{li}_face{f}_caustic_map.exr")), exposure)?;
-            // Caustic maps span orders of magnitude: show them with the exposure that maps the
-            // 99.9th percentile to white.
             let mut l: Vec<f32> = map.luminance().into_iter().filter(|x| *x > 0.0).collect();
             l.sort_by(f32::total_cmp);
             let p = l.get(l.len().saturating_sub(1 + l.len() / 1000)).copied().unwrap_or(1.0).max(1e-9);
-            map.write(&dir.join(format!("light{li}_face{f}_caustic_map.png")), 2.0 / p)?;
+            out.push(DumpImage {
+                name: format!("light{li}_face{f}_caustic_map"),
+                image: map.clone(),
+                kind: DumpKind::Radiance { exposure: 2.0 / p },
+            });
         }
     }
-    Ok(())
+    Ok(out)
 }

@@ -48,7 +48,6 @@ use crate::scene::{Camera, Light, Scene};
 use crate::techniques::{Pending, TechniqueStats};
 use crate::temporal::{TemporalFilter, TemporalSettings};
 use glam::Affine3A;
-use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 
@@ -621,9 +620,27 @@ impl Renderer {
         Ok(acc.chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().unwrap())).collect())
     }
 
+    /// The light-space buffers of the last frame (and the caustic maps `maps`, one list of faces
+    /// per light) as images to look at (blocking).
+    pub fn dump_images(&self, maps: &[Vec<Image>]) -> Result<Vec<crate::render::DumpImage>> {
+        let n = self.scene.lights.len();
+        let lights: Vec<_> = (0..n)
+            .map(|l| {
+                let p = self.light_frame(l)?;
+                let mut bufs =
+                    vec![("receivers", &p.recv), ("caster_front", &p.casters.0), ("caster_back", &p.casters.1)];
+                if let Some((front2, back2)) = &p.casters2 {
+                    bufs.extend([("caster_front2", front2), ("caster_back2", back2)]);
+                }
+                Ok((bufs, p.faces))
+            })
+            .collect::<Result<_>>()?;
+        crate::render::dump_images(&self.ctx, &lights, maps)
+    }
+
     /// Render one frame, wait for it and read everything back (the one-shot render of
-    /// [`crate::render::render`]; `dump` writes the light-space buffers).
-    pub fn render_once(&mut self, dump: Option<&Path>) -> Result<GpuRender> {
+    /// [`crate::render::render`]).
+    pub fn render_once(&mut self) -> Result<GpuRender> {
         let ctx = self.ctx.clone();
         let val_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let oom_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
@@ -654,20 +671,6 @@ impl Renderer {
         let n = self.scene.lights.len();
         let caustic_maps = (0..n).map(|l| self.read_caustic_maps(l)).collect::<Result<Vec<_>>>()?;
         let caustic_flux_bits = (0..n).map(|l| self.read_caustic_flux_bits(l)).collect::<Result<Vec<_>>>()?;
-        if let Some(dir) = dump {
-            let lights: Vec<_> = (0..n)
-                .map(|l| {
-                    let p = self.light_frame(l).expect("rendered");
-                    let mut bufs =
-                        vec![("receivers", &p.recv), ("caster_front", &p.casters.0), ("caster_back", &p.casters.1)];
-                    if let Some((front2, back2)) = &p.casters2 {
-                        bufs.extend([("caster_front2", front2), ("caster_back2", back2)]);
-                    }
-                    (bufs, p.faces)
-                })
-                .collect();
-            crate::render::dump_buffers(&ctx, dir, &lights, &caustic_maps, self.scene.exposure)?;
-        }
         let technique = stats.technique;
         Ok(GpuRender {
             image: self.read_image()?,
@@ -685,13 +688,9 @@ impl Renderer {
     }
 
     /// [`Renderer::render_once`] with `filter` as the temporal filter (it is handed back).
-    pub(crate) fn render_once_filtered(
-        &mut self,
-        filter: &mut TemporalFilter,
-        dump: Option<&Path>,
-    ) -> Result<GpuRender> {
+    pub(crate) fn render_once_filtered(&mut self, filter: &mut TemporalFilter) -> Result<GpuRender> {
         self.temporal = Some(std::mem::replace(filter, TemporalFilter::new(filter.settings)));
-        let out = self.render_once(dump);
+        let out = self.render_once();
         if let Some(f) = self.temporal.take() {
             *filter = f;
         }

@@ -39,7 +39,7 @@
 //!     // Instead of `caustics::render::render`: the same frame, with the caustic maps filtered
 //!     // on the GPU between the resolve and shading passes (no CPU round trip). The image, the
 //!     // caustic image and `caustic_maps` are filtered; `caustic_flux_bits` and `flux` are raw.
-//!     let out = filter.render(ctx, scene, &settings, None)?;
+//!     let out = filter.render(ctx, scene, &settings)?;
 //! #   let _ = out;
 //! }
 //! # Ok(()) }
@@ -62,7 +62,6 @@ use crate::image_io::Image;
 use crate::render::{GpuRender, RenderSettings};
 use crate::scene::Scene;
 use crate::techniques::{bind, uniform};
-use std::path::Path;
 
 /// Parameters of the temporal filter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -151,16 +150,10 @@ impl TemporalFilter {
 
     /// Render a frame of `scene` like [`crate::render::render`], with every light's caustic
     /// maps filtered against this filter's history before shading.
-    pub fn render(
-        &mut self,
-        ctx: &GpuContext,
-        scene: &Scene,
-        settings: &RenderSettings,
-        dump: Option<&Path>,
-    ) -> Result<GpuRender> {
+    pub fn render(&mut self, ctx: &GpuContext, scene: &Scene, settings: &RenderSettings) -> Result<GpuRender> {
         self.settings.validate()?;
         let mut r = crate::renderer::Renderer::with_context(ctx.clone(), scene.clone(), settings.clone())?;
-        let out = r.render_once_filtered(self, dump);
+        let out = r.render_once_filtered(self);
         self.lights.truncate(scene.lights.len());
         out
     }
