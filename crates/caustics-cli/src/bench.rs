@@ -163,7 +163,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             let mut best: Option<Run> = None;
             for _ in 0..a.repeat.max(1) {
                 let t0 = std::time::Instant::now();
-                let out = match caustics::render::render(&ctx, &scene, &s, None) {
+                let out = match caustics::render::render(&ctx, &scene, &s) {
                     Ok(o) => o,
                     Err(e) if e.is_input() => {
                         skipped.push((t, n, e.to_string()));
@@ -228,7 +228,7 @@ fn map_flip(a: &GpuRender, b: &GpuRender) -> Option<f64> {
         }
         Some(img)
     };
-    caustics::metrics::hdr_flip(&cat(a)?, &cat(b)?, None).ok().map(|f| f.mean)
+    caustics_reference::metrics::hdr_flip(&cat(a)?, &cat(b)?, None).ok().map(|f| f.mean)
 }
 
 fn mib(b: u64) -> String {
@@ -438,7 +438,7 @@ fn cpu_bench(a: &BenchArgs) -> Result<()> {
         None => Scene::default_scene(),
     };
     (scene.camera.width, scene.camera.height) = a.size;
-    let settings = caustics::reference::ReferenceSettings {
+    let settings = caustics_reference::reference::ReferenceSettings {
         photons_per_light: a.cpu_photons,
         camera_spp: 4,
         ..Default::default()
@@ -447,7 +447,7 @@ fn cpu_bench(a: &BenchArgs) -> Result<()> {
     let mut rows = Vec::new();
     for threads in [1, all] {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
-        let out = pool.install(|| caustics::reference::render(&scene, &settings))?;
+        let out = pool.install(|| caustics_reference::reference::render(&scene, &settings))?;
         let st = out.stats;
         println!("CPU reference, {threads} thread(s): {st}");
         rows.push(format!(

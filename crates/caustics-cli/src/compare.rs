@@ -1,8 +1,9 @@
-//! `caustics compare A B [--mask M] [--heatmap H]`: every metric of `caustics::metrics`, A (the
+//! `caustics compare A B [--mask M] [--heatmap H]`: every metric of `caustics_reference::metrics`, A (the
 //! image under test) against B (the reference).
 
 use caustics::image_io::Image;
-use caustics::metrics::{self, Mask};
+use caustics_reference::ImageIo as _;
+use caustics_reference::metrics::{self, Mask};
 use std::path::Path;
 
 /// Print the metrics table; write the heat map if asked. The mask selects the pixels where it is

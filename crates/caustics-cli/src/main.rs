@@ -10,6 +10,7 @@ mod view;
 use anyhow::Result;
 use caustics::render::{GpuRender, RenderSettings};
 use caustics::{Error, Scene};
+use caustics_reference::ImageIo as _;
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -361,7 +362,14 @@ fn run(cli: Cli) -> Result<()> {
                         settings.caustic_map_size = RenderSettings::fitting_caustic_map_size(&ctx, &scene, 1024);
                     }
                     let t0 = std::time::Instant::now();
-                    let out = caustics::render::render(&ctx, &scene, &settings, dump.as_deref())?;
+                    let out = match dump.as_deref() {
+                        Some(dir) => {
+                            let (out, images) = caustics::render::render_dump(&ctx, &scene, &settings)?;
+                            caustics_reference::dump::write(dir, &images)?;
+                            out
+                        }
+                        None => caustics::render::render(&ctx, &scene, &settings)?,
+                    };
                     let wall = t0.elapsed().as_secs_f64() * 1e3;
                     report_gpu(&out, wall);
                     out.image.write(&output, scene.exposure)?;
@@ -370,7 +378,7 @@ fn run(cli: Cli) -> Result<()> {
                     }
                 }
                 None => {
-                    let rs = caustics::reference::ReferenceSettings {
+                    let rs = caustics_reference::reference::ReferenceSettings {
                         photons_per_light: (photons as u64).pow(2),
                         camera_spp: spp,
                         seed,

@@ -2,7 +2,7 @@
 //! Ctrl-C cancels cleanly (no output file, exit code 130).
 
 use caustics::Scene;
-use caustics::reference::{Progress, ReferenceOutput, ReferenceSettings};
+use caustics_reference::reference::{Progress, ReferenceOutput, ReferenceSettings};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::sync::Arc;
 use std::time::Duration;
@@ -27,7 +27,7 @@ pub fn reference_render(scene: &Scene, settings: &ReferenceSettings) -> caustics
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let result = std::thread::scope(|s| {
-        let worker = s.spawn(|| caustics::reference::render_with_progress(scene, settings, &progress));
+        let worker = s.spawn(|| caustics_reference::reference::render_with_progress(scene, settings, &progress));
         while !worker.is_finished() {
             let total = progress.total();
             if total > 0 {

@@ -90,8 +90,8 @@
 //! [`BudgetController::clear_errors`] when the reference changes (the view moved). Tolerances
 //! are not part of the error model.
 
-use crate::render::RenderSettings;
-use crate::techniques::Technique;
+use crate::settings::RenderSettings;
+use crate::settings::Technique;
 
 /// What the time-budget controller aims at and within which limits.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,9 +1,5 @@
-//! HDR images: linear RGB float32, EXR in and out (`exr`), PNG out through the tone mapping of
-//! `docs/scene-format.md` and PNG in (`image`). Output files are written to a temporary file
-//! beside the target and renamed, so a failure never leaves a half-written image.
-
-use crate::error::{Error, Result};
-use std::path::Path;
+//! HDR images: linear RGB float32, and the tone mapping of `docs/scene-format.md`. Reading and
+//! writing files (EXR, PNG) is `caustics_reference::io`'s: the renderer needs no file format.
 
 /// A linear RGB image, row-major, pixel (0,0) top-left.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,64 +24,6 @@ impl Image {
     pub fn sum(&self) -> f64 {
         self.pixels.iter().map(|p| p.iter().map(|&c| c as f64).sum::<f64>()).sum()
     }
-    /// Read an EXR (RGB or RGBA; a single Y channel is read as grey) or a PNG (decoded to
-    /// linear [0,1] through the sRGB curve).
-    pub fn read(path: &Path) -> Result<Image> {
-        let file = path.display().to_string();
-        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-        match ext.as_str() {
-            "exr" => read_exr(path).map_err(|m| Error::input(file, "", m)),
-            "png" => {
-                let img = image::open(path).map_err(|e| Error::input(&file, "", format!("cannot read PNG: {e}")))?;
-                let rgb = img.to_rgb8();
-                let mut out = Image::new(rgb.width(), rgb.height());
-                for (p, q) in out.pixels.iter_mut().zip(rgb.pixels()) {
-                    *p = q.0.map(|c| srgb_decode(c as f32 / 255.0));
-                }
-                Ok(out)
-            }
-            _ => Err(Error::input(file, "", "unknown image type (expected .exr or .png)")),
-        }
-    }
-
-    /// Write EXR (linear radiance) or PNG (tone-mapped with `exposure`), chosen by extension.
-    pub fn write(&self, path: &Path, exposure: f32) -> Result<()> {
-        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-        match ext.as_str() {
-            "exr" => write_atomically(path, |tmp| self.write_exr(tmp)),
-            "png" => write_atomically(path, |tmp| {
-                let bytes: Vec<u8> = self.pixels.iter().flat_map(|p| tonemap(*p, exposure)).collect();
-                image::save_buffer_with_format(
-                    tmp,
-                    &bytes,
-                    self.width,
-                    self.height,
-                    image::ColorType::Rgb8,
-                    image::ImageFormat::Png,
-                )
-                .map_err(|e| e.to_string())
-            }),
-            _ => Err(Error::Output { path: path.into(), message: "unknown image type (use .png or .exr)".into() }),
-        }
-    }
-
-    fn write_exr(&self, path: &Path) -> std::result::Result<(), String> {
-        use exr::prelude::*;
-        let w = self.width as usize;
-        let px = &self.pixels;
-        let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
-            let c = px[p.y() * w + p.x()];
-            (c[0], c[1], c[2])
-        });
-        let layer = Layer::new(
-            (self.width as usize, self.height as usize),
-            LayerAttributes::named("caustics"),
-            Encoding::SMALL_LOSSLESS,
-            channels,
-        );
-        exr::image::Image::from_layer(layer).write().to_file(path).map_err(|e| e.to_string())
-    }
-
     /// Luminance (Rec. 709) of each pixel.
     pub fn luminance(&self) -> Vec<f32> {
         self.pixels.iter().map(|p| luminance(*p)).collect()
@@ -94,65 +32,6 @@ impl Image {
 
 pub fn luminance(c: [f32; 3]) -> f32 {
     0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-}
-
-fn read_exr(path: &Path) -> std::result::Result<crate::image_io::Image, String> {
-    use exr::prelude::*;
-    let img = read_first_rgba_layer_from_file(
-        path,
-        |res, _| {
-            let s: exr::math::Vec2<usize> = res;
-            crate::image_io::Image::new(s.width() as u32, s.height() as u32)
-        },
-        |img: &mut crate::image_io::Image, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            let w = img.width as usize;
-            img.pixels[pos.y() * w + pos.x()] = [r, g, b];
-        },
-    )
-    .map_err(|e| format!("cannot read EXR: {e}"))?;
-    Ok(img.layer_data.channel_data.pixels)
-}
-
-/// Write values already meant for display (linear, in [0, 1]) as an sRGB PNG, without tone
-/// mapping: normal maps, depth maps, heat maps.
-pub fn write_display_png(img: &Image, path: &Path) -> Result<()> {
-    write_atomically(path, |tmp| {
-        let bytes: Vec<u8> =
-            img.pixels.iter().flat_map(|p| p.map(|c| (255.0 * srgb_encode(c.clamp(0.0, 1.0))).round() as u8)).collect();
-        image::save_buffer_with_format(
-            tmp,
-            &bytes,
-            img.width,
-            img.height,
-            image::ColorType::Rgb8,
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| e.to_string())
-    })
-}
-
-/// Write through a temporary file in the same folder, then rename, so that no half-written
-/// output is ever left behind.
-pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<()> {
-    let err = |message: String| Error::Output { path: path.into(), message };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        return Err(err(format!("folder {} does not exist", dir.display())));
-    }
-    let name = path.file_name().ok_or_else(|| err("not a file name".into()))?;
-    let ext = path.extension().map(|e| e.to_string_lossy().to_string()).unwrap_or_default();
-    let tmp = dir.join(format!(".{}.{}.tmp.{ext}", name.to_string_lossy(), std::process::id()));
-    if let Err(m) = write(&tmp) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(err(m));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        err(e.to_string())
-    })
 }
 
 /// The PNG tone mapping of `docs/scene-format.md`: exposure, ACES fit (Narkowicz 2015), sRGB.

@@ -1,7 +1,10 @@
 //! `caustics`: real-time caustics on wgpu, with an exact CPU reference renderer.
 //!
 //! - [`scene`]: the scene format, meshes, the validated [`scene::Scene`].
-//! - [`image_io`]: HDR images, EXR and PNG output, tone mapping.
+//! - [`image_io`]: HDR images and tone mapping.
+//! - [`renderer`]: the persistent GPU renderer an engine drives frame by frame.
+//!
+//! The CPU reference renderer, image metrics and image files are in `caustics-reference`.
 
 #![forbid(unsafe_code)]
 
@@ -10,11 +13,12 @@ pub mod error;
 pub mod gpu;
 pub mod image_io;
 pub mod lightspace;
-pub mod metrics;
-pub mod reference;
+pub mod output;
+pub mod passes;
 pub mod render;
 pub mod renderer;
 pub mod scene;
+pub mod settings;
 pub mod splat;
 pub mod techniques;
 pub mod temporal;

@@ -41,14 +41,13 @@ pub use crate::gpu::ResourceCounts;
 use crate::gpu::types::LightGpu;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::image_io::Image;
-use crate::render::{
-    DrawCtx, EyeFrame, FluxStats, FrameConsts, Geometry, GpuRender, LightFrame, RenderSettings, bytes_to_image,
-};
+use crate::output::{FluxStats, GpuRender};
+use crate::passes::{DrawCtx, EyeFrame, FrameConsts, Geometry, LightFrame, bytes_to_image};
 use crate::scene::{Camera, Light, Scene};
+use crate::settings::RenderSettings;
 use crate::techniques::{Pending, TechniqueStats};
 use crate::temporal::{TemporalFilter, TemporalSettings};
 use glam::Affine3A;
-use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 
@@ -326,21 +325,21 @@ impl Renderer {
         // their transforms and analytic shapes.
         if self.geometry.as_ref().is_none_or(|(t, _)| *t != s.tessellation) {
             ctx.drop_scopes(&self.scope(""));
-            self.geometry = Some((s.tessellation, crate::render::upload_geometry(&ctx, &self.base, &s.tessellation)));
+            self.geometry = Some((s.tessellation, crate::passes::upload_geometry(&ctx, &self.base, &s.tessellation)));
             self.objects_dirty = true;
             self.lights.iter_mut().for_each(|l| *l = None);
         }
         let geo = &self.geometry.as_ref().unwrap().1;
         if self.objects_dirty {
-            let t: Vec<_> = self.transforms.iter().map(crate::render::object_transform).collect();
+            let t: Vec<_> = self.transforms.iter().map(crate::passes::object_transform).collect();
             ctx.queue.write_buffer(&geo.transforms, 0, bytemuck::cast_slice(&t));
-            let m = crate::render::material_records(&self.scene);
+            let m = crate::passes::material_records(&self.scene);
             ctx.queue.write_buffer(&geo.materials, 0, bytemuck::cast_slice(&m));
             self.objects_dirty = false;
         }
         let scene = &self.scene;
         let fc = FrameConsts::new(scene, &s);
-        let raster = crate::render::raster_pipelines(&ctx);
+        let raster = crate::passes::raster_pipelines(&ctx);
         let dc = DrawCtx { ctx: &ctx, geo, scene };
 
         ctx.begin_scope(&self.scope("frame"), enc);
@@ -348,7 +347,7 @@ impl Renderer {
         ctx.end_scope();
 
         ctx.begin_scope(&self.scope("eye"), enc);
-        let eye: EyeFrame = crate::render::record_eye(&dc, &raster, enc, &mut timer);
+        let eye: EyeFrame = crate::passes::record_eye(&dc, &raster, enc, &mut timer);
         ctx.end_scope();
 
         // The lights: redone when dirty or when their uniform record changed (a moved object
@@ -361,7 +360,7 @@ impl Renderer {
         let mut pendings = Vec::new();
         let mut redone = vec![false; scene.lights.len()];
         for (li, light) in scene.lights.iter().enumerate() {
-            let (view, record, scale) = crate::render::light_record(scene, light, &s, &fc);
+            let (view, record, scale) = crate::passes::light_record(scene, light, &s, &fc);
             let same = self.lights[li]
                 .as_ref()
                 .is_some_and(|st| bytemuck::bytes_of(&st.record) == bytemuck::bytes_of(&record));
@@ -371,7 +370,7 @@ impl Renderer {
             let pl = pipelines
                 .get_or_insert_with(|| crate::techniques::Pipelines::new(&ctx, s.technique, s.splat, fc.layer2));
             ctx.begin_scope(&self.scope(&format!("light{li}")), enc);
-            let out = crate::render::record_light(
+            let out = crate::passes::record_light(
                 &dc,
                 &raster,
                 pl,
@@ -393,11 +392,11 @@ impl Renderer {
 
         for (li, lf) in light_frames.iter().enumerate() {
             ctx.begin_scope(&self.scope(&format!("shade{li}")), enc);
-            crate::render::record_shade(&dc, &eye, lf, &s, enc, &mut timer);
+            crate::passes::record_shade(&dc, &eye, lf, &s, enc, &mut timer);
             ctx.end_scope();
         }
         ctx.begin_scope(&self.scope("composite"), enc);
-        self.outputs = Some(crate::render::record_composite(&dc, &eye, enc, &mut timer));
+        self.outputs = Some(crate::passes::record_composite(&dc, &eye, enc, &mut timer));
         ctx.end_scope();
 
         if request.stats {
@@ -519,7 +518,7 @@ impl Renderer {
                     .as_ref()
                     .map(|(names, off, size)| PassTimer::timings(names, &piece(*off, *size), period))
                     .unwrap_or_default(),
-                flux: job.flux.iter().map(|&(off, scale)| crate::render::flux_stats(&piece(off, 48), scale)).collect(),
+                flux: job.flux.iter().map(|&(off, scale)| crate::passes::flux_stats(&piece(off, 48), scale)).collect(),
                 lights_redone: job.lights_redone,
                 ..Default::default()
             };
@@ -621,9 +620,27 @@ impl Renderer {
         Ok(acc.chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().unwrap())).collect())
     }
 
+    /// The light-space buffers of the last frame (and the caustic maps `maps`, one list of faces
+    /// per light) as images to look at (blocking).
+    pub fn dump_images(&self, maps: &[Vec<Image>]) -> Result<Vec<crate::passes::DumpImage>> {
+        let n = self.scene.lights.len();
+        let lights: Vec<_> = (0..n)
+            .map(|l| {
+                let p = self.light_frame(l)?;
+                let mut bufs =
+                    vec![("receivers", &p.recv), ("caster_front", &p.casters.0), ("caster_back", &p.casters.1)];
+                if let Some((front2, back2)) = &p.casters2 {
+                    bufs.extend([("caster_front2", front2), ("caster_back2", back2)]);
+                }
+                Ok((bufs, p.faces))
+            })
+            .collect::<Result<_>>()?;
+        crate::passes::dump_images(&self.ctx, &lights, maps)
+    }
+
     /// Render one frame, wait for it and read everything back (the one-shot render of
-    /// [`crate::render::render`]; `dump` writes the light-space buffers).
-    pub fn render_once(&mut self, dump: Option<&Path>) -> Result<GpuRender> {
+    /// [`crate::passes::render`]).
+    pub fn render_once(&mut self) -> Result<GpuRender> {
         let ctx = self.ctx.clone();
         let val_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let oom_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
@@ -654,20 +671,6 @@ impl Renderer {
         let n = self.scene.lights.len();
         let caustic_maps = (0..n).map(|l| self.read_caustic_maps(l)).collect::<Result<Vec<_>>>()?;
         let caustic_flux_bits = (0..n).map(|l| self.read_caustic_flux_bits(l)).collect::<Result<Vec<_>>>()?;
-        if let Some(dir) = dump {
-            let lights: Vec<_> = (0..n)
-                .map(|l| {
-                    let p = self.light_frame(l).expect("rendered");
-                    let mut bufs =
-                        vec![("receivers", &p.recv), ("caster_front", &p.casters.0), ("caster_back", &p.casters.1)];
-                    if let Some((front2, back2)) = &p.casters2 {
-                        bufs.extend([("caster_front2", front2), ("caster_back2", back2)]);
-                    }
-                    (bufs, p.faces)
-                })
-                .collect();
-            crate::render::dump_buffers(&ctx, dir, &lights, &caustic_maps, self.scene.exposure)?;
-        }
         let technique = stats.technique;
         Ok(GpuRender {
             image: self.read_image()?,
@@ -685,13 +688,9 @@ impl Renderer {
     }
 
     /// [`Renderer::render_once`] with `filter` as the temporal filter (it is handed back).
-    pub(crate) fn render_once_filtered(
-        &mut self,
-        filter: &mut TemporalFilter,
-        dump: Option<&Path>,
-    ) -> Result<GpuRender> {
+    pub(crate) fn render_once_filtered(&mut self, filter: &mut TemporalFilter) -> Result<GpuRender> {
         self.temporal = Some(std::mem::replace(filter, TemporalFilter::new(filter.settings)));
-        let out = self.render_once(dump);
+        let out = self.render_once();
         if let Some(f) = self.temporal.take() {
             *filter = f;
         }
@@ -740,4 +739,16 @@ fn box_in_view((lo, hi): (glam::Vec3, glam::Vec3), world_to_clip: glam::Mat4) ->
         }
     }
     !outside.iter().any(|&o| o)
+}
+
+impl TemporalFilter {
+    /// Render a frame of `scene` like [`crate::passes::render`], with every light's caustic
+    /// maps filtered against this filter's history before shading.
+    pub fn render(&mut self, ctx: &GpuContext, scene: &Scene, settings: &RenderSettings) -> Result<GpuRender> {
+        self.settings.validate()?;
+        let mut r = crate::renderer::Renderer::with_context(ctx.clone(), scene.clone(), settings.clone())?;
+        let out = r.render_once_filtered(self);
+        self.lights.truncate(scene.lights.len());
+        out
+    }
 }

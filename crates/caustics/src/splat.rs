@@ -21,116 +21,9 @@
 
 use crate::gpu::types::{Photon, TraceParams};
 use crate::gpu::{GpuContext, PassTimer};
-use bytemuck::{Pod, Zeroable};
 
-/// How photons are splatted into the caustic map.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
-pub enum SplatMode {
-    /// A Gaussian of fixed width (`splat_sigma` texels).
-    Fixed,
-    /// Adaptive multi-resolution splatting: radii 1.5, 3.5, 5.5, 7.5 × `splat_sigma` texels.
-    MultiRes,
-    /// Splat sizes from the thin-lens equations.
-    ThinLens,
-    /// Splat sizes from the thick-lens equations (principal planes, thickness).
-    ThickLens,
-    /// Splat sizes from ray differentials (Igehy 1999) carried through every interaction: the
-    /// exact first-order image of the photon's cell on the receiver (beyond the papers).
-    Differential,
-    /// Caustic triangles: from the dense photon grid (basic technique) or from the cell quads of
-    /// the adaptive hierarchy (adaptive techniques) or dual quads (hierarchical technique).
-    #[default]
-    Triangles,
-}
-
-impl SplatMode {
-    pub const ALL: [SplatMode; 6] = [
-        SplatMode::Fixed,
-        SplatMode::MultiRes,
-        SplatMode::ThinLens,
-        SplatMode::ThickLens,
-        SplatMode::Differential,
-        SplatMode::Triangles,
-    ];
-
-    /// The command-line name.
-    pub fn name(self) -> &'static str {
-        match self {
-            SplatMode::Fixed => "fixed",
-            SplatMode::MultiRes => "multires",
-            SplatMode::ThinLens => "thin-lens",
-            SplatMode::ThickLens => "thick-lens",
-            SplatMode::Differential => "differential",
-            SplatMode::Triangles => "triangles",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<SplatMode> {
-        SplatMode::ALL.into_iter().find(|m| m.name() == s.trim())
-    }
-
-    /// What the tracer writes into `light.splat.x`: 1 thin-lens, 2 thick-lens beam diameters.
-    /// Triangles write none (0): the hierarchical and adaptive techniques use `Photon._pad` to
-    /// mark photons that carry a quad (`splat_quads`).
-    /// Caustic triangles from the dense grid (basic technique) take ray-differential beam sizes
-    /// too: their continuity test and their Gaussian fallback use them.
-    pub fn lens_flag(self, technique: crate::techniques::Technique) -> f32 {
-        match self {
-            SplatMode::ThinLens => 1.0,
-            SplatMode::ThickLens => 2.0,
-            SplatMode::Differential => 3.0,
-            SplatMode::Triangles if technique == crate::techniques::Technique::Basic => 3.0,
-            _ => 0.0,
-        }
-    }
-
-    /// The splat stage that takes a photon buffer: for triangles, `splat_quads` (quads, or
-    /// Gaussians where a photon has none) with the hierarchical and adaptive techniques (the
-    /// basic one draws `caustic_triangles` instead).
-    pub fn stage(self, technique: crate::techniques::Technique) -> &'static str {
-        match self {
-            SplatMode::Fixed => "photon_splat",
-            SplatMode::MultiRes => "splat_multires",
-            SplatMode::Triangles if technique != crate::techniques::Technique::Basic => "splat_quads",
-            SplatMode::ThinLens | SplatMode::ThickLens | SplatMode::Differential | SplatMode::Triangles => "splat_lens",
-        }
-    }
-
-    /// The photon hierarchy stores a quad per photon for `splat_quads`: the adaptive techniques
-    /// trace each cell's corners, the hierarchical one takes its dual quad from the dense tile.
-    pub fn cell_quads(self, technique: crate::techniques::Technique) -> bool {
-        self == SplatMode::Triangles && technique != crate::techniques::Technique::Basic
-    }
-}
-
-impl std::fmt::Display for SplatMode {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// Parameters of `caustic_triangles` (mirrors the WGSL `TriParams`).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct TriParams {
-    pub n: u32,
-    pub r0: u32,
-    pub rows: u32,
-    pub quad_rows: u32,
-    pub cur_off: u32,
-    pub has_prev: u32,
-    pub max_edge: f32,
-    pub _pad: u32,
-}
-
-/// Parameters of `splat_multires_blend` (mirrors the WGSL `BlendParams`).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct BlendParams {
-    pub count: u32,
-    pub pass_index: u32,
-    pub _pad: [u32; 2],
-}
+pub use crate::gpu::types::{BlendParams, TriParams};
+pub use crate::settings::SplatMode;
 
 /// The compute pipelines of one splat mode.
 pub(crate) struct SplatPipelines {
@@ -144,13 +37,13 @@ pub(crate) struct SplatPipelines {
 }
 
 impl SplatPipelines {
-    pub fn new(ctx: &GpuContext, mode: SplatMode, technique: crate::techniques::Technique) -> SplatPipelines {
+    pub fn new(ctx: &GpuContext, mode: SplatMode, technique: crate::settings::Technique) -> SplatPipelines {
         SplatPipelines {
             mode,
             stage: mode.stage(technique),
             splat: ctx.compute_pipeline(mode.stage(technique)),
             blend: (mode == SplatMode::MultiRes).then(|| ctx.compute_pipeline("splat_multires_blend")),
-            triangles: (mode == SplatMode::Triangles && technique == crate::techniques::Technique::Basic)
+            triangles: (mode == SplatMode::Triangles && technique == crate::settings::Technique::Basic)
                 .then(|| ctx.compute_pipeline("caustic_triangles")),
         }
     }
@@ -210,7 +103,7 @@ impl SplatTargets {
         if p.stage == "splat_quads" {
             res.push(corners.expect("splat_quads needs the corner buffer").as_entire_binding());
         }
-        crate::techniques::bind(ctx, &p.splat, p.stage, &res)
+        crate::gpu::bind(ctx, &p.splat, p.stage, &res)
     }
 
     /// Record what the mode does after every photon of the light was splatted: the
@@ -233,7 +126,7 @@ impl SplatTargets {
                 );
                 let mut res = vec![light.as_entire_binding(), u.as_entire_binding(), accum.as_entire_binding()];
                 res.extend(self.extra.iter().map(|b| b.as_entire_binding()));
-                crate::techniques::bind(ctx, pl, "splat_multires_blend", &res)
+                crate::gpu::bind(ctx, pl, "splat_multires_blend", &res)
             })
             .collect();
         let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -326,7 +219,7 @@ pub(crate) fn record_grid_triangles(
                 _pad: 0,
             }),
         );
-        let trbg = crate::techniques::bind(
+        let trbg = crate::gpu::bind(
             g.ctx,
             g.triangles,
             "caustic_triangles",

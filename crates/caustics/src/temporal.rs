@@ -39,7 +39,7 @@
 //!     // Instead of `caustics::render::render`: the same frame, with the caustic maps filtered
 //!     // on the GPU between the resolve and shading passes (no CPU round trip). The image, the
 //!     // caustic image and `caustic_maps` are filtered; `caustic_flux_bits` and `flux` are raw.
-//!     let out = filter.render(ctx, scene, &settings, None)?;
+//!     let out = filter.render(ctx, scene, &settings)?;
 //! #   let _ = out;
 //! }
 //! # Ok(()) }
@@ -58,11 +58,8 @@
 use crate::error::Result;
 use crate::gpu::types::TemporalParams;
 use crate::gpu::{GpuContext, PassTimer};
+use crate::gpu::{bind, uniform};
 use crate::image_io::Image;
-use crate::render::{GpuRender, RenderSettings};
-use crate::scene::Scene;
-use crate::techniques::{bind, uniform};
-use std::path::Path;
 
 /// Parameters of the temporal filter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -108,7 +105,7 @@ impl TemporalSettings {
 pub const MAX_FLUX_RADIUS: u32 = 8;
 
 /// GPU state of one light's maps.
-struct LightHistory {
+pub(crate) struct LightHistory {
     size: u32,
     faces: u32,
     /// The previous frame's raw maps.
@@ -134,7 +131,7 @@ pub struct TemporalStats {
 /// The temporal filter's state across frames: see the module documentation.
 pub struct TemporalFilter {
     pub settings: TemporalSettings,
-    lights: Vec<Option<LightHistory>>,
+    pub(crate) lights: Vec<Option<LightHistory>>,
 }
 
 impl TemporalFilter {
@@ -147,22 +144,6 @@ impl TemporalFilter {
         for l in self.lights.iter_mut().flatten() {
             l.has_history = false;
         }
-    }
-
-    /// Render a frame of `scene` like [`crate::render::render`], with every light's caustic
-    /// maps filtered against this filter's history before shading.
-    pub fn render(
-        &mut self,
-        ctx: &GpuContext,
-        scene: &Scene,
-        settings: &RenderSettings,
-        dump: Option<&Path>,
-    ) -> Result<GpuRender> {
-        self.settings.validate()?;
-        let mut r = crate::renderer::Renderer::with_context(ctx.clone(), scene.clone(), settings.clone())?;
-        let out = r.render_once_filtered(self, dump);
-        self.lights.truncate(scene.lights.len());
-        out
     }
 
     /// Record the filter of one light's caustic maps into `encoder`. `maps` holds M × M × `faces`

@@ -71,7 +71,7 @@ fn level_counts_match_a_cpu_model_of_the_traversal() {
     // N = 512 > G would be 512 too; use N = 1024 with the caster buffer at 1024 and N = 256.
     for n in [256, 1024] {
         let set = RenderSettings { keep_coverage: true, ..settings(Technique::AdaptiveLevel, n) };
-        let out = render(&ctx, &s, &set, None).unwrap();
+        let out = render(&ctx, &s, &set).unwrap();
         let t = &out.technique;
         let g = n.min(2048);
         assert_eq!(t.coverage_masks.len(), 1);
@@ -98,9 +98,9 @@ fn level_counts_match_a_cpu_model_of_the_traversal() {
 fn maximal_traversal_and_hierarchical_equal_the_dense_grid() {
     let Some(ctx) = gpu() else { return };
     let s = scene();
-    let basic = render(&ctx, &s, &settings(Technique::Basic, 256), None).unwrap();
+    let basic = render(&ctx, &s, &settings(Technique::Basic, 256)).unwrap();
     for t in [Technique::AdaptiveLevel, Technique::Hierarchical] {
-        let out = render(&ctx, &s, &settings(t, 256), None).unwrap();
+        let out = render(&ctx, &s, &settings(t, 256)).unwrap();
         assert!(out.caustic_flux_bits == basic.caustic_flux_bits, "{t}: caustic map differs from basic");
         assert_eq!(out.flux, basic.flux, "{t}: flux bookkeeping differs from basic");
         assert!(out.technique.photons_splatted < basic.technique.photons_splatted / 4, "{t}");
@@ -116,10 +116,10 @@ fn the_reflected_branch_at_glass_matches_the_dense_grid() {
     let Some(ctx) = gpu() else { return };
     let s = scene();
     let with = |t| RenderSettings { dielectric_reflection: true, ..settings(t, 128) };
-    let basic = render(&ctx, &s, &with(Technique::Basic), None).unwrap();
-    let transmitted = render(&ctx, &s, &settings(Technique::Basic, 128), None).unwrap();
+    let basic = render(&ctx, &s, &with(Technique::Basic)).unwrap();
+    let transmitted = render(&ctx, &s, &settings(Technique::Basic, 128)).unwrap();
     for t in [Technique::AdaptiveLevel, Technique::Hierarchical] {
-        let out = render(&ctx, &s, &with(t), None).unwrap();
+        let out = render(&ctx, &s, &with(t)).unwrap();
         assert!(out.caustic_flux_bits == basic.caustic_flux_bits, "{t}: caustic map differs from basic");
         assert_eq!(out.flux, basic.flux, "{t}: flux bookkeeping differs from basic");
     }
@@ -132,11 +132,11 @@ fn the_reflected_branch_at_glass_matches_the_dense_grid() {
 fn both_metrics_conserve_flux() {
     let Some(ctx) = gpu() else { return };
     let s = scene();
-    let level = render(&ctx, &s, &settings(Technique::AdaptiveLevel, 512), None).unwrap();
+    let level = render(&ctx, &s, &settings(Technique::AdaptiveLevel, 512)).unwrap();
     // Check convergence from the 128^2 level on with a 2-texel tolerance, so that clusters merge.
     let set =
         RenderSettings { error_check_grid: 128, max_error_tolerance: 2.0, ..settings(Technique::AdaptiveError, 512) };
-    let err = render(&ctx, &s, &set, None).unwrap();
+    let err = render(&ctx, &s, &set).unwrap();
     let (e0, l0) = total_flux(&level);
     let (e1, l1) = total_flux(&err);
     eprintln!(
@@ -150,7 +150,8 @@ fn both_metrics_conserve_flux() {
     let map_sum = |r: &GpuRender| -> f64 { r.caustic_flux_bits.iter().flatten().map(|&b| b as f64).sum() };
     assert!((map_sum(&err) / map_sum(&level) - 1.0).abs() < 1e-4);
     // And the maps agree closely.
-    let flip = caustics::metrics::hdr_flip(&err.caustic_maps[0][0], &level.caustic_maps[0][0], None).unwrap().mean;
+    let flip =
+        caustics_reference::metrics::hdr_flip(&err.caustic_maps[0][0], &level.caustic_maps[0][0], None).unwrap().mean;
     eprintln!("FLIP (maximal error vs maximal traversal): {flip:.4}");
     assert!(flip < 0.05, "FLIP {flip}");
 }
@@ -162,11 +163,12 @@ fn skipping_hopeless_checks_traces_less_and_keeps_the_map() {
     // Check from the 128^2 level on, so that several levels are checked and can be skipped.
     let base =
         RenderSettings { error_check_grid: 128, caustic_map_size: 1024, ..settings(Technique::AdaptiveError, 1024) };
-    let paper = render(&ctx, &s, &RenderSettings { error_skip_hopeless: false, ..base.clone() }, None).unwrap();
-    let skip = render(&ctx, &s, &base, None).unwrap();
+    let paper = render(&ctx, &s, &RenderSettings { error_skip_hopeless: false, ..base.clone() }).unwrap();
+    let skip = render(&ctx, &s, &base).unwrap();
     let (tp, ts) = (paper.technique.photons_traced, skip.technique.photons_traced);
     let (sp, ss) = (paper.technique.photons_splatted, skip.technique.photons_splatted);
-    let flip = caustics::metrics::hdr_flip(&skip.caustic_maps[0][0], &paper.caustic_maps[0][0], None).unwrap().mean;
+    let flip =
+        caustics_reference::metrics::hdr_flip(&skip.caustic_maps[0][0], &paper.caustic_maps[0][0], None).unwrap().mean;
     eprintln!(
         "every level checked: {tp} traced, {sp} splatted; hopeless levels skipped: {ts} traced, {ss} splatted; FLIP {flip:.5}"
     );
@@ -192,9 +194,9 @@ fn batching_gives_the_same_map() {
             set.error_check_grid = 128;
             set.max_error_tolerance = 1.0;
         }
-        let one = render(&ctx, &s, &set, None).unwrap();
+        let one = render(&ctx, &s, &set).unwrap();
         let small = RenderSettings { photon_memory: 256 << 10, ..set.clone() };
-        let many = render(&ctx, &s, &small, None).unwrap();
+        let many = render(&ctx, &s, &small).unwrap();
         eprintln!(
             "{t}: {} batch(es) in {} KiB vs {} in {} KiB; peak {} vs {} bytes",
             one.technique.batches,
@@ -218,7 +220,7 @@ fn a_budget_too_small_for_one_batch_is_an_input_error() {
     let s = scene();
     for t in [Technique::AdaptiveLevel, Technique::AdaptiveError] {
         let set = RenderSettings { photon_memory: 4 << 10, ..settings(t, 16384) };
-        let e = render(&ctx, &s, &set, None).unwrap_err();
+        let e = render(&ctx, &s, &set).unwrap_err();
         assert!(e.is_input(), "{e}");
         let msg = e.to_string();
         assert!(msg.contains("photon_memory") && msg.contains("too small"), "{msg}");
@@ -229,7 +231,7 @@ fn a_budget_too_small_for_one_batch_is_an_input_error() {
         RenderSettings { photons: 1000, ..settings(Technique::AdaptiveLevel, 1000) },
         RenderSettings { photons: 131072, ..settings(Technique::AdaptiveError, 131072) },
     ] {
-        assert!(render(&ctx, &s, &set, None).unwrap_err().is_input());
+        assert!(render(&ctx, &s, &set).unwrap_err().is_input());
     }
 }
 
@@ -241,9 +243,9 @@ fn camera_motion_leaves_the_caustic_map_unchanged() {
     b.camera.position = glam::Vec3::new(2.5, 1.5, -2.0);
     for t in [Technique::AdaptiveLevel, Technique::AdaptiveError] {
         let set = RenderSettings { error_check_grid: 128, max_error_tolerance: 1.0, ..settings(t, 512) };
-        let ra = render(&ctx, &a, &set, None).unwrap();
-        let ra2 = render(&ctx, &a, &set, None).unwrap();
-        let rb = render(&ctx, &b, &set, None).unwrap();
+        let ra = render(&ctx, &a, &set).unwrap();
+        let ra2 = render(&ctx, &a, &set).unwrap();
+        let rb = render(&ctx, &b, &set).unwrap();
         assert!(ra.caustic_flux_bits == ra2.caustic_flux_bits, "{t}: not bit-identical run to run");
         assert_eq!(ra.image, ra2.image, "{t}: image not bit-identical run to run");
         assert!(ra.caustic_flux_bits == rb.caustic_flux_bits, "{t}: the camera changed the caustic map");
@@ -285,9 +287,9 @@ fn adaptive_caustic_triangles_conserve_flux_and_beat_fixed_splats() {
     let Some(ctx) = gpu() else { return };
     let s = sphere();
     let n = 256;
-    let fixed = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Fixed), None).unwrap();
-    let tri = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Triangles), None).unwrap();
-    let dense = render(&ctx, &s, &with_splat(Technique::Basic, n, Triangles), None).unwrap();
+    let fixed = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Fixed)).unwrap();
+    let tri = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Triangles)).unwrap();
+    let dense = render(&ctx, &s, &with_splat(Technique::Basic, n, Triangles)).unwrap();
     let ratio = map_flux(&tri) / map_flux(&fixed);
     let t = &tri.technique;
     eprintln!(
@@ -300,28 +302,28 @@ fn adaptive_caustic_triangles_conserve_flux_and_beat_fixed_splats() {
     assert_eq!(tri.flux, fixed.flux, "corner photons must not be booked");
     assert!((ratio - 1.0).abs() < 1e-4, "flux ratio {ratio}");
     // Against the dense grid's caustic triangles (different quads: cell corners vs photons).
-    let vs_dense = caustics::metrics::map_agreement(&tri.caustic_maps[0][0], &dense.caustic_maps[0][0]);
+    let vs_dense = caustics_reference::metrics::map_agreement(&tri.caustic_maps[0][0], &dense.caustic_maps[0][0]);
     eprintln!("adaptive-level triangles vs basic triangles: {vs_dense}");
     assert!(vs_dense.rel_rmse < 0.05, "{vs_dense}");
     assert!((vs_dense.energy_ratio - 1.0).abs() < 1e-3, "{vs_dense}");
     // Against the CPU reference.
-    let rs = caustics::reference::ReferenceSettings {
+    let rs = caustics_reference::reference::ReferenceSettings {
         photons_per_light: 2_000_000,
         caustic_map_size: 256,
         ..Default::default()
     };
-    let reference = caustics::reference::caustic_maps(&s, &rs).unwrap().remove(0).remove(0);
-    let err_tri = caustics::metrics::map_agreement(&tri.caustic_maps[0][0], &reference);
-    let err_fixed = caustics::metrics::map_agreement(&fixed.caustic_maps[0][0], &reference);
-    let err_dense = caustics::metrics::map_agreement(&dense.caustic_maps[0][0], &reference);
+    let reference = caustics_reference::reference::caustic_maps(&s, &rs).unwrap().remove(0).remove(0);
+    let err_tri = caustics_reference::metrics::map_agreement(&tri.caustic_maps[0][0], &reference);
+    let err_fixed = caustics_reference::metrics::map_agreement(&fixed.caustic_maps[0][0], &reference);
+    let err_dense = caustics_reference::metrics::map_agreement(&dense.caustic_maps[0][0], &reference);
     eprintln!("vs CPU reference: triangles {err_tri}; fixed {err_fixed}; basic triangles {err_dense}");
     assert!(err_tri.rel_rmse < 0.5 * err_fixed.rel_rmse, "{err_tri} vs {err_fixed}");
     // Deterministic, and batching (a quarter of the default budget's photons per batch, the
     // corners counted in the budget) changes nothing.
-    let again = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Triangles), None).unwrap();
+    let again = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Triangles)).unwrap();
     assert!(again.caustic_flux_bits == tri.caustic_flux_bits, "not bit-identical run to run");
     let small = RenderSettings { photon_memory: 64 << 10, ..with_splat(Technique::AdaptiveLevel, n, Triangles) };
-    let many = render(&ctx, &s, &small, None).unwrap();
+    let many = render(&ctx, &s, &small).unwrap();
     eprintln!(
         "{} batch(es) in {} KiB, peak {} bytes",
         many.technique.batches,
@@ -335,11 +337,11 @@ fn adaptive_caustic_triangles_conserve_flux_and_beat_fixed_splats() {
     // The hierarchical technique's dual quads (from the dense tile), tile by tile.
     for memory in [64u64 << 20, 256 << 10] {
         let set = RenderSettings { photon_memory: memory, ..with_splat(Technique::Hierarchical, n, Triangles) };
-        let h = render(&ctx, &s, &set, None).unwrap();
-        let hfix = render(&ctx, &s, &RenderSettings { splat: Fixed, ..set.clone() }, None).unwrap();
+        let h = render(&ctx, &s, &set).unwrap();
+        let hfix = render(&ctx, &s, &RenderSettings { splat: Fixed, ..set.clone() }).unwrap();
         let ratio = map_flux(&h) / map_flux(&hfix);
-        let vs_dense = caustics::metrics::map_agreement(&h.caustic_maps[0][0], &dense.caustic_maps[0][0]);
-        let err = caustics::metrics::map_agreement(&h.caustic_maps[0][0], &reference);
+        let vs_dense = caustics_reference::metrics::map_agreement(&h.caustic_maps[0][0], &dense.caustic_maps[0][0]);
+        let err = caustics_reference::metrics::map_agreement(&h.caustic_maps[0][0], &reference);
         eprintln!(
             "hierarchical, {} tile(s) in {} KiB: triangles / fixed map flux {ratio:.8}; vs basic triangles {vs_dense}; vs CPU reference {err}",
             h.technique.batches,
@@ -367,7 +369,7 @@ fn thin_light_from_cell_quads_stays_smooth() {
     let s = sphere();
     let set =
         |t| RenderSettings { dielectric_reflection: true, caustic_map_size: 512, ..with_splat(t, 512, Triangles) };
-    let dense = render(&ctx, &s, &set(Technique::Basic), None).unwrap();
+    let dense = render(&ctx, &s, &set(Technique::Basic)).unwrap();
     let b = &dense.caustic_maps[0][0];
     let (w, h) = (b.width as i64, b.height as i64);
     let box5 = |img: &caustics::image_io::Image| -> Vec<f64> {
@@ -391,7 +393,7 @@ fn thin_light_from_cell_quads_stays_smooth() {
     assert!(thin.len() > 10_000, "the reflected light must cover the floor");
     let mean = thin.iter().map(|&i| fb[i]).sum::<f64>() / thin.len() as f64;
     for t in [Technique::AdaptiveLevel, Technique::Hierarchical] {
-        let fa = box5(&render(&ctx, &s, &set(t), None).unwrap().caustic_maps[0][0]);
+        let fa = box5(&render(&ctx, &s, &set(t)).unwrap().caustic_maps[0][0]);
         let rmse = (thin.iter().map(|&i| (fa[i] - fb[i]).powi(2)).sum::<f64>() / thin.len() as f64).sqrt() / mean;
         eprintln!(
             "{t}: thin light over {} texels, relative RMSE against the dense grid's triangles {rmse:.4}",
@@ -416,13 +418,13 @@ fn maximal_error_caustic_triangles_conserve_flux() {
         quad_linearity: linearity,
         ..with_splat(Technique::AdaptiveError, n, splat)
     };
-    let fixed = render(&ctx, &s, &set(Fixed, 0.0), None).unwrap();
-    let level = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Triangles), None).unwrap();
-    let tri = render(&ctx, &s, &set(Triangles, 0.0), None).unwrap();
+    let fixed = render(&ctx, &s, &set(Fixed, 0.0)).unwrap();
+    let level = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Triangles)).unwrap();
+    let tri = render(&ctx, &s, &set(Triangles, 0.0)).unwrap();
     // Measured (lavapipe, 512² photons, check from 128²): linearity 0.05 texels: 7154 photons
     // splatted, relative RMSE vs maximal traversal 0.009; 0.1: 5450, 0.015; 0.25: 3764, 0.054;
     // 0.5: 2924, 0.063 (the paper's rule: 12065, 0.0000; maximal traversal: 16484).
-    let linear = render(&ctx, &s, &set(Triangles, 0.05), None).unwrap();
+    let linear = render(&ctx, &s, &set(Triangles, 0.05)).unwrap();
     let splatted = |r: &GpuRender| r.technique.photons_splatted;
     eprintln!(
         "{n}^2 photons splatted: maximal traversal {}, maximal error {} (fixed {}), with linearity {}; corners {} / {}",
@@ -442,7 +444,7 @@ fn maximal_error_caustic_triangles_conserve_flux() {
     for (name, r, base) in [("paper rule", &tri, &fixed), ("paper rule", &tri, &level), ("linearity", &linear, &level)]
     {
         let ratio = map_flux(r) / map_flux(base);
-        let a = caustics::metrics::map_agreement(&r.caustic_maps[0][0], &level.caustic_maps[0][0]);
+        let a = caustics_reference::metrics::map_agreement(&r.caustic_maps[0][0], &level.caustic_maps[0][0]);
         eprintln!("{name}: map flux ratio {ratio:.8}; vs maximal traversal: {a}");
         assert!((ratio - 1.0).abs() < 1e-4, "{name}: flux ratio {ratio}");
         assert!(a.rel_rmse < if name == "linearity" { 0.02 } else { 1e-3 }, "{name}: {a}");
@@ -451,7 +453,7 @@ fn maximal_error_caustic_triangles_conserve_flux() {
     assert!(splatted(&linear) < splatted(&tri), "the linearity rule must merge more");
     // The option is for adaptive-error with triangles only.
     let bad = RenderSettings { quad_linearity: 0.5, ..with_splat(Technique::AdaptiveLevel, n, Triangles) };
-    assert!(render(&ctx, &s, &bad, None).unwrap_err().is_input());
+    assert!(render(&ctx, &s, &bad).unwrap_err().is_input());
 }
 
 /// Cell quads under a point light (six faces: corners on face edges, light leaving one face's
@@ -462,8 +464,8 @@ fn cell_quads_conserve_flux_with_a_point_light() {
     let Some(ctx) = gpu() else { return };
     let s = catalogue("two_spheres", 32);
     let set = |splat| RenderSettings { caustic_map_size: 128, ..with_splat(Technique::AdaptiveLevel, 128, splat) };
-    let fixed = render(&ctx, &s, &set(Fixed), None).unwrap();
-    let tri = render(&ctx, &s, &set(Triangles), None).unwrap();
+    let fixed = render(&ctx, &s, &set(Fixed)).unwrap();
+    let tri = render(&ctx, &s, &set(Triangles)).unwrap();
     let ratio = map_flux(&tri) / map_flux(&fixed);
     eprintln!(
         "two spheres, point light: triangles / fixed map flux {ratio:.8}; {} photons, {} corners",
@@ -488,9 +490,9 @@ fn cell_quads_on_a_mesh_are_deterministic_and_conserve_flux_at_a_large_map() {
         ..settings(Technique::AdaptiveLevel, 128)
     };
     let quads = set(caustics::splat::SplatMode::Triangles);
-    let a = render(&ctx, &s, &quads, None).unwrap();
-    let b = render(&ctx, &s, &quads, None).unwrap();
-    let fixed = render(&ctx, &s, &set(caustics::splat::SplatMode::Fixed), None).unwrap();
+    let a = render(&ctx, &s, &quads).unwrap();
+    let b = render(&ctx, &s, &quads).unwrap();
+    let fixed = render(&ctx, &s, &set(caustics::splat::SplatMode::Fixed)).unwrap();
     assert!(a.caustic_flux_bits == b.caustic_flux_bits, "cell quads: the map differs run to run");
     let ratio = map_flux(&a) / map_flux(&fixed);
     eprintln!("cell quads / fixed splats map flux: {ratio:.7}");

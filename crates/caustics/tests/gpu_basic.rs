@@ -7,6 +7,7 @@ use caustics::Scene;
 use caustics::image_io::Image;
 use caustics::lightspace::LightView;
 use caustics::render::{GpuRender, RenderSettings, render};
+use caustics_reference::ImageIo as _;
 use common::gpu;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -62,7 +63,7 @@ fn flux_in_caustic_map_matches_fresnel_optics() {
     // The built-in scene: spot 40 W/sr per channel at 4 m, ball r = 0.5 at 0.9 m, IOR 1.5.
     let s = small(Scene::default_scene(), 64);
     let transmitted_only = RenderSettings { dielectric_reflection: false, ..settings(512, 512) };
-    let out = render(&ctx, &s, &transmitted_only, None).unwrap();
+    let out = render(&ctx, &s, &transmitted_only).unwrap();
     let f = out.flux[0];
     let d = 4.0 - 0.9;
     let emitted = 120.0 * std::f64::consts::TAU * (1.0 - (1.0f64 - (0.5 / d) * (0.5 / d)).sqrt());
@@ -92,7 +93,7 @@ fn flux_in_caustic_map_matches_fresnel_optics() {
 
     // With the reflected branch: what lands or leaves the scene is the transmitted flux plus the
     // flux the ball reflects, I F(theta) integrated over its solid angle.
-    let both = render(&ctx, &s, &settings(512, 512), None).unwrap().flux[0];
+    let both = render(&ctx, &s, &settings(512, 512)).unwrap().flux[0];
     let reflected = ball_reflected_flux(120.0, d, 0.5, 1.5);
     let out_of_ball = both.landed + both.lost_no_receiver + both.lost_outside;
     eprintln!(
@@ -172,7 +173,7 @@ fn ball_lens_focuses_where_paraxial_optics_says() {
                        {{"type":"rectangle","center":[0,{floor_y},0],"normal":[0,1,0],"size":[4,4],"material":"floor"}}]}}"#
         );
         let s = Scene::from_json(&json, "focus", Path::new(".")).unwrap();
-        let out = render(&ctx, &s, &settings(256, 512), None).unwrap();
+        let out = render(&ctx, &s, &settings(256, 512)).unwrap();
         let rr = caustic_rms_radius(&s, &out, floor_y as f32);
         radii.push((dist, rr));
         if rr < best.0 {
@@ -194,7 +195,7 @@ fn mirror_ring_cusp_lies_at_half_the_radius() {
     // Parallel light reflected by a circular mirror of radius r: the nephroid's cusp lies on the
     // axis of the incoming light at r/2 from the centre, on the far side (the paraxial focus).
     let s = small(scene("b_mirror_ring.json"), 64);
-    let out = render(&ctx, &s, &settings(1024, 1024), None).unwrap();
+    let out = render(&ctx, &s, &settings(1024, 1024)).unwrap();
     let view = LightView::new(&s, &s.lights[0]);
     let map = &out.caustic_maps[0][0];
     let mut best = (0.0f32, Vec3::ZERO);
@@ -220,7 +221,7 @@ fn masked(img: &Image, mask: &Image) -> Vec<[f32; 3]> {
 fn glass_sphere_caustic_agrees_with_reference() {
     let Some(ctx) = gpu() else { return };
     let s = scene("a_glass_sphere.json");
-    let out = render(&ctx, &s, &settings(1024, 1024), None).unwrap();
+    let out = render(&ctx, &s, &settings(1024, 1024)).unwrap();
     let refs = root().join("references");
     let reference = Image::read(&refs.join("a_glass_sphere_caustic.exr")).unwrap();
     let mask = Image::read(&refs.join("a_glass_sphere_specmask.png")).unwrap();
@@ -263,8 +264,8 @@ fn glass_sphere_caustic_agrees_with_reference() {
 fn renders_are_bit_identical() {
     let Some(ctx) = gpu() else { return };
     let s = small(scene("two_spheres.json"), 64);
-    let a = render(&ctx, &s, &settings(256, 256), None).unwrap();
-    let b = render(&ctx, &s, &settings(256, 256), None).unwrap();
+    let a = render(&ctx, &s, &settings(256, 256)).unwrap();
+    let b = render(&ctx, &s, &settings(256, 256)).unwrap();
     assert!(a.caustic_flux_bits == b.caustic_flux_bits, "caustic maps differ between two renders");
     assert!(a.caustic_flux_bits.iter().flatten().any(|&x| x != 0));
     assert_eq!(a.image, b.image);
@@ -280,7 +281,7 @@ fn settings_over_the_limits_are_input_errors() {
         RenderSettings { caustic_map_size: 8, ..Default::default() },
         RenderSettings { splat_sigma: 0.0, ..Default::default() },
     ] {
-        let e = render(&ctx, &s, &bad, None).unwrap_err();
+        let e = render(&ctx, &s, &bad).unwrap_err();
         assert!(e.is_input(), "{e}");
     }
 }
@@ -289,12 +290,12 @@ fn settings_over_the_limits_are_input_errors() {
 fn full_image_agreement(name: &str) -> (f64, f64) {
     let ctx = gpu().unwrap();
     let s = scene(&format!("{name}.json"));
-    let out = render(&ctx, &s, &settings(1024, 1024), None).unwrap();
+    let out = render(&ctx, &s, &settings(1024, 1024)).unwrap();
     let refs = root().join("references");
     let reference = Image::read(&refs.join(format!("{name}.exr"))).unwrap();
-    let mask = caustics::metrics::Mask::read(&refs.join(format!("{name}_specmask.png")), true).unwrap();
-    let flip = caustics::metrics::hdr_flip(&out.image, &reference, Some(&mask)).unwrap();
-    let ratio = caustics::metrics::energy_ratio(&out.image, &reference, Some(&mask)).unwrap();
+    let mask = caustics_reference::metrics::Mask::read(&refs.join(format!("{name}_specmask.png")), true).unwrap();
+    let flip = caustics_reference::metrics::hdr_flip(&out.image, &reference, Some(&mask)).unwrap();
+    let ratio = caustics_reference::metrics::energy_ratio(&out.image, &reference, Some(&mask)).unwrap();
     eprintln!("{name}: mean HDR-FLIP {:.4}, energy ratio {ratio:.4}", flip.mean);
     (flip.mean, ratio)
 }
@@ -320,14 +321,14 @@ fn caustic_maps_agree_with_cpu_reference() {
     for (name, ratio_range, max_rmse) in [("a_glass_sphere", (0.98, 1.02), 0.02), ("b_mirror_ring", (0.98, 1.02), 0.05)]
     {
         let s = scene(&format!("{name}.json"));
-        let g = render(&ctx, &s, &settings(1024, 256), None).unwrap();
-        let rs = caustics::reference::ReferenceSettings {
+        let g = render(&ctx, &s, &settings(1024, 256)).unwrap();
+        let rs = caustics_reference::reference::ReferenceSettings {
             photons_per_light: 4_000_000,
             caustic_map_size: 256,
             ..Default::default()
         };
-        let c = caustics::reference::caustic_maps(&s, &rs).unwrap();
-        let a = caustics::metrics::map_agreement(&g.caustic_maps[0][0], &c[0][0]);
+        let c = caustics_reference::reference::caustic_maps(&s, &rs).unwrap();
+        let a = caustics_reference::metrics::map_agreement(&g.caustic_maps[0][0], &c[0][0]);
         eprintln!("{name}: GPU vs CPU caustic map: {a}");
         // Measured on lavapipe with caustic triangles (the default splat) and the reflected
         // branch at glass: a_glass_sphere ratio 0.999 (0.947 without the reflected branch),

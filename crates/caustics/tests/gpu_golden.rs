@@ -7,6 +7,7 @@ mod common;
 use caustics::Scene;
 use caustics::image_io::Image;
 use caustics::render::{RenderSettings, render};
+use caustics_reference::ImageIo as _;
 use common::gpu;
 use std::path::Path;
 
@@ -17,7 +18,7 @@ fn golden(name: &str) {
     s.camera.height = s.camera.height * 96 / s.camera.width;
     s.camera.width = 96;
     let settings = RenderSettings { photons: 256, caustic_map_size: 256, shadow_map_size: 512, ..Default::default() };
-    let out = render(&ctx, &s, &settings, None).unwrap();
+    let out = render(&ctx, &s, &settings).unwrap();
     let path = dir.join("tests/golden").join(format!("{name}.exr"));
     if !path.exists() && std::env::var("CI").is_ok_and(|v| v == "true") {
         panic!("missing golden image {} (run with CAUSTICS_ACCEPT_GOLDEN=1 and commit it)", path.display());
@@ -28,13 +29,19 @@ fn golden(name: &str) {
         return;
     }
     let want = Image::read(&path).unwrap();
-    let flip = caustics::metrics::hdr_flip(&out.image, &want, None).unwrap();
-    let ratio = caustics::metrics::energy_ratio(&out.image, &want, None).unwrap();
+    let flip = caustics_reference::metrics::hdr_flip(&out.image, &want, None).unwrap();
+    let ratio = caustics_reference::metrics::energy_ratio(&out.image, &want, None).unwrap();
     if flip.mean > 0.02 || (ratio - 1.0).abs() > 0.01 {
         let actual = path.with_extension("actual.png");
         out.image.write(&actual, s.exposure).unwrap();
-        caustics::metrics::write_heatmap(&path.with_extension("difference.png"), &out.image, &want, None, &flip)
-            .unwrap();
+        caustics_reference::metrics::write_heatmap(
+            &path.with_extension("difference.png"),
+            &out.image,
+            &want,
+            None,
+            &flip,
+        )
+        .unwrap();
         panic!(
             "{name}: FLIP {:.4}, energy ratio {ratio:.4} against {}; wrote {}",
             flip.mean,

@@ -10,8 +10,9 @@
 mod common;
 use caustics::Scene;
 use caustics::image_io::Image;
-use caustics::reference::ReferenceSettings;
 use caustics::render::{RenderSettings, render};
+use caustics_reference::ImageIo as _;
+use caustics_reference::reference::ReferenceSettings;
 use common::gpu;
 use std::path::Path;
 
@@ -68,10 +69,10 @@ fn disc_difference(a: &Image, b: &Image) -> f64 {
 fn a_mesh_behind_a_glass_sphere_is_seen_through_it() {
     let Some(ctx) = gpu() else { return };
     let s = RenderSettings { photons: 256, caustic_map_size: 256, shadow_map_size: 512, ..Default::default() };
-    let with = render(&ctx, &scene(true), &s, None).unwrap();
-    let without = render(&ctx, &scene(false), &s, None).unwrap();
+    let with = render(&ctx, &scene(true), &s).unwrap();
+    let without = render(&ctx, &scene(false), &s).unwrap();
     let rs = ReferenceSettings { photons_per_light: 1 << 20, camera_spp: 16, ..Default::default() };
-    let cpu = caustics::reference::render(&scene(true), &rs).unwrap();
+    let cpu = caustics_reference::reference::render(&scene(true), &rs).unwrap();
     if let Ok(dir) = std::env::var("CAUSTICS_TEST_OUT") {
         let dir = Path::new(&dir);
         with.image.write(&dir.join("layers_gpu.png"), 1.0).unwrap();

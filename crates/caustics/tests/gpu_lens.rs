@@ -144,7 +144,7 @@ fn measure(ctx: &caustics::gpu::GpuContext, scene: &Scene, mode: SplatMode, with
         keep_photons: true,
         ..Default::default()
     };
-    let out = render(ctx, scene, &s, None).unwrap();
+    let out = render(ctx, scene, &s).unwrap();
     let ph = &out.technique.photons;
     assert_eq!(ph.len(), (n * n) as usize, "one photon per grid cell");
     let (mut stored, mut truth, mut ratio) = (Vec::new(), Vec::new(), Vec::new());

@@ -15,6 +15,7 @@ mod temp_scene;
 use caustics::Scene;
 use caustics::image_io::Image;
 use caustics::render::{RenderSettings, Technique, render};
+use caustics_reference::ImageIo as _;
 use common::gpu;
 
 const M: u32 = 256;
@@ -103,22 +104,22 @@ fn photons_refract_through_a_mesh_hidden_behind_a_glass_sphere() {
         light_second_layer: second,
         ..Default::default()
     };
-    let with = render(&ctx, &scene, &settings(true), None).unwrap();
-    let without = render(&ctx, &scene, &settings(false), None).unwrap();
-    let rs = caustics::reference::ReferenceSettings {
+    let with = render(&ctx, &scene, &settings(true)).unwrap();
+    let without = render(&ctx, &scene, &settings(false)).unwrap();
+    let rs = caustics_reference::reference::ReferenceSettings {
         photons_per_light: 2_000_000,
         caustic_map_size: M,
         ..Default::default()
     };
-    let cpu = caustics::reference::caustic_maps(&scene, &rs).unwrap();
+    let cpu = caustics_reference::reference::caustic_maps(&scene, &rs).unwrap();
     if let Ok(dir) = std::env::var("CAUSTICS_TEST_OUT") {
         let dir = std::path::Path::new(&dir);
         with.caustic_maps[0][0].write(&dir.join("light_layers_gpu.exr"), 1.0).unwrap();
         without.caustic_maps[0][0].write(&dir.join("light_layers_gpu_without.exr"), 1.0).unwrap();
         cpu[0][0].write(&dir.join("light_layers_cpu.exr"), 1.0).unwrap();
     }
-    let a_with = caustics::metrics::map_agreement(&with.caustic_maps[0][0], &cpu[0][0]);
-    let a_without = caustics::metrics::map_agreement(&without.caustic_maps[0][0], &cpu[0][0]);
+    let a_with = caustics_reference::metrics::map_agreement(&with.caustic_maps[0][0], &cpu[0][0]);
+    let a_without = caustics_reference::metrics::map_agreement(&without.caustic_maps[0][0], &cpu[0][0]);
     // The floor under the ball: the NDC disc of the ball's silhouette seen from the light (the
     // light's view spans tan(CONE_DEG) at unit distance).
     let r_ndc = (BALL_R / (LIGHT_Y - BALL_Y)).asin().tan() / CONE_DEG.to_radians().tan();
@@ -166,8 +167,8 @@ fn every_technique_traces_through_the_second_layer() {
         splat: caustics::splat::SplatMode::Fixed,
         ..Default::default()
     };
-    let basic = render(&ctx, &scene, &settings(Technique::Basic), None).unwrap();
-    let adaptive = render(&ctx, &scene, &settings(Technique::AdaptiveLevel), None).unwrap();
+    let basic = render(&ctx, &scene, &settings(Technique::Basic)).unwrap();
+    let adaptive = render(&ctx, &scene, &settings(Technique::AdaptiveLevel)).unwrap();
     assert!(adaptive.caustic_flux_bits == basic.caustic_flux_bits, "adaptive: caustic map differs from basic");
     assert_eq!(adaptive.flux, basic.flux, "adaptive: flux bookkeeping differs from basic");
     // Photons find their way out of the hidden mesh (through the second layer's back buffer).

@@ -170,7 +170,7 @@ fn frame_by_frame_matches_a_fresh_renderer_mesh() {
 fn one_shot_render_is_the_renderers_first_frame() {
     let Some(ctx) = gpu() else { return };
     let scene = catalogue("glass_sphere");
-    let once = caustics::render::render(&ctx, &scene, &settings(), None).unwrap();
+    let once = caustics::render::render(&ctx, &scene, &settings()).unwrap();
     let mut r = Renderer::with_context(ctx, scene, settings()).unwrap();
     frame(&mut r);
     assert!(once.image == r.read_image().unwrap());

@@ -37,12 +37,12 @@ fn map_flux(out: &GpuRender) -> f64 {
 fn every_mode_conserves_the_caustic_flux() {
     let Some(ctx) = gpu() else { return };
     let s = small(Scene::default_scene(), 32);
-    let fixed = render(&ctx, &s, &settings(256, 256, SplatMode::Fixed), None).unwrap();
+    let fixed = render(&ctx, &s, &settings(256, 256, SplatMode::Fixed)).unwrap();
     let reference = map_flux(&fixed);
     assert!(reference > 0.0);
     for t in [Technique::Basic, Technique::Hierarchical, Technique::AdaptiveLevel] {
         for mode in SplatMode::ALL {
-            let out = render(&ctx, &s, &RenderSettings { technique: t, ..settings(256, 256, mode) }, None).unwrap();
+            let out = render(&ctx, &s, &RenderSettings { technique: t, ..settings(256, 256, mode) }).unwrap();
             let r = map_flux(&out) / reference;
             eprintln!("{t} {mode}: map flux / fixed splats' {r:.6}, landed {:.4} W", out.flux[0].landed);
             assert!((r - 1.0).abs() < 0.01, "{t} {mode}: map flux ratio {r}");
@@ -65,7 +65,7 @@ fn caustic_triangles_on_a_glass_slab_are_uniform() {
                    {"type":"rectangle","center":[0,0,0],"normal":[0,1,0],"size":[6,6],"material":"floor"}]}"#;
     let s = Scene::from_json(json, "slab", Path::new(".")).unwrap();
     let cv = |mode, technique, n| {
-        let out = render(&ctx, &s, &RenderSettings { technique, ..settings(n, 256, mode) }, None).unwrap();
+        let out = render(&ctx, &s, &RenderSettings { technique, ..settings(n, 256, mode) }).unwrap();
         let map = &out.caustic_maps[0][0];
         // The texels well inside the slab's footprint (its light view: the middle of the map).
         let lum = map.luminance();
@@ -106,17 +106,17 @@ fn caustic_triangles_on_a_glass_slab_are_uniform() {
 fn every_mode_is_no_worse_than_fixed_splats_on_the_sphere() {
     let Some(ctx) = gpu() else { return };
     let s = small(Scene::default_scene(), 32);
-    let rs = caustics::reference::ReferenceSettings {
+    let rs = caustics_reference::reference::ReferenceSettings {
         photons_per_light: 2_000_000,
         caustic_map_size: 256,
         ..Default::default()
     };
-    let reference = caustics::reference::caustic_maps(&s, &rs).unwrap().remove(0).remove(0);
+    let reference = caustics_reference::reference::caustic_maps(&s, &rs).unwrap().remove(0).remove(0);
     let err = |mode| {
-        let out = render(&ctx, &s, &settings(256, 256, mode), None).unwrap();
+        let out = render(&ctx, &s, &settings(256, 256, mode)).unwrap();
         let map = &out.caustic_maps[0][0];
-        let a = caustics::metrics::map_agreement(map, &reference);
-        let flip = caustics::metrics::hdr_flip(map, &reference, None).unwrap().mean;
+        let a = caustics_reference::metrics::map_agreement(map, &reference);
+        let flip = caustics_reference::metrics::hdr_flip(map, &reference, None).unwrap().mean;
         eprintln!("{mode}: {a}, mean HDR-FLIP {flip:.4}");
         (a.rel_rmse, flip)
     };

@@ -42,7 +42,7 @@ fn lum(p: [f32; 3]) -> f64 {
 fn a_static_scene_is_filtered_to_exactly_its_input() {
     let Some(ctx) = gpu() else { return };
     let s = scene(Vec3::ZERO);
-    let unfiltered = render(&ctx, &s, &settings(M), None).unwrap();
+    let unfiltered = render(&ctx, &s, &settings(M)).unwrap();
     let variants = [
         TemporalSettings::default(),
         TemporalSettings { flux_radius: 0, ..Default::default() },
@@ -61,7 +61,7 @@ fn static_sequence(
 ) {
     let mut filter = TemporalFilter::new(ts);
     for frame in 0..3 {
-        let out = filter.render(ctx, s, &settings(M), None).unwrap();
+        let out = filter.render(ctx, s, &settings(M)).unwrap();
         let raw = filter.raw_maps(ctx).unwrap();
         assert_eq!(bits(&out.caustic_maps[0][0]), bits(&raw[0][0]), "{ts:?} frame {frame}: filtered != raw");
         assert_eq!(bits(&out.caustic_maps[0][0]), bits(&unfiltered.caustic_maps[0][0]), "frame {frame}");
@@ -87,11 +87,11 @@ fn a_large_light_jump_leaves_no_ghost() {
 fn light_jump(ctx: &caustics::gpu::GpuContext, ts: TemporalSettings, bound: f64) {
     let mut filter = TemporalFilter::new(ts);
     let a = scene(Vec3::ZERO);
-    filter.render(ctx, &a, &settings(M), None).unwrap();
-    filter.render(ctx, &a, &settings(M), None).unwrap();
+    filter.render(ctx, &a, &settings(M)).unwrap();
+    filter.render(ctx, &a, &settings(M)).unwrap();
     let old = filter.raw_maps(ctx).unwrap().remove(0).remove(0);
     // The spot moves 0.8 m sideways: the ball's caustic moves by about 15 texels in its map.
-    let out = filter.render(ctx, &scene(Vec3::new(0.8, 0.0, 0.0)), &settings(M), None).unwrap();
+    let out = filter.render(ctx, &scene(Vec3::new(0.8, 0.0, 0.0)), &settings(M)).unwrap();
     let new = filter.raw_maps(ctx).unwrap().remove(0).remove(0);
     let filtered = &out.caustic_maps[0][0];
     // Texels where only the old caustic was: the new raw map is below 1e-3 of the old one there.
@@ -151,7 +151,7 @@ fn jitter(k: usize) -> Vec3 {
 fn sequence(ctx: &caustics::gpu::GpuContext, filter: &mut TemporalFilter, frames: usize) -> (Vec<Image>, Vec<Image>) {
     let (mut raw, mut filtered) = (Vec::new(), Vec::new());
     for k in 0..frames {
-        let out = filter.render(ctx, &scene(jitter(k)), &settings(M), None).unwrap();
+        let out = filter.render(ctx, &scene(jitter(k)), &settings(M)).unwrap();
         filtered.push(out.caustic_maps[0][0].clone());
         raw.push(filter.raw_maps(ctx).unwrap().remove(0).remove(0));
     }
@@ -198,14 +198,14 @@ fn reset_and_a_new_map_size_start_from_the_new_frame() {
     sequence(&ctx, &mut filter, 3);
     let s = scene(jitter(5));
     // With history, the filtered map differs from the raw one.
-    let out = filter.render(&ctx, &s, &settings(M), None).unwrap();
+    let out = filter.render(&ctx, &s, &settings(M)).unwrap();
     assert_ne!(bits(&out.caustic_maps[0][0]), bits(&filter.raw_maps(&ctx).unwrap()[0][0]));
     filter.reset();
-    let out = filter.render(&ctx, &s, &settings(M), None).unwrap();
+    let out = filter.render(&ctx, &s, &settings(M)).unwrap();
     assert_eq!(bits(&out.caustic_maps[0][0]), bits(&filter.raw_maps(&ctx).unwrap()[0][0]));
     assert_eq!(filter.stats(&ctx).unwrap()[0].rejected, (M * M) as u64);
     // A different map size: the history is reallocated and the frame is its raw map.
-    let out = filter.render(&ctx, &scene(jitter(6)), &settings(M / 2), None).unwrap();
+    let out = filter.render(&ctx, &scene(jitter(6)), &settings(M / 2)).unwrap();
     let raw = filter.raw_maps(&ctx).unwrap();
     assert_eq!(raw[0][0].width, M / 2);
     assert_eq!(bits(&out.caustic_maps[0][0]), bits(&raw[0][0]));
@@ -280,7 +280,7 @@ fn every_light_and_cube_face_is_filtered() {
     let m = 32;
     let mut filter = TemporalFilter::new(TemporalSettings::default());
     for frame in 0..2 {
-        let out = filter.render(&ctx, &s, &settings(m), None).unwrap();
+        let out = filter.render(&ctx, &s, &settings(m)).unwrap();
         let raw = filter.raw_maps(&ctx).unwrap();
         assert_eq!(raw.len(), 2);
         assert_eq!((raw[0].len(), raw[1].len()), (1, 6));

@@ -1,8 +1,8 @@
 //! Determinism, convergence and the variance estimate of the CPU reference.
 
 use caustics::Scene;
-use caustics::metrics;
-use caustics::reference::{self, ReferenceOutput, ReferenceSettings};
+use caustics_reference::metrics;
+use caustics_reference::reference::{self, ReferenceOutput, ReferenceSettings};
 use std::path::Path;
 
 fn small_scene(name: &str, size: u32) -> Scene {

@@ -1,10 +1,10 @@
 //! Analytic optics and sampling tests of the CPU reference renderer.
 
 use caustics::Scene;
-use caustics::reference::emit::Emitter;
-use caustics::reference::sampling::sobol_2d;
-use caustics::reference::{self, Deposit, ReferenceSettings};
 use caustics::scene::Light;
+use caustics_reference::reference::emit::Emitter;
+use caustics_reference::reference::sampling::sobol_2d;
+use caustics_reference::reference::{self, Deposit, ReferenceSettings};
 use glam::Vec3;
 use std::f32::consts::PI;
 use std::fmt::Write as _;
@@ -310,7 +310,7 @@ fn emission_matches_each_light_definition() {
     let em = Emitter::full(&point, Vec3::ZERO, 10.0);
     let mut cells = vec![0f64; 64];
     let mut sum = 0.0;
-    let mut rng = caustics::reference::sampling::PathRng::new(9);
+    let mut rng = caustics_reference::reference::sampling::PathRng::new(9);
     let m = 1u64 << 16;
     for _ in 0..m {
         let e = em.sample(rng.next_2d()).unwrap();

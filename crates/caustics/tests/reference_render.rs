@@ -3,7 +3,7 @@
 
 use caustics::Scene;
 use caustics::lightspace::LightView;
-use caustics::reference::{self, ReferenceSettings};
+use caustics_reference::reference::{self, ReferenceSettings};
 use std::path::{Path, PathBuf};
 
 fn root() -> PathBuf {

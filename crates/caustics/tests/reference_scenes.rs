@@ -13,8 +13,9 @@
 
 use caustics::Scene;
 use caustics::image_io::Image;
-use caustics::metrics::{self, Mask};
-use caustics::reference::{self, ReferenceSettings};
+use caustics_reference::ImageIo as _;
+use caustics_reference::metrics::{self, Mask};
+use caustics_reference::reference::{self, ReferenceSettings};
 use std::path::{Path, PathBuf};
 
 fn root() -> PathBuf {

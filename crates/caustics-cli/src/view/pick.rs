@@ -4,8 +4,8 @@
 
 use super::camera::project;
 use caustics::Scene;
-use caustics::reference::geometry::Accel;
 use caustics::scene::{Camera, Light, Shape};
+use caustics_reference::reference::geometry::Accel;
 use glam::{Affine3A, Quat, Vec2, Vec3};
 
 /// What the user selected.

@@ -1,9 +1,9 @@
 //! The CPU reference of the current view, computed on a background thread (A/B and difference
-//! views): progress from [`caustics::reference::Progress`], cancelled when the view changes.
+//! views): progress from [`caustics_reference::reference::Progress`], cancelled when the view changes.
 
 use caustics::Scene;
 use caustics::image_io::{Image, tonemap};
-use caustics::reference::{Progress, ReferenceOutput, ReferenceSettings};
+use caustics_reference::reference::{Progress, ReferenceOutput, ReferenceSettings};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
@@ -22,7 +22,7 @@ impl Job {
         let p = progress.clone();
         let handle = std::thread::Builder::new()
             .name("cpu-reference".into())
-            .spawn(move || caustics::reference::render_with_progress(&scene, &settings, &p))
+            .spawn(move || caustics_reference::reference::render_with_progress(&scene, &settings, &p))
             .ok();
         Job { progress, generation, handle }
     }

@@ -8,8 +8,6 @@ use super::camera::Orbit;
 use super::pick::{self, Selection};
 use super::reference::{self, Job, Rgba};
 use caustics::image_io::Image;
-use caustics::reference::ReferenceSettings;
-use caustics::reference::geometry::Accel;
 use caustics::render::RenderSettings;
 use caustics::renderer::{FrameRequest, FrameStats, Renderer};
 use caustics::scene::{Light, Material};
@@ -17,6 +15,9 @@ use caustics::splat::SplatMode;
 use caustics::techniques::Technique;
 use caustics::temporal::TemporalSettings;
 use caustics::{Error, Result, Scene};
+use caustics_reference::ImageIo;
+use caustics_reference::reference::ReferenceSettings;
+use caustics_reference::reference::geometry::Accel;
 use glam::{Affine3A, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -399,7 +400,7 @@ impl Session {
                 if let Some(r) = self.reference.as_mut().filter(|r| r.generation == generation)
                     && let Some(gpu) = &r.gpu
                 {
-                    r.flip = Some(caustics::metrics::hdr_flip(gpu, &r.image, None)?.mean);
+                    r.flip = Some(caustics_reference::metrics::hdr_flip(gpu, &r.image, None)?.mean);
                 }
                 Ok(())
             }
@@ -717,7 +718,7 @@ impl Session {
         let version = self.reference_version;
         if let Some(r) = self.reference.as_mut() {
             r.diff = reference::difference(&gpu, &r.image, exposure);
-            r.rel_mse = caustics::metrics::rel_mse(&gpu, &r.image, None).ok();
+            r.rel_mse = caustics_reference::metrics::rel_mse(&gpu, &r.image, None).ok();
             r.flip = None;
             r.gpu = Some(gpu);
             r.version = version;

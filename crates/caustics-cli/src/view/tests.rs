@@ -14,6 +14,7 @@ use caustics::Scene;
 use caustics::image_io::{Image, srgb_encode};
 use caustics::render::RenderSettings;
 use caustics::techniques::Technique;
+use caustics_reference::ImageIo;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 

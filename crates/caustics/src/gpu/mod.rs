@@ -167,6 +167,30 @@ pub fn stage_bindings(name: &str) -> Result<Vec<wgpu::BindGroupLayoutEntry>> {
     Ok(entries)
 }
 
+/// A storage buffer (zeroed; at least 16 bytes) of the open scope.
+pub(crate) fn storage(ctx: &GpuContext, label: &str, size: u64, extra: wgpu::BufferUsages) -> wgpu::Buffer {
+    ctx.buffer(label, size.max(16), wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | extra)
+}
+
+pub(crate) fn uniform(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+    ctx.uniform(label, bytes)
+}
+
+/// A bind group of `pl`'s group 0 with the resources bound at 0, 1, 2, … in order.
+pub(crate) fn bind(
+    ctx: &GpuContext,
+    pl: &wgpu::ComputePipeline,
+    label: &str,
+    resources: &[wgpu::BindingResource],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = resources
+        .iter()
+        .enumerate()
+        .map(|(i, r)| wgpu::BindGroupEntry { binding: i as u32, resource: r.clone() })
+        .collect();
+    ctx.bind_group(label, pool::LayoutOf::Compute(pl.clone()), &entries)
+}
+
 /// A device and queue, and what the adapter can do.
 #[derive(Clone)]
 pub struct GpuContext {

@@ -240,6 +240,29 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
 ];
 
+/// Parameters of `caustic_triangles` (mirrors the WGSL `TriParams`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct TriParams {
+    pub n: u32,
+    pub r0: u32,
+    pub rows: u32,
+    pub quad_rows: u32,
+    pub cur_off: u32,
+    pub has_prev: u32,
+    pub max_edge: f32,
+    pub _pad: u32,
+}
+
+/// Parameters of `splat_multires_blend` (mirrors the WGSL `BlendParams`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct BlendParams {
+    pub count: u32,
+    pub pass_index: u32,
+    pub _pad: [u32; 2],
+}
+
 /// (Rust type name, WGSL struct name, size) for the layout test.
 pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("FaceGpu", "Face", std::mem::size_of::<FaceGpu>()),
@@ -255,8 +278,8 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("TemporalParams", "TemporalParams", std::mem::size_of::<TemporalParams>()),
     ("ShadeParams", "ShadeParams", std::mem::size_of::<ShadeParams>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
-    ("TriParams", "TriParams", std::mem::size_of::<crate::splat::TriParams>()),
-    ("BlendParams", "BlendParams", std::mem::size_of::<crate::splat::BlendParams>()),
+    ("TriParams", "TriParams", std::mem::size_of::<TriParams>()),
+    ("BlendParams", "BlendParams", std::mem::size_of::<BlendParams>()),
     ("ObjectTransform", "ObjectTransform", std::mem::size_of::<ObjectTransform>()),
     ("DisplayParams", "DisplayParams", std::mem::size_of::<DisplayParams>()),
 ];

@@ -26,7 +26,7 @@ use super::{
 use crate::error::{Error, Result};
 use crate::gpu::PassTimer;
 use crate::gpu::types::{LevelParams, Photon};
-use crate::render::RenderSettings;
+use crate::settings::RenderSettings;
 
 /// Bytes per leaf photon of batch capacity: the photon (32) and its slots in the two cell
 /// regions (2 × 4).

@@ -15,7 +15,7 @@ use super::{
 use crate::error::{Error, Result};
 use crate::gpu::PassTimer;
 use crate::gpu::types::{LevelParams, Photon, TraceParams};
-use crate::render::RenderSettings;
+use crate::settings::RenderSettings;
 
 /// Tile layout of the dense grid (host side).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

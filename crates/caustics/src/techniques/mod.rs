@@ -21,59 +21,9 @@ pub mod hierarchical;
 use crate::error::{Error, Result};
 use crate::gpu::types::{CoverParams, LevelParams};
 use crate::gpu::{GpuContext, PassTimer};
-use crate::render::RenderSettings;
+use crate::settings::RenderSettings;
 
-/// How photons are emitted.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
-pub enum Technique {
-    /// Basic caustic maps: a dense N × N photon grid per light-view face.
-    #[default]
-    Basic,
-    /// Hierarchical caustic maps: the dense grid, then a top-down traversal of a mip hierarchy
-    /// of valid photons that skips irrelevant regions.
-    Hierarchical,
-    /// Adaptive caustic maps, maximal traversal level: every relevant cluster is refined down
-    /// to the finest grid N (equivalent to a dense N × N grid).
-    AdaptiveLevel,
-    /// Adaptive caustic maps, maximal caustic map error: a cluster whose photons land in one
-    /// caustic-map texel (or within the tolerance) is emitted as one photon; the finest grid N
-    /// caps the refinement.
-    AdaptiveError,
-}
-
-impl Technique {
-    pub const ALL: [Technique; 4] =
-        [Technique::Basic, Technique::Hierarchical, Technique::AdaptiveLevel, Technique::AdaptiveError];
-
-    /// The command-line name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Technique::Basic => "basic",
-            Technique::Hierarchical => "hierarchical",
-            Technique::AdaptiveLevel => "adaptive-level",
-            Technique::AdaptiveError => "adaptive-error",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Technique> {
-        Technique::ALL.into_iter().find(|t| t.name() == s.trim())
-    }
-
-    pub fn is_adaptive(self) -> bool {
-        matches!(self, Technique::AdaptiveLevel | Technique::AdaptiveError)
-    }
-
-    /// The largest finest grid N this technique supports.
-    pub fn max_photons(self) -> u32 {
-        if self.is_adaptive() { 65536 } else { 8192 }
-    }
-}
-
-impl std::fmt::Display for Technique {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+pub use crate::settings::Technique;
 
 /// Counts of one level of the photon hierarchy (summed over lights, faces and batches).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -348,28 +298,7 @@ pub(crate) const FLAG_QUADS: u32 = 32;
 pub(crate) const FLAG_REFLECT: u32 = 64;
 pub(crate) const FLAG_SKIP: u32 = 128;
 
-pub(crate) fn storage(ctx: &GpuContext, label: &str, size: u64, extra: wgpu::BufferUsages) -> wgpu::Buffer {
-    ctx.buffer(label, size.max(16), wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | extra)
-}
-
-pub(crate) fn uniform(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
-    ctx.uniform(label, bytes)
-}
-
-/// A bind group of `pl`'s group 0 with the resources bound at 0, 1, 2, … in order.
-pub(crate) fn bind(
-    ctx: &GpuContext,
-    pl: &wgpu::ComputePipeline,
-    label: &str,
-    resources: &[wgpu::BindingResource],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = resources
-        .iter()
-        .enumerate()
-        .map(|(i, r)| wgpu::BindGroupEntry { binding: i as u32, resource: r.clone() })
-        .collect();
-    ctx.bind_group(label, crate::gpu::pool::LayoutOf::Compute(pl.clone()), &entries)
-}
+pub(crate) use crate::gpu::{bind, storage, uniform};
 
 /// Word offset of level `l` of a mip chain whose level 0 is g × g.
 pub(crate) fn mip_offset(l: u32, g: u32) -> u64 {
@@ -638,6 +567,6 @@ impl TechniqueStats {
     }
 
     fn face_texels_g(&self) -> u32 {
-        self.grid.min(crate::render::MAX_GBUFFER)
+        self.grid.min(crate::settings::MAX_GBUFFER)
     }
 }

@@ -1,6 +1,7 @@
 //! Compare the GPU basic caustic map with the CPU reference's, texel by texel.
 //! `cargo run --release --example gpu_vs_cpu -- SCENE [MAP_SIZE] [GRID] [CPU_PHOTONS] [OUT_DIR]`
 use caustics::image_io::Image;
+use caustics_reference::ImageIo as _;
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
@@ -15,16 +16,16 @@ fn main() {
         shadow_map_size: 512,
         ..Default::default()
     };
-    let gpu = caustics::render::render(&ctx, &scene, &s, None).unwrap();
-    let rs = caustics::reference::ReferenceSettings {
+    let gpu = caustics::render::render(&ctx, &scene, &s).unwrap();
+    let rs = caustics_reference::reference::ReferenceSettings {
         photons_per_light: photons,
         caustic_map_size: m,
         ..Default::default()
     };
-    let cpu = caustics::reference::caustic_maps(&scene, &rs).unwrap();
+    let cpu = caustics_reference::reference::caustic_maps(&scene, &rs).unwrap();
     for (l, (g, c)) in gpu.caustic_maps.iter().zip(&cpu).enumerate() {
         for (f, (gm, cm)) in g.iter().zip(c).enumerate() {
-            let st = caustics::metrics::map_agreement(gm, cm);
+            let st = caustics_reference::metrics::map_agreement(gm, cm);
             println!("light {l} face {f}: {st}");
             if let Some(dir) = a.get(5) {
                 let dir = std::path::Path::new(dir);

@@ -5,8 +5,9 @@
 //! (light space, both maps 3x3 box-filtered for the RMSE, see metrics::map_agreement), energy
 //! ratio, splat-stage GPU ms (photon_splat + splat_blend), photon stage (trace + splat) and frame
 //! GPU ms.
+use caustics::Scene;
 use caustics::render::{RenderSettings, SplatMode, render};
-use caustics::{Scene, metrics, reference};
+use caustics_reference::{metrics, reference};
 use std::path::Path;
 
 fn main() {
@@ -36,8 +37,8 @@ fn main() {
                     ..Default::default()
                 };
                 // Warm-up render, then the measured one.
-                let _ = render(&ctx, &scene, &s, None).unwrap();
-                let out = render(&ctx, &scene, &s, None).unwrap();
+                let _ = render(&ctx, &scene, &s).unwrap();
+                let out = render(&ctx, &scene, &s).unwrap();
                 let map = &out.caustic_maps[0][0];
                 let a = metrics::map_agreement(map, &refmap);
                 let flip = metrics::hdr_flip(map, &refmap, None).unwrap();

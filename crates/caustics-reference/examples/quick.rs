@@ -1,5 +1,7 @@
 //! Render a scene on the GPU and write the image, the caustic image and the light-space dumps.
 //! `cargo run --release --example quick -- SCENE OUT_DIR [PHOTONS]`
+use caustics_reference::ImageIo as _;
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let scene = caustics::Scene::load(std::path::Path::new(&args[1])).unwrap();
@@ -11,7 +13,8 @@ fn main() {
         s.photons = n.parse().unwrap();
     }
     let t = std::time::Instant::now();
-    let r = caustics::render::render(&ctx, &scene, &s, Some(&out.join("dump"))).unwrap();
+    let (r, dump) = caustics::render::render_dump(&ctx, &scene, &s).unwrap();
+    caustics_reference::dump::write(&out.join("dump"), &dump).unwrap();
     println!("{:?} {:?} {:?} {}", t.elapsed(), r.flux, r.timings, r.adapter);
     r.image.write(&out.join("image.png"), scene.exposure).unwrap();
     r.image.write(&out.join("image.exr"), 1.0).unwrap();

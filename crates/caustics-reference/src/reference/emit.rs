@@ -14,7 +14,7 @@
 //! unbiased.
 
 use super::sampling::{basis, concentric_disc, uniform_cone};
-use crate::scene::Light;
+use caustics::scene::Light;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 

@@ -4,10 +4,10 @@
 //! internal reflection), so that the image-space tracer's share of the spread can be told apart
 //! from the optics'. `cargo run --release --example divergence -- SCENE GRID MAP_SIZE`
 use caustics::lightspace::LightView;
-use caustics::reference::geometry::{Accel, spawn};
-use caustics::reference::optics::{fresnel_dielectric, reflect, refract};
 use caustics::render::{RenderSettings, SplatMode, render};
 use caustics::scene::Material;
+use caustics_reference::reference::geometry::{Accel, spawn};
+use caustics_reference::reference::optics::{fresnel_dielectric, reflect, refract};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -73,7 +73,7 @@ fn main() {
         keep_photons: true,
         ..Default::default()
     };
-    let out = render(&ctx, &scene, &s, None).unwrap();
+    let out = render(&ctx, &scene, &s).unwrap();
     let ph = &out.technique.photons;
     println!("{} photons kept", ph.len());
     let view = LightView::new(&scene, &scene.lights[0]);

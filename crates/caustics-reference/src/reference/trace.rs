@@ -12,8 +12,8 @@
 use super::geometry::{Accel, spawn};
 use super::optics::{fresnel_conductor, fresnel_dielectric, reflect, refract};
 use super::sampling::{PathRng, cosine_hemisphere};
-use crate::lightspace::LightView;
-use crate::scene::{Camera, Light, Material, Scene};
+use caustics::lightspace::LightView;
+use caustics::scene::{Camera, Light, Material, Scene};
 use glam::Vec3;
 use std::f32::consts::PI;
 

@@ -4,8 +4,9 @@
 //! Conventions: `a` is the image under test, `b` the reference. Every metric runs over the
 //! pixels where the mask (if any) is selected; all channels count.
 
-use crate::error::{Error, Result};
-use crate::image_io::{Image, luminance, srgb_encode};
+use crate::io::ImageIo;
+use caustics::error::{Error, Result};
+use caustics::image_io::{Image, luminance, srgb_encode};
 use std::path::Path;
 
 /// Which pixels a metric looks at: `true` = included.
@@ -340,12 +341,12 @@ pub fn write_heatmap(path: &Path, a: &Image, b: &Image, mask: Option<&Mask>, fli
             } else {
                 ([0.2; 3], [0.2; 3])
             };
-            out.set(x, y, l.map(crate::image_io::srgb_decode));
-            out.set(x + w, y, r.map(crate::image_io::srgb_decode));
+            out.set(x, y, l.map(caustics::image_io::srgb_decode));
+            out.set(x + w, y, r.map(caustics::image_io::srgb_decode));
         }
     }
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    if ext == "png" { crate::image_io::write_display_png(&out, path) } else { out.write(path, 1.0) }
+    if ext == "png" { crate::io::write_display_png(&out, path) } else { out.write(path, 1.0) }
 }
 
 /// A short magma-like ramp (sRGB display values).

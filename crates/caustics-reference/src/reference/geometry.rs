@@ -2,7 +2,7 @@
 //! double precision), and one triangle BVH over every mesh.
 
 use super::bvh::Bvh;
-use crate::scene::{Scene, Shape, TriMesh};
+use caustics::scene::{Scene, Shape, TriMesh};
 use glam::{DVec3, Vec2, Vec3};
 use std::sync::Arc;
 

@@ -18,7 +18,7 @@ fn main() {
             keep_photons: true,
             ..Default::default()
         };
-        let out = render(&ctx, &scene, &s, None).unwrap();
+        let out = render(&ctx, &scene, &s).unwrap();
         let mut r = Vec::new();
         let mut tr = Vec::new();
         for b in caustics::splat::beam_samples(&out.technique.photons, n) {

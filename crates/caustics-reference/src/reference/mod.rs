@@ -1,7 +1,7 @@
 //! The exact CPU reference renderer.
 //!
 //! Independent of the GPU code (its own BVH, intersection, sampling and tracers); it shares
-//! only the scene loading and the light-space parameterization ([`crate::lightspace`]) so that
+//! only the scene loading and the light-space parameterization ([`caustics::lightspace`]) so that
 //! its caustic maps compare texel by texel with the GPU's.
 //!
 //! - [`bvh`], [`geometry`]: binned-SAH triangle BVH with watertight intersection, exact
@@ -21,10 +21,10 @@ pub mod optics;
 pub mod sampling;
 pub mod trace;
 
-use crate::error::{Error, Result};
-use crate::image_io::Image;
-use crate::lightspace::LightView;
-use crate::scene::Scene;
+use caustics::error::{Error, Result};
+use caustics::image_io::Image;
+use caustics::lightspace::LightView;
+use caustics::scene::Scene;
 use emit::Emitter;
 use geometry::Accel;
 use glam::Vec3;

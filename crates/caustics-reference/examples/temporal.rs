@@ -25,6 +25,7 @@ use caustics::image_io::Image;
 use caustics::render::{RenderSettings, SplatMode, render};
 use caustics::scene::Light;
 use caustics::temporal::{TemporalFilter, TemporalSettings};
+use caustics_reference::ImageIo as _;
 use glam::Vec3;
 use std::path::Path;
 
@@ -54,7 +55,7 @@ fn main() {
     let jump = frames * 3 / 4;
     let (mut raw, mut filtered, mut rejected, mut lights) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     // Warm-up: build every pipeline once, so that the timings below compare frames only.
-    TemporalFilter::new(TemporalSettings::default()).render(&ctx, &base, &s, None).unwrap();
+    TemporalFilter::new(TemporalSettings::default()).render(&ctx, &base, &s).unwrap();
     let (mut wall_raw, mut wall_filtered) = (0.0, 0.0);
     // The spot orbits the casters' centre in the x-y plane, aimed at it (0.2° a frame: about 11 mm
     // at 3.1 m), or (`arc`) moves on an arc of radius 0.3 m, 2° a frame (10.5 mm), keeping its
@@ -79,10 +80,10 @@ fn main() {
             *direction = d;
         }
         let t = std::time::Instant::now();
-        let f = filter.render(&ctx, &scene, &s, None).unwrap();
+        let f = filter.render(&ctx, &scene, &s).unwrap();
         wall_filtered += t.elapsed().as_secs_f64();
         let t = std::time::Instant::now();
-        let r = render(&ctx, &scene, &s, None).unwrap();
+        let r = render(&ctx, &scene, &s).unwrap();
         wall_raw += t.elapsed().as_secs_f64();
         r.image.write(&out.join(format!("image_raw_{k:02}.png")), scene.exposure).unwrap();
         f.image.write(&out.join(format!("image_filtered_{k:02}.png")), scene.exposure).unwrap();

@@ -1,0 +1,1169 @@
+//! The passes of a GPU frame, each named (the name is both the wgpu label and the timer name),
+//! which [`crate::renderer::Renderer`] records:
+//!
+//! 1. `eye_receivers`, `eye_specular_front`, `eye_specular_back` and the camera's second layer:
+//!    camera geometry buffers ([`record_eye`]);
+//! 2. per light ([`record_light`]) and face: `light_shadow` (depth of everything),
+//!    `light_receivers` (position and normal of diffuse surfaces), `light_caster_front`,
+//!    `light_caster_back`, and where the scene has caster meshes and two casters or more the
+//!    second caster layer `light_caster_front2`, `light_caster_back2` (`raster_peel`: per texel
+//!    the nearest caster of another object behind the first); then `coverage_mip` and the
+//!    technique's photon stage ([`crate::techniques`]), `caustic_resolve` (flux per texel to
+//!    irradiance) and the temporal filter;
+//! 3. `shade_receivers` per light ([`record_shade`]), then `composite` (image-space refraction
+//!    and reflection) and `display` ([`record_composite`]).
+
+use crate::error::{Error, Result};
+use crate::gpu::pool::LayoutOf;
+use crate::gpu::types::*;
+use crate::gpu::{GpuContext, PassTimer};
+use crate::image_io::Image;
+use crate::lightspace::LightView;
+use crate::output::FluxStats;
+use crate::scene::{Light, Material, Scene, Tessellation};
+use crate::settings::{SplatMode, Technique};
+use glam::{Mat4, Vec3};
+use std::ops::Range;
+
+use crate::settings::RenderSettings;
+
+const POS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+use crate::settings::MAX_GBUFFER;
+
+/// The scene's triangles, uploaded once (in the pose of the scene file), and the per-object
+/// records the frame rewrites when objects move.
+pub(crate) struct Geometry {
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    /// Index ranges per object.
+    ranges: Vec<Range<u32>>,
+    /// Per object: material and analytic shape (in the current pose).
+    pub materials: wgpu::Buffer,
+    /// Per object: [`ObjectTransform`] from the scene file's pose to the current one.
+    pub transforms: wgpu::Buffer,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Subset {
+    All,
+    Diffuse,
+    Specular,
+    Casters,
+    /// Specular meshes (the camera's second layer: analytic shapes are intersected exactly).
+    SpecularMeshes,
+}
+
+fn in_subset(scene: &Scene, i: usize, s: Subset) -> bool {
+    let o = &scene.objects[i];
+    let spec = scene.material_of(o).is_specular();
+    match s {
+        Subset::All => true,
+        Subset::Diffuse => !spec,
+        Subset::Specular => spec,
+        Subset::Casters => spec && o.caustic_caster,
+        Subset::SpecularMeshes => spec && matches!(o.shape, crate::scene::Shape::Mesh(_)),
+    }
+}
+
+/// Upload the triangles of `scene` (the pose of its file) with identity transforms.
+pub(crate) fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation) -> Geometry {
+    let mut vertices: Vec<Vertex> = Vec::new();
+    let mut indices: Vec<u32> = Vec::new();
+    let mut ranges = Vec::new();
+    for (i, o) in scene.objects.iter().enumerate() {
+        let m = o.shape.tessellate(t);
+        let base = vertices.len() as u32;
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            vertices.push(Vertex { position: p.to_array(), normal: n.to_array(), object: i as u32 });
+        }
+        let start = indices.len() as u32;
+        indices.extend(m.indices.iter().flat_map(|t| t.map(|x| x + base)));
+        ranges.push(start..indices.len() as u32);
+    }
+    let storage = wgpu::BufferUsages::STORAGE;
+    let identity = glam::Affine3A::IDENTITY;
+    let transforms: Vec<ObjectTransform> = scene.objects.iter().map(|_| object_transform(&identity)).collect();
+    Geometry {
+        vertices: ctx.buffer_init("vertices", bytemuck::cast_slice(&vertices), wgpu::BufferUsages::VERTEX),
+        indices: ctx.buffer_init("indices", bytemuck::cast_slice(&indices), wgpu::BufferUsages::INDEX),
+        ranges,
+        materials: ctx.buffer_init("materials", bytemuck::cast_slice(&material_records(scene)), storage),
+        transforms: ctx.buffer_init("object_transforms", bytemuck::cast_slice(&transforms), storage),
+    }
+}
+
+/// The GPU record of a transform (positions by the affine map, normals by its rotation).
+pub(crate) fn object_transform(t: &glam::Affine3A) -> ObjectTransform {
+    let m = glam::Mat3::from(t.matrix3);
+    let s = m.x_axis.length();
+    let rot = if s == 1.0 { m } else { m * (1.0 / s) };
+    ObjectTransform { model: Mat4::from(*t).to_cols_array_2d(), normal: Mat4::from_mat3(rot).to_cols_array_2d() }
+}
+
+/// Per object: material and analytic shape of `scene` as it is now.
+pub(crate) fn material_records(scene: &Scene) -> Vec<MaterialGpu> {
+    let mut mats = Vec::new();
+    for o in &scene.objects {
+        let caster = u32::from(o.caustic_caster);
+        let (kind, a, b) = match *scene.material_of(o) {
+            Material::Diffuse { albedo } => (KIND_DIFFUSE, albedo.extend(0.0).to_array(), [0.0; 4]),
+            Material::Dielectric { ior, ext_ior } => (KIND_DIELECTRIC, [ior, ext_ior, 0.0, 0.0], [0.0; 4]),
+            Material::Mirror { reflectance } => (KIND_MIRROR, reflectance.extend(0.0).to_array(), [0.0; 4]),
+            Material::Conductor { eta, k } => (KIND_CONDUCTOR, eta.extend(0.0).to_array(), k.extend(0.0).to_array()),
+        };
+        let (shape_kind, shape) = analytic_shape(&o.shape);
+        mats.push(MaterialGpu { kind: [kind, caster, shape_kind, 0], a, b, shape });
+    }
+    mats
+}
+
+/// An object's analytic shape for exact intersection in the shaders: (kind, parameters).
+fn analytic_shape(shape: &crate::scene::Shape) -> (u32, [[f32; 4]; 4]) {
+    use crate::scene::Shape;
+    match shape {
+        Shape::Sphere { center, radius } => {
+            (SHAPE_SPHERE, [center.extend(*radius).to_array(), [0.0; 4], [0.0; 4], [0.0; 4]])
+        }
+        Shape::Cylinder { base_center, axis, radius, height } => (
+            SHAPE_CYLINDER,
+            [base_center.extend(*radius).to_array(), axis.extend(*height).to_array(), [0.0; 4], [0.0; 4]],
+        ),
+        Shape::Rectangle { center, normal, u, v, size } => (
+            SHAPE_RECTANGLE,
+            [
+                center.extend(0.0).to_array(),
+                normal.extend(0.0).to_array(),
+                u.extend(size.x).to_array(),
+                v.extend(size.y).to_array(),
+            ],
+        ),
+        Shape::Mesh(_) => (SHAPE_MESH, [[0.0; 4]; 4]),
+    }
+}
+
+/// Raster pipelines: geometry buffers with a cull mode, and depth only. The "front" buffers of
+/// specular objects are drawn two-sided: the nearest surface of a closed dielectric faces the
+/// viewer anyway, and mirrors and conductors are two-sided (the inside of the mirror ring).
+pub(crate) struct Raster {
+    none: wgpu::RenderPipeline,
+    back: wgpu::RenderPipeline,
+    depth_only: wgpu::RenderPipeline,
+    /// The camera's second specular layer (`raster_peel`): two-sided and back faces.
+    peel: wgpu::RenderPipeline,
+    peel_back: wgpu::RenderPipeline,
+}
+
+fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
+    const ATTRS: [wgpu::VertexAttribute; 3] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Uint32];
+    wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<Vertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &ATTRS,
+    }
+}
+
+/// The raster pipelines, built on the context's first frame and reused after.
+pub(crate) fn raster_pipelines(ctx: &GpuContext) -> Raster {
+    let mut built = None;
+    let mut get = |i: usize, label: &str| {
+        ctx.render_pipeline(label, || built.get_or_insert_with(|| build_raster_pipelines(ctx))[i].clone())
+    };
+    Raster {
+        none: get(0, "raster_two_sided"),
+        back: get(1, "raster_back_faces"),
+        depth_only: get(2, "raster_depth"),
+        peel: get(3, "raster_peel_two_sided"),
+        peel_back: get(4, "raster_peel_back_faces"),
+    }
+}
+
+fn build_raster_pipelines(ctx: &GpuContext) -> [wgpu::RenderPipeline; 5] {
+    let view_entry = wgpu::BindGroupLayoutEntry {
+        binding: 0,
+        visibility: wgpu::ShaderStages::VERTEX,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let texture_entry = |binding: u32, sample_type: wgpu::TextureSampleType| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    };
+    let layout = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
+        let bgl = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries });
+        ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
+        })
+    };
+    // The objects' transforms, read by the vertex shader.
+    let transforms_entry = wgpu::BindGroupLayoutEntry {
+        binding: 3,
+        visibility: wgpu::ShaderStages::VERTEX,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let raster = (ctx.shader("raster"), layout("raster", &[view_entry, transforms_entry]));
+    let peel = (
+        ctx.shader("raster_peel"),
+        layout(
+            "raster_peel",
+            &[
+                view_entry,
+                texture_entry(1, wgpu::TextureSampleType::Float { filterable: false }),
+                texture_entry(2, wgpu::TextureSampleType::Depth),
+                transforms_entry,
+            ],
+        ),
+    );
+    let make = |(module, layout): &(wgpu::ShaderModule, wgpu::PipelineLayout),
+                cull: Option<wgpu::Face>,
+                color: bool,
+                label: &str| {
+        let targets = [
+            Some(wgpu::ColorTargetState { format: POS_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
+            Some(wgpu::ColorTargetState { format: POS_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
+        ];
+        ctx.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(vertex_layout())],
+            },
+            primitive: wgpu::PrimitiveState { cull_mode: cull, ..Default::default() },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: color.then(|| wgpu::FragmentState {
+                module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    };
+    [
+        make(&raster, None, true, "raster_two_sided"),
+        make(&raster, Some(wgpu::Face::Front), true, "raster_back_faces"),
+        make(&raster, None, false, "raster_depth"),
+        make(&peel, None, true, "raster_peel_two_sided"),
+        make(&peel, Some(wgpu::Face::Front), true, "raster_peel_back_faces"),
+    ]
+}
+
+fn texture(
+    ctx: &GpuContext,
+    label: &str,
+    size: u32,
+    size_y: u32,
+    layers: u32,
+    format: wgpu::TextureFormat,
+) -> wgpu::Texture {
+    let usage =
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
+    ctx.texture(label, wgpu::Extent3d { width: size, height: size_y, depth_or_array_layers: layers }, format, usage)
+}
+
+fn layer_view(ctx: &GpuContext, t: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
+    ctx.view(t, Some(wgpu::TextureViewDimension::D2), layer, Some(1))
+}
+
+fn array_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::TextureView {
+    ctx.view(t, Some(wgpu::TextureViewDimension::D2Array), 0, None)
+}
+
+/// A geometry buffer: position + object id, normal, depth; `layers` faces.
+pub(crate) struct GBuffer {
+    pub pos: wgpu::Texture,
+    pub nrm: wgpu::Texture,
+    pub depth: wgpu::Texture,
+}
+
+impl GBuffer {
+    fn new(ctx: &GpuContext, label: &str, w: u32, h: u32, layers: u32) -> GBuffer {
+        GBuffer {
+            pos: texture(ctx, &format!("{label}_position"), w, h, layers, POS_FORMAT),
+            nrm: texture(ctx, &format!("{label}_normal"), w, h, layers, POS_FORMAT),
+            depth: texture(ctx, &format!("{label}_depth"), w, h, layers, DEPTH_FORMAT),
+        }
+    }
+}
+
+pub(crate) struct DrawCtx<'a> {
+    pub ctx: &'a GpuContext,
+    pub geo: &'a Geometry,
+    pub scene: &'a Scene,
+}
+
+impl DrawCtx<'_> {
+    /// Rasterize `subset` into layer `layer` of a geometry buffer (or a depth-only target).
+    #[expect(clippy::too_many_arguments, reason = "a pass is described by all of these")]
+    fn pass(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        name: &str,
+        pipeline: &wgpu::RenderPipeline,
+        gb_color: Option<(&wgpu::Texture, &wgpu::Texture)>,
+        depth: &wgpu::Texture,
+        layer: u32,
+        world_to_clip: Mat4,
+        subset: Subset,
+    ) {
+        self.pass_with(enc, timer, name, pipeline, gb_color, depth, layer, world_to_clip, subset, &[]);
+    }
+
+    /// A second layer behind `first` (its texture layer `layer`): `subset` rasterized again with
+    /// the per-object depth peel (`raster_peel`: fragments of another object than the first
+    /// layer's, behind its surface), two-sided into `front2` and back faces into `back2`, in
+    /// passes named `names`. The camera's and the light's second layers.
+    #[expect(clippy::too_many_arguments, reason = "a pass is described by all of these")]
+    fn peel(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        raster: &Raster,
+        first: &GBuffer,
+        layer: u32,
+        world_to_clip: Mat4,
+        subset: Subset,
+        [(front_name, front2), (back_name, back2)]: [(&str, &GBuffer); 2],
+    ) {
+        let (first_pos, first_depth) =
+            (layer_view(self.ctx, &first.pos, layer), layer_view(self.ctx, &first.depth, layer));
+        let extra = [
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&first_pos) },
+            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&first_depth) },
+        ];
+        for (name, pl, gb) in [(front_name, &raster.peel, front2), (back_name, &raster.peel_back, back2)] {
+            let color = Some((&gb.pos, &gb.nrm));
+            self.pass_with(enc, timer, name, pl, color, &gb.depth, layer, world_to_clip, subset, &extra);
+        }
+    }
+
+    /// `pass` with further bindings after the view uniform (binding 0).
+    #[expect(clippy::too_many_arguments, reason = "a pass is described by all of these")]
+    fn pass_with(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        name: &str,
+        pipeline: &wgpu::RenderPipeline,
+        gb_color: Option<(&wgpu::Texture, &wgpu::Texture)>,
+        depth: &wgpu::Texture,
+        layer: u32,
+        world_to_clip: Mat4,
+        subset: Subset,
+        extra: &[wgpu::BindGroupEntry],
+    ) {
+        let ctx = self.ctx;
+        let ubuf =
+            ctx.uniform(name, bytemuck::bytes_of(&RasterView { world_to_clip: world_to_clip.to_cols_array_2d() }));
+        let own = [
+            wgpu::BindGroupEntry { binding: 0, resource: ubuf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 3, resource: self.geo.transforms.as_entire_binding() },
+        ];
+        let bg = ctx.bind_group(name, LayoutOf::Render(pipeline.clone()), &[&own[..], extra].concat());
+        let views = gb_color.map(|(p, n)| (layer_view(ctx, p, layer), layer_view(ctx, n, layer)));
+        let clear_pos = wgpu::Color { r: 0.0, g: 0.0, b: 0.0, a: -1.0 };
+        let attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = match &views {
+            Some((p, n)) => vec![
+                Some(wgpu::RenderPassColorAttachment {
+                    view: p,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear_pos), store: wgpu::StoreOp::Store },
+                }),
+                Some(wgpu::RenderPassColorAttachment {
+                    view: n,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
+                }),
+            ],
+            None => vec![],
+        };
+        let dview = layer_view(ctx, depth, layer);
+        let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(name),
+            color_attachments: &attachments,
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &dview,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: timer.render(name),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        rp.set_pipeline(pipeline);
+        rp.set_bind_group(0, &bg, &[]);
+        rp.set_vertex_buffer(0, self.geo.vertices.slice(..));
+        rp.set_index_buffer(self.geo.indices.slice(..), wgpu::IndexFormat::Uint32);
+        for (i, r) in self.geo.ranges.iter().enumerate() {
+            if in_subset(self.scene, i, subset) && !r.is_empty() {
+                rp.draw_indexed(r.clone(), 0, 0..1);
+            }
+        }
+    }
+}
+
+#[expect(clippy::too_many_arguments, reason = "every field of the light's uniform")]
+fn light_gpu(
+    view: &LightView,
+    light: &Light,
+    n: u32,
+    m: u32,
+    g: u32,
+    sigma: f32,
+    scale: f64,
+    caster_radius: f32,
+    multi_bounce: f32,
+    lens: f32,
+) -> LightGpu {
+    let mut faces = [FaceGpu { world_to_clip: [[0.0; 4]; 4], clip_to_world: [[0.0; 4]; 4], origin: [0.0; 4] }; 6];
+    for (f, face) in view.faces.iter().enumerate() {
+        faces[f] = FaceGpu {
+            world_to_clip: face.world_to_clip.to_cols_array_2d(),
+            clip_to_world: face.world_to_clip.inverse().to_cols_array_2d(),
+            origin: face.origin_or_dir.extend(if face.orthographic { 1.0 } else { 0.0 }).to_array(),
+        };
+    }
+    let (kind, power, axis, cone, start) = match light {
+        Light::Spot { direction, cone_angle, falloff_start, intensity, .. } => {
+            (LIGHT_SPOT, *intensity, *direction, *cone_angle, *falloff_start)
+        }
+        Light::Point { intensity, .. } => {
+            (LIGHT_POINT, *intensity, Vec3::Y, std::f32::consts::PI, std::f32::consts::PI)
+        }
+        Light::Directional { direction, irradiance } => (LIGHT_DIRECTIONAL, *irradiance, *direction, 0.0, 0.0),
+    };
+    LightGpu {
+        faces,
+        info: [view.faces.len() as u32, kind, n, m],
+        power: power.extend(cone.cos()).to_array(),
+        axis: axis.extend(cone).to_array(),
+        params: [start, scale as f32, sigma, g as f32],
+        extra: [caster_radius, view.scene_radius, view.tan_half_fov, multi_bounce],
+        splat: [lens, 0.0, 0.0, 0.0],
+    }
+}
+
+/// Upper bound of the flux (W, r + g + b) a light can send through its view: sets the
+/// fixed-point scale so that no sum can overflow 2^53.
+fn flux_bound(view: &LightView, light: &Light) -> f64 {
+    match light {
+        Light::Spot { intensity, cone_angle, .. } => {
+            let sum = intensity.x + intensity.y + intensity.z;
+            sum as f64 * std::f64::consts::TAU * (1.0 - (*cone_angle as f64).cos()).max(1e-9)
+        }
+        Light::Point { intensity, .. } => (intensity.x + intensity.y + intensity.z) as f64 * 4.0 * std::f64::consts::PI,
+        Light::Directional { irradiance, .. } => {
+            let inv = view.faces[0].world_to_clip.inverse();
+            let ex = inv.transform_vector3(Vec3::new(2.0, 0.0, 0.0));
+            let ey = inv.transform_vector3(Vec3::new(0.0, 2.0, 0.0));
+            (irradiance.x + irradiance.y + irradiance.z) as f64 * ex.cross(ey).length() as f64
+        }
+    }
+    .max(1e-12)
+}
+
+/// An upper bound of the relevant photons (cells of the N × N grid whose caster-buffer texel
+/// holds a caster) of one face: the cells within one texel of the casters' bounding box as the
+/// face sees it (the whole face when the box reaches behind the light).
+fn relevant_bound(scene: &Scene, face: &crate::lightspace::LightFace, n: u32, g: u32) -> u64 {
+    let all = (n as u64).pow(2);
+    let Some((lo, hi)) = scene.caster_bounds() else { return 0 };
+    let (mut a, mut b) = (glam::Vec2::splat(f32::MAX), glam::Vec2::splat(f32::MIN));
+    for k in 0..8 {
+        let p = Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        let c = face.world_to_clip * p.extend(1.0);
+        if c.w <= 1e-6 {
+            return all;
+        }
+        let q = glam::Vec2::new(c.x / c.w, c.y / c.w);
+        a = a.min(q);
+        b = b.max(q);
+    }
+    let margin = 2.0 * (n / g) as f64 + 2.0;
+    let side = |lo: f32, hi: f32| {
+        let (lo, hi) = (lo.clamp(-1.0, 1.0) as f64, hi.clamp(-1.0, 1.0) as f64);
+        ((hi - lo) * 0.5 * n as f64 + margin).min(n as f64)
+    };
+    ((side(a.x, b.x) * side(a.y, b.y)).ceil() as u64).min(all)
+}
+
+pub(crate) fn bytes_to_image(data: &[u8], w: u32, h: u32) -> Image {
+    let px: &[[f32; 4]] = bytemuck::cast_slice(data);
+    Image { width: w, height: h, pixels: px.iter().map(|p| [p[0], p[1], p[2]]).collect() }
+}
+
+impl RenderSettings {
+    /// The largest caustic map (power of two, at most `preferred`) whose accumulation buffer
+    /// fits this adapter's storage-binding limit for every light of `scene` (a point light's
+    /// cube has six faces).
+    pub fn fitting_caustic_map_size(ctx: &GpuContext, scene: &Scene, preferred: u32) -> u32 {
+        let max_bind = ctx.device.limits().max_storage_buffer_binding_size;
+        let faces = scene.lights.iter().map(|l| LightView::new(scene, l).faces.len() as u64).max().unwrap_or(1);
+        let mut m = preferred.next_power_of_two().min(2048);
+        while m > 16 && (m as u64).pow(2) * faces * 24 > max_bind {
+            m /= 2;
+        }
+        m
+    }
+
+    /// Check the settings against the adapter's limits; errors name the setting (the command line turns it into its flag).
+    pub fn validate(&self, ctx: &GpuContext, scene: &Scene) -> Result<()> {
+        let cl = |f: &str, m: String| Err(Error::input("<settings>", f, m));
+        let t = &self.tessellation;
+        if !(8..=8192).contains(&t.sphere_segments) || !(8..=8192).contains(&t.cylinder_segments) {
+            return cl("tessellation", format!("must be 8 to 8192 segments (got {})", t.sphere_segments));
+        }
+        let max_n = self.technique.max_photons();
+        if !(16..=max_n).contains(&self.photons) {
+            return cl(
+                "photons",
+                format!("the {} photon grid must be 16 to {max_n} per side (got {})", self.technique, self.photons),
+            );
+        }
+        if !(self.quad_linearity >= 0.0 && self.quad_linearity <= 1e6) {
+            return cl("quad_linearity", format!("must be 0 or more texels (got {})", self.quad_linearity));
+        }
+        if self.quad_linearity > 0.0
+            && !(self.technique == Technique::AdaptiveError && self.splat == SplatMode::Triangles)
+        {
+            return cl(
+                "quad_linearity",
+                "needs --technique adaptive-error with --splat triangles (it stops on cell quads)".to_string(),
+            );
+        }
+        if !(self.max_error_tolerance >= 0.0 && self.max_error_tolerance <= 1e6) {
+            return cl("max_error_tolerance", format!("must be 0 or more texels (got {})", self.max_error_tolerance));
+        }
+        let max_tex = ctx.device.limits().max_texture_dimension_2d;
+        if !(16..=2048).contains(&self.caustic_map_size) || self.caustic_map_size > max_tex {
+            return cl(
+                "caustic_map_size",
+                format!("must be 16 to {} texels (got {})", max_tex.min(2048), self.caustic_map_size),
+            );
+        }
+        if !(16..=max_tex).contains(&self.shadow_map_size) {
+            return cl("shadow_map_size", format!("must be 16 to {max_tex} texels (got {})", self.shadow_map_size));
+        }
+        if !(self.splat_sigma > 0.1 && self.splat_sigma <= 16.0) {
+            return cl("splat_sigma", format!("must lie in (0.1, 16] texels (got {})", self.splat_sigma));
+        }
+        let c = &scene.camera;
+        if c.width > max_tex || c.height > max_tex {
+            return cl(
+                "camera.size",
+                format!("{}x{} exceeds this adapter's texture limit {max_tex}", c.width, c.height),
+            );
+        }
+        let max_bind = ctx.device.limits().max_storage_buffer_binding_size;
+        let faces = scene.lights.iter().map(|l| LightView::new(scene, l).faces.len() as u64).max().unwrap_or(1);
+        let accum = (self.caustic_map_size as u64).pow(2) * faces * 24;
+        if accum > max_bind {
+            return cl(
+                "caustic_map_size",
+                format!(
+                    "a {0}x{0} caustic map with {faces} face(s) needs {1} MiB, over this adapter's {2} MiB storage-binding limit",
+                    self.caustic_map_size,
+                    accum >> 20,
+                    max_bind >> 20
+                ),
+            );
+        }
+        if self.photon_memory < 64 * 32 {
+            return cl("photon_memory", "must be at least 2 KiB".into());
+        }
+        if self.technique == Technique::Basic && self.photon_memory > max_bind {
+            return cl("photon_memory", format!("must be between 2 KiB and {} MiB", max_bind >> 20));
+        }
+        match self.technique {
+            Technique::Basic => {}
+            Technique::Hierarchical => {
+                crate::techniques::hierarchical::HierarchicalPlan::new(self, max_bind)?;
+            }
+            Technique::AdaptiveLevel | Technique::AdaptiveError => {
+                crate::techniques::adaptive::AdaptivePlan::new(self, max_bind)?;
+            }
+        }
+        if (c.width as u64 * c.height as u64 * 16) > max_bind {
+            return cl("camera.size", "the image exceeds this adapter's storage-binding limit".into());
+        }
+        Ok(())
+    }
+}
+
+/// What the passes of a frame share, derived from the scene and the settings.
+pub(crate) struct FrameConsts {
+    /// Photon grid N, caster buffer size G, caustic map size M.
+    pub n: u32,
+    pub g: u32,
+    pub m: u32,
+    /// The light's second caster layer is drawn.
+    pub layer2: bool,
+    /// 0: no search for a second caster; 1: analytic casters only; 2: mesh casters too.
+    pub multi_bounce: f32,
+    pub caster_radius: f32,
+    /// The reflected branch at glass is traced.
+    pub reflect_branch: bool,
+}
+
+impl FrameConsts {
+    pub fn new(scene: &Scene, s: &RenderSettings) -> FrameConsts {
+        // The light's second caster layer: only for scenes with caster meshes (analytic casters
+        // met after the first are intersected exactly, and scenes without meshes keep their
+        // maps) and at least two casters (the peel keeps other objects only: one caster leaves
+        // it empty).
+        let casters: Vec<_> =
+            scene.objects.iter().filter(|o| o.caustic_caster && scene.material_of(o).is_specular()).collect();
+        let meshes = casters.iter().any(|o| matches!(o.shape, crate::scene::Shape::Mesh(_)));
+        let layer2 = s.light_second_layer && casters.len() >= 2 && meshes;
+        // Whether a photon leaving a caster can meet a caster again: not for a lone convex
+        // caster (a sphere), where the search would only cost time.
+        let multi_bounce = if casters.len() == 1 && matches!(casters[0].shape, crate::scene::Shape::Sphere { .. }) {
+            0.0
+        } else if meshes {
+            2.0
+        } else {
+            1.0
+        };
+        FrameConsts {
+            n: s.photons,
+            g: s.photons.min(MAX_GBUFFER),
+            m: s.caustic_map_size,
+            layer2,
+            multi_bounce,
+            caster_radius: scene.caster_bounds().map_or(1.0, |(a, b)| (b - a).length() * 0.5),
+            reflect_branch: s.dielectric_reflection
+                && scene
+                    .objects
+                    .iter()
+                    .any(|o| o.caustic_caster && matches!(scene.material_of(o), Material::Dielectric { .. })),
+        }
+    }
+}
+
+/// The camera's geometry buffers and the frame's radiance accumulators.
+pub(crate) struct EyeFrame {
+    pub recv: GBuffer,
+    pub front: GBuffer,
+    pub back: GBuffer,
+    pub front2: GBuffer,
+    pub back2: GBuffer,
+    pub cam_clip: Mat4,
+    /// Radiance of the diffuse surfaces, all light and caustic light only (vec4 per pixel).
+    pub radiance: wgpu::Buffer,
+    pub caustic: wgpu::Buffer,
+}
+
+/// The camera's passes: `eye_receivers`, `eye_specular_front`, `eye_specular_back` and the
+/// second specular layer.
+pub(crate) fn record_eye(
+    dc: &DrawCtx,
+    raster: &Raster,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> EyeFrame {
+    let (ctx, scene) = (dc.ctx, dc.scene);
+    let cam = &scene.camera;
+    let (lo, hi) = scene.bounds();
+    let far = (cam.position.distance((lo + hi) * 0.5) + (hi - lo).length() * 0.5) * 1.05;
+    let near = (far * 1e-4).max(1e-3);
+    let cam_clip = cam.view_to_clip(near, far) * cam.world_to_view();
+    let (w, h) = (cam.width, cam.height);
+    let recv = GBuffer::new(ctx, "eye_receivers", w, h, 1);
+    let front = GBuffer::new(ctx, "eye_specular_front", w, h, 1);
+    let back = GBuffer::new(ctx, "eye_specular_back", w, h, 1);
+    for (name, pl, gb, subset) in [
+        ("eye_receivers", &raster.none, &recv, Subset::Diffuse),
+        ("eye_specular_front", &raster.none, &front, Subset::Specular),
+        ("eye_specular_back", &raster.back, &back, Subset::Specular),
+    ] {
+        dc.pass(enc, timer, name, pl, Some((&gb.pos, &gb.nrm)), &gb.depth, 0, cam_clip, subset);
+    }
+    // The second specular layer (meshes behind the first layer's object), front and back.
+    let front2 = GBuffer::new(ctx, "eye_specular_front2", w, h, 1);
+    let back2 = GBuffer::new(ctx, "eye_specular_back2", w, h, 1);
+    dc.peel(
+        enc,
+        timer,
+        raster,
+        &front,
+        0,
+        cam_clip,
+        Subset::SpecularMeshes,
+        [("eye_specular_front2", &front2), ("eye_specular_back2", &back2)],
+    );
+    let img_bytes = (w as u64) * (h as u64) * 16;
+    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+    EyeFrame {
+        recv,
+        front,
+        back,
+        front2,
+        back2,
+        cam_clip,
+        radiance: ctx.buffer("radiance", img_bytes, usage),
+        caustic: ctx.buffer("caustic_radiance", img_bytes, usage),
+    }
+}
+
+/// A light's view, its uniform record and the fixed-point scale of its flux sums.
+pub(crate) fn light_record(
+    scene: &Scene,
+    light: &Light,
+    s: &RenderSettings,
+    fc: &FrameConsts,
+) -> (LightView, LightGpu, f64) {
+    let view = LightView::new(scene, light);
+    let scale = (1u64 << 52) as f64 / flux_bound(&view, light);
+    let lens = s.splat.lens_flag(s.technique);
+    let lg = light_gpu(&view, light, fc.n, fc.m, fc.g, s.splat_sigma, scale, fc.caster_radius, fc.multi_bounce, lens);
+    (view, lg, scale)
+}
+
+/// What a light's passes made: kept (in the light's resource scope) for the frames that do not
+/// redo them.
+pub(crate) struct LightFrame {
+    pub light_buf: wgpu::Buffer,
+    pub faces: u32,
+    pub scale: f64,
+    pub shadow: wgpu::Texture,
+    pub recv: GBuffer,
+    pub casters: (GBuffer, GBuffer),
+    pub casters2: Option<(GBuffer, GBuffer)>,
+    /// Fixed-point flux per texel (r, g, b as 64-bit words), irradiance (vec4 per texel), and
+    /// the flux bookkeeping (six 64-bit sums).
+    pub accum: wgpu::Buffer,
+    pub irradiance: wgpu::Buffer,
+    pub stats: wgpu::Buffer,
+    /// The irradiance as an M × M × faces Rgba32Float texture (the renderer's output).
+    pub irradiance_tex: wgpu::Texture,
+}
+
+/// Everything one light does in a frame: the light-space buffers of every face, the technique's
+/// photon stage, `caustic_resolve`, the temporal filter, and the copy of the map into a texture.
+#[expect(clippy::too_many_arguments, reason = "a light's passes are described by all of these")]
+pub(crate) fn record_light(
+    dc: &DrawCtx,
+    raster: &Raster,
+    pipelines: &crate::techniques::Pipelines,
+    s: &RenderSettings,
+    fc: &FrameConsts,
+    (li, view, lg, scale): (usize, &LightView, &LightGpu, f64),
+    temporal: Option<&mut crate::temporal::TemporalFilter>,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> Result<(LightFrame, crate::techniques::Pending)> {
+    let (ctx, scene) = (dc.ctx, dc.scene);
+    let (n, g, m) = (fc.n, fc.g, fc.m);
+    let nf = view.faces.len() as u32;
+    let light_buf = ctx.uniform("light", bytemuck::bytes_of(lg));
+    let shadow = texture(ctx, "light_shadow", s.shadow_map_size, s.shadow_map_size, nf, DEPTH_FORMAT);
+    let recv = GBuffer::new(ctx, "light_receivers", m, m, nf);
+    let front = GBuffer::new(ctx, "light_caster_front", g, g, nf);
+    let back = GBuffer::new(ctx, "light_caster_back", g, g, nf);
+    let layer2_bufs = fc.layer2.then(|| {
+        (GBuffer::new(ctx, "light_caster_front2", g, g, nf), GBuffer::new(ctx, "light_caster_back2", g, g, nf))
+    });
+    for (f, face) in view.faces.iter().enumerate() {
+        let (f, clip) = (f as u32, face.world_to_clip);
+        dc.pass(enc, timer, "light_shadow", &raster.depth_only, None, &shadow, f, clip, Subset::All);
+        for (name, pl, gb, subset) in [
+            ("light_receivers", &raster.none, &recv, Subset::Diffuse),
+            ("light_caster_front", &raster.none, &front, Subset::Casters),
+            ("light_caster_back", &raster.back, &back, Subset::Casters),
+        ] {
+            dc.pass(enc, timer, name, pl, Some((&gb.pos, &gb.nrm)), &gb.depth, f, clip, subset);
+        }
+        // The second caster layer: the casters again, with a per-object depth peel against
+        // this face's first layer (two-sided front, back faces), as the camera's.
+        if let Some((front2, back2)) = &layer2_bufs {
+            dc.peel(
+                enc,
+                timer,
+                raster,
+                &front,
+                f,
+                clip,
+                Subset::Casters,
+                [("light_caster_front2", front2), ("light_caster_back2", back2)],
+            );
+        }
+    }
+    let texels = (m as u64) * (m as u64) * nf as u64;
+    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+    let accum = ctx.buffer("caustic_flux", texels * 24, usage);
+    let irradiance = ctx.buffer("caustic_irradiance", texels * 16, usage);
+    let stats = ctx.buffer("flux_stats", 48, usage);
+    let splat_targets = crate::splat::SplatTargets::new(ctx, s.splat, texels, nf);
+    let [fpv, fnv, bpv, bnv, rpv, rnv] =
+        [&front.pos, &front.nrm, &back.pos, &back.nrm, &recv.pos, &recv.nrm].map(|t| array_view(ctx, t));
+    let l2v = layer2_bufs.as_ref().map(|(f2, b2)| [&f2.pos, &f2.nrm, &b2.pos, &b2.nrm].map(|t| array_view(ctx, t)));
+    let layer2_views = match &l2v {
+        Some(v) => [&v[0], &v[1], &v[2], &v[3]],
+        None => [&fpv, &fnv, &bpv, &bnv],
+    };
+    let emit = crate::techniques::Emit {
+        ctx,
+        settings: s,
+        pipelines,
+        light_buf: &light_buf,
+        front_pos: &fpv,
+        front_nrm: &fnv,
+        back_pos: &bpv,
+        back_nrm: &bnv,
+        layer2: layer2_views,
+        recv_pos: &rpv,
+        recv_nrm: &rnv,
+        materials: &dc.geo.materials,
+        stats: &stats,
+        accum: &accum,
+        splat_targets: &splat_targets,
+        n,
+        g,
+        bound: view.faces.iter().map(|f| relevant_bound(scene, f, n, g)).collect(),
+        reflect_branch: fc.reflect_branch,
+    };
+    let pending = crate::techniques::emit(&emit, enc, timer, nf)?;
+    splat_targets.finish(ctx, &pipelines.splat, &light_buf, &accum, enc, timer);
+    let resolve_pl = ctx.compute_pipeline("caustic_resolve");
+    let rp = ctx.uniform("resolve_params", bytemuck::bytes_of(&CountParams { count: texels as u32, _pad: [0; 3] }));
+    let rbg = crate::gpu::bind(
+        ctx,
+        &resolve_pl,
+        "caustic_resolve",
+        &[
+            light_buf.as_entire_binding(),
+            rp.as_entire_binding(),
+            accum.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&rpv),
+            wgpu::BindingResource::TextureView(&rnv),
+            irradiance.as_entire_binding(),
+        ],
+    );
+    {
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("caustic_resolve"),
+            timestamp_writes: timer.compute("caustic_resolve"),
+        });
+        cp.set_pipeline(&resolve_pl);
+        cp.set_bind_group(0, &rbg, &[]);
+        cp.dispatch_workgroups((texels as u32).div_ceil(256), 1, 1);
+    }
+    if let Some(t) = temporal {
+        t.record(ctx, enc, Some(timer), li, &irradiance, m, nf);
+    }
+    let irradiance_tex = ctx.texture(
+        "caustic_irradiance",
+        wgpu::Extent3d { width: m, height: m, depth_or_array_layers: nf },
+        wgpu::TextureFormat::Rgba32Float,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::COPY_SRC,
+    );
+    enc.copy_buffer_to_texture(
+        wgpu::TexelCopyBufferInfo {
+            buffer: &irradiance,
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(m * 16), rows_per_image: Some(m) },
+        },
+        irradiance_tex.as_image_copy(),
+        wgpu::Extent3d { width: m, height: m, depth_or_array_layers: nf },
+    );
+    let frame = LightFrame {
+        light_buf,
+        faces: nf,
+        scale,
+        shadow,
+        recv,
+        casters: (front, back),
+        casters2: layer2_bufs,
+        accum,
+        irradiance,
+        stats,
+        irradiance_tex,
+    };
+    Ok((frame, pending))
+}
+
+/// `shade_receivers`: the camera's diffuse surfaces lit by one light (added into the eye's
+/// radiance accumulators).
+pub(crate) fn record_shade(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    lf: &LightFrame,
+    s: &RenderSettings,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let ctx = dc.ctx;
+    let cam = &dc.scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let shade_pl = ctx.compute_pipeline("shade_receivers");
+    let shadow_sampler = ctx.sampler(
+        "shadow",
+        &wgpu::SamplerDescriptor {
+            label: Some("shadow"),
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            ..Default::default()
+        },
+    );
+    let shp = ctx.uniform(
+        "shade_params",
+        bytemuck::bytes_of(&ShadeParams {
+            width: w,
+            height: h,
+            shadow_size: s.shadow_map_size,
+            _pad: 0,
+            camera: cam.position.extend(1.0).to_array(),
+        }),
+    );
+    let (erp, ern) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
+    let (shv, rpv) = (array_view(ctx, &lf.shadow), array_view(ctx, &lf.recv.pos));
+    let shbg = crate::gpu::bind(
+        ctx,
+        &shade_pl,
+        "shade_receivers",
+        &[
+            lf.light_buf.as_entire_binding(),
+            shp.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&erp),
+            wgpu::BindingResource::TextureView(&ern),
+            wgpu::BindingResource::TextureView(&shv),
+            wgpu::BindingResource::Sampler(&shadow_sampler),
+            wgpu::BindingResource::TextureView(&rpv),
+            lf.irradiance.as_entire_binding(),
+            dc.geo.materials.as_entire_binding(),
+            eye.radiance.as_entire_binding(),
+            eye.caustic.as_entire_binding(),
+        ],
+    );
+    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("shade_receivers"),
+        timestamp_writes: timer.compute("shade_receivers"),
+    });
+    cp.set_pipeline(&shade_pl);
+    cp.set_bind_group(0, &shbg, &[]);
+    cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+}
+
+/// `composite` (image-space refraction and reflection of the camera's specular surfaces) and
+/// `display` (the tone-mapped image): (radiance image, caustic-only image, display texture).
+pub(crate) fn record_composite(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Texture) {
+    let ctx = dc.ctx;
+    let cam = &dc.scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+    let img_bytes = (w as u64) * (h as u64) * 16;
+    let out_full = ctx.buffer("image", img_bytes, usage);
+    let out_caustic = ctx.buffer("caustic_image", img_bytes, usage);
+    let cpar = ctx.uniform(
+        "composite_params",
+        bytemuck::bytes_of(&CompositeParams {
+            world_to_clip: eye.cam_clip.to_cols_array_2d(),
+            camera: cam.position.extend(1.0).to_array(),
+            width: w,
+            height: h,
+            _pad: [0; 2],
+        }),
+    );
+    let v = [
+        &eye.recv.pos,
+        &eye.recv.nrm,
+        &eye.front.pos,
+        &eye.front.nrm,
+        &eye.back.pos,
+        &eye.back.nrm,
+        &eye.front2.pos,
+        &eye.front2.nrm,
+        &eye.back2.pos,
+        &eye.back2.nrm,
+    ]
+    .map(|t| layer_view(ctx, t, 0));
+    let tv = |i: usize| wgpu::BindingResource::TextureView(&v[i]);
+    let composite_pl = ctx.compute_pipeline("composite");
+    let cbg = crate::gpu::bind(
+        ctx,
+        &composite_pl,
+        "composite",
+        &[
+            cpar.as_entire_binding(),
+            tv(0),
+            tv(1),
+            tv(2),
+            tv(3),
+            tv(4),
+            tv(5),
+            dc.geo.materials.as_entire_binding(),
+            eye.radiance.as_entire_binding(),
+            eye.caustic.as_entire_binding(),
+            out_full.as_entire_binding(),
+            out_caustic.as_entire_binding(),
+            tv(6),
+            tv(7),
+            tv(8),
+            tv(9),
+        ],
+    );
+    {
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("composite"),
+            timestamp_writes: timer.compute("composite"),
+        });
+        cp.set_pipeline(&composite_pl);
+        cp.set_bind_group(0, &cbg, &[]);
+        cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    }
+    let display = ctx.texture(
+        "display",
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        wgpu::TextureFormat::Rgba8Unorm,
+        wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+    );
+    let dv = ctx.view(&display, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
+    let dp = ctx.uniform(
+        "display_params",
+        bytemuck::bytes_of(&DisplayParams { width: w, height: h, exposure: dc.scene.exposure, _pad: 0 }),
+    );
+    let display_pl = ctx.compute_pipeline("display");
+    let dbg = crate::gpu::bind(
+        ctx,
+        &display_pl,
+        "display",
+        &[dp.as_entire_binding(), out_full.as_entire_binding(), wgpu::BindingResource::TextureView(&dv)],
+    );
+    {
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("display"),
+            timestamp_writes: timer.compute("display"),
+        });
+        cp.set_pipeline(&display_pl);
+        cp.set_bind_group(0, &dbg, &[]);
+        cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    }
+    (out_full, out_caustic, display)
+}
+
+/// The flux bookkeeping from a light's `flux_stats` words (fixed point, `scale` per watt).
+pub(crate) fn flux_stats(words: &[u8], scale: f64) -> FluxStats {
+    let sw: Vec<u32> = words.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect();
+    let v = |i: usize| ((sw[i + 1] as u64) << 32 | sw[i] as u64) as f64 / scale;
+    FluxStats {
+        emitted: v(0),
+        landed: v(2),
+        lost_no_exit: v(4),
+        lost_tir: v(6),
+        lost_no_receiver: v(8),
+        lost_outside: v(10),
+    }
+}
+
+/// An image of a frame's intermediate buffers, for people to look at
+/// ([`crate::renderer::Renderer::dump_images`]; `caustics render --dump` writes them).
+#[derive(Debug, Clone)]
+pub struct DumpImage {
+    /// File name without extension (`light0_face0_caster_front_normal`).
+    pub name: String,
+    pub image: Image,
+    pub kind: DumpKind,
+}
+
+/// How a [`DumpImage`] is meant to be shown.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DumpKind {
+    /// Values already meant for display (normals as 0.5 + 0.5 n, normalised depths), linear.
+    Display,
+    /// Irradiance or radiance: shown with this exposure (and kept linear in EXR).
+    Radiance { exposure: f32 },
+}
+
+/// The light-space buffers as images: normals (0.5 + 0.5 n), depths (distance from the light,
+/// normalised), and the caustic maps (with the exposure that maps their 99.9th percentile to
+/// white: they span orders of magnitude).
+pub(crate) fn dump_images(
+    ctx: &GpuContext,
+    lights: &[(Vec<(&str, &GBuffer)>, u32)],
+    maps: &[Vec<Image>],
+) -> Result<Vec<DumpImage>> {
+    let mut out = Vec::new();
+    for (li, (bufs, nf)) in lights.iter().enumerate() {
+        for f in 0..*nf {
+            for &(name, gb) in bufs {
+                let pos = ctx.read_texture(&gb.pos, f, 16)?;
+                let nrm = ctx.read_texture(&gb.nrm, f, 16)?;
+                let (w, h) = (gb.pos.width(), gb.pos.height());
+                let p: &[[f32; 4]] = bytemuck::cast_slice(&pos);
+                let nn: &[[f32; 4]] = bytemuck::cast_slice(&nrm);
+                let mut ni = Image::new(w, h);
+                let mut di = Image::new(w, h);
+                let valid: Vec<f32> =
+                    p.iter().filter(|q| q[3] >= 0.0).map(|q| Vec3::new(q[0], q[1], q[2]).length()).collect();
+                let (dmin, dmax) = valid.iter().fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+                for i in 0..(w * h) as usize {
+                    if p[i][3] >= 0.0 {
+                        ni.pixels[i] = [0.5 + 0.5 * nn[i][0], 0.5 + 0.5 * nn[i][1], 0.5 + 0.5 * nn[i][2]]
+                            .map(crate::image_io::srgb_decode);
+                        let d = Vec3::new(p[i][0], p[i][1], p[i][2]).length();
+                        let t = 1.0 - (d - dmin) / (dmax - dmin).max(1e-6);
+                        di.pixels[i] = [crate::image_io::srgb_decode(t); 3];
+                    }
+                }
+                let stem = format!("light{li}_face{f}_{name}");
+                out.push(DumpImage { name: format!("{stem}_normal"), image: ni, kind: DumpKind::Display });
+                out.push(DumpImage { name: format!("{stem}_depth"), image: di, kind: DumpKind::Display });
+            }
+            let map = &maps[li][f as usize];
+            let mut l: Vec<f32> = map.luminance().into_iter().filter(|x| *x > 0.0).collect();
+            l.sort_by(f32::total_cmp);
+            let p = l.get(l.len().saturating_sub(1 + l.len() / 1000)).copied().unwrap_or(1.0).max(1e-9);
+            out.push(DumpImage {
+                name: format!("light{li}_face{f}_caustic_map"),
+                image: map.clone(),
+                kind: DumpKind::Radiance { exposure: 2.0 / p },
+            });
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,226 @@
+//! What a frame is asked to do: the settings of a GPU render, the photon emission technique and
+//! the splat mode. Every other module reads them; this one depends on none of them.
+
+use crate::scene::Tessellation;
+
+/// The largest caster geometry buffer; denser photon grids interpolate between its texels.
+pub(crate) const MAX_GBUFFER: u32 = 2048;
+
+/// How photons are emitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum Technique {
+    /// Basic caustic maps: a dense N × N photon grid per light-view face.
+    #[default]
+    Basic,
+    /// Hierarchical caustic maps: the dense grid, then a top-down traversal of a mip hierarchy
+    /// of valid photons that skips irrelevant regions.
+    Hierarchical,
+    /// Adaptive caustic maps, maximal traversal level: every relevant cluster is refined down
+    /// to the finest grid N (equivalent to a dense N × N grid).
+    AdaptiveLevel,
+    /// Adaptive caustic maps, maximal caustic map error: a cluster whose photons land in one
+    /// caustic-map texel (or within the tolerance) is emitted as one photon; the finest grid N
+    /// caps the refinement.
+    AdaptiveError,
+}
+
+impl Technique {
+    pub const ALL: [Technique; 4] =
+        [Technique::Basic, Technique::Hierarchical, Technique::AdaptiveLevel, Technique::AdaptiveError];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Technique::Basic => "basic",
+            Technique::Hierarchical => "hierarchical",
+            Technique::AdaptiveLevel => "adaptive-level",
+            Technique::AdaptiveError => "adaptive-error",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Technique> {
+        Technique::ALL.into_iter().find(|t| t.name() == s.trim())
+    }
+
+    pub fn is_adaptive(self) -> bool {
+        matches!(self, Technique::AdaptiveLevel | Technique::AdaptiveError)
+    }
+
+    /// The largest finest grid N this technique supports.
+    pub fn max_photons(self) -> u32 {
+        if self.is_adaptive() { 65536 } else { 8192 }
+    }
+}
+
+impl std::fmt::Display for Technique {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// How photons are splatted into the caustic map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum SplatMode {
+    /// A Gaussian of fixed width (`splat_sigma` texels).
+    Fixed,
+    /// Adaptive multi-resolution splatting: radii 1.5, 3.5, 5.5, 7.5 × `splat_sigma` texels.
+    MultiRes,
+    /// Splat sizes from the thin-lens equations.
+    ThinLens,
+    /// Splat sizes from the thick-lens equations (principal planes, thickness).
+    ThickLens,
+    /// Splat sizes from ray differentials (Igehy 1999) carried through every interaction: the
+    /// exact first-order image of the photon's cell on the receiver (beyond the papers).
+    Differential,
+    /// Caustic triangles: from the dense photon grid (basic technique) or from the cell quads of
+    /// the adaptive hierarchy (adaptive techniques) or dual quads (hierarchical technique).
+    #[default]
+    Triangles,
+}
+
+impl SplatMode {
+    pub const ALL: [SplatMode; 6] = [
+        SplatMode::Fixed,
+        SplatMode::MultiRes,
+        SplatMode::ThinLens,
+        SplatMode::ThickLens,
+        SplatMode::Differential,
+        SplatMode::Triangles,
+    ];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SplatMode::Fixed => "fixed",
+            SplatMode::MultiRes => "multires",
+            SplatMode::ThinLens => "thin-lens",
+            SplatMode::ThickLens => "thick-lens",
+            SplatMode::Differential => "differential",
+            SplatMode::Triangles => "triangles",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<SplatMode> {
+        SplatMode::ALL.into_iter().find(|m| m.name() == s.trim())
+    }
+
+    /// What the tracer writes into `light.splat.x`: 1 thin-lens, 2 thick-lens beam diameters.
+    /// Triangles write none (0): the hierarchical and adaptive techniques use `Photon._pad` to
+    /// mark photons that carry a quad (`splat_quads`).
+    /// Caustic triangles from the dense grid (basic technique) take ray-differential beam sizes
+    /// too: their continuity test and their Gaussian fallback use them.
+    pub fn lens_flag(self, technique: Technique) -> f32 {
+        match self {
+            SplatMode::ThinLens => 1.0,
+            SplatMode::ThickLens => 2.0,
+            SplatMode::Differential => 3.0,
+            SplatMode::Triangles if technique == Technique::Basic => 3.0,
+            _ => 0.0,
+        }
+    }
+
+    /// The splat stage that takes a photon buffer: for triangles, `splat_quads` (quads, or
+    /// Gaussians where a photon has none) with the hierarchical and adaptive techniques (the
+    /// basic one draws `caustic_triangles` instead).
+    pub fn stage(self, technique: Technique) -> &'static str {
+        match self {
+            SplatMode::Fixed => "photon_splat",
+            SplatMode::MultiRes => "splat_multires",
+            SplatMode::Triangles if technique != Technique::Basic => "splat_quads",
+            SplatMode::ThinLens | SplatMode::ThickLens | SplatMode::Differential | SplatMode::Triangles => "splat_lens",
+        }
+    }
+
+    /// The photon hierarchy stores a quad per photon for `splat_quads`: the adaptive techniques
+    /// trace each cell's corners, the hierarchical one takes its dual quad from the dense tile.
+    pub fn cell_quads(self, technique: Technique) -> bool {
+        self == SplatMode::Triangles && technique != Technique::Basic
+    }
+}
+
+impl std::fmt::Display for SplatMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Settings of a GPU render.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderSettings {
+    /// Photon grid size N per light-view face: N × N photons (the equivalent, finest grid of
+    /// the adaptive techniques).
+    pub photons: u32,
+    /// How photons are emitted.
+    pub technique: Technique,
+    /// Adaptive techniques: the coarse grid the hierarchy starts from (a power of two).
+    pub base_grid: u32,
+    /// Maximal caustic map error: a cluster converges when its photons land in one caustic-map
+    /// texel (0) or within this many texels (> 0).
+    pub max_error_tolerance: f32,
+    /// Maximal caustic map error: convergence is checked for clusters whose photons lie on a grid
+    /// of at least this size (Wyman & Nichols check from the 512² level on).
+    pub error_check_grid: u32,
+    /// Maximal caustic map error with caustic triangles: an optional second stopping rule (0:
+    /// off, the default: the paper's rule alone). A cluster also converges when its cell quad
+    /// maps linearly enough: its corner lattice and children's photons land within this many
+    /// caustic-map texels of the bilinear interpolation of its corners (`docs/adaptive.md`).
+    pub quad_linearity: f32,
+    /// Maximal caustic map error: skip the convergence check on levels where the spread of a
+    /// cluster's children predicts that it cannot pass (`docs/adaptive.md`); the check would
+    /// only trace photons to refine them. On by default; off gives the paper's traversal.
+    pub error_skip_hopeless: bool,
+    /// Keep the coverage masks (caster front-buffer texels per face) in the statistics, for
+    /// tests that model the traversal on the CPU.
+    pub keep_coverage: bool,
+    /// Basic technique with a photon-buffer splat (not `triangles`): keep every traced photon
+    /// (`TechniqueStats::photons`), for tests and tools that inspect photons (memory grows with
+    /// the grid).
+    pub keep_photons: bool,
+    /// Caustic map (and receiver map) size M per face.
+    pub caustic_map_size: u32,
+    /// Shadow map size per face.
+    pub shadow_map_size: u32,
+    /// Gaussian splat standard deviation, in caustic-map texels (fixed splats; the fallback and
+    /// smallest sizes of the other modes scale with it).
+    pub splat_sigma: f32,
+    /// How photons are splatted into the caustic map (`crate::splat`).
+    pub splat: SplatMode,
+    /// Also trace the light reflected at the first dielectric surface (a second photon per cell,
+    /// weighted by Fresnel reflectance; the first carries the transmitted light): basic, a
+    /// second pass over the grid; hierarchical and adaptive, a second traversal.
+    pub dielectric_reflection: bool,
+    /// Rasterize the light's second caster layer (`light_caster_front2`, `light_caster_back2`:
+    /// per texel, the nearest caster of another object behind the first layer's) when the scene
+    /// has caster meshes and two casters or more, so that photons find and traverse a mesh
+    /// hidden from the light behind another caster. Off: only the first layer (the renderer
+    /// before it; for comparisons).
+    pub light_second_layer: bool,
+    /// Memory for photon storage (bytes): the grid (basic), the tiles (hierarchical) or the
+    /// hierarchy (adaptive) is processed in batches that fit.
+    pub photon_memory: u64,
+    pub tessellation: Tessellation,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            photons: 1024,
+            technique: Technique::Basic,
+            base_grid: 64,
+            max_error_tolerance: 0.0,
+            error_check_grid: 512,
+            quad_linearity: 0.0,
+            error_skip_hopeless: true,
+            keep_coverage: false,
+            keep_photons: false,
+            caustic_map_size: 1024,
+            shadow_map_size: 2048,
+            splat_sigma: 1.0,
+            splat: SplatMode::default(),
+            dielectric_reflection: true,
+            light_second_layer: true,
+            photon_memory: 64 << 20,
+            tessellation: Tessellation::default(),
+        }
+    }
+}
