@@ -163,9 +163,10 @@ impl Renderer {
         Renderer::with_context(GpuContext::from_device(device, queue), scene, settings)
     }
 
-    /// A renderer on a context (the command line's convenience; clones of a context share its
-    /// pipelines and resource pool).
+    /// A renderer on a context's device (the command line's convenience): it shares the
+    /// context's pipelines and keeps its resources in a pool of its own.
     pub fn with_context(ctx: GpuContext, scene: Scene, settings: RenderSettings) -> Result<Renderer> {
+        let ctx = ctx.with_own_pool();
         ctx.check_device()?;
         settings.validate(&ctx, &scene)?;
         let n = scene.objects.len();
@@ -302,7 +303,7 @@ impl Renderer {
         self.light_dirty.iter_mut().for_each(|d| *d = true);
     }
 
-    /// GPU objects created so far on this renderer's context (all renderers sharing it).
+    /// GPU objects this renderer created so far (read-backs included).
     pub fn created(&self) -> ResourceCounts {
         self.ctx.created()
     }

@@ -396,6 +396,12 @@ impl GpuContext {
         cache.entry(name.to_string()).or_insert_with(make).clone()
     }
 
+    /// A context on the same device, sharing the pipelines, with a resource pool (and creation
+    /// count) of its own: what a renderer works in.
+    pub fn with_own_pool(&self) -> GpuContext {
+        GpuContext { pool: Default::default(), ..self.clone() }
+    }
+
     fn pool(&self) -> std::sync::MutexGuard<'_, pool::Pool> {
         self.pool.lock().unwrap_or_else(|e| e.into_inner())
     }
