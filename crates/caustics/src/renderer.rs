@@ -43,7 +43,7 @@ use crate::gpu::{GpuContext, PassTimer};
 use crate::image_io::Image;
 use crate::output::{FluxStats, GpuRender};
 use crate::passes::{DrawCtx, EyeFrame, FrameConsts, Geometry, LightFrame, bytes_to_image};
-use crate::scene::{Camera, Light, Scene};
+use crate::scene::{Camera, Light, Material, Scene};
 use crate::settings::RenderSettings;
 use crate::techniques::{Pending, TechniqueStats};
 use crate::temporal::{TemporalFilter, TemporalSettings};
@@ -261,6 +261,36 @@ impl Renderer {
             }
         }
         self.objects_dirty = true;
+        Ok(())
+    }
+
+    /// Replace material `index` (same kind of surface or not). Every light is redone, since any
+    /// of them may see an object made of it.
+    pub fn set_material(&mut self, index: usize, material: Material) -> Result<()> {
+        if index >= self.scene.materials.len() {
+            return Err(Error::input("<renderer>", format!("materials[{index}]"), "no such material"));
+        }
+        let ok = match material {
+            Material::Diffuse { albedo } => albedo.is_finite() && albedo.min_element() >= 0.0,
+            Material::Dielectric { ior, ext_ior } => {
+                ior.is_finite() && ext_ior.is_finite() && ior > 0.0 && ext_ior > 0.0
+            }
+            Material::Mirror { reflectance } => reflectance.is_finite() && reflectance.min_element() >= 0.0,
+            Material::Conductor { eta, k } => eta.is_finite() && k.is_finite() && eta.min_element() > 0.0,
+        };
+        if !ok {
+            return Err(Error::input(
+                "<renderer>",
+                format!("materials[{index}]"),
+                "values must be finite and positive",
+            ));
+        }
+        if material != self.scene.materials[index] {
+            self.scene.materials[index] = material;
+            self.base.materials[index] = material;
+            self.objects_dirty = true;
+            self.invalidate();
+        }
         Ok(())
     }
 

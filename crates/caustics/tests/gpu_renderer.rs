@@ -218,3 +218,27 @@ fn bad_updates_are_input_errors() {
     assert!(e.to_string().contains("photons"), "{e}");
     assert_eq!(r.settings().photons, 64, "a refused setting leaves the old one");
 }
+
+#[test]
+fn a_changed_material_matches_a_fresh_renderer() {
+    let Some(ctx) = gpu() else { return };
+    let scene = catalogue("glass_sphere");
+    let glass = scene.objects[0].material;
+    let mut r = Renderer::with_context(ctx.clone(), scene.clone(), settings()).unwrap();
+    frame(&mut r);
+    let before = bits(&r);
+    let denser = caustics::scene::Material::Dielectric { ior: 1.7, ext_ior: 1.0 };
+    r.set_material(glass, denser).unwrap();
+    let (stats, created) = frame(&mut r);
+    assert_eq!(stats.lights_redone, [true]);
+    assert_eq!(created, 0);
+    let mut changed = scene.clone();
+    changed.materials[glass] = denser;
+    let mut fresh = Renderer::with_context(ctx, changed, settings()).unwrap();
+    frame(&mut fresh);
+    let (a, b) = (bits(&r), bits(&fresh));
+    assert!(a == b, "a changed material differs from a fresh renderer's");
+    assert!(a.1 != before.1, "the caustic did not change with the index of refraction");
+    let bad = caustics::scene::Material::Dielectric { ior: f32::NAN, ext_ior: 1.0 };
+    assert!(r.set_material(glass, bad).unwrap_err().is_input());
+}

@@ -540,9 +540,7 @@ impl Session {
         }
     }
 
-    /// A material change needs a new renderer (the library has no material update yet): it is
-    /// made from the scene file's state with the new material, then brought to the current
-    /// camera, lights, transforms, settings and temporal filter.
+    /// A new index of refraction for a dielectric material (every light is redone).
     fn set_ior(&mut self, material: usize, ior: f32) -> Result<()> {
         let Some(Material::Dielectric { ext_ior, .. }) = self.base.materials.get(material).copied() else {
             return Err(Error::input("<viewer>", format!("materials[{material}].ior"), "not a dielectric material"));
@@ -550,24 +548,9 @@ impl Session {
         if !(ior.is_finite() && (1.0..=4.0).contains(&ior)) {
             return Err(Error::input("<viewer>", format!("materials[{material}].ior"), "must lie in [1, 4]"));
         }
-        let mut base = self.base.clone();
-        base.materials[material] = Material::Dielectric { ior, ext_ior };
-        let mut r = Renderer::new(&self.device, &self.queue, base.clone(), self.settings().clone())?;
-        let now = self.scene();
-        r.set_camera(now.camera.clone())?;
-        for (i, l) in now.lights.iter().enumerate() {
-            r.set_light(i, l.clone())?;
-        }
-        for i in 0..now.objects.len() {
-            if let Some(t) = self.renderer.object_transform(i)
-                && t != Affine3A::IDENTITY
-            {
-                r.set_object_transform(i, t)?;
-            }
-        }
-        r.set_temporal(self.temporal.then(TemporalSettings::default))?;
-        self.renderer = r;
-        self.base = base;
+        let m = Material::Dielectric { ior, ext_ior };
+        self.renderer.set_material(material, m)?;
+        self.base.materials[material] = m;
         self.view_changed();
         Ok(())
     }

@@ -515,7 +515,6 @@ fn object_panel(ui: &mut egui::Ui, session: &mut Session, i: usize) {
         if (r.drag_stopped() || (r.changed() && !r.dragged())) && v != ior {
             act(session, Action::SetIor { material: m, ior: v });
         }
-        ui.small("(a new IOR rebuilds the renderer: the library has no material update yet)");
     }
 }
 
