@@ -117,23 +117,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     if a.technique == "none" {
         return Ok(());
     }
-    let techniques: Vec<Technique> = a
-        .technique
-        .split(',')
-        .map(|t| Technique::parse(t).with_context(|| format!("--technique: unknown technique \"{t}\"")))
-        .collect::<Result<_>>()?;
-    let grids = parse_grids(&a.photons)?;
-    let splat = caustics::splat::SplatMode::parse(&a.splat)
-        .with_context(|| format!("--splat: unknown splat mode \"{}\"", a.splat))?;
-    let mut scene = match &a.scene {
-        Some(p) => Scene::load(p)?,
-        None => Scene::default_scene(),
-    };
-    for w in &scene.warnings {
-        eprintln!("warning: {w}");
-    }
-    (scene.camera.width, scene.camera.height) = a.size;
-    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    let (techniques, grids, splat, scene) = setup(a)?;
     let ctx = caustics::gpu::GpuContext::new(a.adapter.as_deref())?;
     let adapter = format!("{} ({:?}, {})", ctx.info.name, ctx.info.backend, ctx.info.driver);
     println!("scene: {} ({}), adapter: {adapter}", scene.name, scene.source);
@@ -612,9 +596,9 @@ impl Phase {
     }
 }
 
-/// `caustics bench --frames N`: the frame loop of the persistent renderer, phase by phase.
-pub fn frame_loop(a: &BenchArgs) -> Result<()> {
-    use caustics::renderer::Renderer;
+/// What both benchmarks parse first: the techniques, photon grids, splat mode and scene (image
+/// size applied), and the output folder made.
+fn setup(a: &BenchArgs) -> Result<(Vec<Technique>, Vec<u32>, caustics::splat::SplatMode, Scene)> {
     let techniques: Vec<Technique> = a
         .technique
         .split(',')
@@ -632,6 +616,13 @@ pub fn frame_loop(a: &BenchArgs) -> Result<()> {
     }
     (scene.camera.width, scene.camera.height) = a.size;
     std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    Ok((techniques, grids, splat, scene))
+}
+
+/// `caustics bench --frames N`: the frame loop of the persistent renderer, phase by phase.
+pub fn frame_loop(a: &BenchArgs) -> Result<()> {
+    use caustics::renderer::Renderer;
+    let (techniques, grids, splat, scene) = setup(a)?;
     let mut ctx = Some(caustics::gpu::GpuContext::new(a.adapter.as_deref())?);
     let adapter = {
         let c = ctx.as_ref().unwrap();

@@ -452,32 +452,43 @@ impl GpuContext {
         })
     }
 
+    /// The open scope's next resource: the kept one if `reuse` accepts its slot, else one `make`
+    /// creates (counted), kept as `keep_as` says. Outside a scope, `make` alone.
+    fn pooled<T: Clone>(
+        &self,
+        reuse: impl FnOnce(&mut Slot) -> Option<T>,
+        make: impl FnOnce(&mut ResourceCounts) -> T,
+        keep_as: impl FnOnce(T) -> Slot,
+    ) -> T {
+        let mut guard = self.pool();
+        let pool = &mut *guard;
+        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
+        if let Some(found) = scope.slots.get_mut(i).and_then(reuse) {
+            return found;
+        }
+        let name = pool.current.clone().expect("a scope is open");
+        let made = make(&mut pool.counts);
+        keep(pool.scopes.get_mut(&name).expect("the open scope"), i, keep_as(made.clone()));
+        made
+    }
+
     /// A storage (or other) buffer of `size` bytes, zeroed as a new buffer is.
     pub fn buffer(&self, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
         let usage = usage | wgpu::BufferUsages::COPY_DST;
-        let mut guard = self.pool();
-        let pool = &mut *guard;
-        let make = |counts: &mut ResourceCounts| {
-            counts.buffers += 1;
-            self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size,
-                usage,
-                mapped_at_creation: false,
-            })
-        };
-        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
-        if let Some(Slot::Buffer { size: s, usage: u, zeroed: true, buffer, .. }) = scope.slots.get(i)
-            && *s == size
-            && *u == usage
-        {
-            return buffer.clone();
-        }
-        let name = pool.current.clone().unwrap();
-        let buffer = make(&mut pool.counts);
-        let slot = Slot::Buffer { size, usage, zeroed: true, contents: Vec::new(), buffer: buffer.clone() };
-        keep(pool.scopes.get_mut(&name).unwrap(), i, slot);
-        buffer
+        self.pooled(
+            |slot| match slot {
+                Slot::Buffer { size: s, usage: u, zeroed: true, buffer, .. } if *s == size && *u == usage => {
+                    Some(buffer.clone())
+                }
+                _ => None,
+            },
+            |counts| {
+                counts.buffers += 1;
+                let desc = wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false };
+                self.device.create_buffer(&desc)
+            },
+            |buffer| Slot::Buffer { size, usage, zeroed: true, contents: Vec::new(), buffer },
+        )
     }
 
     /// A buffer holding `contents` (a uniform, or initial data): kept from frame to frame and
@@ -486,39 +497,31 @@ impl GpuContext {
     pub fn buffer_init(&self, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
         use wgpu::util::DeviceExt;
         let usage = usage | wgpu::BufferUsages::COPY_DST;
-        let mut guard = self.pool();
-        let pool = &mut *guard;
-        let make = |counts: &mut ResourceCounts| {
-            counts.buffers += 1;
-            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
-        };
-        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
-        if let Some(Slot::Buffer { size, usage: u, zeroed: false, contents: old, buffer }) = scope.slots.get_mut(i)
-            && *size == contents.len() as u64
-            && *u == usage
-        {
-            if old != contents || usage.contains(wgpu::BufferUsages::STORAGE) {
-                self.queue.write_buffer(buffer, 0, contents);
-                old.clear();
-                old.extend_from_slice(contents);
-            }
-            return buffer.clone();
-        }
-        let name = pool.current.clone().unwrap();
-        let buffer = make(&mut pool.counts);
-        let scope = pool.scopes.get_mut(&name).unwrap();
-        keep(
-            scope,
-            i,
-            Slot::Buffer {
-                size: contents.len() as u64,
-                usage,
-                zeroed: false,
-                contents: contents.to_vec(),
-                buffer: buffer.clone(),
+        let size = contents.len() as u64;
+        self.pooled(
+            |slot| match slot {
+                Slot::Buffer { size: s, usage: u, zeroed: false, contents: old, buffer }
+                    if *s == size && *u == usage =>
+                {
+                    if old != contents || usage.contains(wgpu::BufferUsages::STORAGE) {
+                        self.queue.write_buffer(buffer, 0, contents);
+                        old.clear();
+                        old.extend_from_slice(contents);
+                    }
+                    Some(buffer.clone())
+                }
+                _ => None,
             },
-        );
-        buffer
+            |counts| {
+                counts.buffers += 1;
+                self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents,
+                    usage,
+                })
+            },
+            |buffer| Slot::Buffer { size, usage, zeroed: false, contents: contents.to_vec(), buffer },
+        )
     }
 
     /// A uniform buffer with `contents`.
@@ -535,31 +538,26 @@ impl GpuContext {
         usage: wgpu::TextureUsages,
     ) -> wgpu::Texture {
         let key = TextureKey { size, format, usage };
-        let mut guard = self.pool();
-        let pool = &mut *guard;
-        let make = |counts: &mut ResourceCounts| {
-            counts.textures += 1;
-            self.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size,
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
-        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
-        if let Some(Slot::Texture { key: k, texture }) = scope.slots.get(i)
-            && *k == key
-        {
-            return texture.clone();
-        }
-        let name = pool.current.clone().unwrap();
-        let texture = make(&mut pool.counts);
-        keep(pool.scopes.get_mut(&name).unwrap(), i, Slot::Texture { key, texture: texture.clone() });
-        texture
+        self.pooled(
+            |slot| match slot {
+                Slot::Texture { key: k, texture } if *k == key => Some(texture.clone()),
+                _ => None,
+            },
+            |counts| {
+                counts.textures += 1;
+                self.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage,
+                    view_formats: &[],
+                })
+            },
+            |texture| Slot::Texture { key: key.clone(), texture },
+        )
     }
 
     /// A view of `layers` (None: all from `base`) of a texture, as `dimension`.
@@ -571,27 +569,22 @@ impl GpuContext {
         layers: Option<u32>,
     ) -> wgpu::TextureView {
         let key = (texture.clone(), dimension, base, layers);
-        let mut guard = self.pool();
-        let pool = &mut *guard;
-        let make = |counts: &mut ResourceCounts| {
-            counts.texture_views += 1;
-            texture.create_view(&wgpu::TextureViewDescriptor {
-                dimension,
-                base_array_layer: base,
-                array_layer_count: layers,
-                ..Default::default()
-            })
-        };
-        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
-        if let Some(Slot::View { key: k, view }) = scope.slots.get(i)
-            && *k == key
-        {
-            return view.clone();
-        }
-        let name = pool.current.clone().unwrap();
-        let view = make(&mut pool.counts);
-        keep(pool.scopes.get_mut(&name).unwrap(), i, Slot::View { key, view: view.clone() });
-        view
+        self.pooled(
+            |slot| match slot {
+                Slot::View { key: k, view } if *k == key => Some(view.clone()),
+                _ => None,
+            },
+            |counts| {
+                counts.texture_views += 1;
+                texture.create_view(&wgpu::TextureViewDescriptor {
+                    dimension,
+                    base_array_layer: base,
+                    array_layer_count: layers,
+                    ..Default::default()
+                })
+            },
+            |view| Slot::View { key: key.clone(), view },
+        )
     }
 
     /// A bind group of group 0 of `pipeline` binding `entries`.
@@ -613,71 +606,55 @@ impl GpuContext {
                 (e.binding, k)
             })
             .collect();
-        let mut guard = self.pool();
-        let pool = &mut *guard;
-        let make = |counts: &mut ResourceCounts| {
-            counts.bind_groups += 1;
-            self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(label),
-                layout: &pipeline.layout(),
-                entries,
-            })
-        };
-        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
-        if let Some(Slot::BindGroup { layout, key: k, group }) = scope.slots.get(i)
-            && *layout == pipeline
-            && *k == key
-        {
-            return group.clone();
-        }
-        let name = pool.current.clone().unwrap();
-        let group = make(&mut pool.counts);
-        keep(pool.scopes.get_mut(&name).unwrap(), i, Slot::BindGroup { layout: pipeline, key, group: group.clone() });
-        group
+        self.pooled(
+            |slot| match slot {
+                Slot::BindGroup { layout, key: k, group } if *layout == pipeline && *k == key => Some(group.clone()),
+                _ => None,
+            },
+            |counts| {
+                counts.bind_groups += 1;
+                self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some(label),
+                    layout: &pipeline.layout(),
+                    entries,
+                })
+            },
+            |group| Slot::BindGroup { layout: pipeline.clone(), key: key.clone(), group },
+        )
     }
 
     /// A sampler, kept under `key` (its description does not change between frames).
     pub fn sampler(&self, key: &str, desc: &wgpu::SamplerDescriptor) -> wgpu::Sampler {
-        let mut guard = self.pool();
-        let pool = &mut *guard;
-        let make = |counts: &mut ResourceCounts| {
-            counts.samplers += 1;
-            self.device.create_sampler(desc)
-        };
-        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
-        if let Some(Slot::Sampler { key: k, sampler }) = scope.slots.get(i)
-            && k == key
-        {
-            return sampler.clone();
-        }
-        let name = pool.current.clone().unwrap();
-        let sampler = make(&mut pool.counts);
-        keep(pool.scopes.get_mut(&name).unwrap(), i, Slot::Sampler { key: key.to_string(), sampler: sampler.clone() });
-        sampler
+        self.pooled(
+            |slot| match slot {
+                Slot::Sampler { key: k, sampler } if k == key => Some(sampler.clone()),
+                _ => None,
+            },
+            |counts| {
+                counts.samplers += 1;
+                self.device.create_sampler(desc)
+            },
+            |sampler| Slot::Sampler { key: key.to_string(), sampler },
+        )
     }
 
     /// A timestamp query set of `count` queries.
     pub fn timestamp_set(&self, count: u32) -> wgpu::QuerySet {
-        let mut guard = self.pool();
-        let pool = &mut *guard;
-        let make = |counts: &mut ResourceCounts| {
-            counts.query_sets += 1;
-            self.device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("pass timestamps"),
-                ty: wgpu::QueryType::Timestamp,
-                count,
-            })
-        };
-        let Some((i, scope)) = pool.next() else { return make(&mut pool.counts) };
-        if let Some(Slot::QuerySet { count: c, set }) = scope.slots.get(i)
-            && *c == count
-        {
-            return set.clone();
-        }
-        let name = pool.current.clone().unwrap();
-        let set = make(&mut pool.counts);
-        keep(pool.scopes.get_mut(&name).unwrap(), i, Slot::QuerySet { count, set: set.clone() });
-        set
+        self.pooled(
+            |slot| match slot {
+                Slot::QuerySet { count: c, set } if *c == count => Some(set.clone()),
+                _ => None,
+            },
+            |counts| {
+                counts.query_sets += 1;
+                self.device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("pass timestamps"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count,
+                })
+            },
+            |set| Slot::QuerySet { count, set },
+        )
     }
 
     /// Copy a buffer back to the CPU (blocking).
