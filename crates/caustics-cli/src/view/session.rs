@@ -74,6 +74,8 @@ pub enum Action {
     /// Any other settings change (the panel's less common switches).
     SetSettings(Box<RenderSettings>),
     SetTemporal(bool),
+    /// Time-budget mode: the photon grid (and tolerance) follows a frame time in ms; None: off.
+    SetBudget(Option<f64>),
     SetLight(usize, Light),
     SetObjectTransform(usize, Affine3A),
     /// The index of refraction of dielectric material `material`.
@@ -190,6 +192,8 @@ pub struct Session {
     changed_at: Instant,
     dirty: bool,
     temporal: bool,
+    /// Time-budget mode (`caustics::budget`), fed with the frames that redid a light.
+    budget: Option<caustics::budget::BudgetController>,
     /// With the temporal filter on, frames still to render after the last change so that the
     /// filter's history converges.
     settle: u32,
@@ -242,6 +246,7 @@ impl Session {
             changed_at: Instant::now(),
             dirty: true,
             temporal: false,
+            budget: None,
             settle: 0,
             error: None,
             status: String::new(),
@@ -273,6 +278,11 @@ impl Session {
     pub fn settings(&self) -> &RenderSettings {
         self.renderer.settings()
     }
+    /// The time budget's controller, when the mode is on.
+    pub fn budget(&self) -> Option<&caustics::budget::BudgetController> {
+        self.budget.as_ref()
+    }
+
     pub fn temporal(&self) -> bool {
         self.temporal
     }
@@ -360,6 +370,22 @@ impl Session {
             Action::SetPhotons(n) => self.change_settings(|s| s.photons = n),
             Action::SetTolerance(t) => self.change_settings(|s| s.max_error_tolerance = t),
             Action::SetSettings(new) => self.change_settings(|s| *s = *new),
+            Action::SetBudget(target) => {
+                match (target, &mut self.budget) {
+                    (None, _) => self.budget = None,
+                    (Some(ms), Some(b)) => {
+                        let mut bs = b.settings().clone();
+                        bs.target_ms = ms;
+                        b.set_settings(bs);
+                    }
+                    (Some(ms), None) => {
+                        self.budget =
+                            Some(caustics::budget::BudgetController::new(caustics::budget::BudgetSettings::new(ms)))
+                    }
+                }
+                self.error = None;
+                Ok(())
+            }
             Action::SetTemporal(on) => {
                 self.renderer.set_temporal(on.then(TemporalSettings::default))?;
                 self.temporal = on;
@@ -598,15 +624,10 @@ impl Session {
     /// per window frame.
     pub fn update(&mut self) {
         let _ = self.device.poll(wgpu::PollType::Poll);
-        if let (Some(t0), Ok(mut d)) = (self.frame_started, self.frame_done.lock())
-            && let Some(t1) = d.take()
-        {
-            self.frame_ms = Some(t1.duration_since(t0).as_secs_f64() * 1e3);
-            self.frame_started = None;
-        }
+        self.frame_time();
         match self.renderer.poll_stats() {
             Ok(Some(s)) => {
-                self.stats = Some(s);
+                self.arrived(s);
                 self.stats_pending = false;
             }
             Ok(None) => {}
@@ -656,6 +677,32 @@ impl Session {
         }
     }
 
+    /// The latest frame's host time, once the GPU finished it.
+    fn frame_time(&mut self) {
+        if let (Some(t0), Ok(mut d)) = (self.frame_started, self.frame_done.lock())
+            && let Some(t1) = d.take()
+        {
+            self.frame_ms = Some(t1.duration_since(t0).as_secs_f64() * 1e3);
+            self.frame_started = None;
+        }
+    }
+
+    /// A frame's statistics arrived. The time budget learns from frames that did photon work
+    /// (a camera-only frame costs the same whatever the grid).
+    fn arrived(&mut self, s: FrameStats) {
+        if let (Some(b), Some(ms)) = (&mut self.budget, self.frame_ms)
+            && s.lights_redone.iter().any(|&r| r)
+        {
+            let mut next = self.renderer.settings().clone();
+            if b.update(ms, &mut next)
+                && let Err(e) = self.renderer.set_settings(next)
+            {
+                self.error = Some(e.to_string());
+            }
+        }
+        self.stats = Some(s);
+    }
+
     /// Whether the latest frame's statistics or completion time are still to come (the window
     /// keeps polling).
     pub fn awaiting_gpu(&self) -> bool {
@@ -666,7 +713,10 @@ impl Session {
     #[cfg(test)]
     pub fn wait_stats(&mut self) {
         match self.renderer.wait_stats() {
-            Ok(Some(s)) => self.stats = Some(s),
+            Ok(Some(s)) => {
+                self.frame_time();
+                self.arrived(s);
+            }
             Ok(None) => {}
             Err(e) => self.error = Some(e.to_string()),
         }

@@ -413,3 +413,36 @@ fn painting_shows_the_display_texture_unchanged() {
         "the window shows the display texture off by {abs:.2} (mean |diff|), {signed:.2} (mean diff) of 255"
     );
 }
+
+/// Time-budget mode: with a budget far below what the grid costs, frames that redo the light
+/// make the controller step the photon grid down; camera-only frames teach it nothing.
+#[test]
+fn time_budget_lowers_the_grid_from_light_frames_only() {
+    let Some(d) = device() else { return };
+    let mut s = session(d);
+    s.act(Action::SetSettings(Box::new(RenderSettings { photons: 256, ..small_settings() }))).expect("settings");
+    frame(&mut s);
+    s.act(Action::SetBudget(Some(0.01))).expect("budget");
+    // Camera-only frames: the grid stays.
+    for _ in 0..8 {
+        s.act(Action::Orbit { dx: 2.0, dy: 0.0 }).expect("orbit");
+        assert!(s.render().expect("frame"));
+        s.wait_stats();
+    }
+    assert_eq!(s.settings().photons, 256, "camera-only frames moved the budget");
+    // Frames that redo the light: the grid goes down.
+    for k in 0..30 {
+        let mut l = s.scene().lights[0].clone();
+        if let caustics::scene::Light::Spot { position, .. } = &mut l {
+            position.x += if k % 2 == 0 { 0.01 } else { -0.01 };
+        }
+        s.act(Action::SetLight(0, l)).expect("light");
+        assert!(s.render().expect("frame"));
+        s.wait_stats();
+    }
+    let q = s.budget().expect("budget on").quality();
+    assert!(s.settings().photons < 256, "the grid did not come down: {}", s.settings().photons);
+    assert_eq!(q.grid, s.settings().photons);
+    s.act(Action::SetBudget(None)).expect("off");
+    assert!(s.budget().is_none());
+}

@@ -391,6 +391,25 @@ fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
     if ui.checkbox(&mut temporal, "temporal filter").changed() {
         act(session, Action::SetTemporal(temporal));
     }
+    let mut on = session.budget().is_some();
+    let mut target = session.budget().map_or(1000.0, |b| b.settings().target_ms);
+    ui.horizontal(|ui| {
+        let c = ui.checkbox(&mut on, "time budget");
+        let r = ui.add_enabled(on, egui::Slider::new(&mut target, 1.0..=20000.0).logarithmic(true).suffix(" ms"));
+        if c.changed() || r.drag_stopped() || (r.changed() && !r.dragged()) {
+            act(session, Action::SetBudget(on.then_some(target)));
+        }
+    });
+    if let Some(b) = session.budget() {
+        let q = b.quality();
+        let tol = q.tolerance.map_or(String::new(), |t| format!(", tolerance {t} texels"));
+        let ms = q.frame_ms.map_or("-".into(), |m| format!("{m:.0} ms"));
+        let state = if q.settled { "settled" } else { "adjusting" };
+        ui.small(format!(
+            "budget: {}² photons{tol}, photon frames {ms}, {state} (learns from frames that redo a light)",
+            q.grid
+        ));
+    }
     let mut scale = state.render_scale;
     let r = ui.add(egui::Slider::new(&mut scale, 0.25..=1.0).text("render scale"));
     if r.changed() {
