@@ -242,3 +242,20 @@ fn a_changed_material_matches_a_fresh_renderer() {
     let bad = caustics::scene::Material::Dielectric { ior: f32::NAN, ext_ior: 1.0 };
     assert!(r.set_material(glass, bad).unwrap_err().is_input());
 }
+
+#[test]
+fn adaptive_light_motion_creates_nothing() {
+    // The adaptive hierarchy sizes its buffers from the casters' extent seen from the light: a
+    // light moving a little keeps them.
+    let Some(ctx) = gpu() else { return };
+    let s = RenderSettings { technique: caustics::render::Technique::AdaptiveLevel, photons: 512, ..settings() };
+    let mut r = Renderer::with_context(ctx, catalogue("glass_sphere"), s).unwrap();
+    frame(&mut r);
+    for k in 1..6 {
+        let l = moved_spot(&r.scene().lights[0], 0.1 * k as f32);
+        r.set_light(0, l).unwrap();
+        let (stats, created) = frame(&mut r);
+        assert_eq!(stats.lights_redone, [true]);
+        assert_eq!(created, 0, "frame {k} of a moving light created GPU objects");
+    }
+}

@@ -127,9 +127,11 @@ pub(crate) struct Adaptive {
 impl Adaptive {
     pub fn new(e: &Emit) -> Result<Adaptive> {
         let mut plan = AdaptivePlan::new(e.settings, e.ctx.device.limits().max_storage_buffer_binding_size)?;
-        // Allocate no more than the casters' bounding box can need: one batch then suffices.
+        // Allocate no more than the whole N × N face can need (one batch then suffices). Sized
+        // by the settings alone, not by where the casters are: a persistent renderer keeps the
+        // buffers while lights and objects move.
         let cell = ((plan.n / plan.batch_grid) as u64).pow(2);
-        let need = (e.bound.iter().copied().max().unwrap_or(0) + cell).max(2 * cell).max(64);
+        let need = ((plan.n as u64).pow(2) + cell).max(2 * cell).max(64);
         if need < plan.capacity {
             plan.bytes -= (plan.capacity - need) * plan.photon_bytes;
             plan.capacity = need;
