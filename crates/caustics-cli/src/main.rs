@@ -38,61 +38,25 @@ enum Backend {
     Cpu,
 }
 
-#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub(crate) enum Technique {
-    /// Basic caustic maps: a dense N x N photon grid per light-view face.
-    Basic,
-    /// Hierarchical caustic maps: the dense grid, traversed top-down through a mip hierarchy.
-    Hierarchical,
-    /// Adaptive caustic maps, maximal traversal level (equivalent to a dense N x N grid).
-    AdaptiveLevel,
-    /// Adaptive caustic maps, maximal caustic map error (finest grid N).
-    AdaptiveError,
+/// `--technique`: the library's techniques, by name, with their help (a new technique needs
+/// no edit here).
+pub(crate) fn technique_parser() -> impl clap::builder::TypedValueParser<Value = caustics::render::Technique> {
+    use caustics::render::Technique as T;
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(
+        T::ALL.map(|t| clap::builder::PossibleValue::new(t.name()).help(t.describe())),
+    )
+    .map(|s| T::parse(&s).expect("a listed technique"))
 }
 
-impl Technique {
-    pub(crate) fn lib(self) -> caustics::techniques::Technique {
-        use caustics::techniques::Technique as T;
-        match self {
-            Technique::Basic => T::Basic,
-            Technique::Hierarchical => T::Hierarchical,
-            Technique::AdaptiveLevel => T::AdaptiveLevel,
-            Technique::AdaptiveError => T::AdaptiveError,
-        }
-    }
-}
-
-#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub(crate) enum Splat {
-    /// A Gaussian of fixed width (--splat-sigma texels).
-    Fixed,
-    /// Adaptive multi-resolution splatting (Wyman & Dachsbacher 2008, section 4.1).
-    Multires,
-    /// Splat sizes from the thin-lens equations (Wyman & Dachsbacher 2008, section 4.2).
-    ThinLens,
-    /// Splat sizes from the thick-lens equations.
-    ThickLens,
-    /// Splat sizes from ray differentials carried through every interaction (exact first-order
-    /// beam size; beyond the papers).
-    Differential,
-    /// Caustic triangles: flux spread over the area between adjacent photons (basic: the dense
-    /// grid; adaptive-level, adaptive-error: each emitted cell's quad of four traced corner
-    /// photons; hierarchical: each photon's dual quad from its neighbours). The default.
-    Triangles,
-}
-
-impl Splat {
-    pub(crate) fn lib(self) -> caustics::splat::SplatMode {
-        use caustics::splat::SplatMode as S;
-        match self {
-            Splat::Fixed => S::Fixed,
-            Splat::Multires => S::MultiRes,
-            Splat::ThinLens => S::ThinLens,
-            Splat::ThickLens => S::ThickLens,
-            Splat::Differential => S::Differential,
-            Splat::Triangles => S::Triangles,
-        }
-    }
+/// `--splat`: the library's splat modes, by name, with their help.
+pub(crate) fn splat_parser() -> impl clap::builder::TypedValueParser<Value = caustics::render::SplatMode> {
+    use caustics::render::SplatMode as S;
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(
+        S::ALL.map(|m| clap::builder::PossibleValue::new(m.name()).help(m.describe())),
+    )
+    .map(|s| S::parse(&s).expect("a listed splat mode"))
 }
 
 #[derive(Subcommand)]
@@ -111,11 +75,11 @@ enum Command {
         /// Image size WxH, overriding the scene's camera.
         #[arg(long, value_parser = parse_size)]
         size: Option<(u32, u32)>,
-        #[arg(long, value_enum, default_value = "basic")]
-        technique: Technique,
+        #[arg(long, default_value = "basic", value_parser = technique_parser())]
+        technique: caustics::render::Technique,
         /// How photons are splatted into the caustic map.
-        #[arg(long, value_enum, default_value = "triangles")]
-        splat: Splat,
+        #[arg(long, default_value = "triangles", value_parser = splat_parser())]
+        splat: caustics::render::SplatMode,
         /// Trace only the light transmitted at glass, not the second photon per cell that carries
         /// the light reflected at the first dielectric surface (half the cost; every technique).
         #[arg(long)]
@@ -323,8 +287,8 @@ fn run(cli: Cli) -> Result<()> {
             }
             let mut settings = RenderSettings {
                 photons,
-                technique: technique.lib(),
-                splat: splat.lib(),
+                technique,
+                splat,
                 dielectric_reflection: !no_glass_reflection,
                 light_second_layer: !no_light_second_layer,
                 tessellation: caustics::scene::Tessellation {

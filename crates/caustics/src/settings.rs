@@ -38,6 +38,20 @@ impl Technique {
         }
     }
 
+    /// One line on what it does (the command line's help).
+    pub fn describe(self) -> &'static str {
+        match self {
+            Technique::Basic => "Basic caustic maps: a dense N x N photon grid per light-view face",
+            Technique::Hierarchical => {
+                "Hierarchical caustic maps: the dense grid, traversed top-down through a mip hierarchy"
+            }
+            Technique::AdaptiveLevel => {
+                "Adaptive caustic maps, maximal traversal level (equivalent to a dense N x N grid)"
+            }
+            Technique::AdaptiveError => "Adaptive caustic maps, maximal caustic map error (finest grid N)",
+        }
+    }
+
     pub fn parse(s: &str) -> Option<Technique> {
         Technique::ALL.into_iter().find(|t| t.name() == s.trim())
     }
@@ -97,6 +111,22 @@ impl SplatMode {
             SplatMode::ThickLens => "thick-lens",
             SplatMode::Differential => "differential",
             SplatMode::Triangles => "triangles",
+        }
+    }
+
+    /// One line on what it does (the command line's help).
+    pub fn describe(self) -> &'static str {
+        match self {
+            SplatMode::Fixed => "A Gaussian of fixed width (--splat-sigma texels)",
+            SplatMode::MultiRes => "Adaptive multi-resolution splatting (Wyman & Dachsbacher 2008, section 4.1)",
+            SplatMode::ThinLens => "Splat sizes from the thin-lens equations (Wyman & Dachsbacher 2008, section 4.2)",
+            SplatMode::ThickLens => "Splat sizes from the thick-lens equations",
+            SplatMode::Differential => {
+                "Splat sizes from ray differentials carried through every interaction (exact first-order beam size)"
+            }
+            SplatMode::Triangles => {
+                "Caustic triangles: flux spread over the area between adjacent photons (the default)"
+            }
         }
     }
 

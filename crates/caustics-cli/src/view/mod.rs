@@ -20,7 +20,6 @@ mod window;
 #[cfg(test)]
 mod tests;
 
-use crate::{Splat, Technique};
 use anyhow::Result;
 use caustics::render::RenderSettings;
 use caustics::{Error, Scene};
@@ -34,10 +33,10 @@ pub struct ViewArgs {
     /// Photon grid size N per light-view face (changeable in the panel).
     #[arg(long, default_value_t = 512)]
     pub photons: u32,
-    #[arg(long, value_enum, default_value = "basic")]
-    pub technique: Technique,
-    #[arg(long, value_enum, default_value = "triangles")]
-    pub splat: Splat,
+    #[arg(long, default_value = "basic", value_parser = crate::technique_parser())]
+    pub technique: caustics::render::Technique,
+    #[arg(long, default_value = "triangles", value_parser = crate::splat_parser())]
+    pub splat: caustics::render::SplatMode,
     /// Initial window size WxH (logical pixels).
     #[arg(long, value_parser = crate::parse_size, default_value = "1280x800")]
     pub size: (u32, u32),
@@ -84,8 +83,8 @@ pub fn prepare(args: ViewArgs) -> Result<Start, Error> {
     }
     let settings = RenderSettings {
         photons: args.photons,
-        technique: args.technique.lib(),
-        splat: args.splat.lib(),
+        technique: args.technique,
+        splat: args.splat,
         caustic_map_size: args.caustic_map.unwrap_or(1024),
         ..Default::default()
     };
