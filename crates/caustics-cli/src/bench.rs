@@ -123,6 +123,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     println!("scene: {} ({}), adapter: {adapter}", scene.name, scene.source);
     let mut runs: Vec<Run> = Vec::new();
     let mut skipped: Vec<(Technique, u32, String)> = Vec::new();
+    let bar = crate::progress::steps((grids.len() * techniques.len()) as u64 * a.repeat.max(1) as u64, "bench");
     for &n in &grids {
         for &t in &techniques {
             let s = RenderSettings {
@@ -146,6 +147,8 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             }
             let mut best: Option<Run> = None;
             for _ in 0..a.repeat.max(1) {
+                bar.set_message(format!("{t} {n}^2"));
+                bar.inc(1);
                 let t0 = std::time::Instant::now();
                 let out = match caustics::render::render(&ctx, &scene, &s) {
                     Ok(o) => o,
@@ -168,7 +171,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             }
             if let Some(r) = best {
                 let ts = &r.out.technique;
-                println!(
+                bar.suspend(|| println!(
                     "{n:>6}^2 {:<15} splatted {:>11} relevant {:>11} traced {:>11} photon GPU {:>9.1} ms frame {:>9.1} ms wall {:>8.0} ms batches {:>4} peak {:>7.2} MiB",
                     t.name(),
                     ts.photons_splatted,
@@ -179,11 +182,12 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                     r.wall_ms,
                     ts.batches,
                     ts.peak_photon_bytes as f64 / (1 << 20) as f64
-                );
+                ));
                 runs.push(r);
             }
         }
     }
+    bar.finish_and_clear();
     let name = scene.name.clone();
     let md = markdown(&name, &adapter, a, &grids, &techniques, &runs, &skipped);
     let js = to_json(&name, &adapter, a, &runs, &skipped);
@@ -633,6 +637,8 @@ pub fn frame_loop(a: &BenchArgs) -> Result<()> {
     // One renderer for everything (its context keeps the pipelines); the settings change
     // between runs.
     let mut renderer: Option<Renderer> = None;
+    let total = (techniques.len() * grids.len() * PHASES.len()) as u64 * a.frames as u64;
+    let bar = crate::progress::steps(total, "frames");
     for &t in &techniques {
         for &n in &grids {
             let s = RenderSettings {
@@ -664,25 +670,30 @@ pub fn frame_loop(a: &BenchArgs) -> Result<()> {
                     r.set_object_transform(k, glam::Affine3A::IDENTITY)?;
                 }
                 let mut samples = Vec::new();
+                bar.set_message(format!("{t} {n}^2 {name}"));
                 for i in 0..a.frames {
+                    bar.inc(1);
                     animate(r, &scene, name, i, a.frames)?;
                     samples.push(frame(r)?);
                 }
                 let first = samples.remove(0);
                 let p = Phase { name, first, rest: samples };
                 let ms = p.frame_ms();
-                println!(
-                    "{t} {n}^2 {name:<7} first {:>9.1} ms, then median {:>9.1} ms, p95 {:>9.1} ms ({} frames)",
-                    p.first.frame_ms,
-                    percentile(&ms, 0.5),
-                    percentile(&ms, 0.95),
-                    ms.len()
-                );
+                bar.suspend(|| {
+                    println!(
+                        "{t} {n}^2 {name:<7} first {:>9.1} ms, then median {:>9.1} ms, p95 {:>9.1} ms ({} frames)",
+                        p.first.frame_ms,
+                        percentile(&ms, 0.5),
+                        percentile(&ms, 0.95),
+                        ms.len()
+                    )
+                });
                 phases.push(p);
             }
             runs.push((t, n, phases));
         }
     }
+    bar.finish_and_clear();
     let name = scene.name.clone();
     let md = frame_markdown(&name, &adapter, a, &runs);
     let js = frame_json(&name, &adapter, a, &runs);

@@ -10,6 +10,18 @@ use std::time::Duration;
 /// Exit code of a run cancelled by Ctrl-C (128 + SIGINT, as shells report it).
 pub const CANCELLED_EXIT: u8 = 130;
 
+/// A progress bar on stderr (hidden when stderr is not a terminal) for `total` steps of long
+/// GPU work (benchmarks): what is running, how far, and an estimate of what is left.
+pub fn steps(total: u64, what: &str) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr_with_hz(4));
+    bar.set_style(
+        ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} {elapsed_precise} elapsed, about {eta} left")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_message(what.to_string());
+    bar
+}
+
 /// Render the CPU reference with a progress bar on stderr (hidden when stderr is not a
 /// terminal); Ctrl-C returns [`caustics::Error::Cancelled`].
 pub fn reference_render(scene: &Scene, settings: &ReferenceSettings) -> caustics::Result<ReferenceOutput> {
