@@ -127,19 +127,11 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     for &n in &grids {
         for &t in &techniques {
             let s = RenderSettings {
-                photons: n,
-                technique: t,
-                base_grid: a.base_grid,
-                max_error_tolerance: a.max_error_tolerance,
-                error_skip_hopeless: !a.no_error_skip,
-                caustic_map_size: a.caustic_map,
                 shadow_map_size: 1024,
-                photon_memory: a.photon_memory.saturating_mul(1 << 20),
-                splat,
                 // Table 1 counts one photon per cell, as the paper (which has no reflected
                 // branch at glass) does: the transmitted branch only.
                 dielectric_reflection: false,
-                ..Default::default()
+                ..settings(a, t, n, splat)
             };
             if n > t.max_photons() {
                 skipped.push((t, n, format!("{t} supports grids up to {}", t.max_photons())));
@@ -600,6 +592,21 @@ impl Phase {
     }
 }
 
+/// The render settings both benchmarks give technique `t` at grid `n`.
+fn settings(a: &BenchArgs, t: Technique, n: u32, splat: caustics::splat::SplatMode) -> RenderSettings {
+    RenderSettings {
+        photons: n,
+        technique: t,
+        base_grid: a.base_grid,
+        max_error_tolerance: a.max_error_tolerance,
+        error_skip_hopeless: !a.no_error_skip,
+        caustic_map_size: a.caustic_map,
+        photon_memory: a.photon_memory.saturating_mul(1 << 20),
+        splat,
+        ..Default::default()
+    }
+}
+
 /// What both benchmarks parse first: the techniques, photon grids, splat mode and scene (image
 /// size applied), and the output folder made.
 fn setup(a: &BenchArgs) -> Result<(Vec<Technique>, Vec<u32>, caustics::splat::SplatMode, Scene)> {
@@ -641,17 +648,7 @@ pub fn frame_loop(a: &BenchArgs) -> Result<()> {
     let bar = crate::progress::steps(total, "frames");
     for &t in &techniques {
         for &n in &grids {
-            let s = RenderSettings {
-                photons: n,
-                technique: t,
-                base_grid: a.base_grid,
-                max_error_tolerance: a.max_error_tolerance,
-                error_skip_hopeless: !a.no_error_skip,
-                caustic_map_size: a.caustic_map,
-                photon_memory: a.photon_memory.saturating_mul(1 << 20),
-                splat,
-                ..Default::default()
-            };
+            let s = settings(a, t, n, splat);
             let r = match renderer.as_mut() {
                 Some(r) => {
                     r.set_settings(s)?;

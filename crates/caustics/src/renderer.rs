@@ -49,7 +49,7 @@ use crate::techniques::{Pending, TechniqueStats};
 use crate::temporal::{TemporalFilter, TemporalSettings};
 use glam::Affine3A;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU8, Ordering};
 
 /// What a frame should produce beyond the image.
 #[derive(Debug, Clone, Copy, Default)]
@@ -126,13 +126,10 @@ struct StatsJob {
 }
 
 const STATS_SLOTS: usize = 3;
-static NEXT_ID: AtomicU64 = AtomicU64::new(0);
 
 /// The persistent GPU renderer (module documentation).
 pub struct Renderer {
     ctx: GpuContext,
-    /// Scope names of this renderer's resources (unique per renderer on a shared context).
-    id: u64,
     /// The scene as loaded, and as it is now (object transforms baked in).
     base: Scene,
     scene: Scene,
@@ -148,12 +145,6 @@ pub struct Renderer {
     ring: Vec<StatsSlot>,
     latest: Option<FrameStats>,
     last_error: Option<String>,
-}
-
-impl Drop for Renderer {
-    fn drop(&mut self) {
-        self.ctx.drop_scopes(&format!("r{}/", self.id));
-    }
 }
 
 impl Renderer {
@@ -173,7 +164,6 @@ impl Renderer {
         let lights = scene.lights.len();
         Ok(Renderer {
             ctx,
-            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
             base: scene.clone(),
             scene,
             transforms: vec![Affine3A::IDENTITY; n],
@@ -343,10 +333,6 @@ impl Renderer {
         self.last_error.as_deref()
     }
 
-    fn scope(&self, name: &str) -> String {
-        format!("r{}/{name}", self.id)
-    }
-
     /// Record a frame into `encoder` (module documentation: what is redone, call order).
     pub fn encode(&mut self, encoder: &mut wgpu::CommandEncoder, request: FrameRequest) -> Result<FrameOutputs<'_>> {
         let enc = encoder;
@@ -355,7 +341,7 @@ impl Renderer {
         // Geometry: uploaded once (again when the tessellation changes); moved objects rewrite
         // their transforms and analytic shapes.
         if self.geometry.as_ref().is_none_or(|(t, _)| *t != s.tessellation) {
-            ctx.drop_scopes(&self.scope(""));
+            ctx.drop_scopes("");
             self.geometry = Some((s.tessellation, crate::passes::upload_geometry(&ctx, &self.base, &s.tessellation)));
             self.objects_dirty = true;
             self.lights.iter_mut().for_each(|l| *l = None);
@@ -373,11 +359,11 @@ impl Renderer {
         let raster = crate::passes::raster_pipelines(&ctx);
         let dc = DrawCtx { ctx: &ctx, geo, scene };
 
-        ctx.begin_scope(&self.scope("frame"), enc);
+        ctx.begin_scope("frame", enc);
         let mut timer = PassTimer::new(&ctx, 2048);
         ctx.end_scope();
 
-        ctx.begin_scope(&self.scope("eye"), enc);
+        ctx.begin_scope("eye", enc);
         let eye: EyeFrame = crate::passes::record_eye(&dc, &raster, enc, &mut timer);
         ctx.end_scope();
 
@@ -400,7 +386,7 @@ impl Renderer {
             }
             let pl = pipelines
                 .get_or_insert_with(|| crate::techniques::Pipelines::new(&ctx, s.technique, s.splat, fc.layer2));
-            ctx.begin_scope(&self.scope(&format!("light{li}")), enc);
+            ctx.begin_scope(&format!("light{li}"), enc);
             let out = crate::passes::record_light(
                 &dc,
                 &raster,
@@ -422,16 +408,16 @@ impl Renderer {
         let light_frames: Vec<&LightFrame> = self.lights.iter().map(|l| &l.as_ref().unwrap().frame).collect();
 
         for (li, lf) in light_frames.iter().enumerate() {
-            ctx.begin_scope(&self.scope(&format!("shade{li}")), enc);
+            ctx.begin_scope(&format!("shade{li}"), enc);
             crate::passes::record_shade(&dc, &eye, lf, &s, enc, &mut timer);
             ctx.end_scope();
         }
-        ctx.begin_scope(&self.scope("composite"), enc);
+        ctx.begin_scope("composite", enc);
         self.outputs = Some(crate::passes::record_composite(&dc, &eye, enc, &mut timer));
         ctx.end_scope();
 
         if request.stats {
-            ctx.begin_scope(&self.scope("stats"), enc);
+            ctx.begin_scope("stats", enc);
             let timestamps = timer.resolve(&ctx, enc);
             ctx.end_scope();
             let mut sources: Vec<(wgpu::Buffer, u64)> = Vec::new();
