@@ -49,6 +49,16 @@ pub(crate) fn technique_parser() -> impl clap::builder::TypedValueParser<Value =
     .map(|s| T::parse(&s).expect("a listed technique"))
 }
 
+/// `--tracer`: the library's photon tracers, by name, with their help.
+pub(crate) fn tracer_parser() -> impl clap::builder::TypedValueParser<Value = caustics::render::Tracer> {
+    use caustics::render::Tracer as T;
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(
+        T::ALL.map(|t| clap::builder::PossibleValue::new(t.name()).help(t.describe())),
+    )
+    .map(|s| T::parse(&s).expect("a listed tracer"))
+}
+
 /// `--splat`: the library's splat modes, by name, with their help.
 pub(crate) fn splat_parser() -> impl clap::builder::TypedValueParser<Value = caustics::render::SplatMode> {
     use caustics::render::SplatMode as S;
@@ -80,6 +90,12 @@ enum Command {
         /// How photons are splatted into the caustic map.
         #[arg(long, default_value = "triangles", value_parser = splat_parser())]
         splat: caustics::render::SplatMode,
+        /// How photons are traced from the first caster to the receiver.
+        #[arg(long, default_value = "exact", value_parser = tracer_parser())]
+        tracer: caustics::render::Tracer,
+        /// Exact tracer: specular interactions a photon path may have (1 to 64).
+        #[arg(long, default_value_t = 8)]
+        max_depth: u32,
         /// Trace only the light transmitted at glass, not the second photon per cell that carries
         /// the light reflected at the first dielectric surface (half the cost; every technique).
         #[arg(long)]
@@ -227,6 +243,7 @@ fn flag_names(e: &mut anyhow::Error) {
         ("shadow_map_size", "--shadow-map"),
         ("camera.size", "--size"),
         ("splat_sigma", "--splat-sigma"),
+        ("max_depth", "--max-depth"),
         ("tessellation", "--tessellation"),
     ];
     if let Some(Error::Input { file, field, .. }) = e.downcast_mut::<Error>()
@@ -251,6 +268,8 @@ fn run(cli: Cli) -> Result<()> {
             size,
             technique,
             splat,
+            tracer,
+            max_depth,
             no_glass_reflection,
             no_light_second_layer,
             tessellation,
@@ -289,6 +308,8 @@ fn run(cli: Cli) -> Result<()> {
                 photons,
                 technique,
                 splat,
+                tracer,
+                max_depth,
                 dielectric_reflection: !no_glass_reflection,
                 light_second_layer: !no_light_second_layer,
                 tessellation: caustics::scene::Tessellation {

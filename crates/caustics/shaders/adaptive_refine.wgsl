@@ -33,6 +33,7 @@
 #import hierarchy
 #import coverage
 #import shapes
+#import raytrace
 #import trace
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
@@ -55,6 +56,10 @@
 @group(0) @binding(16) var front_nrm2: texture_2d_array<f32>;
 @group(0) @binding(17) var back_pos2: texture_2d_array<f32>;
 @group(0) @binding(18) var back_nrm2: texture_2d_array<f32>;
+// The scene's BVH (shared/raytrace.wgsl; used by the exact tracer).
+@group(0) @binding(19) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(20) var<storage, read> bvh_tris: array<BvhTri>;
+@group(0) @binding(21) var<storage, read> bvh_instances: array<BvhInstance>;
 
 // The points of the current cluster traced so far: the corner lattice of its children (point
 // (a, b), a, b in 0..2, at a + 3 b) and the children's centres (child q at KIDS + q, child q

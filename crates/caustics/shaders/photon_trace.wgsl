@@ -12,6 +12,7 @@
 // cell has row-major index batch_offset (hierarchical caustic maps), stored row-major.
 
 #import shapes
+#import raytrace
 #import trace
 
 struct TraceParams {
@@ -41,6 +42,10 @@ struct TraceParams {
 @group(0) @binding(12) var front_nrm2: texture_2d_array<f32>;
 @group(0) @binding(13) var back_pos2: texture_2d_array<f32>;
 @group(0) @binding(14) var back_nrm2: texture_2d_array<f32>;
+// The scene's BVH (shared/raytrace.wgsl; used by the exact tracer).
+@group(0) @binding(15) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(16) var<storage, read> bvh_tris: array<BvhTri>;
+@group(0) @binding(17) var<storage, read> bvh_instances: array<BvhInstance>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3u) {

@@ -8,6 +8,7 @@
 
 #![forbid(unsafe_code)]
 
+pub mod accel;
 pub mod budget;
 pub mod error;
 pub mod gpu;
@@ -15,6 +16,7 @@ pub mod image_io;
 pub mod lightspace;
 pub mod output;
 pub mod passes;
+pub mod raycast;
 pub mod render;
 pub mod renderer;
 pub mod scene;

@@ -18,7 +18,14 @@ pub struct FluxStats {
     pub lost_no_receiver: f64,
     /// Flux that landed outside the caustic map.
     pub lost_outside: f64,
+    /// Photon rays of the exact tracer that would have overflowed the BVH traversal stack
+    /// (they may have missed a surface; reported as an overflow).
+    pub stack_overflows: u64,
 }
+
+/// Bytes of a light's flux bookkeeping buffer: six fixed-point (lo, hi) pairs, the stack
+/// overflow count, three spare words.
+pub const FLUX_STATS_BYTES: u64 = 64;
 
 /// What a GPU render produces.
 #[derive(Debug, Clone)]

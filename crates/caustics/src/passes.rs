@@ -42,6 +42,20 @@ pub(crate) struct Geometry {
     pub materials: wgpu::Buffer,
     /// Per object: [`ObjectTransform`] from the scene file's pose to the current one.
     pub transforms: wgpu::Buffer,
+    /// The exact tracer's BVH (`crate::accel`): bottom levels built once, instances rewritten
+    /// when objects move ([`Geometry::write_instances`]).
+    pub bvh: crate::accel::SceneBvh,
+    pub bvh_nodes: wgpu::Buffer,
+    pub bvh_tris: wgpu::Buffer,
+    pub bvh_instances: wgpu::Buffer,
+}
+
+impl Geometry {
+    /// Write the BVH instances for the objects' transforms (from the scene file's pose).
+    pub(crate) fn write_instances(&self, ctx: &GpuContext, transforms: &[glam::Affine3A]) {
+        let inst = self.bvh.instance_records(transforms);
+        ctx.queue.write_buffer(&self.bvh_instances, 0, bytemuck::cast_slice(&inst));
+    }
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -84,7 +98,14 @@ pub(crate) fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation)
     let storage = wgpu::BufferUsages::STORAGE;
     let identity = glam::Affine3A::IDENTITY;
     let transforms: Vec<ObjectTransform> = scene.objects.iter().map(|_| object_transform(&identity)).collect();
+    let bvh = crate::accel::SceneBvh::build(scene);
+    let (nodes, tris) = bvh.gpu_arrays();
+    let inst = bvh.instance_records(&[]);
     Geometry {
+        bvh_nodes: ctx.buffer_init("bvh_nodes", bytemuck::cast_slice(&nodes), storage),
+        bvh_tris: ctx.buffer_init("bvh_tris", bytemuck::cast_slice(&tris), storage),
+        bvh_instances: ctx.buffer_init("bvh_instances", bytemuck::cast_slice(&inst), storage),
+        bvh,
         vertices: ctx.buffer_init("vertices", bytemuck::cast_slice(&vertices), wgpu::BufferUsages::VERTEX),
         indices: ctx.buffer_init("indices", bytemuck::cast_slice(&indices), wgpu::BufferUsages::INDEX),
         ranges,
@@ -558,6 +579,9 @@ impl RenderSettings {
                 format!("the {} photon grid must be 16 to {max_n} per side (got {})", self.technique, self.photons),
             );
         }
+        if !(1..=64).contains(&self.max_depth) {
+            return cl("max_depth", format!("must be 1 to 64 interactions (got {})", self.max_depth));
+        }
         if !(self.quad_linearity >= 0.0 && self.quad_linearity <= 1e6) {
             return cl("quad_linearity", format!("must be 0 or more texels (got {})", self.quad_linearity));
         }
@@ -830,7 +854,7 @@ pub(crate) fn record_light(
     let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
     let accum = ctx.buffer("caustic_flux", texels * 24, usage);
     let irradiance = ctx.buffer("caustic_irradiance", texels * 16, usage);
-    let stats = ctx.buffer("flux_stats", 48, usage);
+    let stats = ctx.buffer("flux_stats", crate::output::FLUX_STATS_BYTES, usage);
     let splat_targets = crate::splat::SplatTargets::new(ctx, s.splat, texels, nf);
     let [fpv, fnv, bpv, bnv, rpv, rnv] =
         [&front.pos, &front.nrm, &back.pos, &back.nrm, &recv.pos, &recv.nrm].map(|t| array_view(ctx, t));
@@ -852,6 +876,7 @@ pub(crate) fn record_light(
         recv_pos: &rpv,
         recv_nrm: &rnv,
         materials: &dc.geo.materials,
+        bvh: [&dc.geo.bvh_nodes, &dc.geo.bvh_tris, &dc.geo.bvh_instances],
         stats: &stats,
         accum: &accum,
         splat_targets: &splat_targets,
@@ -1097,6 +1122,7 @@ pub(crate) fn flux_stats(words: &[u8], scale: f64) -> FluxStats {
         lost_tir: v(6),
         lost_no_receiver: v(8),
         lost_outside: v(10),
+        stack_overflows: u64::from(sw[12]),
     }
 }
 

@@ -350,6 +350,7 @@ impl Renderer {
         if self.objects_dirty {
             let t: Vec<_> = self.transforms.iter().map(crate::passes::object_transform).collect();
             ctx.queue.write_buffer(&geo.transforms, 0, bytemuck::cast_slice(&t));
+            geo.write_instances(&ctx, &self.transforms);
             let m = crate::passes::material_records(&self.scene);
             ctx.queue.write_buffer(&geo.materials, 0, bytemuck::cast_slice(&m));
             self.objects_dirty = false;
@@ -385,7 +386,7 @@ impl Renderer {
                 continue;
             }
             let pl = pipelines
-                .get_or_insert_with(|| crate::techniques::Pipelines::new(&ctx, s.technique, s.splat, fc.layer2));
+                .get_or_insert_with(|| crate::techniques::Pipelines::new(&ctx, &s, fc.layer2));
             ctx.begin_scope(&format!("light{li}"), enc);
             let out = crate::passes::record_light(
                 &dc,
@@ -426,7 +427,7 @@ impl Renderer {
                 (timer.names().to_vec(), 0, size)
             });
             for lf in &light_frames {
-                sources.push((lf.stats.clone(), 48));
+                sources.push((lf.stats.clone(), crate::output::FLUX_STATS_BYTES));
             }
             let piece_lists: Vec<Vec<(wgpu::Buffer, u64)>> = pendings.iter().map(|p| p.sources()).collect();
             for list in &piece_lists {
@@ -535,7 +536,7 @@ impl Renderer {
                     .as_ref()
                     .map(|(names, off, size)| PassTimer::timings(names, &piece(*off, *size), period))
                     .unwrap_or_default(),
-                flux: job.flux.iter().map(|&(off, scale)| crate::passes::flux_stats(&piece(off, 48), scale)).collect(),
+                flux: job.flux.iter().map(|&(off, scale)| crate::passes::flux_stats(&piece(off, crate::output::FLUX_STATS_BYTES), scale)).collect(),
                 lights_redone: job.lights_redone,
                 ..Default::default()
             };
@@ -554,6 +555,16 @@ impl Renderer {
                         stats.overflow = Some(m);
                     }
                 }
+            }
+            let overflows: u64 = stats.flux.iter().map(|f| f.stack_overflows).sum();
+            if overflows > 0 {
+                let m = format!(
+                    "{overflows} photon rays overflowed the BVH traversal stack ({} entries) and may have missed \
+                     a surface",
+                    crate::accel::BVH_STACK
+                );
+                self.last_error = Some(m.clone());
+                stats.overflow.get_or_insert(m);
             }
             if self.latest.as_ref().is_none_or(|l| l.frame <= stats.frame) {
                 self.latest = Some(stats);

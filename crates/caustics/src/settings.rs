@@ -72,6 +72,49 @@ impl std::fmt::Display for Technique {
     }
 }
 
+/// How photons find their way from the first caster to the receiver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum Tracer {
+    /// Exact paths through the scene: meshes by a BVH, analytic shapes in closed form, every
+    /// interface with Fresnel, total internal reflection, up to `max_depth` interactions
+    /// (`shaders/shared/raytrace.wgsl`, `src/accel.rs`).
+    #[default]
+    Exact,
+    /// The papers' image-space tracer: the light's caster front/back buffers (and their second
+    /// layer), marched; the receiver found in the receiver map.
+    ImageSpace,
+}
+
+impl Tracer {
+    pub const ALL: [Tracer; 2] = [Tracer::Exact, Tracer::ImageSpace];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Tracer::Exact => "exact",
+            Tracer::ImageSpace => "image-space",
+        }
+    }
+
+    /// One line on what it does (the command line's help).
+    pub fn describe(self) -> &'static str {
+        match self {
+            Tracer::Exact => "Exact photon paths through a BVH of the scene (the default)",
+            Tracer::ImageSpace => "The papers' image-space tracer through the light's caster buffers (for comparison)",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Tracer> {
+        Tracer::ALL.into_iter().find(|t| t.name() == s.trim())
+    }
+}
+
+impl std::fmt::Display for Tracer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// How photons are splatted into the caustic map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
 pub enum SplatMode {
@@ -182,6 +225,11 @@ pub struct RenderSettings {
     pub photons: u32,
     /// How photons are emitted.
     pub technique: Technique,
+    /// How photons are traced from the first caster to the receiver.
+    pub tracer: Tracer,
+    /// Exact tracer: specular interactions a photon path may have before it is given up (its
+    /// flux is then booked as lost).
+    pub max_depth: u32,
     /// Adaptive techniques: the coarse grid the hierarchy starts from (a power of two).
     pub base_grid: u32,
     /// Maximal caustic map error: a cluster converges when its photons land in one caustic-map
@@ -236,6 +284,8 @@ impl Default for RenderSettings {
         RenderSettings {
             photons: 1024,
             technique: Technique::Basic,
+            tracer: Tracer::default(),
+            max_depth: 8,
             base_grid: 64,
             max_error_tolerance: 0.0,
             error_check_grid: 512,

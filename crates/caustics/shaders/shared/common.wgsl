@@ -39,6 +39,39 @@ struct Photon {
     flux: vec4f,
 }
 
+// The scene's BVH (src/accel.rs, shared/raytrace.wgsl). A node: count == 0: inner, children
+// a and a + 1; otherwise a leaf of `count` triangles from a.
+struct BvhNode {
+    lo: vec3f,
+    a: u32,
+    hi: vec3f,
+    count: u32,
+}
+
+// A triangle in leaf order: positions (p0.w: the mesh's triangle index, f32 bits) and vertex
+// shading normals, in the scene file's pose.
+struct BvhTri {
+    p0: vec4f,
+    p1: vec4f,
+    p2: vec4f,
+    n0: vec4f,
+    n1: vec4f,
+    n2: vec4f,
+}
+
+// A mesh object of the top level: world -> BVH space and back (rows of 3 x 4 matrices), world
+// bounds, root node, first triangle, object index (INVALID: no instance).
+struct BvhInstance {
+    to_object: array<vec4f, 3>,
+    to_world: array<vec4f, 3>,
+    lo: vec4f,
+    hi: vec4f,
+    root: u32,
+    first_tri: u32,
+    object: u32,
+    _pad: u32,
+}
+
 // Per-object material, indexed by object id.
 struct MaterialGpu {
     // x = kind (0 diffuse, 1 dielectric, 2 mirror, 3 conductor), y = caster (1/0),

@@ -44,6 +44,13 @@ fn rd_active() -> bool {
 // place.
 override trace_light_layer2: bool = true;
 var<private> rd_from: vec3f;
+// The tracer (src/settings.rs `Tracer`): false, the papers' image-space tracer (light-space
+// caster buffers, marched); true, exact paths through the scene (shared/raytrace.wgsl).
+override trace_exact: bool = false;
+// Specular interactions an exact path may have before it is given up (`RenderSettings::max_depth`).
+override trace_max_depth: u32 = 8u;
+// The exact tracer's current surface (surface_dn reads the mesh triangle's normals there).
+var<private> exact_hit: SceneHit;
 var<private> rd_pu: vec3f;
 var<private> rd_pv: vec3f;
 var<private> rd_du: vec3f;
@@ -600,6 +607,12 @@ fn surface_dn(mat: MaterialGpu, p: vec3f, nref: vec3f, dp_in: vec3f) -> vec3f {
         return s * (dp - a * dot(dp, a)) / mat.s0.w;
     }
     if (mat.kind.z == SHAPE_RECTANGLE) { return vec3f(0.0); }
+    if (trace_exact) {
+        // The mesh triangle the exact tracer hit at p.
+        if (exact_hit.tri == INVALID) { return vec3f(0.0); }
+        let s = select(-1.0, 1.0, dot(nref, exact_hit.ns) >= 0.0);
+        return s * rt_mesh_dn(exact_hit, dp);
+    }
     let g = f32(light.params.w);
     for (var f = 0u; f < light.info.x; f++) {
         let q = project_face(light.faces[f], p, g);
@@ -743,7 +756,7 @@ fn beam_diameter(f: u32, hit: vec3f, dir: vec3f, m: f32, uv: vec2f) -> f32 {
 // Trace the photon of the light-view cell centred at `ndc` (NDC size `cell`) of face `layer`.
 // Returns face = INVALID when it carries no caustic (missed the casters, lost on the way).
 // Adds its flux to the bookkeeping in `stats`.
-fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
+fn trace_photon_image(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var out: Photon;
     out.face = INVALID;
     out.flux = vec4f(0.0);
@@ -764,26 +777,8 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var flux = cell_flux(layer, ndc, cell, d);
     let total_in = flux.r + flux.g + flux.b;
     if (total_in <= 0.0) { return out; }
-    rd_on = splat_mode() > 2.5;
-    if (rd_active()) {
-        // The cell's rays: across the whole cell along each grid axis (central differences).
-        let hu = vec2f(0.5 * cell.x, 0.0);
-        let hv = vec2f(0.0, 0.5 * cell.y);
-        let ray = array<vec2f, 4>(ndc + hu, ndc - hu, ndc + hv, ndc - hv);
-        var ro: array<vec3f, 4>;
-        var rdir: array<vec3f, 4>;
-        for (var k = 0u; k < 4u; k++) {
-            let ak = face.clip_to_world * vec4f(ray[k], 0.0, 1.0);
-            let bk = face.clip_to_world * vec4f(ray[k], 1.0, 1.0);
-            ro[k] = ak.xyz / ak.w;
-            rdir[k] = normalize(bk.xyz / bk.w - ro[k]);
-        }
-        rd_pu = ro[0] - ro[1];
-        rd_pv = ro[2] - ro[3];
-        rd_du = rdir[0] - rdir[1];
-        rd_dv = rdir[2] - rdir[3];
-        rd_from = a;
-    }
+    // The cell's rays: across the whole cell along each grid axis (central differences).
+    rd_begin(layer, ndc, cell, a);
     // Flux onto the casters is booked once, by the transmitted branch.
     if (!trace_reflect) { add_fixed(0u, total_in); }
 
@@ -859,4 +854,173 @@ fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
         return out;
     }
     return out;
+}
+
+// The setup both tracers share for the photon of a cell: the ray differentials across the
+// cell (light.splat.x == 3), from the light ray (a, d) through the cell's centre.
+fn rd_begin(layer: u32, ndc: vec2f, cell: vec2f, a: vec3f) {
+    rd_on = splat_mode() > 2.5;
+    if (!rd_active()) { return; }
+    let face = light.faces[layer];
+    let hu = vec2f(0.5 * cell.x, 0.0);
+    let hv = vec2f(0.0, 0.5 * cell.y);
+    let ray = array<vec2f, 4>(ndc + hu, ndc - hu, ndc + hv, ndc - hv);
+    var ro: array<vec3f, 4>;
+    var rdir: array<vec3f, 4>;
+    for (var k = 0u; k < 4u; k++) {
+        let ak = face.clip_to_world * vec4f(ray[k], 0.0, 1.0);
+        let bk = face.clip_to_world * vec4f(ray[k], 1.0, 1.0);
+        ro[k] = ak.xyz / ak.w;
+        rdir[k] = normalize(bk.xyz / bk.w - ro[k]);
+    }
+    rd_pu = ro[0] - ro[1];
+    rd_pv = ro[2] - ro[3];
+    rd_du = rdir[0] - rdir[1];
+    rd_dv = rdir[2] - rdir[3];
+    rd_from = a;
+}
+
+// The photon of the light-view cell at `ndc` on its exact path: from the light through the
+// scene (shared/raytrace.wgsl: meshes by their BVH, analytic shapes in closed form) to the
+// first diffuse surface, with refraction and reflection at every interface (shading normals
+// as the CPU reference uses them), total internal reflection, up to trace_max_depth specular
+// interactions, any number of casters in any arrangement.
+// Fresnel: the flux splits deterministically at every dielectric interface: a photon follows
+// one branch of the tree of paths (transmitted, weighted 1 - F, except where the branch mask
+// says reflected, weighted F; total internal reflection reflects all), so that neighbouring
+// photons take the same branch and caustic triangles stay continuous. The transmitted path
+// and (trace_reflect) the path reflected at the first surface are traced; the flux of the
+// other branches (light reflected inside a dielectric and leaving later) is not, as in the
+// image-space tracer: it is the part of the CPU reference's caustic the GPU lacks.
+// (Choosing the branch at random per photon, as the CPU reference does, is unbiased but
+// breaks the caustic triangles between neighbours that chose differently.) Bookkeeping as trace_photon_image: 0 onto
+// casters, 2 landed, 6 lost after trace_max_depth interactions, 8 left the scene, 10 landed
+// outside the map.
+fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
+    var out: Photon;
+    out.face = INVALID;
+    out.flux = vec4f(0.0);
+    let face = light.faces[layer];
+    let a4 = face.clip_to_world * vec4f(ndc, 0.0, 1.0);
+    let b4 = face.clip_to_world * vec4f(ndc, 1.0, 1.0);
+    let a = a4.xyz / a4.w;
+    let d = normalize(b4.xyz / b4.w - a);
+    let g = f32(light.params.w);
+    let uv = vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * g;
+
+    var h = scene_hit(a, d, 1e30);
+    if (h.object == INVALID) { return out; }
+    let first = h;
+    let mat0 = materials[h.object];
+    if (mat0.kind.y == 0u || mat0.kind.x == KIND_DIFFUSE) { return out; }
+    var flux = cell_flux(layer, ndc, cell, d);
+    let total_in = flux.r + flux.g + flux.b;
+    if (total_in <= 0.0) { return out; }
+    rd_begin(layer, ndc, cell, a);
+    if (!trace_reflect) { add_fixed(0u, total_in); }
+    let branch = u32(trace_reflect);
+
+    var dir = d;
+    var sig = 0u;
+    var lens_ready = false;
+    lens_exit_p = first.p;
+    var depth = 0u;
+    loop {
+        let mat = materials[h.object];
+        if (mat.kind.x == KIND_DIFFUSE) { break; }
+        if (depth >= trace_max_depth) {
+            add_fixed(6u, flux.r + flux.g + flux.b);
+            return out;
+        }
+        exact_hit = h;
+        if (rd_active()) { rd_transfer(dir, dot(h.p - rd_from, dir), h.ng); }
+        let front = dot(dir, h.ng) < 0.0;
+        let ng = select(-h.ng, h.ng, front);
+        let ns = select(-h.ns, h.ns, front);
+        var n = ns;
+        var new_dir = vec3f(0.0);
+        var reflected = true;
+        var eta_rd = 1.0;
+        if (mat.kind.x == KIND_MIRROR || mat.kind.x == KIND_CONDUCTOR) {
+            let cos_i = clamp(-dot(dir, ns), 0.0, 1.0);
+            if (mat.kind.x == KIND_MIRROR) { flux *= mat.a.rgb; } else { flux *= fresnel_conductor(cos_i, mat.a.rgb, mat.b.rgb); }
+        } else {
+            // Dielectric: eta = n_transmitted / n_incident.
+            let eta = select(mat.a.y / mat.a.x, mat.a.x / mat.a.y, front);
+            var cos_i = -dot(dir, n);
+            if (cos_i <= 0.0) { n = ng; cos_i = -dot(dir, n); }
+            let f = fresnel_dielectric(cos_i, eta);
+            // The branch of this interface: reflected where the branch mask says so (bit 0:
+            // trace_reflect), transmitted otherwise; total internal reflection reflects all.
+            let want = depth < 32u && ((branch >> depth) & 1u) == 1u;
+            reflected = want || f >= 1.0;
+            flux *= select(1.0 - f, select(f, 1.0, f >= 1.0), reflected);
+            if (!reflected) {
+                var t = refract_dir(dir, n, 1.0 / eta);
+                if (dot(t.xyz, ng) >= 0.0) { t = refract_dir(dir, ng, 1.0 / eta); n = ng; }
+                if (t.w < 0.5) {
+                    reflected = true;
+                } else {
+                    new_dir = t.xyz;
+                    eta_rd = 1.0 / eta;
+                }
+            }
+        }
+        if (reflected) {
+            new_dir = reflect(dir, n);
+            if (dot(new_dir, ng) <= 0.0) { n = ng; new_dir = reflect(dir, ng); }
+        }
+        rd_interface(mat, h.p, n, dir, new_dir, eta_rd, reflected);
+        sig = (sig * 31u + h.object * 8u + u32(reflected) * 2u + u32(front) + 1u) & 0xffffffu;
+        // The lens equations' exit: where the photon first leaves the first object.
+        if (!lens_ready && depth > 0u && !reflected && !front && h.object == first.object) {
+            lens_exit_p = h.p;
+            lens_ready = true;
+        }
+        dir = new_dir;
+        let o = rt_spawn(h.p, h.ng, dir);
+        rd_from = h.p;
+        depth++;
+        if (flux.r + flux.g + flux.b <= 0.0) { return out; }
+        h = scene_hit(o, dir, 1e30);
+        if (h.object == INVALID) {
+            add_fixed(8u, flux.r + flux.g + flux.b);
+            return out;
+        }
+    }
+    let total = flux.r + flux.g + flux.b;
+    var lens = vec4f(0.0);
+    if (splat_mode() > 0.5 && splat_mode() < 2.5 && !trace_reflect) {
+        lens = lens_power(materials[first.object], layer, uv, d, first.p, g);
+    }
+    let m = f32(light.info.w);
+    for (var f = 0u; f < light.info.x; f++) {
+        let q = project_face(light.faces[f], h.p, m);
+        if (q.w > 0.5) {
+            out.pos = q.xy;
+            out.face = f;
+            out.flux = vec4f(flux, f32(sig));
+            if (lens.w > 0.0) {
+                out._pad = bitcast<u32>(lens_diameter(lens, light_dist(face, first.p), length(h.p - lens_exit_p), cell.x * 0.5 * m));
+            }
+            if (rd_active()) { out._pad = bitcast<u32>(beam_diameter(f, h.p, dir, m, q.xy)); }
+            add_fixed(2u, total);
+            return out;
+        }
+    }
+    add_fixed(10u, total);
+    return out;
+}
+
+// The photon of the light-view cell centred at `ndc` (NDC size `cell`) of face `layer`, by
+// the tracer the pipeline was built for. Returns face = INVALID when it carries no caustic.
+// Stack overflows of the exact tracer are counted in stats word 12.
+fn trace_photon(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
+    if (trace_exact) {
+        rt_overflow = 0u;
+        let p = trace_photon_exact(layer, ndc, cell);
+        if (rt_overflow > 0u) { atomicAdd(&stats[12u], rt_overflow); }
+        return p;
+    }
+    return trace_photon_image(layer, ndc, cell);
 }

@@ -32,6 +32,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("caustic_triangles", include_str!("../../shaders/caustic_triangles.wgsl")),
     ("splat_quads", include_str!("../../shaders/splat_quads.wgsl")),
     ("display", include_str!("../../shaders/display.wgsl")),
+    ("ray_query", include_str!("../../shaders/ray_query.wgsl")),
 ];
 pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 
@@ -39,6 +40,7 @@ pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 pub const SHARED: &[(&str, &str)] = &[
     ("shapes", include_str!("../../shaders/shared/shapes.wgsl")),
     ("raster_common", include_str!("../../shaders/shared/raster_common.wgsl")),
+    ("raytrace", include_str!("../../shaders/shared/raytrace.wgsl")),
     ("trace", include_str!("../../shaders/shared/trace.wgsl")),
     ("hierarchy", include_str!("../../shaders/shared/hierarchy.wgsl")),
     ("coverage", include_str!("../../shaders/shared/coverage.wgsl")),

@@ -200,6 +200,74 @@ pub struct ObjectTransform {
     pub normal: [[f32; 4]; 4],
 }
 
+/// A node of a bottom-level BVH (`shared/raytrace.wgsl`): `count == 0`: inner node whose
+/// children are nodes `a` and `a + 1`; otherwise a leaf of `count` triangles from `a`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct BvhNode {
+    pub lo: [f32; 3],
+    pub a: u32,
+    pub hi: [f32; 3],
+    pub count: u32,
+}
+
+/// A triangle of a bottom-level BVH: positions (`p0.w`: the mesh's triangle index, as f32
+/// bits) and the shading normals of its vertices, in the scene file's pose.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct BvhTri {
+    pub p0: [f32; 4],
+    pub p1: [f32; 4],
+    pub p2: [f32; 4],
+    pub n0: [f32; 4],
+    pub n1: [f32; 4],
+    pub n2: [f32; 4],
+}
+
+/// A mesh object in the top level: the maps from world to its BVH's space and back (rows of
+/// 3 × 4 matrices: similarity transforms), its world bounds, its root node, first triangle and
+/// object index.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct BvhInstance {
+    pub to_object: [[f32; 4]; 3],
+    pub to_world: [[f32; 4]; 3],
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+    pub root: u32,
+    pub first_tri: u32,
+    pub object: u32,
+    pub _pad: u32,
+}
+
+/// A ray of `ray_query`: origin (w: t_max), unit direction.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct RayQuery {
+    pub o: [f32; 4],
+    pub d: [f32; 4],
+}
+
+/// What `ray_query` found: t (< 0: nothing), object, the mesh's triangle index, stack
+/// overflows, the geometric normal.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct RayResult {
+    pub t: f32,
+    pub object: u32,
+    pub triangle: u32,
+    pub overflows: u32,
+    pub ng: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct QueryParams {
+    pub count: u32,
+    pub any_hit: u32,
+    pub _pad: [u32; 2],
+}
+
 /// Tone mapping of the radiance image for display (`display`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
@@ -282,4 +350,10 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("BlendParams", "BlendParams", std::mem::size_of::<BlendParams>()),
     ("ObjectTransform", "ObjectTransform", std::mem::size_of::<ObjectTransform>()),
     ("DisplayParams", "DisplayParams", std::mem::size_of::<DisplayParams>()),
+    ("BvhNode", "BvhNode", std::mem::size_of::<BvhNode>()),
+    ("RayQuery", "RayQuery", std::mem::size_of::<RayQuery>()),
+    ("RayResult", "RayResult", std::mem::size_of::<RayResult>()),
+    ("QueryParams", "QueryParams", std::mem::size_of::<QueryParams>()),
+    ("BvhTri", "BvhTri", std::mem::size_of::<BvhTri>()),
+    ("BvhInstance", "BvhInstance", std::mem::size_of::<BvhInstance>()),
 ];

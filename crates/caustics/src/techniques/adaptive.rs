@@ -265,6 +265,9 @@ impl Adaptive {
                     wgpu::BindingResource::TextureView(e.layer2[1]),
                     wgpu::BindingResource::TextureView(e.layer2[2]),
                     wgpu::BindingResource::TextureView(e.layer2[3]),
+                    e.bvh[0].as_entire_binding(),
+                    e.bvh[1].as_entire_binding(),
+                    e.bvh[2].as_entire_binding(),
                 ],
             );
             let sbg = setup(LevelParams { level: p.level(grid * 2), ..lp });

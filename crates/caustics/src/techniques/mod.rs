@@ -110,14 +110,21 @@ pub(crate) struct Pipelines {
 }
 
 impl Pipelines {
-    pub fn new(ctx: &GpuContext, t: Technique, splat: crate::splat::SplatMode, layer2: bool) -> Pipelines {
+    pub fn new(ctx: &GpuContext, s: &RenderSettings, layer2: bool) -> Pipelines {
+        let (t, splat) = (s.technique, s.splat);
         let hier = t != Technique::Basic;
         let p = |name: &str, on: bool| on.then(|| ctx.compute_pipeline(name));
         // The tracing stages are built for the splat mode (shared/trace.wgsl, trace_splat_mode),
         // which compiles out the lens and ray-differential code the mode does not use.
         // And for whether the light's second caster layer is used (trace_light_layer2).
-        let mode =
-            [("trace_splat_mode", f64::from(splat.lens_flag(t))), ("trace_light_layer2", f64::from(u8::from(layer2)))];
+        // And for the tracer (trace_exact, trace_max_depth).
+        let exact = s.tracer == crate::settings::Tracer::Exact;
+        let mode = [
+            ("trace_splat_mode", f64::from(splat.lens_flag(t))),
+            ("trace_light_layer2", f64::from(u8::from(layer2 && !exact))),
+            ("trace_exact", f64::from(u8::from(exact))),
+            ("trace_max_depth", f64::from(s.max_depth)),
+        ];
         let traced = |name: &str, on: bool| on.then(|| ctx.compute_pipeline_with(name, &mode));
         Pipelines {
             trace: traced("photon_trace", !t.is_adaptive()),
@@ -151,6 +158,8 @@ pub(crate) struct Emit<'a> {
     pub recv_pos: &'a wgpu::TextureView,
     pub recv_nrm: &'a wgpu::TextureView,
     pub materials: &'a wgpu::Buffer,
+    /// The scene's BVH for the exact tracer: nodes, triangles, instances (`crate::accel`).
+    pub bvh: [&'a wgpu::Buffer; 3],
     pub stats: &'a wgpu::Buffer,
     pub accum: &'a wgpu::Buffer,
     /// The splat mode's extra buffers (multi-resolution maps).
@@ -194,6 +203,9 @@ impl Emit<'_> {
                 wgpu::BindingResource::TextureView(self.layer2[1]),
                 wgpu::BindingResource::TextureView(self.layer2[2]),
                 wgpu::BindingResource::TextureView(self.layer2[3]),
+                self.bvh[0].as_entire_binding(),
+                self.bvh[1].as_entire_binding(),
+                self.bvh[2].as_entire_binding(),
             ],
         )
     }

@@ -1,0 +1,112 @@
+//! The two GPU photon tracers (exact, image-space) against the CPU reference, one run per scene:
+//! caustic maps (energy ratio, relative RMSE, and the CPU reference's own noise at the GPU's
+//! photon count) and the camera's caustic image in the caustic region (HDR-FLIP, energy), with
+//! GPU ms of the photon pass and photons per ms.
+//!
+//! `cargo run --release -p caustics-reference --example tracers -- [--grid N] [--map M]
+//!  [--cpu-photons P] [--technique T] [--out DIR] SCENE...`
+//!
+//! The caustic region: pixels where the reference's or the GPU's caustic exceeds 2 % of the
+//! reference's 99.5th-percentile luminance (a misplaced caustic counts against the GPU).
+use caustics::image_io::Image;
+use caustics::render::{RenderSettings, Technique, Tracer};
+use caustics_reference::ImageIo as _;
+use caustics_reference::metrics::{self, Mask};
+use caustics_reference::reference::{self, ReferenceSettings};
+
+fn region(cpu: &Image, gpu: &Image) -> Mask {
+    let mut l: Vec<f32> = cpu.luminance().into_iter().filter(|&x| x > 0.0).collect();
+    l.sort_by(f32::total_cmp);
+    let p = l.get((l.len() as f64 * 0.995) as usize).copied().unwrap_or(0.0);
+    let t = 0.02 * p;
+    let sel: Vec<bool> = cpu.luminance().iter().zip(gpu.luminance()).map(|(&a, b)| a > t || b > t).collect();
+    let mut img = Image::new(cpu.width, cpu.height);
+    for (px, s) in img.pixels.iter_mut().zip(&sel) {
+        *px = if *s { [1.0; 3] } else { [0.0; 3] };
+    }
+    Mask::from_image(&img, false)
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let (mut grid, mut map, mut cpu_photons, mut technique, mut out) =
+        (512u32, 256u32, 8_000_000u64, Technique::Basic, None::<std::path::PathBuf>);
+    let mut scenes = Vec::new();
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--grid" => grid = args.next().unwrap().parse().unwrap(),
+            "--map" => map = args.next().unwrap().parse().unwrap(),
+            "--cpu-photons" => cpu_photons = args.next().unwrap().parse().unwrap(),
+            "--technique" => technique = Technique::parse(&args.next().unwrap()).expect("a technique"),
+            "--out" => out = Some(args.next().unwrap().into()),
+            _ => scenes.push(a),
+        }
+    }
+    let ctx = caustics::gpu::GpuContext::new(None).expect("a GPU adapter");
+    println!("adapter: {}", ctx.info.name);
+    println!(
+        "| scene | tracer | map energy | map rel. RMSE | CPU noise at GPU count | ratio | region FLIP | region energy | photon ms | photons/ms |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for path in &scenes {
+        let mut scene = caustics::Scene::load(std::path::Path::new(path)).expect("scene");
+        scene.camera.width = scene.camera.width.min(320);
+        scene.camera.height = scene.camera.height.min(320);
+        let name = std::path::Path::new(path).file_stem().unwrap().to_string_lossy().to_string();
+        let rs = |photons: u64, seed: u64| ReferenceSettings {
+            photons_per_light: photons,
+            caustic_map_size: map,
+            camera_spp: 1,
+            seed,
+            ..Default::default()
+        };
+        let cpu = reference::render(&scene, &rs(cpu_photons, 0)).expect("reference");
+        let mut rows = Vec::new();
+        for tracer in [Tracer::Exact, Tracer::ImageSpace] {
+            let s = RenderSettings {
+                photons: grid,
+                caustic_map_size: map,
+                shadow_map_size: 1024,
+                technique,
+                tracer,
+                ..Default::default()
+            };
+            let gpu = caustics::render::render(&ctx, &scene, &s).expect("gpu render");
+            let relevant = gpu.technique.relevant.max(1);
+            let photon_ms: f64 = gpu
+                .timings
+                .iter()
+                .filter(|(n, _)| n.contains("trace") || n.contains("refine") || n.contains("hcm"))
+                .map(|(_, ms)| ms)
+                .sum();
+            rows.push((tracer, gpu, relevant, photon_ms));
+        }
+        // The CPU reference's own noise at the GPU's photon count (relevant photons of the exact
+        // tracer's run), against the same high-count reference.
+        let cpu_lo = reference::caustic_maps(&scene, &rs(rows[0].2, 7)).expect("reference");
+        let noise = metrics::map_agreement(&cpu_lo[0][0], &cpu.caustic_maps[0][0]).rel_rmse;
+        for (tracer, gpu, _, photon_ms) in &rows {
+            let m = metrics::map_agreement(&gpu.caustic_maps[0][0], &cpu.caustic_maps[0][0]);
+            let mask = region(&cpu.caustic, &gpu.caustic);
+            let flip = metrics::hdr_flip(&gpu.caustic, &cpu.caustic, Some(&mask)).expect("flip");
+            let e = metrics::energy_ratio(&gpu.caustic, &cpu.caustic, Some(&mask)).expect("energy");
+            let per_ms = if *photon_ms > 0.0 { gpu.photons_traced as f64 / photon_ms } else { f64::NAN };
+            println!(
+                "| {name} | {tracer} | {:.4} | {:.4} | {noise:.4} | {:.2} | {:.3} | {e:.4} | {photon_ms:.1} | {per_ms:.0} |",
+                m.energy_ratio,
+                m.rel_rmse,
+                m.rel_rmse / noise,
+                flip.mean
+            );
+            if let Some(dir) = &out {
+                std::fs::create_dir_all(dir).unwrap();
+                gpu.caustic.write(&dir.join(format!("{name}_{tracer}_caustic.exr")), 1.0).unwrap();
+                gpu.image.write(&dir.join(format!("{name}_{tracer}.png")), 1.0).unwrap();
+            }
+        }
+        if let Some(dir) = &out {
+            cpu.caustic.write(&dir.join(format!("{name}_cpu_caustic.exr")), 1.0).unwrap();
+            cpu.image.write(&dir.join(format!("{name}_cpu.png")), 1.0).unwrap();
+        }
+    }
+}
