@@ -58,6 +58,10 @@ pub struct BenchArgs {
     /// Splat mode for every technique: fixed, multires, thin-lens, thick-lens, triangles.
     #[arg(long, default_value = "triangles")]
     splat: String,
+    /// Photon tracer for every technique (the two side by side against the CPU reference:
+    /// `cargo run --release -p caustics-reference --example tracers`).
+    #[arg(long, default_value = "exact", value_parser = crate::tracer_parser())]
+    tracer: caustics::render::Tracer,
     /// Also time the CPU reference renderer with this many photon paths per light, on one
     /// thread and on all (photon paths and rays per second; written to bench_SCENE_cpu.md).
     /// With `--technique none` only the CPU reference is timed.
@@ -229,7 +233,7 @@ fn markdown(
     let _ = writeln!(s, "# Photon emission techniques: {scene}\n");
     let _ = writeln!(
         s,
-        "Adapter: {adapter}. Caustic map {0}x{0}, photon memory {1} MiB, base grid {2}, splat {7}, max-error tolerance {3} texels (0: one texel){8}, camera {4}x{5}. Coverage (casters in the light's view): **{6:.2} %**.\n",
+        "Adapter: {adapter}. Caustic map {0}x{0}, photon memory {1} MiB, base grid {2}, splat {7}, tracer {9}, max-error tolerance {3} texels (0: one texel){8}, camera {4}x{5}. Coverage (casters in the light's view): **{6:.2} %**.\n",
         a.caustic_map,
         a.photon_memory,
         a.base_grid,
@@ -242,7 +246,8 @@ fn markdown(
             ", every level checked (the paper's traversal)"
         } else {
             ", hopeless check levels skipped"
-        }
+        },
+        a.tracer,
     );
     let _ = writeln!(s, "## Photons splatted (Table 1 of Wyman & Nichols 2009)\n");
     let mut head = String::from("| photon grid | relevant |");
@@ -603,6 +608,7 @@ fn settings(a: &BenchArgs, t: Technique, n: u32, splat: caustics::splat::SplatMo
         caustic_map_size: a.caustic_map,
         photon_memory: a.photon_memory.saturating_mul(1 << 20),
         splat,
+        tracer: a.tracer,
         ..Default::default()
     }
 }

@@ -454,8 +454,8 @@ fn report_gpu(out: &GpuRender, wall_ms: f64) {
     }
     for (i, f) in out.flux.iter().enumerate() {
         println!(
-            "light {i}: caustic flux {:.4} W onto casters, {:.4} W in the caustic map; lost: {:.4} W no exit, {:.4} W total internal reflection, {:.4} W no receiver, {:.4} W outside the map",
-            f.emitted, f.landed, f.lost_no_exit, f.lost_tir, f.lost_no_receiver, f.lost_outside
+            "light {i}: caustic flux {:.4} W onto casters, {:.4} W in the caustic map; lost: {:.4} W no exit, {:.4} W total internal reflection, {:.4} W no receiver, {:.4} W outside the map; {:.4} W in Fresnel branches not traced",
+            f.emitted, f.landed, f.lost_no_exit, f.lost_tir, f.lost_no_receiver, f.lost_outside, f.untraced_branches
         );
     }
     println!("frame: {:.1} ms from submission to completion (host clock)", out.frame_wall_ms);

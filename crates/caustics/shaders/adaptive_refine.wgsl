@@ -213,8 +213,9 @@ fn hopeless_levels(spread: f32) -> u32 {
 
 fn flush_pending() {
     trace_defer = false;
-    for (var s = 0u; s < 6u; s++) {
-        if (trace_pending[s] > 0.0) { add_fixed(2u * s, trace_pending[s]); }
+    // Pairs 0..5 and 7 (words 14, 15: untraced branches); word 12 is a plain counter.
+    for (var s = 0u; s < 8u; s++) {
+        if (s != 6u && trace_pending[s] > 0.0) { add_fixed(2u * s, trace_pending[s]); }
     }
 }
 
@@ -362,6 +363,7 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     let t = thread_index(wg, nwg, lid);
     if (t >= atomicLoad(&ctrl[C_READ_COUNT])) { return; }
     trace_reflect = (lp.flags & FLAG_REFLECT) != 0u;
+    trace_internal_branch = (lp.flags & FLAG_INTERNAL) != 0u;
     let raw = cells[atomicLoad(&ctrl[C_READ_OFF]) + t];
     let parent = vec2u(raw & 0x7fffu, (raw >> 16u) & 0x7fffu);
     let skip = cell_skip(raw);
@@ -394,7 +396,7 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     }
     // Trace the covered children; with maximal error, book their flux only if they are emitted.
     trace_defer = check;
-    for (var k = 0u; k < 6u; k++) { trace_pending[k] = 0.0; }
+    for (var k = 0u; k < 8u; k++) { trace_pending[k] = 0.0; }
     var need = cov << KIDS;
     loop {
         trace_points(parent, s, need);

@@ -19,6 +19,12 @@ struct CoverParams {
 @group(0) @binding(2) var<storage, read> tile: array<Photon>;
 @group(0) @binding(3) var<storage, read_write> cover: array<u32>;
 
+// Exact tracer: a texel is covered when any of its 3 x 3 neighbours holds a caster. The exact
+// tracer hits the true shapes, which reach up to a texel beyond their rasterized silhouette (a
+// tessellated sphere, a texel centre just outside a triangle); without this the adaptive
+// hierarchy would skip photons the dense grid traces.
+override cover_dilate: bool = false;
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3u) {
     let s = cp.size;
@@ -27,6 +33,12 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (cp.level == 0u) {
         if (cp.source == 0u) {
             c = select(0u, 1u, textureLoad(front_pos, vec2i(gid.xy), cp.face, 0).w >= 0.0);
+            if (cover_dilate) {
+                for (var k = 0; k < 9; k++) {
+                    let t = clamp(vec2i(gid.xy) + vec2i(k % 3 - 1, k / 3 - 1), vec2i(0), vec2i(i32(s) - 1));
+                    if (textureLoad(front_pos, t, cp.face, 0).w >= 0.0) { c = 1u; }
+                }
+            }
         } else {
             c = select(0u, 1u, tile[gid.y * s + gid.x].face != INVALID);
         }

@@ -62,5 +62,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let ndc = vec2f(-1.0 + (f32(i) + 0.5) * cell, 1.0 - (f32(j) + 0.5) * cell);
     // The high bit of `face` selects the reflected branch at the first dielectric surface.
     trace_reflect = (tp.face >> 31u) == 1u;
-    photons[gid.x] = trace_photon(tp.face & 0x7fffffffu, ndc, vec2f(cell));
+    // Bit 30: the branch reflected once inside a dielectric (exact tracer).
+    trace_internal_branch = ((tp.face >> 30u) & 1u) == 1u;
+    photons[gid.x] = trace_photon(tp.face & 0x3fffffffu, ndc, vec2f(cell));
 }

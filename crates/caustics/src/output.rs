@@ -18,13 +18,18 @@ pub struct FluxStats {
     pub lost_no_receiver: f64,
     /// Flux that landed outside the caustic map.
     pub lost_outside: f64,
+    /// Exact tracer: flux of the Fresnel branches after the first surface that no photon
+    /// follows (light reflected inside a dielectric that leaves it later; the image-space tracer
+    /// drops the same light without booking it). emitted = landed + lost + untraced, for the
+    /// transmitted pass.
+    pub untraced_branches: f64,
     /// Photon rays of the exact tracer that would have overflowed the BVH traversal stack
     /// (they may have missed a surface; reported as an overflow).
     pub stack_overflows: u64,
 }
 
 /// Bytes of a light's flux bookkeeping buffer: six fixed-point (lo, hi) pairs, the stack
-/// overflow count, three spare words.
+/// overflow count, a spare word, the untraced branches' (lo, hi) pair.
 pub const FLUX_STATS_BYTES: u64 = 64;
 
 /// What a GPU render produces.

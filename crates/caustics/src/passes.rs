@@ -665,6 +665,8 @@ pub(crate) struct FrameConsts {
     pub caster_radius: f32,
     /// The reflected branch at glass is traced.
     pub reflect_branch: bool,
+    /// Trace the branch reflected once inside a dielectric (exact tracer).
+    pub internal_branch: bool,
 }
 
 impl FrameConsts {
@@ -698,6 +700,9 @@ impl FrameConsts {
                     .objects
                     .iter()
                     .any(|o| o.caustic_caster && matches!(scene.material_of(o), Material::Dielectric { .. })),
+            internal_branch: s.internal_reflection
+                && s.tracer == crate::settings::Tracer::Exact
+                && scene.objects.iter().any(|o| matches!(scene.material_of(o), Material::Dielectric { .. })),
         }
     }
 }
@@ -884,6 +889,7 @@ pub(crate) fn record_light(
         g,
         bound: view.faces.iter().map(|f| relevant_bound(scene, f, n, g)).collect(),
         reflect_branch: fc.reflect_branch,
+        internal_branch: fc.internal_branch,
     };
     let pending = crate::techniques::emit(&emit, enc, timer, nf)?;
     splat_targets.finish(ctx, &pipelines.splat, &light_buf, &accum, enc, timer);
@@ -1122,6 +1128,7 @@ pub(crate) fn flux_stats(words: &[u8], scale: f64) -> FluxStats {
         lost_tir: v(6),
         lost_no_receiver: v(8),
         lost_outside: v(10),
+        untraced_branches: v(14),
         stack_overflows: u64::from(sw[12]),
     }
 }

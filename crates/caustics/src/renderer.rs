@@ -385,8 +385,7 @@ impl Renderer {
             if same && !self.light_dirty[li] {
                 continue;
             }
-            let pl = pipelines
-                .get_or_insert_with(|| crate::techniques::Pipelines::new(&ctx, &s, fc.layer2));
+            let pl = pipelines.get_or_insert_with(|| crate::techniques::Pipelines::new(&ctx, &s, fc.layer2));
             ctx.begin_scope(&format!("light{li}"), enc);
             let out = crate::passes::record_light(
                 &dc,
@@ -536,7 +535,11 @@ impl Renderer {
                     .as_ref()
                     .map(|(names, off, size)| PassTimer::timings(names, &piece(*off, *size), period))
                     .unwrap_or_default(),
-                flux: job.flux.iter().map(|&(off, scale)| crate::passes::flux_stats(&piece(off, crate::output::FLUX_STATS_BYTES), scale)).collect(),
+                flux: job
+                    .flux
+                    .iter()
+                    .map(|&(off, scale)| crate::passes::flux_stats(&piece(off, crate::output::FLUX_STATS_BYTES), scale))
+                    .collect(),
                 lights_redone: job.lights_redone,
                 ..Default::default()
             };

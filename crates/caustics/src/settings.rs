@@ -267,6 +267,11 @@ pub struct RenderSettings {
     /// weighted by Fresnel reflectance; the first carries the transmitted light): basic, a
     /// second pass over the grid; hierarchical and adaptive, a second traversal.
     pub dielectric_reflection: bool,
+    /// Exact tracer: also trace the light reflected once inside a dielectric at its first exit
+    /// (a third photon per cell, weighted by that Fresnel reflectance; the others carry the
+    /// transmitted part). The light reflected inside more than once is booked as untraced
+    /// (`FluxStats::untraced_branches`).
+    pub internal_reflection: bool,
     /// Rasterize the light's second caster layer (`light_caster_front2`, `light_caster_back2`:
     /// per texel, the nearest caster of another object behind the first layer's) when the scene
     /// has caster meshes and two casters or more, so that photons find and traverse a mesh
@@ -298,6 +303,7 @@ impl Default for RenderSettings {
             splat_sigma: 1.0,
             splat: SplatMode::default(),
             dielectric_reflection: true,
+            internal_reflection: true,
             light_second_layer: true,
             photon_memory: 64 << 20,
             tessellation: Tessellation::default(),

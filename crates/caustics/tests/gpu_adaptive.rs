@@ -26,8 +26,10 @@ fn settings(t: Technique, n: u32) -> RenderSettings {
         // Fixed splats for every technique, so that their maps compare bit for bit (caustic
         // triangles, the default, draw different quads per technique: tested below).
         splat: caustics::splat::SplatMode::Fixed,
-        // The transmitted branch only (the reflected branch at glass is tested separately).
+        // The transmitted branch only (the reflected branch at glass is tested separately; the
+        // exact tracer's internal branch is another traversal, gpu_exact.rs).
         dielectric_reflection: false,
+        internal_reflection: false,
         ..Default::default()
     }
 }
@@ -268,8 +270,14 @@ fn sphere() -> Scene {
     catalogue("glass_sphere", 32)
 }
 
+/// The splat comparisons below check that caustic triangles deposit exactly the flux of fixed
+/// splats of the same photons (to 1e-4). They use the image-space tracer: the exact tracer also
+/// lands the photons refracted at grazing angles near the sphere's silhouette, about 1e-4 of the
+/// flux at and beyond the caustic map's edge (0.0009 of 8.25 W at 256² photons), where a quad
+/// and a Gaussian are clipped differently (measured: ratio 1.00018). The exact tracer under the
+/// adaptive techniques is covered by the other tests of this file and by gpu_exact.rs.
 fn with_splat(t: Technique, n: u32, splat: caustics::splat::SplatMode) -> RenderSettings {
-    RenderSettings { splat, ..settings(t, n) }
+    RenderSettings { splat, tracer: caustics::render::Tracer::ImageSpace, ..settings(t, n) }
 }
 
 /// Flux in the caustic map (fixed-point units, r + g + b).

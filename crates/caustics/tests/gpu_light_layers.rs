@@ -7,6 +7,8 @@
 //! traces the two refractors exactly) much better than with the second layer switched off
 //! (`RenderSettings::light_second_layer`), when the photons pass the mesh by. The adaptive
 //! techniques, which trace in `adaptive_refine`, must equal the dense grid there.
+//! These are properties of the image-space tracer (`Tracer::ImageSpace`), which these tests
+//! select; the exact tracer traces the same scene through the BVH (gpu_exact.rs).
 //! Without an adapter the test skips with a printed reason, except in CI (`CI=true`).
 
 mod common;
@@ -102,6 +104,7 @@ fn photons_refract_through_a_mesh_hidden_behind_a_glass_sphere() {
         caustic_map_size: M,
         shadow_map_size: 256,
         light_second_layer: second,
+        tracer: caustics::render::Tracer::ImageSpace,
         ..Default::default()
     };
     let with = render(&ctx, &scene, &settings(true)).unwrap();
@@ -165,6 +168,7 @@ fn every_technique_traces_through_the_second_layer() {
         caustic_map_size: 128,
         shadow_map_size: 256,
         splat: caustics::splat::SplatMode::Fixed,
+        tracer: caustics::render::Tracer::ImageSpace,
         ..Default::default()
     };
     let basic = render(&ctx, &scene, &settings(Technique::Basic)).unwrap();

@@ -133,7 +133,7 @@ fn same_as_fresh(scene: Scene, object: usize, light_dx: f32, rotate: Quat) {
     assert_eq!(last.lights_redone, [false]);
     let kept = bits(&r);
 
-    let mut fresh = Renderer::with_context(ctx, scene, s).unwrap();
+    let mut fresh = Renderer::with_context(ctx, scene.clone(), s).unwrap();
     fresh.set_light(0, light).unwrap();
     fresh.set_object_transform(object, t).unwrap();
     fresh.set_camera(cam).unwrap();
@@ -142,10 +142,11 @@ fn same_as_fresh(scene: Scene, object: usize, light_dx: f32, rotate: Quat) {
     assert!(want.1[0].iter().any(|&b| b != 0), "the caustic map is empty");
     assert!(kept.0 == want.0, "the image differs from a fresh renderer's");
     assert!(kept.1 == want.1, "the caustic map differs from a fresh renderer's");
-    // And the object did move: the map differs from the unmoved scene's.
+    // And the object did move: the map differs from the scene file's pose. (`r.scene()` has
+    // the transform baked in: a renderer of it with the identity transform is the moved scene.)
     let unmoved = {
-        let mut u = Renderer::with_context(r.context().clone(), r.scene().clone(), r.settings().clone()).unwrap();
-        u.set_object_transform(object, Affine3A::IDENTITY).unwrap();
+        let mut u = Renderer::with_context(r.context().clone(), scene, r.settings().clone()).unwrap();
+        u.set_light(0, moved_spot(&u.scene().lights[0], light_dx)).unwrap();
         frame(&mut u);
         bits(&u)
     };

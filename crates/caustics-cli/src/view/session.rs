@@ -68,6 +68,7 @@ pub enum Action {
     Select(Option<Selection>),
     SetTechnique(Technique),
     SetSplat(SplatMode),
+    SetTracer(caustics::render::Tracer),
     /// The photon grid N (N × N per light-view face).
     SetPhotons(u32),
     SetTolerance(f32),
@@ -367,6 +368,7 @@ impl Session {
             }
             Action::SetTechnique(t) => self.change_settings(|s| s.technique = t),
             Action::SetSplat(m) => self.change_settings(|s| s.splat = m),
+            Action::SetTracer(t) => self.change_settings(|s| s.tracer = t),
             Action::SetPhotons(n) => self.change_settings(|s| s.photons = n),
             Action::SetTolerance(t) => self.change_settings(|s| s.max_error_tolerance = t),
             Action::SetSettings(new) => self.change_settings(|s| *s = *new),

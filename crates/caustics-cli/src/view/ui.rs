@@ -364,6 +364,15 @@ fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
     if splat != s.splat {
         act(session, Action::SetSplat(splat));
     }
+    let mut tracer = s.tracer;
+    egui::ComboBox::from_id_salt("tracer").selected_text(format!("{} tracer", tracer.name())).show_ui(ui, |ui| {
+        for t in caustics::render::Tracer::ALL {
+            ui.selectable_value(&mut tracer, t, t.name()).on_hover_text(t.describe());
+        }
+    });
+    if tracer != s.tracer {
+        act(session, Action::SetTracer(tracer));
+    }
     let mut photons = s.photons;
     egui::ComboBox::from_id_salt("photons").selected_text(format!("{photons}² photons")).show_ui(ui, |ui| {
         for n in PHOTON_GRIDS {
@@ -558,14 +567,15 @@ fn stats(ui: &mut egui::Ui, session: &Session) {
     ui.label(format!("lights {}", redone.join(", ")));
     for (i, f) in s.flux.iter().enumerate() {
         ui.label(format!(
-            "light {i}: {:.4} W emitted onto casters, {:.4} W landed; lost {:.4} W (no exit {:.4}, TIR {:.4}, no receiver {:.4}, outside {:.4})",
+            "light {i}: {:.4} W emitted onto casters, {:.4} W landed; lost {:.4} W (no exit {:.4}, TIR {:.4}, no receiver {:.4}, outside {:.4}); {:.4} W in branches not traced",
             f.emitted,
             f.landed,
             f.lost_no_exit + f.lost_tir + f.lost_no_receiver + f.lost_outside,
             f.lost_no_exit,
             f.lost_tir,
             f.lost_no_receiver,
-            f.lost_outside
+            f.lost_outside,
+            f.untraced_branches
         ));
     }
     if s.timings.is_empty() {

@@ -37,6 +37,8 @@ const FLAG_REFLECT: u32 = 64u;
 // adaptive_refine, maximal caustic map error: skip the check where it cannot pass
 // (RenderSettings::error_skip_hopeless).
 const FLAG_SKIP: u32 = 128u;
+// adaptive_refine: trace the branch reflected once inside a dielectric (trace_internal_branch).
+const FLAG_INTERNAL: u32 = 256u;
 
 // Control buffer words (u32). The indirect arguments live in a separate buffer (written by
 // adaptive_setup only; a buffer cannot be indirect and writable storage in one dispatch): the

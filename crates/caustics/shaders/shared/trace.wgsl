@@ -10,7 +10,7 @@ var<private> trace_defer: bool = false;
 // twice when the scene has dielectric casters: the transmitted branch, then this one, each
 // weighted by its Fresnel factor). Set by the stage before calling trace_photon.
 var<private> trace_reflect: bool = false;
-var<private> trace_pending: array<f32, 6>;
+var<private> trace_pending: array<f32, 8>;
 // Splat data the tracer leaves in each photon (docs/splatting.md): flux.w = the path signature
 // (objects hit and internal reflections, 24 bits; caustic triangles do not span two paths);
 // _pad = the beam diameter on the receiver in caustic-map texels from the lens equations (f32
@@ -49,6 +49,11 @@ var<private> rd_from: vec3f;
 override trace_exact: bool = false;
 // Specular interactions an exact path may have before it is given up (`RenderSettings::max_depth`).
 override trace_max_depth: u32 = 8u;
+// The branch reflected at the second interface (exact tracer; set by the stage: the pass that
+// traces it), and whether the frame has that pass (its flux is then not booked as untraced by
+// the transmitted pass).
+var<private> trace_internal_branch: bool = false;
+override trace_internal_pass: bool = false;
 // The exact tracer's current surface (surface_dn reads the mesh triangle's normals there).
 var<private> exact_hit: SceneHit;
 var<private> rd_pu: vec3f;
@@ -895,7 +900,7 @@ fn rd_begin(layer: u32, ndc: vec2f, cell: vec2f, a: vec3f) {
 // (Choosing the branch at random per photon, as the CPU reference does, is unbiased but
 // breaks the caustic triangles between neighbours that chose differently.) Bookkeeping as trace_photon_image: 0 onto
 // casters, 2 landed, 6 lost after trace_max_depth interactions, 8 left the scene, 10 landed
-// outside the map.
+// outside the map, 14 the branches not followed.
 fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var out: Photon;
     out.face = INVALID;
@@ -917,8 +922,9 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     let total_in = flux.r + flux.g + flux.b;
     if (total_in <= 0.0) { return out; }
     rd_begin(layer, ndc, cell, a);
-    if (!trace_reflect) { add_fixed(0u, total_in); }
-    let branch = u32(trace_reflect);
+    // Booked once, by the transmitted branch's pass.
+    if (!trace_reflect && !trace_internal_branch) { add_fixed(0u, total_in); }
+    let branch = u32(trace_reflect) | (u32(trace_internal_branch) << 1u);
 
     var dir = d;
     var sig = 0u;
@@ -927,8 +933,12 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var depth = 0u;
     loop {
         let mat = materials[h.object];
+        // The internal branch's pass carries only paths that took its branch (at depth 1):
+        // the others are the transmitted pass's.
+        if (trace_internal_branch && depth == 1u && mat.kind.x != KIND_DIELECTRIC) { return out; }
         if (mat.kind.x == KIND_DIFFUSE) { break; }
         if (depth >= trace_max_depth) {
+            if (trace_internal_branch && depth <= 1u) { return out; }
             add_fixed(6u, flux.r + flux.g + flux.b);
             return out;
         }
@@ -953,8 +963,15 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
             // The branch of this interface: reflected where the branch mask says so (bit 0:
             // trace_reflect), transmitted otherwise; total internal reflection reflects all.
             let want = depth < 32u && ((branch >> depth) & 1u) == 1u;
+            // Total internal reflection at depth 1: the transmitted pass reflects it all.
+            if (trace_internal_branch && depth == 1u && f >= 1.0) { return out; }
             reflected = want || f >= 1.0;
-            flux *= select(1.0 - f, select(f, 1.0, f >= 1.0), reflected);
+            let kept = select(1.0 - f, select(f, 1.0, f >= 1.0), reflected);
+            // The branch not followed (after the first surface, whose other branch is the
+            // reflected pass's; at the second, the internal pass's when it runs): untraced.
+            let other_pass = depth == 1u && trace_internal_pass && !trace_reflect;
+            if (depth > 0u && kept < 1.0 && !other_pass) { add_fixed(14u, (1.0 - kept) * (flux.r + flux.g + flux.b)); }
+            flux *= kept;
             if (!reflected) {
                 var t = refract_dir(dir, n, 1.0 / eta);
                 if (dot(t.xyz, ng) >= 0.0) { t = refract_dir(dir, ng, 1.0 / eta); n = ng; }
@@ -984,6 +1001,7 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
         if (flux.r + flux.g + flux.b <= 0.0) { return out; }
         h = scene_hit(o, dir, 1e30);
         if (h.object == INVALID) {
+            if (trace_internal_branch && depth <= 1u) { return out; }
             add_fixed(8u, flux.r + flux.g + flux.b);
             return out;
         }

@@ -20,8 +20,8 @@
 //! reported after the frame.
 
 use super::{
-    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, FLAG_REFLECT, FLAG_SKIP, Pending, Technique,
-    Traversal, bind, ctrl, level_params, storage, uniform,
+    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, FLAG_SKIP, Pending, Technique, Traversal, bind,
+    ctrl, level_params, storage, uniform,
 };
 use crate::error::{Error, Result};
 use crate::gpu::PassTimer;
@@ -157,7 +157,7 @@ impl Adaptive {
         timer: &mut PassTimer,
         cover: &wgpu::Buffer,
         f: u32,
-        reflect: bool,
+        branch: super::Branch,
     ) -> wgpu::Buffer {
         let p = self.plan;
         let s = e.settings;
@@ -236,9 +236,7 @@ impl Adaptive {
             if self.quads {
                 flags |= FLAG_QUADS;
             }
-            if reflect {
-                flags |= FLAG_REFLECT;
-            }
+            flags |= branch.flags();
             let rl = LevelParams { level: p.level(grid), grid, flags, ..lp };
             let u = uniform(e.ctx, "adaptive_refine", bytemuck::bytes_of(&rl));
             let rbg = bind(
@@ -340,11 +338,8 @@ impl super::Emission for Adaptive {
         face: u32,
         pending: &mut Pending,
     ) {
-        for reflect in [false, true] {
-            if reflect && !e.reflect_branch {
-                continue;
-            }
-            pending.ctrl.push(self.record_face_inner(e, enc, timer, cover, face, reflect));
+        for b in e.branches() {
+            pending.ctrl.push(self.record_face_inner(e, enc, timer, cover, face, b));
         }
     }
 

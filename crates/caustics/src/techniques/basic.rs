@@ -51,9 +51,8 @@ impl Basic {
         f: u32,
         kept: &mut Vec<(wgpu::Buffer, u64)>,
     ) {
-        self.record_branch(e, enc, timer, f, kept);
-        if e.reflect_branch {
-            self.record_branch(e, enc, timer, f | 1 << 31, kept);
+        for b in e.branches() {
+            self.record_branch(e, enc, timer, f | b.face_bits(), kept);
         }
     }
 

@@ -105,7 +105,7 @@ impl Hierarchical {
         enc: &mut wgpu::CommandEncoder,
         timer: &mut PassTimer,
         f: u32,
-        reflect: bool,
+        branch: super::Branch,
     ) -> wgpu::Buffer {
         let p = self.plan;
         let t = p.tile;
@@ -214,8 +214,8 @@ impl Hierarchical {
                     e.ctx,
                     "trace_params",
                     bytemuck::bytes_of(&TraceParams {
-                        // The high bit selects the reflected branch (photon_trace).
-                        face: f | u32::from(reflect) << 31,
+                        // The high bits select the branch (photon_trace).
+                        face: f | branch.face_bits(),
                         batch_offset: ty * t * p.n + tx * t,
                         batch_count: t * t,
                         tile: t,
@@ -266,11 +266,8 @@ impl super::Emission for Hierarchical {
         face: u32,
         pending: &mut Pending,
     ) {
-        for reflect in [false, true] {
-            if reflect && !e.reflect_branch {
-                continue;
-            }
-            pending.ctrl.push(self.record_face_inner(e, enc, timer, face, reflect));
+        for b in e.branches() {
+            pending.ctrl.push(self.record_face_inner(e, enc, timer, face, b));
         }
     }
 

@@ -124,12 +124,13 @@ impl Pipelines {
             ("trace_light_layer2", f64::from(u8::from(layer2 && !exact))),
             ("trace_exact", f64::from(u8::from(exact))),
             ("trace_max_depth", f64::from(s.max_depth)),
+            ("trace_internal_pass", f64::from(u8::from(exact && s.internal_reflection))),
         ];
         let traced = |name: &str, on: bool| on.then(|| ctx.compute_pipeline_with(name, &mode));
         Pipelines {
             trace: traced("photon_trace", !t.is_adaptive()),
             splat: crate::splat::SplatPipelines::new(ctx, splat, t),
-            coverage: ctx.compute_pipeline("coverage_mip"),
+            coverage: ctx.compute_pipeline_with("coverage_mip", &[("cover_dilate", f64::from(u8::from(exact)))]),
             plan: p("adaptive_plan", t.is_adaptive()),
             init: p("adaptive_init", hier),
             setup: p("adaptive_setup", hier),
@@ -172,6 +173,22 @@ pub(crate) struct Emit<'a> {
     pub bound: Vec<u64>,
     /// Also trace the reflected branch at the first dielectric surface (basic technique).
     pub reflect_branch: bool,
+    /// Also trace the branch reflected once inside a dielectric (exact tracer).
+    pub internal_branch: bool,
+}
+
+impl Emit<'_> {
+    /// The branches each face's grid is traced for, in order.
+    pub fn branches(&self) -> Vec<Branch> {
+        let mut b = vec![Branch::Transmitted];
+        if self.reflect_branch {
+            b.push(Branch::Reflected);
+        }
+        if self.internal_branch {
+            b.push(Branch::Internal);
+        }
+        b
+    }
 }
 
 impl Emit<'_> {
@@ -309,6 +326,40 @@ pub(crate) const FLAG_NO_PLAN: u32 = 16;
 pub(crate) const FLAG_QUADS: u32 = 32;
 pub(crate) const FLAG_REFLECT: u32 = 64;
 pub(crate) const FLAG_SKIP: u32 = 128;
+pub(crate) const FLAG_INTERNAL: u32 = 256;
+
+/// Which branch of the Fresnel tree of paths a pass over the photon grid traces (every
+/// technique traces each branch the frame needs as its own pass; shared/trace.wgsl).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Branch {
+    /// Transmitted at every dielectric interface (total internal reflection reflects).
+    Transmitted,
+    /// Reflected at the first dielectric surface.
+    Reflected,
+    /// Exact tracer: transmitted into the first dielectric, reflected once inside it at the
+    /// first exit, transmitted after.
+    Internal,
+}
+
+impl Branch {
+    /// The bits of `TraceParams.face` that select it (photon_trace).
+    pub fn face_bits(self) -> u32 {
+        match self {
+            Branch::Transmitted => 0,
+            Branch::Reflected => 1 << 31,
+            Branch::Internal => 1 << 30,
+        }
+    }
+
+    /// The `LevelParams.flags` that select it (adaptive_refine).
+    pub fn flags(self) -> u32 {
+        match self {
+            Branch::Transmitted => 0,
+            Branch::Reflected => FLAG_REFLECT,
+            Branch::Internal => FLAG_INTERNAL,
+        }
+    }
+}
 
 pub(crate) use crate::gpu::{bind, storage, uniform};
 
