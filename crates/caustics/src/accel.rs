@@ -250,9 +250,8 @@ mod tests {
                 for t in &b.tris[n.a as usize..(n.a + n.count) as usize] {
                     seen[t.p0[3].to_bits() as usize] += 1;
                     for p in [t.p0, t.p1, t.p2] {
-                        for ax in 0..3 {
-                            assert!(p[ax] >= n.lo[ax] && p[ax] <= n.hi[ax], "triangle outside its leaf");
-                        }
+                        let inside = (0..3).all(|ax| p[ax] >= n.lo[ax] && p[ax] <= n.hi[ax]);
+                        assert!(inside, "triangle outside its leaf");
                     }
                 }
             }
