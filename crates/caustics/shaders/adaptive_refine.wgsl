@@ -364,6 +364,7 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     if (t >= atomicLoad(&ctrl[C_READ_COUNT])) { return; }
     trace_reflect = (lp.flags & FLAG_REFLECT) != 0u;
     trace_internal_branch = (lp.flags & FLAG_INTERNAL) != 0u;
+    trace_residual = (lp.flags & FLAG_RESIDUAL) != 0u;
     let raw = cells[atomicLoad(&ctrl[C_READ_OFF]) + t];
     let parent = vec2u(raw & 0x7fffu, (raw >> 16u) & 0x7fffu);
     let skip = cell_skip(raw);

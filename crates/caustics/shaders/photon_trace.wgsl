@@ -64,5 +64,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     trace_reflect = (tp.face >> 31u) == 1u;
     // Bit 30: the branch reflected once inside a dielectric (exact tracer).
     trace_internal_branch = ((tp.face >> 30u) & 1u) == 1u;
-    photons[gid.x] = trace_photon(tp.face & 0x3fffffffu, ndc, vec2f(cell));
+    // Bit 29: the residual pass (exact tracer).
+    trace_residual = ((tp.face >> 29u) & 1u) == 1u;
+    photons[gid.x] = trace_photon(tp.face & 0x1fffffffu, ndc, vec2f(cell));
 }

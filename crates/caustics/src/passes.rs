@@ -667,6 +667,8 @@ pub(crate) struct FrameConsts {
     pub reflect_branch: bool,
     /// Trace the branch reflected once inside a dielectric (exact tracer).
     pub internal_branch: bool,
+    /// Trace the residual pass (exact tracer).
+    pub residual_branch: bool,
 }
 
 impl FrameConsts {
@@ -701,6 +703,9 @@ impl FrameConsts {
                     .iter()
                     .any(|o| o.caustic_caster && matches!(scene.material_of(o), Material::Dielectric { .. })),
             internal_branch: s.internal_reflection
+                && s.tracer == crate::settings::Tracer::Exact
+                && scene.objects.iter().any(|o| matches!(scene.material_of(o), Material::Dielectric { .. })),
+            residual_branch: s.residual_branches
                 && s.tracer == crate::settings::Tracer::Exact
                 && scene.objects.iter().any(|o| matches!(scene.material_of(o), Material::Dielectric { .. })),
         }
@@ -890,6 +895,7 @@ pub(crate) fn record_light(
         bound: view.faces.iter().map(|f| relevant_bound(scene, f, n, g)).collect(),
         reflect_branch: fc.reflect_branch,
         internal_branch: fc.internal_branch,
+        residual_branch: fc.residual_branch,
     };
     let pending = crate::techniques::emit(&emit, enc, timer, nf)?;
     splat_targets.finish(ctx, &pipelines.splat, &light_buf, &accum, enc, timer);

@@ -385,7 +385,14 @@ impl Renderer {
             if same && !self.light_dirty[li] {
                 continue;
             }
-            let pl = pipelines.get_or_insert_with(|| crate::techniques::Pipelines::new(&ctx, &s, fc.layer2));
+            let pl = pipelines.get_or_insert_with(|| {
+                crate::techniques::Pipelines::new(
+                    &ctx,
+                    &s,
+                    fc.layer2,
+                    [fc.reflect_branch, fc.internal_branch, fc.residual_branch],
+                )
+            });
             ctx.begin_scope(&format!("light{li}"), enc);
             let out = crate::passes::record_light(
                 &dc,

@@ -272,6 +272,12 @@ pub struct RenderSettings {
     /// transmitted part). The light reflected inside more than once is booked as untraced
     /// (`FluxStats::untraced_branches`).
     pub internal_reflection: bool,
+    /// Exact tracer: also trace the residual pass: every Fresnel choice made at random with its
+    /// probability (as the CPU reference does), keeping the paths the other passes do not
+    /// follow (light reflected inside glass more than once, reflections at later interfaces).
+    /// Unbiased, so the caustic's energy matches the reference; noisy where those paths carry
+    /// much (complex meshes), and one more pass over the grid.
+    pub residual_branches: bool,
     /// Rasterize the light's second caster layer (`light_caster_front2`, `light_caster_back2`:
     /// per texel, the nearest caster of another object behind the first layer's) when the scene
     /// has caster meshes and two casters or more, so that photons find and traverse a mesh
@@ -290,7 +296,7 @@ impl Default for RenderSettings {
             photons: 1024,
             technique: Technique::Basic,
             tracer: Tracer::default(),
-            max_depth: 8,
+            max_depth: 16,
             base_grid: 64,
             max_error_tolerance: 0.0,
             error_check_grid: 512,
@@ -304,6 +310,7 @@ impl Default for RenderSettings {
             splat: SplatMode::default(),
             dielectric_reflection: true,
             internal_reflection: true,
+            residual_branches: true,
             light_second_layer: true,
             photon_memory: 64 << 20,
             tessellation: Tessellation::default(),

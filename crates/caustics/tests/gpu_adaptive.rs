@@ -30,6 +30,7 @@ fn settings(t: Technique, n: u32) -> RenderSettings {
         // exact tracer's internal branch is another traversal, gpu_exact.rs).
         dielectric_reflection: false,
         internal_reflection: false,
+        residual_branches: false,
         ..Default::default()
     }
 }

@@ -39,6 +39,8 @@ const FLAG_REFLECT: u32 = 64u;
 const FLAG_SKIP: u32 = 128u;
 // adaptive_refine: trace the branch reflected once inside a dielectric (trace_internal_branch).
 const FLAG_INTERNAL: u32 = 256u;
+// adaptive_refine: the residual pass (trace_residual).
+const FLAG_RESIDUAL: u32 = 512u;
 
 // Control buffer words (u32). The indirect arguments live in a separate buffer (written by
 // adaptive_setup only; a buffer cannot be indirect and writable storage in one dispatch): the

@@ -54,6 +54,30 @@ override trace_max_depth: u32 = 8u;
 // the transmitted pass).
 var<private> trace_internal_branch: bool = false;
 override trace_internal_pass: bool = false;
+// The residual pass (exact tracer; set by the stage): every Fresnel choice made at random, as
+// the CPU reference does, keeping only the paths no deterministic pass follows. Which masks of
+// reflections the deterministic passes cover (bit k: the path of mask k, k = 0 transmitted, 1
+// reflected at the first surface, 2 reflected at the second), and whether the frame has the
+// residual pass (then no pass books untraced branches: the residual pass carries them).
+var<private> trace_residual: bool = false;
+override trace_covered: u32 = 1u;
+override trace_residual_pass: bool = false;
+
+// A uniform number in [0, 1) from the photon's key and the interaction's depth (PCG hash):
+// the same photon makes the same choices in every run.
+fn residual_random(key: u32, depth: u32) -> f32 {
+    var s = key ^ (depth * 2891336453u + 12345u);
+    s = s * 747796405u + 2891336453u;
+    s = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
+    s = (s >> 22u) ^ s;
+    return f32(s >> 8u) * (1.0 / 16777216.0);
+}
+
+// Whether the residual pass drops a path whose Fresnel choices reflected at the depths in
+// `chosen`: a deterministic pass follows it.
+fn residual_covered(chosen: u32) -> bool {
+    return trace_residual && chosen <= 2u && ((trace_covered >> chosen) & 1u) == 1u;
+}
 // The exact tracer's current surface (surface_dn reads the mesh triangle's normals there).
 var<private> exact_hit: SceneHit;
 var<private> rd_pu: vec3f;
@@ -923,8 +947,10 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     if (total_in <= 0.0) { return out; }
     rd_begin(layer, ndc, cell, a);
     // Booked once, by the transmitted branch's pass.
-    if (!trace_reflect && !trace_internal_branch) { add_fixed(0u, total_in); }
+    if (!trace_reflect && !trace_internal_branch && !trace_residual) { add_fixed(0u, total_in); }
     let branch = u32(trace_reflect) | (u32(trace_internal_branch) << 1u);
+    let key = (bitcast<u32>(ndc.x) * 2654435761u) ^ (bitcast<u32>(ndc.y) * 2246822519u) ^ (layer * 3266489917u);
+    var chosen = 0u;
 
     var dir = d;
     var sig = 0u;
@@ -938,7 +964,7 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
         if (trace_internal_branch && depth == 1u && mat.kind.x != KIND_DIELECTRIC) { return out; }
         if (mat.kind.x == KIND_DIFFUSE) { break; }
         if (depth >= trace_max_depth) {
-            if (trace_internal_branch && depth <= 1u) { return out; }
+            if (trace_internal_branch && depth <= 1u || residual_covered(chosen)) { return out; }
             add_fixed(6u, flux.r + flux.g + flux.b);
             return out;
         }
@@ -966,11 +992,20 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
             // Total internal reflection at depth 1: the transmitted pass reflects it all.
             if (trace_internal_branch && depth == 1u && f >= 1.0) { return out; }
             reflected = want || f >= 1.0;
-            let kept = select(1.0 - f, select(f, 1.0, f >= 1.0), reflected);
+            var kept = select(1.0 - f, select(f, 1.0, f >= 1.0), reflected);
+            if (trace_residual) {
+                // A random choice with the Fresnel probabilities: the whole flux follows it.
+                reflected = f >= 1.0 || residual_random(key, depth) < f;
+                if (reflected && f < 1.0) { chosen |= 1u << min(depth, 31u); }
+                kept = 1.0;
+            }
             // The branch not followed (after the first surface, whose other branch is the
-            // reflected pass's; at the second, the internal pass's when it runs): untraced.
+            // reflected pass's; at the second, the internal pass's when it runs): untraced,
+            // unless the residual pass carries it.
             let other_pass = depth == 1u && trace_internal_pass && !trace_reflect;
-            if (depth > 0u && kept < 1.0 && !other_pass) { add_fixed(14u, (1.0 - kept) * (flux.r + flux.g + flux.b)); }
+            if (depth > 0u && kept < 1.0 && !other_pass && !trace_residual_pass) {
+                add_fixed(14u, (1.0 - kept) * (flux.r + flux.g + flux.b));
+            }
             flux *= kept;
             if (!reflected) {
                 var t = refract_dir(dir, n, 1.0 / eta);
@@ -1001,11 +1036,12 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
         if (flux.r + flux.g + flux.b <= 0.0) { return out; }
         h = scene_hit(o, dir, 1e30);
         if (h.object == INVALID) {
-            if (trace_internal_branch && depth <= 1u) { return out; }
+            if (trace_internal_branch && depth <= 1u || residual_covered(chosen)) { return out; }
             add_fixed(8u, flux.r + flux.g + flux.b);
             return out;
         }
     }
+    if (residual_covered(chosen)) { return out; }
     let total = flux.r + flux.g + flux.b;
     var lens = vec4f(0.0);
     if (splat_mode() > 0.5 && splat_mode() < 2.5 && !trace_reflect) {

@@ -110,7 +110,8 @@ pub(crate) struct Pipelines {
 }
 
 impl Pipelines {
-    pub fn new(ctx: &GpuContext, s: &RenderSettings, layer2: bool) -> Pipelines {
+    /// `branches`: the frame's reflected, internal and residual passes (`FrameConsts`).
+    pub fn new(ctx: &GpuContext, s: &RenderSettings, layer2: bool, branches: [bool; 3]) -> Pipelines {
         let (t, splat) = (s.technique, s.splat);
         let hier = t != Technique::Basic;
         let p = |name: &str, on: bool| on.then(|| ctx.compute_pipeline(name));
@@ -124,7 +125,9 @@ impl Pipelines {
             ("trace_light_layer2", f64::from(u8::from(layer2 && !exact))),
             ("trace_exact", f64::from(u8::from(exact))),
             ("trace_max_depth", f64::from(s.max_depth)),
-            ("trace_internal_pass", f64::from(u8::from(exact && s.internal_reflection))),
+            ("trace_internal_pass", f64::from(u8::from(branches[1]))),
+            ("trace_residual_pass", f64::from(u8::from(branches[2]))),
+            ("trace_covered", f64::from(1 | u8::from(branches[0]) << 1 | u8::from(branches[1]) << 2)),
         ];
         let traced = |name: &str, on: bool| on.then(|| ctx.compute_pipeline_with(name, &mode));
         Pipelines {
@@ -175,6 +178,8 @@ pub(crate) struct Emit<'a> {
     pub reflect_branch: bool,
     /// Also trace the branch reflected once inside a dielectric (exact tracer).
     pub internal_branch: bool,
+    /// Also trace the residual pass (exact tracer).
+    pub residual_branch: bool,
 }
 
 impl Emit<'_> {
@@ -186,6 +191,9 @@ impl Emit<'_> {
         }
         if self.internal_branch {
             b.push(Branch::Internal);
+        }
+        if self.residual_branch {
+            b.push(Branch::Residual);
         }
         b
     }
@@ -327,6 +335,7 @@ pub(crate) const FLAG_QUADS: u32 = 32;
 pub(crate) const FLAG_REFLECT: u32 = 64;
 pub(crate) const FLAG_SKIP: u32 = 128;
 pub(crate) const FLAG_INTERNAL: u32 = 256;
+pub(crate) const FLAG_RESIDUAL: u32 = 512;
 
 /// Which branch of the Fresnel tree of paths a pass over the photon grid traces (every
 /// technique traces each branch the frame needs as its own pass; shared/trace.wgsl).
@@ -339,6 +348,9 @@ pub(crate) enum Branch {
     /// Exact tracer: transmitted into the first dielectric, reflected once inside it at the
     /// first exit, transmitted after.
     Internal,
+    /// Exact tracer: every Fresnel choice at random with its probability, keeping the paths no
+    /// other pass follows (the rest of the tree, unbiased; noisy where it carries much).
+    Residual,
 }
 
 impl Branch {
@@ -348,6 +360,7 @@ impl Branch {
             Branch::Transmitted => 0,
             Branch::Reflected => 1 << 31,
             Branch::Internal => 1 << 30,
+            Branch::Residual => 1 << 29,
         }
     }
 
@@ -357,6 +370,7 @@ impl Branch {
             Branch::Transmitted => 0,
             Branch::Reflected => FLAG_REFLECT,
             Branch::Internal => FLAG_INTERNAL,
+            Branch::Residual => FLAG_RESIDUAL,
         }
     }
 }
