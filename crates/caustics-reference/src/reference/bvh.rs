@@ -1,11 +1,22 @@
-//! A bounding volume hierarchy over triangles: binned SAH build, depth-first node layout
-//! (left child follows its parent), watertight ray-triangle intersection (Woop, Benthin and
-//! Wald 2013) with conservative box tests, so that no ray slips between two triangles that
-//! share an edge. Zero-area triangles are never hit (their determinant is 0).
+//! A bounding volume hierarchy over triangles for the CPU reference.
 //!
-//! Written here rather than taken from a crate: the reference must share nothing with the GPU
-//! path and be easy to audit; the crates we looked at (`bvh`, `obvhs`) either pull in a second
-//! linear-algebra library or do not offer a watertight triangle test, and this is ~300 lines.
+//! Build: `obvhs` (PLOC with reinsertion and SAH leaf collapsing), converted to our own node
+//! layout; traversal is this file's own code, independent of the GPU's. The intersection is
+//! watertight (Woop, Benthin and Wald 2013) with conservative box tests, so that no ray slips
+//! between two triangles that share an edge. Zero-area triangles are never hit (their
+//! determinant is 0).
+//!
+//! Why `obvhs` for the build: it is maintained, uses our `glam`, builds in a fraction of the
+//! time of a top-down binned SAH at equal or better quality (PLOC + reinsertion), and exposes
+//! its plain BVH2 (`nodes`, `primitive_indices`) so we can lay it out our own way. The `bvh`
+//! crate (svenstaro) builds a top-down SAH BVH over `nalgebra` types (a second algebra
+//! library), with a node layout and traversal of its own that we would not use. Neither offers a
+//! watertight triangle test, which stays here.
+//!
+//! Layout: a 4-wide BVH collapsed from the BVH2, child boxes stored structure-of-arrays so the
+//! four box tests of a node run as one vector operation (see `docs/benchmarks.md`, "CPU
+//! reference BVH", for the measurements that chose it over the BVH2). The former hand-written
+//! binned-SAH builder is kept as [`Bvh::build_binned_sah`] for the benchmark's comparison.
 
 use glam::Vec3;
 
@@ -24,11 +35,34 @@ struct Node {
 #[repr(C, align(64))]
 struct Pair([Node; 2]);
 
+/// Four children of a wide node, boxes structure-of-arrays (`lo[axis][child]`). A child slot is
+/// empty (`child == EMPTY`), an inner node (`count == 0`: index of the node) or a leaf of
+/// `count` triangles from `child`.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Node4 {
+    lo: [[f32; 4]; 3],
+    hi: [[f32; 4]; 3],
+    child: [u32; 4],
+    count: [u32; 4],
+}
+
+const EMPTY: u32 = u32::MAX;
+/// Traversal stack sizes; a deeper `obvhs` tree falls back to the depth-bounded builder.
+const STACK2: usize = 128;
+const STACK4: usize = 192;
+
+enum Nodes {
+    /// Binary, depth-first pairs (the former layout).
+    Binary { root: Node, pairs: Vec<Pair> },
+    /// 4-wide; the root is `nodes[0]`.
+    Wide(Vec<Node4>),
+}
+
 /// A triangle BVH. Triangles are stored in leaf order; `ids[i]` is the caller's index of the
 /// i-th stored triangle.
 pub struct Bvh {
-    root: Node,
-    pairs: Vec<Pair>,
+    nodes: Nodes,
     tris: Vec<[Vec3; 3]>,
     ids: Vec<u32>,
 }
@@ -42,75 +76,109 @@ pub struct TriHit {
     pub id: u32,
 }
 
-const BINS: usize = 16;
-const MAX_LEAF: usize = 4;
-const TRAVERSAL_COST: f32 = 1.0;
-const INTERSECT_COST: f32 = 1.0;
-
-#[derive(Clone, Copy)]
-struct Aabb {
-    lo: Vec3,
-    hi: Vec3,
+/// Which node layout [`Bvh::build_with`] produces from the `obvhs` build (benchmarks only).
+#[doc(hidden)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    Binary,
+    Wide4,
 }
 
-impl Aabb {
-    const EMPTY: Aabb = Aabb { lo: Vec3::splat(f32::INFINITY), hi: Vec3::splat(f32::NEG_INFINITY) };
-    fn grow(&mut self, p: Vec3) {
-        self.lo = self.lo.min(p);
-        self.hi = self.hi.max(p);
-    }
-    fn merge(&mut self, b: &Aabb) {
-        self.lo = self.lo.min(b.lo);
-        self.hi = self.hi.max(b.hi);
-    }
-    fn area(&self) -> f32 {
-        let e = self.hi - self.lo;
-        if e.x < 0.0 { 0.0 } else { 2.0 * (e.x * e.y + e.y * e.z + e.z * e.x) }
+/// Most triangles per leaf of the `obvhs` build (its SAH collapse decides below that).
+const OBVHS_MAX_LEAF: u32 = 4;
+
+fn obvhs_params() -> obvhs::BvhBuildParams {
+    // `medium_build` without spatial pre-splits (a triangle must be in exactly one leaf so
+    // that stored order and ids stay one-to-one), with our leaf size.
+    obvhs::BvhBuildParams {
+        pre_split: false,
+        max_prims_per_leaf: OBVHS_MAX_LEAF,
+        ..obvhs::BvhBuildParams::medium_build()
     }
 }
 
 impl Bvh {
     /// Build over `tris` (world space); `tris[i]` gets id `i`.
     pub fn build(tris: Vec<[Vec3; 3]>) -> Bvh {
-        let n = tris.len();
-        let mut boxes = Vec::with_capacity(n);
-        let mut cents = Vec::with_capacity(n);
-        for t in &tris {
-            let mut b = Aabb::EMPTY;
-            for p in t {
-                b.grow(*p);
-            }
-            boxes.push(b);
-            cents.push((b.lo + b.hi) * 0.5);
+        Bvh::build_with(tris, Layout::Wide4)
+    }
+
+    #[doc(hidden)]
+    pub fn build_with(tris: Vec<[Vec3; 3]>, layout: Layout) -> Bvh {
+        if tris.is_empty() {
+            return Bvh::build_binned_sah(tris);
         }
-        let mut order: Vec<u32> = (0..n as u32).collect();
-        let mut pairs = Vec::with_capacity(n / MAX_LEAF + 1);
-        let root = if n > 0 {
-            build_rec(&mut pairs, &mut order, 0, &boxes, &cents, 0)
-        } else {
-            Node { lo: Vec3::ZERO, hi: Vec3::ZERO, start: 0, count: 0 }
+        let aabbs: Vec<obvhs::aabb::Aabb> = tris
+            .iter()
+            .map(|t| {
+                let lo = t[0].min(t[1]).min(t[2]);
+                let hi = t[0].max(t[1]).max(t[2]);
+                obvhs::aabb::Aabb::new(lo.into(), hi.into())
+            })
+            .collect();
+        let b2 = obvhs::bvh2::builder::build_bvh2(&aabbs, obvhs_params(), &mut std::time::Duration::default());
+        let mut stored = Vec::with_capacity(tris.len());
+        let mut ids = Vec::with_capacity(tris.len());
+        let mut emit_leaf = |n: &obvhs::bvh2::node::Bvh2Node| {
+            let start = stored.len() as u32;
+            for k in n.first_index..n.first_index + n.prim_count {
+                let id = b2.primitive_indices[k as usize];
+                stored.push(tris[id as usize]);
+                ids.push(id);
+            }
+            start
         };
-        let stored = order.iter().map(|&i| tris[i as usize]).collect();
-        Bvh { root, pairs, tris: stored, ids: order }
+        let nodes = match layout {
+            Layout::Binary => {
+                let mut pairs = Vec::with_capacity(b2.nodes.len() / 2);
+                let mut depth = 0;
+                let root = to_binary(&b2, 0, 0, &mut depth, &mut pairs, &mut emit_leaf);
+                if depth >= STACK2 {
+                    return Bvh::build_binned_sah(tris);
+                }
+                Nodes::Binary { root, pairs }
+            }
+            Layout::Wide4 => {
+                let mut nodes = Vec::with_capacity(b2.nodes.len() / 3 + 1);
+                let mut depth = 0;
+                to_wide(&b2, 0, 0, &mut depth, &mut nodes, &mut emit_leaf);
+                // Each level pushes at most three entries.
+                if 3 * depth >= STACK4 {
+                    return Bvh::build_binned_sah(tris);
+                }
+                Nodes::Wide(nodes)
+            }
+        };
+        debug_assert_eq!(stored.len(), tris.len());
+        Bvh { nodes, tris: stored, ids }
     }
 
     pub fn node_count(&self) -> usize {
-        1 + 2 * self.pairs.len()
+        match &self.nodes {
+            Nodes::Binary { pairs, .. } => 1 + 2 * pairs.len(),
+            Nodes::Wide(nodes) => nodes.len(),
+        }
     }
 
     /// Nearest hit with t in (0, tmax).
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<TriHit> {
-        self.traverse(o, d, tmax, false)
+        match &self.nodes {
+            Nodes::Binary { root, pairs } => self.traverse2(root, pairs, o, d, tmax, false),
+            Nodes::Wide(nodes) => self.traverse4(nodes, o, d, tmax, false),
+        }
     }
 
     /// Whether anything is hit with t in (0, tmax).
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
-        self.traverse(o, d, tmax, true).is_some()
+        match &self.nodes {
+            Nodes::Binary { root, pairs } => self.traverse2(root, pairs, o, d, tmax, true).is_some(),
+            Nodes::Wide(nodes) => self.traverse4(nodes, o, d, tmax, true).is_some(),
+        }
     }
 
     #[inline]
-    fn leaf(&self, nd: &Node, ray: &WatertightRay, tmax: &mut f32, best: &mut Option<TriHit>, any: bool) -> bool {
-        for i in nd.start..nd.start + nd.count {
+    fn leaf(&self, start: u32, count: u32, ray: &WatertightRay, tmax: &mut f32, best: &mut Option<TriHit>, any: bool) -> bool {
+        for i in start..start + count {
             if let Some((t, b1, b2)) = ray.hit(&self.tris[i as usize], *tmax) {
                 *tmax = t;
                 *best = Some(TriHit { t, b1, b2, id: self.ids[i as usize] });
@@ -122,29 +190,92 @@ impl Bvh {
         false
     }
 
-    fn traverse(&self, o: Vec3, d: Vec3, mut tmax: f32, any: bool) -> Option<TriHit> {
+    fn traverse4(&self, nodes: &[Node4], o: Vec3, d: Vec3, mut tmax: f32, any: bool) -> Option<TriHit> {
         if self.tris.is_empty() {
             return None;
         }
         let ray = WatertightRay::new(o, d);
         let inv = Vec3::ONE / d;
         let mut best: Option<TriHit> = None;
-        box_hit(&self.root, o, inv, tmax)?;
-        if self.root.count > 0 {
-            self.leaf(&self.root, &ray, &mut tmax, &mut best, any);
+        let mut stack = [(0u32, 0f32); STACK4];
+        let mut sp = 0usize;
+        let mut cur = 0u32;
+        loop {
+            let nd = &nodes[cur as usize];
+            let (tn, hit) = box_hit4(nd, o, inv, tmax);
+            let mut inner = [(0u32, 0f32); 4];
+            let mut ni = 0;
+            for c in 0..4 {
+                if hit[c] {
+                    if nd.count[c] > 0 {
+                        if self.leaf(nd.child[c], nd.count[c], &ray, &mut tmax, &mut best, any) {
+                            return best;
+                        }
+                    } else {
+                        inner[ni] = (nd.child[c], tn[c]);
+                        ni += 1;
+                    }
+                }
+            }
+            // Leaves above may have shortened tmax; keep the inner children still in reach,
+            // sorted near to far.
+            let mut nk = 0;
+            for k in 0..ni {
+                if inner[k].1 < tmax {
+                    let e = inner[k];
+                    let mut j = nk;
+                    while j > 0 && inner[j - 1].1 < e.1 {
+                        inner[j] = inner[j - 1];
+                        j -= 1;
+                    }
+                    inner[j] = e;
+                    nk += 1;
+                }
+            }
+            // `inner[..nk]` is far to near: push all but the nearest, go on with it.
+            if nk > 0 {
+                stack[sp..sp + nk - 1].copy_from_slice(&inner[..nk - 1]);
+                sp += nk - 1;
+                cur = inner[nk - 1].0;
+                continue;
+            }
+            loop {
+                if sp == 0 {
+                    return best;
+                }
+                sp -= 1;
+                let (c, tn) = stack[sp];
+                if tn < tmax {
+                    cur = c;
+                    break;
+                }
+            }
+        }
+    }
+
+    fn traverse2(&self, root: &Node, pairs: &[Pair], o: Vec3, d: Vec3, mut tmax: f32, any: bool) -> Option<TriHit> {
+        if self.tris.is_empty() {
+            return None;
+        }
+        let ray = WatertightRay::new(o, d);
+        let inv = Vec3::ONE / d;
+        let mut best: Option<TriHit> = None;
+        box_hit(root, o, inv, tmax)?;
+        if root.count > 0 {
+            self.leaf(root.start, root.count, &ray, &mut tmax, &mut best, any);
             return best;
         }
-        let mut stack = [(0u32, 0f32); 128];
+        let mut stack = [(0u32, 0f32); STACK2];
         let mut sp = 0usize;
-        let mut cur = self.root.start;
+        let mut cur = root.start;
         loop {
-            let pair = &self.pairs[cur as usize].0;
+            let pair = &pairs[cur as usize].0;
             let mut inner = [(0u32, 0f32); 2];
             let mut ni = 0;
             for nd in pair {
                 if let Some(tn) = box_hit(nd, o, inv, tmax) {
                     if nd.count > 0 {
-                        if self.leaf(nd, &ray, &mut tmax, &mut best, any) {
+                        if self.leaf(nd.start, nd.count, &ray, &mut tmax, &mut best, any) {
                             return best;
                         }
                     } else {
@@ -187,6 +318,84 @@ impl Bvh {
     }
 }
 
+fn node_box(n: &obvhs::bvh2::node::Bvh2Node) -> (Vec3, Vec3) {
+    let b = n.aabb();
+    (Vec3::from(b.min), Vec3::from(b.max))
+}
+
+/// The `obvhs` BVH2 subtree at `i` as a binary node; inner nodes go to `pairs` depth first.
+fn to_binary(
+    b2: &obvhs::bvh2::Bvh2,
+    i: usize,
+    depth: usize,
+    max_depth: &mut usize,
+    pairs: &mut Vec<Pair>,
+    emit_leaf: &mut impl FnMut(&obvhs::bvh2::node::Bvh2Node) -> u32,
+) -> Node {
+    let n = &b2.nodes[i];
+    *max_depth = (*max_depth).max(depth);
+    let (lo, hi) = node_box(n);
+    if n.is_leaf() {
+        return Node { lo, hi, start: emit_leaf(n), count: n.prim_count };
+    }
+    let me = pairs.len();
+    let placeholder = Node { lo, hi, start: 0, count: 0 };
+    pairs.push(Pair([placeholder; 2]));
+    let l = to_binary(b2, n.first_index as usize, depth + 1, max_depth, pairs, emit_leaf);
+    let r = to_binary(b2, n.first_index as usize + 1, depth + 1, max_depth, pairs, emit_leaf);
+    pairs[me] = Pair([l, r]);
+    Node { lo, hi, start: me as u32, count: 0 }
+}
+
+/// The `obvhs` BVH2 subtree at `i` as 4-wide nodes, depth first; returns the node index. Each
+/// wide node takes the BVH2 node's children and opens the inner child of largest area until it
+/// has four (Wald et al. 2008's collapse).
+fn to_wide(
+    b2: &obvhs::bvh2::Bvh2,
+    i: usize,
+    depth: usize,
+    max_depth: &mut usize,
+    nodes: &mut Vec<Node4>,
+    emit_leaf: &mut impl FnMut(&obvhs::bvh2::node::Bvh2Node) -> u32,
+) -> u32 {
+    let n = &b2.nodes[i];
+    *max_depth = (*max_depth).max(depth);
+    let mut kids: Vec<usize> = if n.is_leaf() { vec![i] } else { vec![n.first_index as usize, n.first_index as usize + 1] };
+    while kids.len() < 4 {
+        let open = kids
+            .iter()
+            .enumerate()
+            .filter(|(_, k)| !b2.nodes[**k].is_leaf())
+            .max_by(|a, b| b2.nodes[*a.1].aabb().half_area().total_cmp(&b2.nodes[*b.1].aabb().half_area()))
+            .map(|(j, _)| j);
+        let Some(j) = open else { break };
+        let f = b2.nodes[kids[j]].first_index as usize;
+        kids[j] = f;
+        kids.insert(j + 1, f + 1);
+    }
+    let me = nodes.len();
+    nodes.push(Node4 {
+        lo: [[f32::INFINITY; 4]; 3],
+        hi: [[f32::NEG_INFINITY; 4]; 3],
+        child: [EMPTY; 4],
+        count: [0; 4],
+    });
+    for (c, &k) in kids.iter().enumerate() {
+        let kn = &b2.nodes[k];
+        let (lo, hi) = node_box(kn);
+        let (child, count) =
+            if kn.is_leaf() { (emit_leaf(kn), kn.prim_count) } else { (to_wide(b2, k, depth + 1, max_depth, nodes, emit_leaf), 0) };
+        let nd = &mut nodes[me];
+        for a in 0..3 {
+            nd.lo[a][c] = lo[a];
+            nd.hi[a][c] = hi[a];
+        }
+        nd.child[c] = child;
+        nd.count[c] = count;
+    }
+    me as u32
+}
+
 /// Entry distance of the ray into the node's box, if it enters before `tmax`. The far distance
 /// is widened by 2γ₃ (Ize 2013) so the test is conservative for the watertight triangle test.
 #[inline]
@@ -196,6 +405,82 @@ fn box_hit(n: &Node, o: Vec3, inv: Vec3, tmax: f32) -> Option<f32> {
     let tn = t1.min(t2).max_element().max(0.0);
     let tf = t1.max(t2).min_element() * 1.000_000_4;
     (tn <= tf && tn < tmax).then_some(tn)
+}
+
+/// [`box_hit`] for the four children of a wide node at once (same arithmetic, lane by lane);
+/// empty slots never hit.
+#[inline]
+fn box_hit4(n: &Node4, o: Vec3, inv: Vec3, tmax: f32) -> ([f32; 4], [bool; 4]) {
+    let mut tn = [0f32; 4];
+    let mut tf = [f32::INFINITY; 4];
+    for a in 0..3 {
+        for c in 0..4 {
+            let t1 = (n.lo[a][c] - o[a]) * inv[a];
+            let t2 = (n.hi[a][c] - o[a]) * inv[a];
+            tn[c] = tn[c].max(t1.min(t2));
+            tf[c] = tf[c].min(t1.max(t2));
+        }
+    }
+    let mut hit = [false; 4];
+    for c in 0..4 {
+        hit[c] = tn[c] <= tf[c] * 1.000_000_4 && tn[c] < tmax && n.child[c] != EMPTY;
+    }
+    (tn, hit)
+}
+
+impl Bvh {
+    /// The former hand-written builder: top-down binned SAH, 16 bins, binary layout. Kept for
+    /// the benchmark's comparison (`examples/bvh_bench.rs`).
+    #[doc(hidden)]
+    pub fn build_binned_sah(tris: Vec<[Vec3; 3]>) -> Bvh {
+        let n = tris.len();
+        let mut boxes = Vec::with_capacity(n);
+        let mut cents = Vec::with_capacity(n);
+        for t in &tris {
+            let mut b = Aabb::EMPTY;
+            for p in t {
+                b.grow(*p);
+            }
+            boxes.push(b);
+            cents.push((b.lo + b.hi) * 0.5);
+        }
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        let mut pairs = Vec::with_capacity(n / MAX_LEAF + 1);
+        let root = if n > 0 {
+            build_rec(&mut pairs, &mut order, 0, &boxes, &cents, 0)
+        } else {
+            Node { lo: Vec3::ZERO, hi: Vec3::ZERO, start: 0, count: 0 }
+        };
+        let stored = order.iter().map(|&i| tris[i as usize]).collect();
+        Bvh { nodes: Nodes::Binary { root, pairs }, tris: stored, ids: order }
+    }
+}
+
+const BINS: usize = 16;
+const MAX_LEAF: usize = 4;
+const TRAVERSAL_COST: f32 = 1.0;
+const INTERSECT_COST: f32 = 1.0;
+
+#[derive(Clone, Copy)]
+struct Aabb {
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl Aabb {
+    const EMPTY: Aabb = Aabb { lo: Vec3::splat(f32::INFINITY), hi: Vec3::splat(f32::NEG_INFINITY) };
+    fn grow(&mut self, p: Vec3) {
+        self.lo = self.lo.min(p);
+        self.hi = self.hi.max(p);
+    }
+    fn merge(&mut self, b: &Aabb) {
+        self.lo = self.lo.min(b.lo);
+        self.hi = self.hi.max(b.hi);
+    }
+    fn area(&self) -> f32 {
+        let e = self.hi - self.lo;
+        if e.x < 0.0 { 0.0 } else { 2.0 * (e.x * e.y + e.y * e.z + e.z * e.x) }
+    }
 }
 
 fn build_rec(
