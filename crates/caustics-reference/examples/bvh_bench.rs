@@ -31,6 +31,20 @@ fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// This thread's time on a CPU (seconds), from the kernel's scheduler statistics: on a shared
+/// machine, wall time also counts the time other processes hold our core; this does not.
+fn cpu_now() -> f64 {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").expect("schedstat");
+    s.split_whitespace().next().unwrap().parse::<f64>().unwrap() * 1e-9
+}
+
+/// (wall, on-CPU) seconds of `f`.
+fn timed(f: impl FnOnce()) -> (f64, f64) {
+    let (w, c) = (Instant::now(), cpu_now());
+    f();
+    (w.elapsed().as_secs_f64(), cpu_now() - c)
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -70,33 +84,31 @@ fn rays(tris: &[[Vec3; 3]], n: usize) -> Vec<Ray> {
         .collect()
 }
 
-/// Seconds per pass over all rays (median of `reps`), closest t per ray.
-fn time_closest(bvh: &Bvh, rays: &[Ray], reps: usize) -> (f64, Vec<f32>) {
-    let mut out = vec![f32::INFINITY; rays.len()];
-    let secs = (0..reps)
-        .map(|_| {
-            let t0 = Instant::now();
-            for (r, o) in rays.iter().zip(out.iter_mut()) {
-                *o = black_box(bvh.intersect(r.o, r.d, f32::INFINITY)).map_or(f32::INFINITY, |h| h.t);
-            }
-            t0.elapsed().as_secs_f64()
-        })
-        .collect();
-    (median(secs), out)
+/// Medians of (wall, on-CPU) seconds of `reps` runs of `f`.
+fn medians(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
+    let (w, c): (Vec<f64>, Vec<f64>) = (0..reps).map(|_| timed(&mut f)).unzip();
+    (median(w), median(c))
 }
 
-fn time_occluded(bvh: &Bvh, rays: &[Ray], reps: usize) -> (f64, Vec<u8>) {
+/// Seconds per pass over all rays (medians of `reps`), closest t per ray.
+fn time_closest(bvh: &Bvh, rays: &[Ray], reps: usize) -> ((f64, f64), Vec<f32>) {
+    let mut out = vec![f32::INFINITY; rays.len()];
+    let s = medians(reps, || {
+        for (r, o) in rays.iter().zip(out.iter_mut()) {
+            *o = black_box(bvh.intersect(r.o, r.d, f32::INFINITY)).map_or(f32::INFINITY, |h| h.t);
+        }
+    });
+    (s, out)
+}
+
+fn time_occluded(bvh: &Bvh, rays: &[Ray], reps: usize) -> ((f64, f64), Vec<u8>) {
     let mut out = vec![0u8; rays.len()];
-    let secs = (0..reps)
-        .map(|_| {
-            let t0 = Instant::now();
-            for (r, o) in rays.iter().zip(out.iter_mut()) {
-                *o = black_box(bvh.occluded(r.o, r.d, r.tmax)) as u8;
-            }
-            t0.elapsed().as_secs_f64()
-        })
-        .collect();
-    (median(secs), out)
+    let s = medians(reps, || {
+        for (r, o) in rays.iter().zip(out.iter_mut()) {
+            *o = black_box(bvh.occluded(r.o, r.d, r.tmax)) as u8;
+        }
+    });
+    (s, out)
 }
 
 fn main() {
@@ -112,6 +124,7 @@ fn main() {
     let rays = rays(&tris, n);
 
     type Builder = fn(Vec<[Vec3; 3]>) -> Bvh;
+    let only = std::env::var("BENCH_ONLY").unwrap_or_default();
     let builders: [(&str, Builder); 3] = [
         ("old binned SAH (binary)", Bvh::build_binned_sah),
         ("obvhs (binary)", |t| Bvh::build_with(t, Layout::Binary)),
@@ -119,34 +132,35 @@ fn main() {
     ];
     let mut json = Vec::new();
     let mut ours = None;
-    for (name, build) in builders {
-        let build_s = median(
-            (0..reps)
-                .map(|_| {
-                    let tris = tris.clone();
-                    let t0 = Instant::now();
-                    black_box(build(tris));
-                    t0.elapsed().as_secs_f64()
-                })
-                .collect(),
-        );
+    for (name, build) in builders.into_iter().filter(|(name, _)| name.contains(&only)) {
+        let build_s = medians(reps, || {
+            let tris = tris.clone();
+            black_box(build(tris));
+        });
         let bvh = build(tris.clone());
         let (cs, closest) = time_closest(&bvh, &rays, reps);
         let (os, occluded) = time_occluded(&bvh, &rays, reps);
         let hits = closest.iter().filter(|t| t.is_finite()).count();
         let occ = occluded.iter().filter(|&&o| o != 0).count();
+        let mr = |s: f64| n as f64 / s * 1e-6;
         println!(
-            "{name:26} build {:7.1} ms  nodes {:7}  closest {:6.3} Mrays/s  occluded {:6.3} Mrays/s  (hits {hits}, occluded {occ})",
-            build_s * 1e3,
+            "{name:24} build {:6.1} ms ({:6.1} on-CPU)  nodes {:6}  closest {:5.3} Mrays/s ({:5.3} on-CPU)  occluded {:5.3} ({:5.3} on-CPU)  [hits {hits}, occluded {occ}]",
+            build_s.0 * 1e3,
+            build_s.1 * 1e3,
             bvh.node_count(),
-            n as f64 / cs * 1e-6,
-            n as f64 / os * 1e-6,
+            mr(cs.0),
+            mr(cs.1),
+            mr(os.0),
+            mr(os.1),
         );
         json.push(format!(
-            "\"{name}\": {{\"build_ms\": {:.3}, \"closest_mrays\": {:.4}, \"occluded_mrays\": {:.4}}}",
-            build_s * 1e3,
-            n as f64 / cs * 1e-6,
-            n as f64 / os * 1e-6
+            "\"{name}\": {{\"build_ms\": {:.3}, \"build_cpu_ms\": {:.3}, \"closest_mrays\": {:.4}, \"closest_cpu_mrays\": {:.4}, \"occluded_mrays\": {:.4}, \"occluded_cpu_mrays\": {:.4}}}",
+            build_s.0 * 1e3,
+            build_s.1 * 1e3,
+            mr(cs.0),
+            mr(cs.1),
+            mr(os.0),
+            mr(os.1)
         ));
         if let Some((c0, o0)) = &ours {
             let same_t = closest.iter().zip(c0).filter(|(a, b): &(&f32, &f32)| a.to_bits() == b.to_bits()).count();

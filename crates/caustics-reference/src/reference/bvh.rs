@@ -45,6 +45,8 @@ struct Node4 {
     hi: [[f32; 4]; 3],
     child: [u32; 4],
     count: [u32; 4],
+    /// Bit `c`: slot `c` holds a child.
+    valid: u32,
 }
 
 const EMPTY: u32 = u32::MAX;
@@ -164,7 +166,7 @@ impl Bvh {
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<TriHit> {
         match &self.nodes {
             Nodes::Binary { root, pairs } => self.traverse2(root, pairs, o, d, tmax, false),
-            Nodes::Wide(nodes) => self.traverse4(nodes, o, d, tmax, false),
+            Nodes::Wide(nodes) => self.wide(nodes, o, d, tmax, false),
         }
     }
 
@@ -172,7 +174,7 @@ impl Bvh {
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         match &self.nodes {
             Nodes::Binary { root, pairs } => self.traverse2(root, pairs, o, d, tmax, true).is_some(),
-            Nodes::Wide(nodes) => self.traverse4(nodes, o, d, tmax, true).is_some(),
+            Nodes::Wide(nodes) => self.wide(nodes, o, d, tmax, true).is_some(),
         }
     }
 
@@ -190,53 +192,99 @@ impl Bvh {
         false
     }
 
-    fn traverse4(&self, nodes: &[Node4], o: Vec3, d: Vec3, mut tmax: f32, any: bool) -> Option<TriHit> {
+    /// The wide traversal, compiled once per axis permutation of the watertight test so that
+    /// its component picks are constants.
+    fn wide(&self, nodes: &[Node4], o: Vec3, d: Vec3, tmax: f32, any: bool) -> Option<TriHit> {
         if self.tris.is_empty() {
             return None;
         }
         let ray = WatertightRay::new(o, d);
-        let inv = Vec3::ONE / d;
+        match ray.k {
+            [1, 2, 0] => self.traverse4::<1, 2, 0>(nodes, &ray, d, tmax, any),
+            [2, 1, 0] => self.traverse4::<2, 1, 0>(nodes, &ray, d, tmax, any),
+            [2, 0, 1] => self.traverse4::<2, 0, 1>(nodes, &ray, d, tmax, any),
+            [0, 2, 1] => self.traverse4::<0, 2, 1>(nodes, &ray, d, tmax, any),
+            [0, 1, 2] => self.traverse4::<0, 1, 2>(nodes, &ray, d, tmax, any),
+            _ => self.traverse4::<1, 0, 2>(nodes, &ray, d, tmax, any),
+        }
+    }
+
+    #[inline(always)]
+    fn leaf_k<const KX: usize, const KY: usize, const KZ: usize>(
+        &self,
+        start: u32,
+        count: u32,
+        ray: &WatertightRay,
+        tmax: &mut f32,
+        best: &mut Option<TriHit>,
+        any: bool,
+    ) -> bool {
+        for i in start..start + count {
+            if let Some((t, b1, b2)) = ray.hit_k::<KX, KY, KZ>(&self.tris[i as usize], *tmax) {
+                *tmax = t;
+                *best = Some(TriHit { t, b1, b2, id: self.ids[i as usize] });
+                if any {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    fn traverse4<const KX: usize, const KY: usize, const KZ: usize>(
+        &self,
+        nodes: &[Node4],
+        ray: &WatertightRay,
+        d: Vec3,
+        mut tmax: f32,
+        any: bool,
+    ) -> Option<TriHit> {
+        let inv = (Vec3::ONE / d).to_array();
+        let o = ray.o.to_array();
         let mut best: Option<TriHit> = None;
         let mut stack = [(0u32, 0f32); STACK4];
         let mut sp = 0usize;
         let mut cur = 0u32;
         loop {
             let nd = &nodes[cur as usize];
-            let (tn, hit) = box_hit4(nd, o, inv, tmax);
+            let (tn, mut hit) = box_hit4(nd, o, inv, tmax);
+            // The children hit, near to far.
+            let mut kids = [(0usize, 0f32); 4];
+            let mut nk = 0;
+            while hit != 0 {
+                let c = hit.trailing_zeros() as usize;
+                hit &= hit - 1;
+                let mut j = nk;
+                while j > 0 && kids[j - 1].1 > tn[c] {
+                    kids[j] = kids[j - 1];
+                    j -= 1;
+                }
+                kids[j] = (c, tn[c]);
+                nk += 1;
+            }
+            // Leaves now (they may shorten tmax), inner nodes onto the list.
             let mut inner = [(0u32, 0f32); 4];
             let mut ni = 0;
-            for c in 0..4 {
-                if hit[c] {
-                    if nd.count[c] > 0 {
-                        if self.leaf(nd.child[c], nd.count[c], &ray, &mut tmax, &mut best, any) {
-                            return best;
-                        }
-                    } else {
-                        inner[ni] = (nd.child[c], tn[c]);
-                        ni += 1;
+            for &(c, t) in &kids[..nk] {
+                if t >= tmax {
+                    break;
+                }
+                if nd.count[c] > 0 {
+                    if self.leaf_k::<KX, KY, KZ>(nd.child[c], nd.count[c], ray, &mut tmax, &mut best, any) {
+                        return best;
                     }
+                } else {
+                    inner[ni] = (nd.child[c], t);
+                    ni += 1;
                 }
             }
-            // Leaves above may have shortened tmax; keep the inner children still in reach,
-            // sorted near to far.
-            let mut nk = 0;
-            for k in 0..ni {
-                if inner[k].1 < tmax {
-                    let e = inner[k];
-                    let mut j = nk;
-                    while j > 0 && inner[j - 1].1 < e.1 {
-                        inner[j] = inner[j - 1];
-                        j -= 1;
-                    }
-                    inner[j] = e;
-                    nk += 1;
+            // Go on with the nearest inner child, the others onto the stack far first.
+            if ni > 0 {
+                for k in (1..ni).rev() {
+                    stack[sp] = inner[k];
+                    sp += 1;
                 }
-            }
-            // `inner[..nk]` is far to near: push all but the nearest, go on with it.
-            if nk > 0 {
-                stack[sp..sp + nk - 1].copy_from_slice(&inner[..nk - 1]);
-                sp += nk - 1;
-                cur = inner[nk - 1].0;
+                cur = inner[0].0;
                 continue;
             }
             loop {
@@ -379,6 +427,7 @@ fn to_wide(
         hi: [[f32::NEG_INFINITY; 4]; 3],
         child: [EMPTY; 4],
         count: [0; 4],
+        valid: 0,
     });
     for (c, &k) in kids.iter().enumerate() {
         let kn = &b2.nodes[k];
@@ -392,6 +441,7 @@ fn to_wide(
         }
         nd.child[c] = child;
         nd.count[c] = count;
+        nd.valid |= 1 << c;
     }
     me as u32
 }
@@ -407,25 +457,40 @@ fn box_hit(n: &Node, o: Vec3, inv: Vec3, tmax: f32) -> Option<f32> {
     (tn <= tf && tn < tmax).then_some(tn)
 }
 
-/// [`box_hit`] for the four children of a wide node at once (same arithmetic, lane by lane);
-/// empty slots never hit.
-#[inline]
-fn box_hit4(n: &Node4, o: Vec3, inv: Vec3, tmax: f32) -> ([f32; 4], [bool; 4]) {
-    let mut tn = [0f32; 4];
-    let mut tf = [f32::INFINITY; 4];
-    for a in 0..3 {
+/// [`box_hit`] for the four children of a wide node at once (same arithmetic, lane by lane,
+/// written as plain 4-lane array code so that it compiles to vector instructions); bit `c` of
+/// the mask is set when child `c` is hit. Empty slots never hit.
+#[inline(always)]
+fn box_hit4(n: &Node4, o: [f32; 3], inv: [f32; 3], tmax: f32) -> ([f32; 4], u32) {
+    #[inline(always)]
+    fn slab(lo: &[f32; 4], hi: &[f32; 4], o: f32, inv: f32) -> ([f32; 4], [f32; 4]) {
+        let mut near = [0f32; 4];
+        let mut far = [0f32; 4];
         for c in 0..4 {
-            let t1 = (n.lo[a][c] - o[a]) * inv[a];
-            let t2 = (n.hi[a][c] - o[a]) * inv[a];
-            tn[c] = tn[c].max(t1.min(t2));
-            tf[c] = tf[c].min(t1.max(t2));
+            let t1 = (lo[c] - o) * inv;
+            let t2 = (hi[c] - o) * inv;
+            near[c] = if t1 < t2 { t1 } else { t2 };
+            far[c] = if t1 > t2 { t1 } else { t2 };
         }
+        (near, far)
     }
-    let mut hit = [false; 4];
+    let (nx, fx) = slab(&n.lo[0], &n.hi[0], o[0], inv[0]);
+    let (ny, fy) = slab(&n.lo[1], &n.hi[1], o[1], inv[1]);
+    let (nz, fz) = slab(&n.lo[2], &n.hi[2], o[2], inv[2]);
+    let mut tn = [0f32; 4];
+    let mut mask = 0;
     for c in 0..4 {
-        hit[c] = tn[c] <= tf[c] * 1.000_000_4 && tn[c] < tmax && n.child[c] != EMPTY;
+        // Exactly `box_hit`'s glam operations: `Vec3::min`/`max` and `max_element`/
+        // `min_element` compare and select (`if a < b { a } else { b }`, x.max(y.max(z))), the
+        // final clamp is `f32::max` (a NaN becomes 0).
+        let m = if ny[c] > nz[c] { ny[c] } else { nz[c] };
+        let t = if nx[c] > m { nx[c] } else { m };
+        tn[c] = if t > 0.0 { t } else { 0.0 };
+        let m = if fy[c] < fz[c] { fy[c] } else { fz[c] };
+        let tf = if fx[c] < m { fx[c] } else { m } * 1.000_000_4;
+        mask |= ((tn[c] <= tf && tn[c] < tmax) as u32) << c;
     }
-    (tn, hit)
+    (tn, mask & n.valid)
 }
 
 impl Bvh {
@@ -605,7 +670,25 @@ impl WatertightRay {
     /// (t, b1, b2) for a hit with t in (0, tmax).
     #[inline]
     fn hit(&self, tri: &[Vec3; 3], tmax: f32) -> Option<(f32, f32, f32)> {
-        let [kx, ky, kz] = self.k;
+        match self.k {
+            [1, 2, 0] => self.hit_k::<1, 2, 0>(tri, tmax),
+            [2, 1, 0] => self.hit_k::<2, 1, 0>(tri, tmax),
+            [2, 0, 1] => self.hit_k::<2, 0, 1>(tri, tmax),
+            [0, 2, 1] => self.hit_k::<0, 2, 1>(tri, tmax),
+            [0, 1, 2] => self.hit_k::<0, 1, 2>(tri, tmax),
+            _ => self.hit_k::<1, 0, 2>(tri, tmax),
+        }
+    }
+
+    /// [`WatertightRay::hit`] with the ray's axis permutation `k` as constants.
+    #[inline(always)]
+    fn hit_k<const KX: usize, const KY: usize, const KZ: usize>(
+        &self,
+        tri: &[Vec3; 3],
+        tmax: f32,
+    ) -> Option<(f32, f32, f32)> {
+        debug_assert_eq!(self.k, [KX, KY, KZ]);
+        let (kx, ky, kz) = (KX, KY, KZ);
         let a = (tri[0] - self.o).to_array();
         let b = (tri[1] - self.o).to_array();
         let c = (tri[2] - self.o).to_array();
