@@ -125,10 +125,11 @@ fn main() {
 
     type Builder = fn(Vec<[Vec3; 3]>) -> Bvh;
     let only = std::env::var("BENCH_ONLY").unwrap_or_default();
-    let builders: [(&str, Builder); 3] = [
+    let builders: [(&str, Builder); 4] = [
         ("old binned SAH (binary)", Bvh::build_binned_sah),
         ("obvhs (binary)", |t| Bvh::build_with(t, Layout::Binary)),
         ("obvhs (4-wide)", |t| Bvh::build_with(t, Layout::Wide4)),
+        ("obvhs (8-wide)", |t| Bvh::build_with(t, Layout::Wide8)),
     ];
     let mut json = Vec::new();
     let mut ours = None;

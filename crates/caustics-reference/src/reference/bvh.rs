@@ -40,25 +40,26 @@ struct Pair([Node; 2]);
 /// `count` triangles from `child`.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
-struct Node4 {
-    lo: [[f32; 4]; 3],
-    hi: [[f32; 4]; 3],
-    child: [u32; 4],
-    count: [u32; 4],
-    /// Bit `c`: slot `c` holds a child.
-    valid: u32,
+struct NodeW<const W: usize> {
+    lo: [[f32; W]; 3],
+    hi: [[f32; W]; 3],
+    child: [u32; W],
+    count: [u32; W],
 }
 
 const EMPTY: u32 = u32::MAX;
+const _: () = assert!(std::mem::size_of::<NodeW<4>>() == 128 && std::mem::size_of::<NodeW<8>>() == 256);
 /// Traversal stack sizes; a deeper `obvhs` tree falls back to the depth-bounded builder.
 const STACK2: usize = 128;
-const STACK4: usize = 192;
+const STACKW: usize = 256;
 
 enum Nodes {
     /// Binary, depth-first pairs (the former layout).
     Binary { root: Node, pairs: Vec<Pair> },
     /// 4-wide; the root is `nodes[0]`.
-    Wide(Vec<Node4>),
+    Wide4(Vec<NodeW<4>>),
+    /// 8-wide; the root is `nodes[0]`.
+    Wide8(Vec<NodeW<8>>),
 }
 
 /// A triangle BVH. Triangles are stored in leaf order; `ids[i]` is the caller's index of the
@@ -84,12 +85,28 @@ pub struct TriHit {
 pub enum Layout {
     Binary,
     Wide4,
+    Wide8,
 }
 
 /// Most triangles per leaf of the `obvhs` build (its SAH collapse decides below that).
 const OBVHS_MAX_LEAF: u32 = 4;
 
 fn obvhs_params() -> obvhs::BvhBuildParams {
+    if let Ok(v) = std::env::var("TUNE") {
+        let v: Vec<&str> = v.split(',').collect();
+        let base = match v[0] {
+            "fast" => obvhs::BvhBuildParams::fast_build(),
+            "slow" => obvhs::BvhBuildParams::slow_build(),
+            "vslow" => obvhs::BvhBuildParams::very_slow_build(),
+            _ => obvhs::BvhBuildParams::medium_build(),
+        };
+        return obvhs::BvhBuildParams {
+            pre_split: false,
+            max_prims_per_leaf: v[1].parse().unwrap(),
+            collapse_traversal_cost: v[2].parse().unwrap(),
+            ..base
+        };
+    }
     // `medium_build` without spatial pre-splits (a triangle must be in exactly one leaf so
     // that stored order and ids stay one-to-one), with our leaf size.
     obvhs::BvhBuildParams {
@@ -144,11 +161,20 @@ impl Bvh {
                 let mut nodes = Vec::with_capacity(b2.nodes.len() / 3 + 1);
                 let mut depth = 0;
                 to_wide(&b2, 0, 0, &mut depth, &mut nodes, &mut emit_leaf);
-                // Each level pushes at most three entries.
-                if 3 * depth >= STACK4 {
+                // Each level pushes at most W - 1 entries.
+                if 3 * depth >= STACKW {
                     return Bvh::build_binned_sah(tris);
                 }
-                Nodes::Wide(nodes)
+                Nodes::Wide4(nodes)
+            }
+            Layout::Wide8 => {
+                let mut nodes = Vec::with_capacity(b2.nodes.len() / 7 + 1);
+                let mut depth = 0;
+                to_wide(&b2, 0, 0, &mut depth, &mut nodes, &mut emit_leaf);
+                if 7 * depth >= STACKW {
+                    return Bvh::build_binned_sah(tris);
+                }
+                Nodes::Wide8(nodes)
             }
         };
         debug_assert_eq!(stored.len(), tris.len());
@@ -158,7 +184,8 @@ impl Bvh {
     pub fn node_count(&self) -> usize {
         match &self.nodes {
             Nodes::Binary { pairs, .. } => 1 + 2 * pairs.len(),
-            Nodes::Wide(nodes) => nodes.len(),
+            Nodes::Wide4(nodes) => nodes.len(),
+            Nodes::Wide8(nodes) => nodes.len(),
         }
     }
 
@@ -166,7 +193,8 @@ impl Bvh {
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<TriHit> {
         match &self.nodes {
             Nodes::Binary { root, pairs } => self.traverse2(root, pairs, o, d, tmax, false),
-            Nodes::Wide(nodes) => self.wide(nodes, o, d, tmax, false),
+            Nodes::Wide4(nodes) => self.wide(nodes, o, d, tmax, false),
+            Nodes::Wide8(nodes) => self.wide(nodes, o, d, tmax, false),
         }
     }
 
@@ -174,7 +202,8 @@ impl Bvh {
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         match &self.nodes {
             Nodes::Binary { root, pairs } => self.traverse2(root, pairs, o, d, tmax, true).is_some(),
-            Nodes::Wide(nodes) => self.wide(nodes, o, d, tmax, true).is_some(),
+            Nodes::Wide4(nodes) => self.wide(nodes, o, d, tmax, true).is_some(),
+            Nodes::Wide8(nodes) => self.wide(nodes, o, d, tmax, true).is_some(),
         }
     }
 
@@ -194,18 +223,18 @@ impl Bvh {
 
     /// The wide traversal, compiled once per axis permutation of the watertight test so that
     /// its component picks are constants.
-    fn wide(&self, nodes: &[Node4], o: Vec3, d: Vec3, tmax: f32, any: bool) -> Option<TriHit> {
+    fn wide<const W: usize>(&self, nodes: &[NodeW<W>], o: Vec3, d: Vec3, tmax: f32, any: bool) -> Option<TriHit> {
         if self.tris.is_empty() {
             return None;
         }
         let ray = WatertightRay::new(o, d);
         match ray.k {
-            [1, 2, 0] => self.traverse4::<1, 2, 0>(nodes, &ray, d, tmax, any),
-            [2, 1, 0] => self.traverse4::<2, 1, 0>(nodes, &ray, d, tmax, any),
-            [2, 0, 1] => self.traverse4::<2, 0, 1>(nodes, &ray, d, tmax, any),
-            [0, 2, 1] => self.traverse4::<0, 2, 1>(nodes, &ray, d, tmax, any),
-            [0, 1, 2] => self.traverse4::<0, 1, 2>(nodes, &ray, d, tmax, any),
-            _ => self.traverse4::<1, 0, 2>(nodes, &ray, d, tmax, any),
+            [1, 2, 0] => self.traverse4::<W, 1, 2, 0>(nodes, &ray, d, tmax, any),
+            [2, 1, 0] => self.traverse4::<W, 2, 1, 0>(nodes, &ray, d, tmax, any),
+            [2, 0, 1] => self.traverse4::<W, 2, 0, 1>(nodes, &ray, d, tmax, any),
+            [0, 2, 1] => self.traverse4::<W, 0, 2, 1>(nodes, &ray, d, tmax, any),
+            [0, 1, 2] => self.traverse4::<W, 0, 1, 2>(nodes, &ray, d, tmax, any),
+            _ => self.traverse4::<W, 1, 0, 2>(nodes, &ray, d, tmax, any),
         }
     }
 
@@ -231,9 +260,9 @@ impl Bvh {
         false
     }
 
-    fn traverse4<const KX: usize, const KY: usize, const KZ: usize>(
+    fn traverse4<const W: usize, const KX: usize, const KY: usize, const KZ: usize>(
         &self,
-        nodes: &[Node4],
+        nodes: &[NodeW<W>],
         ray: &WatertightRay,
         d: Vec3,
         mut tmax: f32,
@@ -242,14 +271,14 @@ impl Bvh {
         let inv = (Vec3::ONE / d).to_array();
         let o = ray.o.to_array();
         let mut best: Option<TriHit> = None;
-        let mut stack = [(0u32, 0f32); STACK4];
+        let mut stack = [(0u32, 0f32); STACKW];
         let mut sp = 0usize;
         let mut cur = 0u32;
         loop {
             let nd = &nodes[cur as usize];
             let (tn, mut hit) = box_hit4(nd, o, inv, tmax);
             // The children hit, near to far.
-            let mut kids = [(0usize, 0f32); 4];
+            let mut kids = [(0usize, 0f32); W];
             let mut nk = 0;
             while hit != 0 {
                 let c = hit.trailing_zeros() as usize;
@@ -263,7 +292,7 @@ impl Bvh {
                 nk += 1;
             }
             // Leaves now (they may shorten tmax), inner nodes onto the list.
-            let mut inner = [(0u32, 0f32); 4];
+            let mut inner = [(0u32, 0f32); W];
             let mut ni = 0;
             for &(c, t) in &kids[..nk] {
                 if t >= tmax {
@@ -398,18 +427,18 @@ fn to_binary(
 /// The `obvhs` BVH2 subtree at `i` as 4-wide nodes, depth first; returns the node index. Each
 /// wide node takes the BVH2 node's children and opens the inner child of largest area until it
 /// has four (Wald et al. 2008's collapse).
-fn to_wide(
+fn to_wide<const W: usize>(
     b2: &obvhs::bvh2::Bvh2,
     i: usize,
     depth: usize,
     max_depth: &mut usize,
-    nodes: &mut Vec<Node4>,
+    nodes: &mut Vec<NodeW<W>>,
     emit_leaf: &mut impl FnMut(&obvhs::bvh2::node::Bvh2Node) -> u32,
 ) -> u32 {
     let n = &b2.nodes[i];
     *max_depth = (*max_depth).max(depth);
     let mut kids: Vec<usize> = if n.is_leaf() { vec![i] } else { vec![n.first_index as usize, n.first_index as usize + 1] };
-    while kids.len() < 4 {
+    while kids.len() < W {
         let open = kids
             .iter()
             .enumerate()
@@ -422,12 +451,13 @@ fn to_wide(
         kids.insert(j + 1, f + 1);
     }
     let me = nodes.len();
-    nodes.push(Node4 {
-        lo: [[f32::INFINITY; 4]; 3],
-        hi: [[f32::NEG_INFINITY; 4]; 3],
-        child: [EMPTY; 4],
-        count: [0; 4],
-        valid: 0,
+    nodes.push(NodeW {
+        // An empty slot's box is the point (∞, ∞, ∞): on every axis both slab distances are
+        // ±∞, so either the far distance is -∞ or the near one is +∞, never < tmax.
+        lo: [[f32::INFINITY; W]; 3],
+        hi: [[f32::INFINITY; W]; 3],
+        child: [EMPTY; W],
+        count: [0; W],
     });
     for (c, &k) in kids.iter().enumerate() {
         let kn = &b2.nodes[k];
@@ -441,7 +471,6 @@ fn to_wide(
         }
         nd.child[c] = child;
         nd.count[c] = count;
-        nd.valid |= 1 << c;
     }
     me as u32
 }
@@ -459,14 +488,14 @@ fn box_hit(n: &Node, o: Vec3, inv: Vec3, tmax: f32) -> Option<f32> {
 
 /// [`box_hit`] for the four children of a wide node at once (same arithmetic, lane by lane,
 /// written as plain 4-lane array code so that it compiles to vector instructions); bit `c` of
-/// the mask is set when child `c` is hit. Empty slots never hit.
+/// the mask is set when child `c` is hit. Empty slots (box at infinity) never hit.
 #[inline(always)]
-fn box_hit4(n: &Node4, o: [f32; 3], inv: [f32; 3], tmax: f32) -> ([f32; 4], u32) {
+fn box_hit4<const W: usize>(n: &NodeW<W>, o: [f32; 3], inv: [f32; 3], tmax: f32) -> ([f32; W], u32) {
     #[inline(always)]
-    fn slab(lo: &[f32; 4], hi: &[f32; 4], o: f32, inv: f32) -> ([f32; 4], [f32; 4]) {
-        let mut near = [0f32; 4];
-        let mut far = [0f32; 4];
-        for c in 0..4 {
+    fn slab<const W: usize>(lo: &[f32; W], hi: &[f32; W], o: f32, inv: f32) -> ([f32; W], [f32; W]) {
+        let mut near = [0f32; W];
+        let mut far = [0f32; W];
+        for c in 0..W {
             let t1 = (lo[c] - o) * inv;
             let t2 = (hi[c] - o) * inv;
             near[c] = if t1 < t2 { t1 } else { t2 };
@@ -477,9 +506,9 @@ fn box_hit4(n: &Node4, o: [f32; 3], inv: [f32; 3], tmax: f32) -> ([f32; 4], u32)
     let (nx, fx) = slab(&n.lo[0], &n.hi[0], o[0], inv[0]);
     let (ny, fy) = slab(&n.lo[1], &n.hi[1], o[1], inv[1]);
     let (nz, fz) = slab(&n.lo[2], &n.hi[2], o[2], inv[2]);
-    let mut tn = [0f32; 4];
+    let mut tn = [0f32; W];
     let mut mask = 0;
-    for c in 0..4 {
+    for c in 0..W {
         // Exactly `box_hit`'s glam operations: `Vec3::min`/`max` and `max_element`/
         // `min_element` compare and select (`if a < b { a } else { b }`, x.max(y.max(z))), the
         // final clamp is `f32::max` (a NaN becomes 0).
@@ -490,7 +519,7 @@ fn box_hit4(n: &Node4, o: [f32; 3], inv: [f32; 3], tmax: f32) -> ([f32; 4], u32)
         let tf = if fx[c] < m { fx[c] } else { m } * 1.000_000_4;
         mask |= ((tn[c] <= tf && tn[c] < tmax) as u32) << c;
     }
-    (tn, mask & n.valid)
+    (tn, mask)
 }
 
 impl Bvh {
