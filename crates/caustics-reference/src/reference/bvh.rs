@@ -62,12 +62,23 @@ enum Nodes {
     Wide8(Vec<NodeW<8>>),
 }
 
-/// A triangle BVH. Triangles are stored in leaf order; `ids[i]` is the caller's index of the
-/// i-th stored triangle.
+/// Up to four triangles of one wide leaf, structure-of-arrays (`p[vertex][axis][lane]`), so that
+/// the edge tests of the four run as vector operations; `id` is the caller's index per lane.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+struct Tri4 {
+    p: [[[f32; 4]; 3]; 3],
+    id: [u32; 4],
+}
+
+/// A triangle BVH. Binary layouts store triangles in leaf order (`ids[i]` is the caller's index
+/// of the i-th stored triangle); the wide ones store them as `packets` (a leaf of `count`
+/// triangles is `count.div_ceil(4)` packets from `child`).
 pub struct Bvh {
     nodes: Nodes,
     tris: Vec<[Vec3; 3]>,
     ids: Vec<u32>,
+    packets: Vec<Tri4>,
 }
 
 /// A triangle hit: distance, barycentrics of vertices 1 and 2, caller's triangle index.
@@ -178,7 +189,17 @@ impl Bvh {
             }
         };
         debug_assert_eq!(stored.len(), tris.len());
-        Bvh { nodes, tris: stored, ids }
+        let mut bvh = Bvh { nodes, tris: stored, ids, packets: Vec::new() };
+        match &mut bvh.nodes {
+            Nodes::Binary { .. } => {}
+            Nodes::Wide4(nodes) => bvh.packets = packetize(nodes, &bvh.tris, &bvh.ids),
+            Nodes::Wide8(nodes) => bvh.packets = packetize(nodes, &bvh.tris, &bvh.ids),
+        }
+        if !bvh.packets.is_empty() {
+            bvh.tris = Vec::new();
+            bvh.ids = Vec::new();
+        }
+        bvh
     }
 
     pub fn node_count(&self) -> usize {
@@ -224,7 +245,7 @@ impl Bvh {
     /// The wide traversal, compiled once per axis permutation of the watertight test so that
     /// its component picks are constants.
     fn wide<const W: usize>(&self, nodes: &[NodeW<W>], o: Vec3, d: Vec3, tmax: f32, any: bool) -> Option<TriHit> {
-        if self.tris.is_empty() {
+        if self.packets.is_empty() {
             return None;
         }
         let ray = WatertightRay::new(o, d);
@@ -238,6 +259,10 @@ impl Bvh {
         }
     }
 
+    /// The `count` triangles of a wide leaf from packet `start`: the vector prefilter
+    /// ([`WatertightRay::candidates`]) drops the lanes that certainly miss, the scalar test
+    /// decides the others in lane order, so that the result is bit for bit that of the scalar
+    /// test over the leaf's triangles in order.
     #[inline(always)]
     fn leaf_k<const KX: usize, const KY: usize, const KZ: usize>(
         &self,
@@ -248,12 +273,20 @@ impl Bvh {
         best: &mut Option<TriHit>,
         any: bool,
     ) -> bool {
-        for i in start..start + count {
-            if let Some((t, b1, b2)) = ray.hit_k::<KX, KY, KZ>(&self.tris[i as usize], *tmax) {
-                *tmax = t;
-                *best = Some(TriHit { t, b1, b2, id: self.ids[i as usize] });
-                if any {
-                    return true;
+        for k in 0..count.div_ceil(4) {
+            let pk = &self.packets[(start + k) as usize];
+            let lanes = (count - 4 * k).min(4);
+            let mut m = ray.candidates::<KX, KY, KZ>(pk, *tmax) & ((1u32 << lanes) - 1);
+            while m != 0 {
+                let l = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let v = |i: usize| Vec3::new(pk.p[i][0][l], pk.p[i][1][l], pk.p[i][2][l]);
+                if let Some((t, b1, b2)) = ray.hit_k::<KX, KY, KZ>(&[v(0), v(1), v(2)], *tmax) {
+                    *tmax = t;
+                    *best = Some(TriHit { t, b1, b2, id: pk.id[l] });
+                    if any {
+                        return true;
+                    }
                 }
             }
         }
@@ -475,6 +508,35 @@ fn to_wide<const W: usize>(
     me as u32
 }
 
+/// Replaces the wide leaves' triangle ranges (into `tris`) by packet ranges.
+fn packetize<const W: usize>(nodes: &mut [NodeW<W>], tris: &[[Vec3; 3]], ids: &[u32]) -> Vec<Tri4> {
+    let mut packets = Vec::with_capacity(tris.len() / 3 + 1);
+    for nd in nodes.iter_mut() {
+        for c in 0..W {
+            if nd.child[c] == EMPTY || nd.count[c] == 0 {
+                continue;
+            }
+            let (start, count) = (nd.child[c] as usize, nd.count[c] as usize);
+            nd.child[c] = packets.len() as u32;
+            for chunk in (start..start + count).collect::<Vec<_>>().chunks(4) {
+                // Unused lanes repeat the first triangle (masked off by the leaf's count).
+                let mut pk = Tri4 { p: [[[0.0; 4]; 3]; 3], id: [ids[chunk[0]]; 4] };
+                for l in 0..4 {
+                    let i = chunk[l.min(chunk.len() - 1)];
+                    for (v, p) in tris[i].iter().enumerate() {
+                        for a in 0..3 {
+                            pk.p[v][a][l] = p[a];
+                        }
+                    }
+                    pk.id[l] = ids[i];
+                }
+                packets.push(pk);
+            }
+        }
+    }
+    packets
+}
+
 /// Entry distance of the ray into the node's box, if it enters before `tmax`. The far distance
 /// is widened by 2γ₃ (Ize 2013) so the test is conservative for the watertight triangle test.
 #[inline]
@@ -546,7 +608,7 @@ impl Bvh {
             Node { lo: Vec3::ZERO, hi: Vec3::ZERO, start: 0, count: 0 }
         };
         let stored = order.iter().map(|&i| tris[i as usize]).collect();
-        Bvh { nodes: Nodes::Binary { root, pairs }, tris: stored, ids: order }
+        Bvh { nodes: Nodes::Binary { root, pairs }, tris: stored, ids: order, packets: Vec::new() }
     }
 }
 
@@ -707,6 +769,37 @@ impl WatertightRay {
             [0, 1, 2] => self.hit_k::<0, 1, 2>(tri, tmax),
             _ => self.hit_k::<1, 0, 2>(tri, tmax),
         }
+    }
+
+    /// Bit `l` set unless lane `l` of the packet certainly misses within (0, tmax): the same
+    /// single-precision arithmetic as [`WatertightRay::hit_k`], lane by lane; lanes whose
+    /// edge functions are not all decided in single precision (one is 0), or whose distance test
+    /// is not decided, stay candidates.
+    #[inline(always)]
+    fn candidates<const KX: usize, const KY: usize, const KZ: usize>(&self, pk: &Tri4, tmax: f32) -> u32 {
+        let o = self.o.to_array();
+        let mut mask = 0;
+        for l in 0..4 {
+            let a = [pk.p[0][KX][l] - o[KX], pk.p[0][KY][l] - o[KY], pk.p[0][KZ][l] - o[KZ]];
+            let b = [pk.p[1][KX][l] - o[KX], pk.p[1][KY][l] - o[KY], pk.p[1][KZ][l] - o[KZ]];
+            let c = [pk.p[2][KX][l] - o[KX], pk.p[2][KY][l] - o[KY], pk.p[2][KZ][l] - o[KZ]];
+            let ax = a[0] - self.s.x * a[2];
+            let ay = a[1] - self.s.y * a[2];
+            let bx = b[0] - self.s.x * b[2];
+            let by = b[1] - self.s.y * b[2];
+            let cx = c[0] - self.s.x * c[2];
+            let cy = c[1] - self.s.y * c[2];
+            let u = cx * by - cy * bx;
+            let v = ax * cy - ay * cx;
+            let w = bx * ay - by * ax;
+            let zero = u == 0.0 || v == 0.0 || w == 0.0;
+            let out = (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0);
+            let det = u + v + w;
+            let t = u * (self.s.z * a[2]) + v * (self.s.z * b[2]) + w * (self.s.z * c[2]);
+            let far = (det > 0.0 && (t <= 0.0 || t >= tmax * det)) || (det < 0.0 && (t >= 0.0 || t <= tmax * det));
+            mask |= ((zero || !(out || far)) as u32) << l;
+        }
+        mask
     }
 
     /// [`WatertightRay::hit`] with the ray's axis permutation `k` as constants.
