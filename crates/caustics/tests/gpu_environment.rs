@@ -46,7 +46,9 @@ fn settings() -> RenderSettings {
 #[test]
 fn camera_rays_that_miss_show_the_environment() {
     let Some(ctx) = gpu() else { return };
-    let s = scene(r#"{ "type": "rectangle", "center": [0, 0, 0], "normal": [0, 1, 0], "size": [2, 2], "material": "floor" }"#);
+    let s = scene(
+        r#"{ "type": "rectangle", "center": [0, 0, 0], "normal": [0, 1, 0], "size": [2, 2], "material": "floor" }"#,
+    );
     let env = s.environment.clone().unwrap();
     let out = render(&ctx, &s, &settings()).unwrap();
     let cam = &s.camera;

@@ -141,7 +141,7 @@ impl Emitter {
         match &self.domain {
             Domain::Environment { env, center, radius, back, area } => {
                 let s = env.sample(u)?;
-                if !(s.pdf > 0.0) || s.radiance.max_element() <= 0.0 {
+                if s.pdf.is_nan() || s.pdf <= 0.0 || s.radiance.max_element() <= 0.0 {
                     return None;
                 }
                 let (du, dv) = basis(s.dir);

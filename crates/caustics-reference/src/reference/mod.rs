@@ -232,7 +232,8 @@ pub fn render_with_progress(
     settings.validate()?;
     check_scene(scene)?;
     let (w, h) = (scene.camera.width as u64, scene.camera.height as u64);
-    let lights_with_photons = (0..=scene.lights.len()).filter(|&li| caustic_emitter(scene, li).is_some()).count() as u64;
+    let lights_with_photons =
+        (0..=scene.lights.len()).filter(|&li| caustic_emitter(scene, li).is_some()).count() as u64;
     progress.total.store(
         lights_with_photons * settings.photons_per_light + w * h * settings.camera_spp as u64,
         Ordering::Relaxed,

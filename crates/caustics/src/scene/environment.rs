@@ -97,9 +97,7 @@ impl Environment {
     /// A map from radiance texels (row-major, top row first, `width = 2 × height`).
     pub fn from_texels(width: u32, height: u32, texels: Vec<Vec3>, rotate_y_deg: f32) -> Result<Environment, String> {
         if width == 0 || height == 0 || width != 2 * height {
-            return Err(format!(
-                "an equirectangular map must be twice as wide as it is high (got {width}×{height})"
-            ));
+            return Err(format!("an equirectangular map must be twice as wide as it is high (got {width}×{height})"));
         }
         if texels.len() != (width * height) as usize {
             return Err(format!("expected {} texels, got {}", width * height, texels.len()));
@@ -218,7 +216,8 @@ struct Distribution2D {
 
 impl Distribution2D {
     fn new(w: usize, h: usize, texels: &[Vec3]) -> Distribution2D {
-        let at = |x: i64, y: i64| weight(texels[(y.clamp(0, h as i64 - 1) as usize) * w + x.rem_euclid(w as i64) as usize]);
+        let at =
+            |x: i64, y: i64| weight(texels[(y.clamp(0, h as i64 - 1) as usize) * w + x.rem_euclid(w as i64) as usize]);
         const K: [f32; 3] = [0.125, 0.75, 0.125];
         let mut func = vec![0.0f32; w * h];
         for y in 0..h {

@@ -15,8 +15,8 @@
 //!
 //! With `D < 6`, the `6 - D + 1` faces of least total are merged into one region.
 
-use super::environment::Environment;
 use super::Light;
+use super::environment::Environment;
 use glam::{DVec3, Vec2, Vec3};
 
 /// One region of the segmentation and the directional light that stands for it.

@@ -662,7 +662,9 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                 return Err(cx.err("medium", "a medium cannot be combined with a directional light"));
             }
             if let Some((k, _)) = &environment {
-                return Err(cx.err("medium", format!("a medium cannot be combined with an environment light (lights[{k}])")));
+                return Err(
+                    cx.err("medium", format!("a medium cannot be combined with an environment light (lights[{k}])"))
+                );
             }
             Some(Medium {
                 sigma_s: cx.nonneg_rgb("medium.sigma_s", m.sigma_s)?,
