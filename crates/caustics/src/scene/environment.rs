@@ -442,6 +442,26 @@ mod tests {
     }
 
     #[test]
+    fn radiance_hdr_files_load_top_row_first() {
+        let dir = std::env::temp_dir().join(format!("caustics-hdr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("map.hdr");
+        let (w, h) = (8usize, 4usize);
+        let px: Vec<image::Rgb<f32>> =
+            (0..w * h).map(|i| image::Rgb([1.0 + i as f32, 0.5, if i == 0 { 64.0 } else { 0.25 }])).collect();
+        let file = std::fs::File::create(&path).unwrap();
+        image::codecs::hdr::HdrEncoder::new(std::io::BufWriter::new(file)).encode(&px, w, h).unwrap();
+        let env = Environment::load(&path, Vec3::new(2.0, 1.0, 1.0), 0.0).unwrap();
+        assert_eq!((env.width, env.height), (8, 4));
+        for (i, t) in env.texels.iter().enumerate() {
+            let want = Vec3::new(2.0 * (1.0 + i as f32), 0.5, if i == 0 { 64.0 } else { 0.25 });
+            // RGBE keeps 8 bits of mantissa per channel relative to the largest.
+            assert!((*t - want).abs().max_element() <= 0.01 * want.max_element(), "{i}: {t} vs {want}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
     fn texel_solid_angles_sum_to_the_sphere() {
         let env = bumpy();
         let s: f32 = (0..env.height).map(|y| env.texel_solid_angle(y) * env.width as f32).sum();
