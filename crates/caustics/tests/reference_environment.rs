@@ -59,6 +59,18 @@ fn a_floor_under_a_uniform_sky_reflects_albedo_times_its_radiance() {
     let rel = (mean / (0.8 * l).as_dvec3() - 1.0).abs().max_element();
     assert!(rel < 0.01, "floor mean {mean} vs {}", 0.8 * l);
     assert!(o.caustic.pixels.iter().flatten().all(|&c| c == 0.0));
+    // With one interaction per path (no bounce after the floor), next-event estimation alone
+    // carries the sky light, unweighted.
+    let o1 = reference::render(&s, &ReferenceSettings { max_depth: 1, ..rs }).unwrap();
+    let floor_mean = o1
+        .nocaustic
+        .pixels
+        .iter()
+        .map(|p| Vec3::from_array(*p))
+        .filter(|p| (*p - l).abs().max_element() >= 1e-6)
+        .fold(glam::DVec3::ZERO, |a, p| a + p.as_dvec3())
+        / floor as f64;
+    assert!((floor_mean / (0.8 * l).as_dvec3() - 1.0).abs().max_element() < 0.01, "{floor_mean}");
 }
 
 #[test]

@@ -248,11 +248,12 @@ impl<'a> Tracer<'a> {
             let (ng, ns) = if front { (h.ng, h.ns) } else { (-h.ng, -h.ns) };
             match self.mats[h.object as usize] {
                 Material::Diffuse { albedo } => {
-                    let (e, r) = self.direct_irradiance(h.p, h.ng, ng, ns, rng);
+                    let last = depth + 1 >= self.max_depth;
+                    let (e, r) = self.direct_irradiance(h.p, h.ng, ng, ns, last, rng);
                     rays += r;
                     l += beta * albedo * e / PI;
                     seen_diffuse = true;
-                    if depth + 1 >= self.max_depth {
+                    if last {
                         break;
                     }
                     let q = albedo.max_element().min(1.0);
@@ -282,8 +283,17 @@ impl<'a> Tracer<'a> {
     /// Irradiance (W/m²) at `p` straight from the lights, on the side of `ng` (shading cosine
     /// with `ns`), with shadow rays. Returns (irradiance, rays). The environment light is
     /// sampled once from its distribution, weighted for multiple importance sampling with the
-    /// cosine-sampled bounce of [`Self::trace_camera`] (`rng` is drawn from only then).
-    fn direct_irradiance(&self, p: Vec3, ng_raw: Vec3, ng: Vec3, ns: Vec3, rng: &mut PathRng) -> (Vec3, u64) {
+    /// cosine-sampled bounce of [`Self::trace_camera`], or not weighted at the `last` vertex
+    /// (no bounce follows); `rng` is drawn from only then.
+    fn direct_irradiance(
+        &self,
+        p: Vec3,
+        ng_raw: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+        last: bool,
+        rng: &mut PathRng,
+    ) -> (Vec3, u64) {
         let mut e = Vec3::ZERO;
         let mut rays = 0;
         for light in &self.scene.lights {
@@ -316,7 +326,7 @@ impl<'a> Tracer<'a> {
                 rays += 1;
                 if !self.accel.occluded(spawn(p, ng_raw, s.dir), s.dir, f32::INFINITY) {
                     let pb = s.dir.dot(ng) / PI;
-                    let w = s.pdf * s.pdf / (s.pdf * s.pdf + pb * pb);
+                    let w = if last { 1.0 } else { s.pdf * s.pdf / (s.pdf * s.pdf + pb * pb) };
                     e += s.radiance * (s.dir.dot(ns).max(0.0) * w / s.pdf);
                 }
             }
