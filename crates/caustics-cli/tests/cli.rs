@@ -32,6 +32,26 @@ fn bad_scene_file_exits_2_and_names_it() {
 }
 
 #[test]
+fn bad_environment_map_exits_2_and_names_it() {
+    let scene = tmp("env_scene.json");
+    let map = tmp("not_a_map.exr");
+    std::fs::write(&map, "not an image").unwrap();
+    std::fs::write(
+        &scene,
+        r#"{ "schema_version": 1, "name": "env",
+          "camera": { "position": [0, 1, 3], "look_at": [0, 0, 0], "fov_y_deg": 40, "width": 8, "height": 8 },
+          "lights": [ { "type": "environment", "path": "not_a_map.exr" } ],
+          "materials": { "floor": { "type": "diffuse", "albedo": 0.5 } },
+          "objects": [ { "type": "rectangle", "center": [0, 0, 0], "normal": [0, 1, 0], "size": [2, 2], "material": "floor" } ] }"#,
+    )
+    .unwrap();
+    let out = tmp("never_env.png");
+    let e = run_err(&["render", scene.to_str().unwrap(), "--backend", "cpu", "-o", out.to_str().unwrap()]);
+    assert!(e.contains("env_scene.json") && e.contains("lights[0].path") && e.contains("not_a_map.exr"), "{e}");
+    assert!(!out.exists());
+}
+
+#[test]
 fn bad_output_and_settings_exit_2() {
     let e = run_err(&["render", "-o", "/nonexistent-dir/x.png"]);
     assert!(e.contains("--output") && e.contains("/nonexistent-dir"), "{e}");

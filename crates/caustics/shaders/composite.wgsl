@@ -4,16 +4,21 @@
 // back surface found in the camera back buffer (tangent-plane intersection, re-projected a few
 // times), and the exit ray and the reflected ray find the diffuse surface they hit by an
 // iterative screen-space search in the camera receiver buffer; what they find is weighted by the
-// Fresnel terms. Rays that leave the screen see the black background.
+// Fresnel terms. Rays the screen-space search cannot place (off screen, or onto a pixel with no
+// diffuse surface) see the environment (`shared/environment.wgsl`; black without one), as do
+// pixels where the camera sees no surface.
 // Multi-layer deferred refraction: analytic specular objects behind the first layer are
 // intersected exactly; specular meshes behind it are found in the camera's second-layer buffers
 // (front and back, depth-peeled per object by `raster_peel`) and refracted through the same way.
 
 #import shapes
+#import environment
 
 struct CompositeParams {
     world_to_clip: mat4x4f,
+    clip_to_world: mat4x4f,
     camera: vec4f,
+    env_rotation: vec4f,
     width: u32,
     height: u32,
     _pad0: u32,
@@ -36,6 +41,7 @@ struct CompositeParams {
 @group(0) @binding(13) var spec2_nrm: texture_2d<f32>;
 @group(0) @binding(14) var back2_pos: texture_2d<f32>;
 @group(0) @binding(15) var back2_nrm: texture_2d<f32>;
+@group(0) @binding(16) var env_map: texture_2d<f32>;
 
 fn to_pixel(p: vec3f) -> vec3f {
     let c = cp.world_to_clip * vec4f(p, 1.0);
@@ -50,21 +56,21 @@ fn pix(q: vec2f) -> vec2i {
 }
 
 // Radiance of the diffuse surface hit by the ray o + t d, by screen-space search, and the
-// distance to it (1e30 when the search finds nothing: the black background).
+// distance to it (1e30 when the search finds nothing: then the environment along d).
 fn trace_receivers_t(o: vec3f, d: vec3f) -> vec4f {
     var t = -1.0;
     var p = o + d * 0.05;
     for (var it = 0u; it < 16u; it++) {
         let q = to_pixel(p);
-        if (q.z < 0.0) { return vec4f(0.0, 0.0, 0.0, 1e30); }
+        if (q.z < 0.0) { return vec4f(env_radiance(d, cp.env_rotation), 1e30); }
         let px = pix(q.xy);
         let r = textureLoad(recv_pos, px, 0);
-        if (r.w < 0.0) { return vec4f(0.0, 0.0, 0.0, 1e30); }
+        if (r.w < 0.0) { return vec4f(env_radiance(d, cp.env_rotation), 1e30); }
         let n = textureLoad(recv_nrm, px, 0).xyz;
         let dn = dot(d, n);
         var t_new = length(r.xyz - o);
         if (abs(dn) > 1e-3) { t_new = dot(r.xyz - o, n) / dn; }
-        if (t_new <= 0.0) { return vec4f(0.0, 0.0, 0.0, 1e30); }
+        if (t_new <= 0.0) { return vec4f(env_radiance(d, cp.env_rotation), 1e30); }
         if (abs(t_new - t) <= 1e-4 * t_new) {
             return vec4f(radiance[u32(px.y) * cp.width + u32(px.x)].rgb, t_new);
         }
@@ -72,7 +78,7 @@ fn trace_receivers_t(o: vec3f, d: vec3f) -> vec4f {
         p = o + t * d;
     }
     let q = to_pixel(p);
-    if (q.z < 0.0) { return vec4f(0.0, 0.0, 0.0, 1e30); }
+    if (q.z < 0.0) { return vec4f(env_radiance(d, cp.env_rotation), 1e30); }
     let px = pix(q.xy);
     return vec4f(radiance[u32(px.y) * cp.width + u32(px.x)].rgb, t);
 }
@@ -318,6 +324,14 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let s = textureLoad(spec_pos, px, 0);
     let cam = cp.camera.xyz;
     let spec_in_front = s.w >= 0.0 && (r.w < 0.0 || length(s.xyz - cam) < length(r.xyz - cam));
+    if (r.w < 0.0 && s.w < 0.0) {
+        // No surface: the environment along the pixel centre's camera ray.
+        let ndc = vec2f((f32(gid.x) + 0.5) / f32(cp.width) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(cp.height) * 2.0);
+        let q = cp.clip_to_world * vec4f(ndc, 0.5, 1.0);
+        out_full[idx] = vec4f(env_radiance(q.xyz / q.w - cam, cp.env_rotation), 0.0);
+        out_caustic[idx] = vec4f(0.0);
+        return;
+    }
     if (!spec_in_front) {
         out_full[idx] = radiance[idx];
         out_caustic[idx] = caustic_in[idx];

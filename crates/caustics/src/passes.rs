@@ -42,6 +42,8 @@ pub(crate) struct Geometry {
     pub materials: wgpu::Buffer,
     /// Per object: [`ObjectTransform`] from the scene file's pose to the current one.
     pub transforms: wgpu::Buffer,
+    /// The environment map (linear radiance, Rgba32Float; 1×1 black without one).
+    pub environment: wgpu::Texture,
     /// The exact tracer's BVH (`crate::accel`): bottom levels built once, instances rewritten
     /// when objects move ([`Geometry::write_instances`]).
     pub bvh: crate::accel::SceneBvh,
@@ -111,6 +113,7 @@ pub(crate) fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation)
         ranges,
         materials: ctx.buffer_init("materials", bytemuck::cast_slice(&material_records(scene)), storage),
         transforms: ctx.buffer_init("object_transforms", bytemuck::cast_slice(&transforms), storage),
+        environment: upload_environment(ctx, scene),
     }
 }
 
@@ -1021,6 +1024,48 @@ pub(crate) fn record_shade(
     cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
 }
 
+/// The scene's environment map as an Rgba32Float texture (read with `textureLoad`, so no
+/// filterable-float feature is needed), halved (2×2 box) while wider than the device allows; a
+/// 1×1 black texture without one.
+fn upload_environment(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
+    let (mut w, mut h, mut texels) = match &scene.environment {
+        Some(e) => (e.width, e.height, e.texels.clone()),
+        None => (1, 1, vec![glam::Vec3::ZERO]),
+    };
+    let max = ctx.device.limits().max_texture_dimension_2d;
+    while w > max && w >= 2 && h >= 2 {
+        let (w2, h2) = (w / 2, h / 2);
+        let at = |x: u32, y: u32| texels[(y * w + x) as usize];
+        texels = (0..w2 * h2)
+            .map(|i| {
+                let (x, y) = (2 * (i % w2), 2 * (i / w2));
+                (at(x, y) + at(x + 1, y) + at(x, y + 1) + at(x + 1, y + 1)) * 0.25
+            })
+            .collect();
+        (w, h) = (w2, h2);
+    }
+    let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
+    let texture = ctx.texture(
+        "environment",
+        size,
+        wgpu::TextureFormat::Rgba32Float,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+    );
+    let rgba: Vec<[f32; 4]> = texels.iter().map(|t| t.extend(0.0).to_array()).collect();
+    ctx.queue.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture: &texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        bytemuck::cast_slice(&rgba),
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(w * 16), rows_per_image: Some(h) },
+        size,
+    );
+    texture
+}
+
 /// `composite` (image-space refraction and reflection of the camera's specular surfaces) and
 /// `display` (the tone-mapped image): (radiance image, caustic-only image, display texture).
 pub(crate) fn record_composite(
@@ -1040,7 +1085,12 @@ pub(crate) fn record_composite(
         "composite_params",
         bytemuck::bytes_of(&CompositeParams {
             world_to_clip: eye.cam_clip.to_cols_array_2d(),
+            clip_to_world: eye.cam_clip.inverse().to_cols_array_2d(),
             camera: cam.position.extend(1.0).to_array(),
+            env_rotation: match &dc.scene.environment {
+                Some(e) => [e.rotate_y.cos(), e.rotate_y.sin(), 1.0, 0.0],
+                None => [1.0, 0.0, 0.0, 0.0],
+            },
             width: w,
             height: h,
             _pad: [0; 2],
@@ -1059,6 +1109,7 @@ pub(crate) fn record_composite(
         &eye.back2.nrm,
     ]
     .map(|t| layer_view(ctx, t, 0));
+    let env_view = ctx.view(&dc.geo.environment, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
     let tv = |i: usize| wgpu::BindingResource::TextureView(&v[i]);
     let composite_pl = ctx.compute_pipeline("composite");
     let cbg = crate::gpu::bind(
@@ -1082,6 +1133,7 @@ pub(crate) fn record_composite(
             tv(7),
             tv(8),
             tv(9),
+            wgpu::BindingResource::TextureView(&env_view),
         ],
     );
     {

@@ -1,4 +1,4 @@
-//! Photon emission from spot, point and directional lights.
+//! Photon emission from spot, point, directional and environment lights.
 //!
 //! An [`Emitter`] samples directions (spot, point) or positions (directional) uniformly over a
 //! domain that contains every direction that matters, and gives each photon the flux that makes
@@ -12,11 +12,17 @@
 //! sphere of the specular objects, for caustic photons) or the spot cone, whichever is smaller.
 //! Directions outside it cannot produce a caustic, so skipping them keeps the caustic estimate
 //! unbiased.
+//!
+//! [`Emitter::environment`] draws a direction from the environment's importance-sampling
+//! distribution (density `p(ω)` per solid angle), then a point uniform on a disc of area A
+//! perpendicular to it (the target sphere's cross-section, as a directional light's), and gives
+//! the photon `L(ω) · A / (p(ω) N)`.
 
 use super::sampling::{basis, concentric_disc, uniform_cone};
-use caustics::scene::Light;
+use caustics::scene::{Environment, Light};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 #[derive(Clone, Debug)]
 enum Domain {
@@ -24,6 +30,9 @@ enum Domain {
     Cone { origin: Vec3, axis: Vec3, cos_max: f32, solid_angle: f32 },
     /// Uniform over a disc perpendicular to `dir`, starting `back` behind the disc's plane.
     Disc { center: Vec3, u: Vec3, v: Vec3, radius: f32, dir: Vec3, back: f32, area: f32 },
+    /// A direction from the environment's distribution, then uniform over a disc of `radius`
+    /// around `center` perpendicular to it, starting `back` before the disc's plane.
+    Environment { env: Arc<Environment>, center: Vec3, radius: f32, back: f32, area: f32 },
 }
 
 /// Samples photons from one light.
@@ -32,6 +41,9 @@ pub struct Emitter {
     light: Light,
     domain: Domain,
 }
+
+/// Placeholder light of an environment emitter (whose radiance is in its domain).
+const NO_LIGHT: Light = Light::Directional { direction: Vec3::NEG_Y, irradiance: Vec3::ZERO };
 
 /// One emitted photon: origin, unit direction, and flux × N (W; divide by the photon count).
 #[derive(Clone, Copy, Debug)]
@@ -94,10 +106,49 @@ impl Emitter {
         Emitter { light: light.clone(), domain }
     }
 
+    /// The environment's emission that can reach the sphere (`target_center`,
+    /// `target_radius`), inside a scene bounded by (`scene_center`, `scene_radius`).
+    pub fn environment(
+        env: Arc<Environment>,
+        target_center: Vec3,
+        target_radius: f32,
+        scene_center: Vec3,
+        scene_radius: f32,
+    ) -> Emitter {
+        let radius = target_radius * 1.0001;
+        let back = scene_radius + (target_center - scene_center).length() + radius + 1e-3 * (1.0 + scene_radius);
+        Emitter {
+            light: NO_LIGHT,
+            domain: Domain::Environment { env, center: target_center, radius, back, area: PI * radius * radius },
+        }
+    }
+
+    /// Whether [`Self::sample_with`] asks for its second 2D sample.
+    pub fn needs_aux(&self) -> bool {
+        matches!(self.domain, Domain::Environment { .. })
+    }
+
     /// Photon for the 2D sample `u`; `None` where the light emits nothing (outside a spot cone).
     #[inline]
     pub fn sample(&self, u: Vec2) -> Option<Emitted> {
+        self.sample_with(u, || Vec2::splat(0.5))
+    }
+
+    /// Photon for the 2D sample `u` and, for an environment (the position on the disc; the
+    /// direction comes from `u`), the 2D sample `aux` returns (called only then).
+    #[inline]
+    pub fn sample_with(&self, u: Vec2, aux: impl FnOnce() -> Vec2) -> Option<Emitted> {
         match &self.domain {
+            Domain::Environment { env, center, radius, back, area } => {
+                let s = env.sample(u)?;
+                if s.pdf.is_nan() || s.pdf <= 0.0 || s.radiance.max_element() <= 0.0 {
+                    return None;
+                }
+                let (du, dv) = basis(s.dir);
+                let p = concentric_disc(aux()) * *radius;
+                let origin = *center + du * p.x + dv * p.y + s.dir * *back;
+                Some(Emitted { origin, dir: -s.dir, flux_n: s.radiance * (*area / s.pdf) })
+            }
             Domain::Cone { origin, axis, cos_max, solid_angle } => {
                 let dir = uniform_cone(u, *axis, *cos_max);
                 let i = self.light.intensity_toward(dir);

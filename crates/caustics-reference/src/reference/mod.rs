@@ -232,7 +232,8 @@ pub fn render_with_progress(
     settings.validate()?;
     check_scene(scene)?;
     let (w, h) = (scene.camera.width as u64, scene.camera.height as u64);
-    let lights_with_photons = (0..scene.lights.len()).filter(|&li| caustic_emitter(scene, li).is_some()).count() as u64;
+    let lights_with_photons =
+        (0..=scene.lights.len()).filter(|&li| caustic_emitter(scene, li).is_some()).count() as u64;
     progress.total.store(
         lights_with_photons * settings.photons_per_light + w * h * settings.camera_spp as u64,
         Ordering::Relaxed,
@@ -290,11 +291,11 @@ pub fn caustic_maps(scene: &Scene, settings: &ReferenceSettings) -> Result<Vec<V
 }
 
 /// The first diffuse hit of every caustic photon of light `light` (tests and tools; memory
-/// grows with the photon count).
+/// grows with the photon count). Light `scene.lights.len()` is the environment light.
 pub fn caustic_deposits(scene: &Scene, settings: &ReferenceSettings, light: usize) -> Result<Vec<Deposit>> {
     settings.validate()?;
     check_scene(scene)?;
-    if light >= scene.lights.len() {
+    if light > scene.lights.len() || (light == scene.lights.len() && scene.environment.is_none()) {
         return Err(Error::input(
             &scene.source,
             "lights",
@@ -330,13 +331,20 @@ fn specular_sphere(scene: &Scene) -> Option<(Vec3, f32)> {
     any.then(|| ((lo + hi) * 0.5, (hi - lo).length() * 0.5 * 1.001 + 1e-6))
 }
 
-/// The emitter of caustic photons of light `li`: toward the specular objects only.
+/// The emitter of caustic photons of light `li`: toward the specular objects only. Light
+/// `scene.lights.len()` is the environment light, if the scene has one.
 fn caustic_emitter(scene: &Scene, li: usize) -> Option<Emitter> {
     let (c, r) = specular_sphere(scene)?;
     let (lo, hi) = scene.bounds();
     let sc = (lo + hi) * 0.5;
     let sr = (hi - lo).length() * 0.5 * 1.001 + 1e-6;
-    Some(Emitter::toward(&scene.lights[li], c, r, sc, sr))
+    match scene.lights.get(li) {
+        Some(light) => Some(Emitter::toward(light, c, r, sc, sr)),
+        None => {
+            let env = scene.environment.as_ref().filter(|e| li == scene.lights.len() && !e.is_black())?;
+            Some(Emitter::environment(env.clone(), c, r, sc, sr))
+        }
+    }
 }
 
 /// Trace photons `range` of light `li`.
@@ -362,7 +370,8 @@ fn trace_range(
         .collect();
     todo.sort_unstable_by_key(|&(m, i, _)| (m, i));
     for (_, i, u) in todo {
-        let Some(e) = emitter.sample(u) else { continue };
+        let aux = || PathRng::new(hash(&[settings.seed, li as u64, i, 0x656e_7669])).next_2d();
+        let Some(e) = emitter.sample_with(u, aux) else { continue };
         let mut rng = PathRng::new(hash(&[settings.seed, li as u64, i, 0x7061_7468]));
         let flux = (e.flux_n.as_dvec3() * inv_n).as_vec3();
         tracer.trace_photon(e.origin, e.dir, flux, &mut rng, targets, &mut out);
@@ -396,7 +405,8 @@ fn photon_pass(
         .iter()
         .map(|v| if maps { vec![vec![Vec3::ZERO; (size * size) as usize]; v.faces.len()] } else { Vec::new() })
         .collect();
-    let emitters: Vec<Option<Emitter>> = (0..scene.lights.len()).map(|li| caustic_emitter(scene, li)).collect();
+    // The lights, then the environment (no light-space maps).
+    let emitters: Vec<Option<Emitter>> = (0..=scene.lights.len()).map(|li| caustic_emitter(scene, li)).collect();
     let n = settings.photons_per_light;
     let batches = CAUSTIC_BATCHES.min(n);
     let mut sum = vec![glam::DVec3::ZERO; if camera { npix } else { 0 }];
@@ -407,7 +417,8 @@ fn photon_pass(
         batch_img.iter_mut().for_each(|p| *p = Vec3::ZERO);
         for (li, em) in emitters.iter().enumerate() {
             let Some(em) = em else { continue };
-            let targets = PhotonTargets { camera, map: maps.then_some((&views[li], size)), record_deposits: false };
+            let map = if maps && li < views.len() { Some((&views[li], size)) } else { None };
+            let targets = PhotonTargets { camera, map, record_deposits: false };
             let (start, end) = (n * b / batches, n * (b + 1) / batches);
             paths += end - start;
             let nchunks = (end - start).div_ceil(CHUNK);

@@ -8,6 +8,10 @@
 //! two parts never overlap and together are the whole image, except caustics seen through a
 //! specular chain from the camera (specular → diffuse → specular → camera), which neither
 //! renders (the references lack them too: the specular mask marks those pixels).
+//!
+//! The environment light follows the same split: photons from it (`emit`) whose first surface
+//! is specular are caustic light; the camera paths see it directly or through specular
+//! surfaces before any diffuse vertex, and sample it at diffuse vertices (`trace_camera`).
 
 use super::geometry::{Accel, spawn};
 use super::optics::{fresnel_conductor, fresnel_dielectric, reflect, refract};
@@ -210,23 +214,46 @@ impl<'a> Tracer<'a> {
 
     /// Radiance along the camera ray through image point (x, y), without caustic light.
     /// Returns (radiance, rays traced).
+    ///
+    /// The environment light: a ray that escapes before any diffuse vertex sees it (background,
+    /// reflections, refractions); at a diffuse vertex it is sampled by next-event estimation
+    /// from its distribution and, by the cosine-sampled bounce when that ray escapes straight
+    /// away, combined by multiple importance sampling (power heuristic). A ray that escapes
+    /// after specular bounces that follow a diffuse vertex carries environment light whose
+    /// first surface is specular: caustic light, which the photons render.
     pub fn trace_camera(&self, x: f32, y: f32, rng: &mut PathRng) -> (Vec3, u64) {
         let mut o = self.cam.pos;
         let mut d = self.scene.camera.ray_dir(x, y);
         let mut beta = Vec3::ONE;
         let mut l = Vec3::ZERO;
         let mut rays = 0u64;
+        let env = self.scene.environment.as_deref();
+        let mut seen_diffuse = false;
+        // Density of the cosine sampling that made `d`, when `d` leaves a diffuse vertex.
+        let mut bsdf_pdf: Option<f32> = None;
         for depth in 0..self.max_depth {
             rays += 1;
-            let Some(h) = self.accel.intersect(o, d, f32::INFINITY) else { break };
+            let Some(h) = self.accel.intersect(o, d, f32::INFINITY) else {
+                if let Some(env) = env {
+                    if !seen_diffuse {
+                        l += beta * env.lookup(d);
+                    } else if let Some(pb) = bsdf_pdf {
+                        let pl = env.pdf(d);
+                        l += beta * env.lookup(d) * (pb * pb / (pb * pb + pl * pl));
+                    }
+                }
+                break;
+            };
             let front = d.dot(h.ng) < 0.0;
             let (ng, ns) = if front { (h.ng, h.ns) } else { (-h.ng, -h.ns) };
             match self.mats[h.object as usize] {
                 Material::Diffuse { albedo } => {
-                    let (e, r) = self.direct_irradiance(h.p, h.ng, ng, ns);
+                    let last = depth + 1 >= self.max_depth;
+                    let (e, r) = self.direct_irradiance(h.p, h.ng, ng, ns, last, rng);
                     rays += r;
                     l += beta * albedo * e / PI;
-                    if depth + 1 >= self.max_depth {
+                    seen_diffuse = true;
+                    if last {
                         break;
                     }
                     let q = albedo.max_element().min(1.0);
@@ -235,12 +262,14 @@ impl<'a> Tracer<'a> {
                     }
                     beta *= albedo / q;
                     d = cosine_hemisphere(rng.next_2d(), ng);
+                    bsdf_pdf = Some(d.dot(ng).max(0.0) / PI);
                     o = spawn(h.p, h.ng, d);
                 }
                 m => {
                     let Some((nd, w)) = scatter_specular(m, d, ng, ns, front, rng) else { break };
                     beta *= w;
                     d = nd;
+                    bsdf_pdf = None;
                     o = spawn(h.p, h.ng, d);
                     if beta.max_element() <= 0.0 {
                         break;
@@ -252,8 +281,19 @@ impl<'a> Tracer<'a> {
     }
 
     /// Irradiance (W/m²) at `p` straight from the lights, on the side of `ng` (shading cosine
-    /// with `ns`), with shadow rays. Returns (irradiance, rays).
-    fn direct_irradiance(&self, p: Vec3, ng_raw: Vec3, ng: Vec3, ns: Vec3) -> (Vec3, u64) {
+    /// with `ns`), with shadow rays. Returns (irradiance, rays). The environment light is
+    /// sampled once from its distribution, weighted for multiple importance sampling with the
+    /// cosine-sampled bounce of [`Self::trace_camera`], or not weighted at the `last` vertex
+    /// (no bounce follows); `rng` is drawn from only then.
+    fn direct_irradiance(
+        &self,
+        p: Vec3,
+        ng_raw: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+        last: bool,
+        rng: &mut PathRng,
+    ) -> (Vec3, u64) {
         let mut e = Vec3::ZERO;
         let mut rays = 0;
         for light in &self.scene.lights {
@@ -276,6 +316,20 @@ impl<'a> Tracer<'a> {
                 continue;
             }
             e += incident * cos;
+        }
+        if let Some(env) = self.scene.environment.as_deref() {
+            let u = rng.next_2d();
+            if let Some(s) = env.sample(u)
+                && s.dir.dot(ng) > 0.0
+                && s.radiance.max_element() > 0.0
+            {
+                rays += 1;
+                if !self.accel.occluded(spawn(p, ng_raw, s.dir), s.dir, f32::INFINITY) {
+                    let pb = s.dir.dot(ng) / PI;
+                    let w = if last { 1.0 } else { s.pdf * s.pdf / (s.pdf * s.pdf + pb * pb) };
+                    e += s.radiance * (s.dir.dot(ns).max(0.0) * w / s.pdf);
+                }
+            }
         }
         (e, rays)
     }

@@ -46,6 +46,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("coverage", include_str!("../../shaders/shared/coverage.wgsl")),
     ("splat", include_str!("../../shaders/shared/splat.wgsl")),
     ("triangles", include_str!("../../shaders/shared/triangles.wgsl")),
+    ("environment", include_str!("../../shaders/shared/environment.wgsl")),
 ];
 
 /// Full source of a stage: the shared code, then the stage with its `#import` lines replaced by

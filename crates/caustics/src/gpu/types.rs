@@ -97,7 +97,11 @@ pub struct ShadeParams {
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct CompositeParams {
     pub world_to_clip: [[f32; 4]; 4],
+    /// Inverse of `world_to_clip`: the camera ray of a pixel that sees the environment.
+    pub clip_to_world: [[f32; 4]; 4],
     pub camera: [f32; 4],
+    /// (cos, sin) of the environment's `rotate_y`, 1 if the scene has an environment, 0.
+    pub env_rotation: [f32; 4],
     pub width: u32,
     pub height: u32,
     pub _pad: [u32; 2],

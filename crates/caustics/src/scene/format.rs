@@ -134,6 +134,7 @@ pub enum LightDesc {
     Spot(SpotDesc),
     Point(PointDesc),
     Directional(DirectionalDesc),
+    Environment(EnvironmentDesc),
 }
 
 #[derive(Debug, Deserialize)]
@@ -161,12 +162,23 @@ pub struct DirectionalDesc {
     pub irradiance: Rgb,
 }
 
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvironmentDesc {
+    pub path: String,
+    #[serde(default)]
+    pub scale: Option<Rgb>,
+    #[serde(default)]
+    pub rotate_y_deg: f32,
+}
+
 impl<'de> Deserialize<'de> for LightDesc {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let (tag, f) = tagged(d, &["spot", "point", "directional"])?;
+        let (tag, f) = tagged(d, &["spot", "point", "directional", "environment"])?;
         Ok(match tag.as_str() {
             "spot" => LightDesc::Spot(variant(f)?),
             "point" => LightDesc::Point(variant(f)?),
+            "environment" => LightDesc::Environment(variant(f)?),
             _ => LightDesc::Directional(variant(f)?),
         })
     }

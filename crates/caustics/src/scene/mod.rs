@@ -4,6 +4,8 @@
 //! Loading checks every value a renderer depends on and reports the file and the field
 //! (`lights[0].intensity`) of the first problem; it never panics on bad input.
 
+pub mod environment;
+pub mod environment_lights;
 pub mod format;
 pub mod mesh;
 
@@ -13,6 +15,7 @@ use glam::{Mat3, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+pub use environment::Environment;
 pub use mesh::TriMesh;
 
 /// The scene embedded in the binary: `caustics render` with no scene renders it.
@@ -222,6 +225,9 @@ pub struct Scene {
     pub material_names: Vec<String>,
     pub objects: Vec<Object>,
     pub medium: Option<Medium>,
+    /// The environment light (`{"type": "environment"}` in `lights`), if any: kept apart from
+    /// [`Self::lights`], which are the lights the GPU renders with light-space maps.
+    pub environment: Option<Arc<Environment>>,
     /// Problems that do not stop rendering (open dielectric meshes, dropped degenerate triangles).
     pub warnings: Vec<String>,
 }
@@ -449,6 +455,8 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
         return Err(cx.err("lights", "the scene has no light"));
     }
     let mut lights = Vec::new();
+    let mut environment: Option<(usize, Arc<Environment>)> = None;
+    let mut warnings = Vec::new();
     for (i, l) in d.lights.iter().enumerate() {
         let f = |s: &str| format!("lights[{i}].{s}");
         lights.push(match l {
@@ -480,6 +488,31 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                 direction: cx.dir(&f("direction"), *direction)?,
                 irradiance: cx.nonneg_rgb(&f("irradiance"), *irradiance)?,
             },
+            LightDesc::Environment(e) => {
+                if let Some((k, _)) = &environment {
+                    return Err(cx.err(
+                        format!("lights[{i}]"),
+                        format!("at most one environment light (lights[{k}] is one already)"),
+                    ));
+                }
+                let scale = cx.nonneg_rgb(&f("scale"), e.scale.unwrap_or(Rgb([1.0; 3])))?;
+                if !e.rotate_y_deg.is_finite() {
+                    return Err(cx.err(f("rotate_y_deg"), "must be finite"));
+                }
+                let full = resolve_path(base, &e.path);
+                let env = Environment::load(&full, scale, e.rotate_y_deg)
+                    .map_err(|msg| cx.err(f("path"), format!("environment map {}: {msg}", full.display())))?;
+                if env.clamped_negative > 0 {
+                    warnings.push(format!(
+                        "{file}: {}: set {} negative value(s) of environment map {} to 0 (lossy compression rings around bright texels)",
+                        f("path"),
+                        env.clamped_negative,
+                        full.display()
+                    ));
+                }
+                environment = Some((i, Arc::new(env)));
+                continue;
+            }
         });
     }
 
@@ -509,7 +542,6 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
         material_names.push(name.clone());
     }
 
-    let mut warnings = Vec::new();
     let mut objects = Vec::new();
     for (i, o) in d.objects.iter().enumerate() {
         let f = |s: &str| format!("objects[{i}].{s}");
@@ -629,6 +661,11 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
             if lights.iter().any(|l| matches!(l, Light::Directional { .. })) {
                 return Err(cx.err("medium", "a medium cannot be combined with a directional light"));
             }
+            if let Some((k, _)) = &environment {
+                return Err(
+                    cx.err("medium", format!("a medium cannot be combined with an environment light (lights[{k}])"))
+                );
+            }
             Some(Medium {
                 sigma_s: cx.nonneg_rgb("medium.sigma_s", m.sigma_s)?,
                 sigma_a: cx.nonneg_rgb("medium.sigma_a", m.sigma_a)?,
@@ -650,6 +687,7 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
         material_names,
         objects,
         medium,
+        environment: environment.map(|(_, e)| e),
         warnings,
     })
 }
