@@ -62,7 +62,13 @@ fn flux_in_caustic_map_matches_fresnel_optics() {
     let Some(ctx) = gpu() else { return };
     // The built-in scene: spot 40 W/sr per channel at 4 m, ball r = 0.5 at 0.9 m, IOR 1.5.
     let s = small(Scene::default_scene(), 64);
-    let transmitted_only = RenderSettings { dielectric_reflection: false, ..settings(512, 512) };
+    // The transmitted branch alone (no reflected, internal or residual pass): T(in) T(out).
+    let transmitted_only = RenderSettings {
+        dielectric_reflection: false,
+        internal_reflection: false,
+        residual_branches: false,
+        ..settings(512, 512)
+    };
     let out = render(&ctx, &s, &transmitted_only).unwrap();
     let f = out.flux[0];
     let d = 4.0 - 0.9;
@@ -93,7 +99,8 @@ fn flux_in_caustic_map_matches_fresnel_optics() {
 
     // With the reflected branch: what lands or leaves the scene is the transmitted flux plus the
     // flux the ball reflects, I F(theta) integrated over its solid angle.
-    let both = render(&ctx, &s, &settings(512, 512)).unwrap().flux[0];
+    let two = RenderSettings { internal_reflection: false, residual_branches: false, ..settings(512, 512) };
+    let both = render(&ctx, &s, &two).unwrap().flux[0];
     let reflected = ball_reflected_flux(120.0, d, 0.5, 1.5);
     let out_of_ball = both.landed + both.lost_no_receiver + both.lost_outside;
     eprintln!(
@@ -110,6 +117,14 @@ fn flux_in_caustic_map_matches_fresnel_optics() {
         "{out_of_ball} vs optics {}",
         expected + reflected
     );
+    // With every pass (the default: also the light reflected inside the ball, deterministically
+    // once and at random beyond): glass absorbs nothing, so all the flux onto the ball leaves it
+    // (up to the paths longer than max_depth, booked apart, and the residual pass's noise).
+    let all = render(&ctx, &s, &settings(512, 512)).unwrap().flux[0];
+    let out_all = all.landed + all.lost_no_receiver + all.lost_outside;
+    eprintln!("every pass: {out_all:.4} W out of the ball of {:.4} W onto it; {all:?}", all.emitted);
+    assert_eq!(all.untraced_branches, 0.0);
+    assert!((out_all / all.emitted - 1.0).abs() < 0.005, "{out_all} W out of {} W in", all.emitted);
 }
 
 /// Flux (W, r+g+b) a glass ball reflects of a point source: integral of I F(θ) dω.

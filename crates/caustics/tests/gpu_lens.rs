@@ -140,7 +140,10 @@ fn measure(ctx: &caustics::gpu::GpuContext, scene: &Scene, mode: SplatMode, with
         shadow_map_size: 256,
         splat: mode,
         technique: Technique::Basic,
+        // One branch (the transmitted one): one photon per cell.
         dielectric_reflection: false,
+        internal_reflection: false,
+        residual_branches: false,
         keep_photons: true,
         ..Default::default()
     };

@@ -16,14 +16,16 @@ fn small(mut s: Scene, w: u32) -> Scene {
 }
 
 fn settings(n: u32, m: u32, splat: SplatMode) -> RenderSettings {
-    // The reflected branch at glass exists for the basic technique only: off, so that every
-    // technique traces the same photons.
+    // The transmitted branch only, so that every technique traces the same photons and the
+    // splats are compared on one smooth photon map (the exact tracer's residual pass is random).
     RenderSettings {
         photons: n,
         caustic_map_size: m,
         shadow_map_size: 256,
         splat,
         dielectric_reflection: false,
+        internal_reflection: false,
+        residual_branches: false,
         ..Default::default()
     }
 }
