@@ -782,6 +782,35 @@ fn beam_diameter(f: u32, hit: vec3f, dir: vec3f, m: f32, uv: vec2f) -> f32 {
     return sqrt(area);
 }
 
+// The photon that lands at receiver point p travelling along dir with `flux` (path signature
+// sig): its caustic-map position and splat data (the lens equations' beam diameter, lens being
+// the first caster's optical power and lens_front its first surface point, or the ray
+// differentials' footprint), booked as landed, or as outside the map where no face sees p.
+fn land_photon(layer: u32, p: vec3f, dir: vec3f, flux: vec3f, sig: u32, lens: vec4f, lens_front: vec3f, cell: vec2f) -> Photon {
+    var out: Photon;
+    out.face = INVALID;
+    out.flux = vec4f(0.0);
+    let total = flux.r + flux.g + flux.b;
+    let m = f32(light.info.w);
+    for (var f = 0u; f < light.info.x; f++) {
+        let q = project_face(light.faces[f], p, m);
+        if (q.w > 0.5) {
+            out.pos = q.xy;
+            out.face = f;
+            out.flux = vec4f(flux, f32(sig));
+            if (splat_mode() > 0.5 && splat_mode() < 2.5 && lens.w > 0.0) {
+                let d_front = light_dist(light.faces[layer], lens_front);
+                out._pad = bitcast<u32>(lens_diameter(lens, d_front, length(p - lens_exit_p), cell.x * 0.5 * m));
+            }
+            if (rd_active()) { out._pad = bitcast<u32>(beam_diameter(f, p, dir, m, q.xy)); }
+            add_fixed(2u, total);
+            return out;
+        }
+    }
+    add_fixed(10u, total);
+    return out;
+}
+
 // Trace the photon of the light-view cell centred at `ndc` (NDC size `cell`) of face `layer`.
 // Returns face = INVALID when it carries no caustic (missed the casters, lost on the way).
 // Adds its flux to the bookkeeping in `stats`.
@@ -864,23 +893,7 @@ fn trace_photon_image(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
         }
         // Landing (a further caster after the last bounce followed is ignored).
         if (hit.w < 0.5) { add_fixed(8u, total); return out; }
-        let m = f32(light.info.w);
-        for (var f = 0u; f < light.info.x; f++) {
-            let q = project_face(light.faces[f], hit.xyz, m);
-            if (q.w > 0.5) {
-                out.pos = q.xy;
-                out.face = f;
-                out.flux = vec4f(flux, f32(sig));
-                if (splat_mode() > 0.5 && splat_mode() < 2.5 && lens.w > 0.0) {
-                    out._pad = bitcast<u32>(lens_diameter(lens, light_dist(face, front.p), length(hit.xyz - lens_exit_p), cell.x * 0.5 * m));
-                }
-                if (rd_active()) { out._pad = bitcast<u32>(beam_diameter(f, hit.xyz, dir, m, q.xy)); }
-                add_fixed(2u, total);
-                return out;
-            }
-        }
-        add_fixed(10u, total);
-        return out;
+        return land_photon(layer, hit.xyz, dir, flux, sig, lens, front.p, cell);
     }
     return out;
 }
@@ -1047,23 +1060,7 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     if (splat_mode() > 0.5 && splat_mode() < 2.5 && !trace_reflect) {
         lens = lens_power(materials[first.object], layer, uv, d, first.p, g);
     }
-    let m = f32(light.info.w);
-    for (var f = 0u; f < light.info.x; f++) {
-        let q = project_face(light.faces[f], h.p, m);
-        if (q.w > 0.5) {
-            out.pos = q.xy;
-            out.face = f;
-            out.flux = vec4f(flux, f32(sig));
-            if (lens.w > 0.0) {
-                out._pad = bitcast<u32>(lens_diameter(lens, light_dist(face, first.p), length(h.p - lens_exit_p), cell.x * 0.5 * m));
-            }
-            if (rd_active()) { out._pad = bitcast<u32>(beam_diameter(f, h.p, dir, m, q.xy)); }
-            add_fixed(2u, total);
-            return out;
-        }
-    }
-    add_fixed(10u, total);
-    return out;
+    return land_photon(layer, h.p, dir, flux, sig, lens, first.p, cell);
 }
 
 // The photon of the light-view cell centred at `ndc` (NDC size `cell`) of face `layer`, by
