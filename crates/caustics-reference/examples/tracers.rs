@@ -1,4 +1,5 @@
-//! The two GPU photon tracers (exact, image-space) against the CPU reference, one run per scene:
+//! The GPU photon tracers (exact; exact with the first hit from the light's buffer;
+//! image-space) against the CPU reference, one run per scene:
 //! caustic maps (energy ratio, relative RMSE, and the CPU reference's own noise at the GPU's
 //! photon count) and the camera's caustic image in the caustic region (HDR-FLIP, energy), with
 //! GPU ms of the photon pass and photons per ms.
@@ -62,13 +63,19 @@ fn main() {
         };
         let cpu = reference::render(&scene, &rs(cpu_photons, 0)).expect("reference");
         let mut rows = Vec::new();
-        for tracer in [Tracer::Exact, Tracer::ImageSpace] {
+        let variants = [
+            ("exact", Tracer::Exact, false),
+            ("exact, first hit in buffer", Tracer::Exact, true),
+            ("image-space", Tracer::ImageSpace, false),
+        ];
+        for (label, tracer, first_hit_from_buffer) in variants {
             let s = RenderSettings {
                 photons: grid,
                 caustic_map_size: map,
                 shadow_map_size: 1024,
                 technique,
                 tracer,
+                first_hit_from_buffer,
                 ..Default::default()
             };
             let gpu = caustics::render::render(&ctx, &scene, &s).expect("gpu render");
@@ -79,7 +86,7 @@ fn main() {
                 .filter(|(n, _)| n.contains("trace") || n.contains("refine") || n.contains("hcm"))
                 .map(|(_, ms)| ms)
                 .sum();
-            rows.push((tracer, gpu, relevant, photon_ms));
+            rows.push((label, gpu, relevant, photon_ms));
         }
         // The CPU reference's own noise at the GPU's photon count (relevant photons of the exact
         // tracer's run), against the same high-count reference.

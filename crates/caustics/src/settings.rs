@@ -230,6 +230,11 @@ pub struct RenderSettings {
     /// Exact tracer: specular interactions a photon path may have before it is given up (its
     /// flux is then booked as lost).
     pub max_depth: u32,
+    /// Exact tracer: take each photon's first caster surface from the light's caster front
+    /// buffer (the papers' deferred emission: a texel's tangent plane) instead of tracing the
+    /// BVH from the light; the rest of the path is exact. Off by default (the comparison is in
+    /// `docs/benchmarks.md`).
+    pub first_hit_from_buffer: bool,
     /// Adaptive techniques: the coarse grid the hierarchy starts from (a power of two).
     pub base_grid: u32,
     /// Maximal caustic map error: a cluster converges when its photons land in one caustic-map
@@ -297,6 +302,7 @@ impl Default for RenderSettings {
             technique: Technique::Basic,
             tracer: Tracer::default(),
             max_depth: 16,
+            first_hit_from_buffer: false,
             base_grid: 64,
             max_error_tolerance: 0.0,
             error_check_grid: 512,

@@ -49,6 +49,10 @@ var<private> rd_from: vec3f;
 override trace_exact: bool = false;
 // Specular interactions an exact path may have before it is given up (`RenderSettings::max_depth`).
 override trace_max_depth: u32 = 8u;
+// Exact tracer: take the first caster surface from the light's caster front buffer (the papers'
+// deferred emission: the texel's tangent plane, refined) instead of tracing the BVH from the
+// light (`RenderSettings::first_hit_from_buffer`).
+override trace_first_hit_buffer: bool = false;
 // The branch reflected at the second interface (exact tracer; set by the stage: the pass that
 // traces it), and whether the frame has that pass (its flux is then not booked as untraced by
 // the transmitted pass).
@@ -636,9 +640,9 @@ fn surface_dn(mat: MaterialGpu, p: vec3f, nref: vec3f, dp_in: vec3f) -> vec3f {
         return s * (dp - a * dot(dp, a)) / mat.s0.w;
     }
     if (mat.kind.z == SHAPE_RECTANGLE) { return vec3f(0.0); }
-    if (trace_exact) {
-        // The mesh triangle the exact tracer hit at p.
-        if (exact_hit.tri == INVALID) { return vec3f(0.0); }
+    if (trace_exact && exact_hit.tri != INVALID) {
+        // The mesh triangle the exact tracer hit at p (a first hit taken from the light's
+        // buffer has none: the buffer's derivatives below).
         let s = select(-1.0, 1.0, dot(nref, exact_hit.ns) >= 0.0);
         return s * rt_mesh_dn(exact_hit, dp);
     }
@@ -950,7 +954,20 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     let g = f32(light.params.w);
     let uv = vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * g;
 
-    var h = scene_hit(a, d, 1e30);
+    var h = rt_none();
+    if (trace_first_hit_buffer) {
+        let fb = buffer_hit(front_pos, front_nrm, layer, uv, a, d);
+        if (fb.object == INVALID) { return out; }
+        let fr = refine_hit(front_pos, front_nrm, layer, fb, a, d);
+        if (fr.object == INVALID) { return out; }
+        h.p = fr.p;
+        h.ng = fr.n;
+        h.ns = fr.n;
+        h.object = fr.object;
+        h.t = dot(fr.p - a, d);
+    } else {
+        h = scene_hit(a, d, 1e30);
+    }
     if (h.object == INVALID) { return out; }
     let first = h;
     let mat0 = materials[h.object];

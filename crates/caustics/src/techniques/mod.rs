@@ -125,6 +125,7 @@ impl Pipelines {
             ("trace_light_layer2", f64::from(u8::from(layer2 && !exact))),
             ("trace_exact", f64::from(u8::from(exact))),
             ("trace_max_depth", f64::from(s.max_depth)),
+            ("trace_first_hit_buffer", f64::from(u8::from(s.first_hit_from_buffer))),
             ("trace_internal_pass", f64::from(u8::from(branches[1]))),
             ("trace_residual_pass", f64::from(u8::from(branches[2]))),
             ("trace_covered", f64::from(1 | u8::from(branches[0]) << 1 | u8::from(branches[1]) << 2)),
