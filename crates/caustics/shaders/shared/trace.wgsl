@@ -1060,7 +1060,13 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
             lens_ready = true;
         }
         dir = new_dir;
-        let o = rt_spawn(h.p, h.ng, dir);
+        var o = rt_spawn(h.p, h.ng, dir);
+        if (trace_first_hit_buffer && depth == 0u) {
+            // A buffer's surface is the rasterized one, up to a tessellation's sagitta inside the
+            // true shape: leave it by more than that gap (1/500 of the casters' radius), or the
+            // next ray meets the true surface right away.
+            o = h.p + h.ng * select(-1.0, 1.0, dot(dir, h.ng) >= 0.0) * 2e-3 * light.extra.x;
+        }
         rd_from = h.p;
         depth++;
         if (flux.r + flux.g + flux.b <= 0.0) { return out; }
