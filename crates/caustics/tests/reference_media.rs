@@ -250,3 +250,41 @@ fn light_tracing_in_the_medium_agrees_with_camera_paths() {
         }
     }
 }
+
+#[test]
+fn media_are_deterministic_and_an_empty_medium_changes_nothing() {
+    let mut sc = Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/glass_sphere.json")).unwrap();
+    sc.camera.width = 24;
+    sc.camera.height = 16;
+    let s = settings(100_000, 2, false);
+    let render = |sc: &Scene, threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| reference::render(sc, &s).unwrap())
+    };
+    let (lo, hi) = sc.bounds();
+    let medium = |sigma: f32| caustics::scene::Medium {
+        sigma_s: Vec3::splat(sigma),
+        sigma_a: Vec3::splat(sigma * 0.1),
+        phase: caustics::scene::Phase::HenyeyGreenstein { g: 0.2 },
+        bounds_min: lo - 1.0,
+        bounds_max: hi + 1.0,
+    };
+    // σ = 0: bit for bit the image without a medium (no random number is drawn for it).
+    let plain = render(&sc, 2);
+    let mut empty = sc.clone();
+    empty.medium = Some(medium(0.0));
+    let e = render(&empty, 2);
+    assert_eq!(plain.image.pixels, e.image.pixels);
+    assert_eq!(plain.caustic_maps, e.caustic_maps);
+    // Fog: the same image whatever the thread count.
+    let mut fog = sc.clone();
+    fog.medium = Some(medium(0.3));
+    let (a, b) = (render(&fog, 1), render(&fog, 3));
+    assert_eq!(a.image.pixels, b.image.pixels);
+    assert_eq!(a.caustic.pixels, b.caustic.pixels);
+    assert_eq!(a.caustic_maps, b.caustic_maps);
+    assert_ne!(a.image.pixels, plain.image.pixels);
+}
