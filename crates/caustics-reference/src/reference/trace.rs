@@ -12,6 +12,16 @@
 //! The environment light follows the same split: photons from it (`emit`) whose first surface
 //! is specular are caustic light; the camera paths see it directly or through specular
 //! surfaces before any diffuse vertex, and sample it at diffuse vertices (`trace_camera`).
+//!
+//! A participating medium ([`super::medium`]) follows the split with "first interaction"
+//! (surface or medium scattering) for "first surface": a photon reaches its first surface
+//! unscattered (its flux times the transmittance; light that scatters first is the camera
+//! paths'), and after its first specular interaction it scatters in the medium and is
+//! connected to the camera at every scattering point (the volume caustic). Camera paths
+//! sample scattering points too and estimate the light's direct contribution there with the
+//! phase function and a shadow ray (light shafts, multiple scattering). Shadow rays and camera
+//! connections are attenuated by the transmittance. With `single_scattering`, every path
+//! scatters in the medium at most once.
 
 use super::geometry::{Accel, Hit, spawn};
 use super::medium::{Flight, Media};
