@@ -160,6 +160,9 @@ enum Command {
         /// CPU backend: random seed.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// CPU backend: render a participating medium with single scattering only.
+        #[arg(long)]
+        single_scattering: bool,
     },
     /// Compare two images (EXR or PNG): RMSE, relative MSE, PSNR, FLIP, energy ratio.
     Compare {
@@ -288,6 +291,7 @@ fn run(cli: Cli) -> Result<()> {
             adapter,
             spp,
             seed,
+            single_scattering,
         } => {
             check_output(&output)?;
             if let Some(c) = &caustic_output {
@@ -367,6 +371,7 @@ fn run(cli: Cli) -> Result<()> {
                         photons_per_light: (photons as u64).pow(2),
                         camera_spp: spp,
                         seed,
+                        medium_single_scattering_only: single_scattering,
                         ..Default::default()
                     };
                     let t0 = std::time::Instant::now();

@@ -23,8 +23,14 @@ fn render_with_threads(scene: &Scene, settings: &ReferenceSettings, threads: usi
 #[test]
 fn same_seed_same_image_whatever_the_thread_count() {
     let scene = small_scene("glass_bunny", 48);
-    let s =
-        ReferenceSettings { photons_per_light: 100_000, camera_spp: 2, max_depth: 16, seed: 3, caustic_map_size: 32 };
+    let s = ReferenceSettings {
+        photons_per_light: 100_000,
+        camera_spp: 2,
+        max_depth: 16,
+        seed: 3,
+        caustic_map_size: 32,
+        medium_single_scattering_only: false,
+    };
     let a = render_with_threads(&scene, &s, 1);
     let b = render_with_threads(&scene, &s, 3);
     assert_eq!(a.stats.threads, 1);
@@ -46,8 +52,14 @@ fn same_seed_same_image_whatever_the_thread_count() {
 #[test]
 fn more_photons_less_noise_and_the_variance_estimate_is_calibrated() {
     let scene = small_scene("glass_sphere", 64);
-    let base =
-        ReferenceSettings { photons_per_light: 200_000, camera_spp: 1, max_depth: 16, seed: 0, caustic_map_size: 32 };
+    let base = ReferenceSettings {
+        photons_per_light: 200_000,
+        camera_spp: 1,
+        max_depth: 16,
+        seed: 0,
+        caustic_map_size: 32,
+        medium_single_scattering_only: false,
+    };
     let truth =
         reference::render(&scene, &ReferenceSettings { photons_per_light: 12_800_000, ..base.clone() }).unwrap();
     let mut errs = Vec::new();

@@ -36,7 +36,14 @@ fn a_floor_under_a_uniform_sky_reflects_albedo_times_its_radiance() {
     let mut s = scene(cam, ENV, FLOOR);
     let l = Vec3::new(1.0, 0.5, 0.25);
     s.environment = Some(Arc::new(Environment::from_texels(64, 32, vec![l; 64 * 32], 17.0).unwrap()));
-    let rs = ReferenceSettings { photons_per_light: 1, camera_spp: 16, max_depth: 8, seed: 3, caustic_map_size: 8 };
+    let rs = ReferenceSettings {
+        photons_per_light: 1,
+        camera_spp: 16,
+        max_depth: 8,
+        seed: 3,
+        caustic_map_size: 8,
+        medium_single_scattering_only: false,
+    };
     let o = reference::render(&s, &rs).unwrap();
     let (mut sky, mut floor) = (0, 0);
     let mut floor_sum = glam::DVec3::ZERO;
@@ -99,8 +106,14 @@ fn a_sun_of_one_texel_renders_as_the_directional_light_it_stands_for() {
     let a = scene(cam, &dir, &objects);
     let mut b = scene(cam, ENV, &objects);
     b.environment = Some(Arc::new(env));
-    let rs =
-        ReferenceSettings { photons_per_light: 400_000, camera_spp: 8, max_depth: 16, seed: 5, caustic_map_size: 8 };
+    let rs = ReferenceSettings {
+        photons_per_light: 400_000,
+        camera_spp: 8,
+        max_depth: 16,
+        seed: 5,
+        caustic_map_size: 8,
+        medium_single_scattering_only: false,
+    };
     let ra = reference::render(&a, &rs).unwrap();
     let rb = reference::render(&b, &rs).unwrap();
     let total = |img: &caustics::image_io::Image| {

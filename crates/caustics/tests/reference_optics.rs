@@ -68,7 +68,14 @@ fn scene(json: &str, dir: &std::path::Path) -> Scene {
 }
 
 fn settings(photons: u64) -> ReferenceSettings {
-    ReferenceSettings { photons_per_light: photons, camera_spp: 1, max_depth: 64, seed: 1, caustic_map_size: 64 }
+    ReferenceSettings {
+        photons_per_light: photons,
+        camera_spp: 1,
+        max_depth: 64,
+        seed: 1,
+        caustic_map_size: 64,
+        medium_single_scattering_only: false,
+    }
 }
 
 fn total(d: &[Deposit], f: impl Fn(&Deposit) -> bool) -> f64 {

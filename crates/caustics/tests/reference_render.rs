@@ -15,8 +15,14 @@ fn outputs_have_the_right_shapes_and_add_up() {
     let mut scene = Scene::default_scene();
     scene.camera.width = 40;
     scene.camera.height = 30;
-    let s =
-        ReferenceSettings { photons_per_light: 50_000, camera_spp: 2, max_depth: 16, seed: 1, caustic_map_size: 16 };
+    let s = ReferenceSettings {
+        photons_per_light: 50_000,
+        camera_spp: 2,
+        max_depth: 16,
+        seed: 1,
+        caustic_map_size: 16,
+        medium_single_scattering_only: false,
+    };
     let o = reference::render(&scene, &s).unwrap();
     for img in [&o.image, &o.caustic, &o.nocaustic, &o.caustic_variance, &o.nocaustic_variance] {
         assert_eq!((img.width, img.height), (40, 30));
@@ -47,6 +53,7 @@ fn caustic_map_irradiance_integrates_to_the_deposited_flux() {
         max_depth: 32,
         seed: 2,
         caustic_map_size: size,
+        medium_single_scattering_only: false,
     };
     let maps = reference::caustic_maps(&scene, &s).unwrap();
     let view = LightView::new(&scene, &scene.lights[0]);

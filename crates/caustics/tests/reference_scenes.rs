@@ -42,6 +42,7 @@ fn check(name: &str) {
         max_depth: 64,
         seed: 7,
         caustic_map_size: 64,
+        medium_single_scattering_only: false,
     };
     let out = reference::render(&scene, &settings).unwrap();
     println!("{name}: {}", out.stats);

@@ -133,3 +133,38 @@ fn error_type_is_input() {
     assert!(matches!(e, Error::Input { .. }));
     assert!(e.to_string().contains("/nonexistent/scene.json"));
 }
+
+#[test]
+fn bad_media_name_the_field() {
+    let medium = r#""medium": { "sigma_s": [0.1, 0.2, 0.3], "sigma_a": 0.05, "phase": { "type": "hg", "g": 0.4 },
+                   "bounds": { "min": [-5, -1, -5], "max": [5, 5, 5] } },
+  "objects""#;
+    let good = GOOD.replacen("\"objects\"", medium, 1);
+    let s = Scene::from_json(&good, "good.json", Path::new(".")).unwrap();
+    assert!(s.medium.is_some());
+    let bad = |from: &str, to: &str| {
+        assert!(good.contains(from), "{from}");
+        good.replacen(from, to, 1)
+    };
+    let cases = [
+        (bad("\"sigma_s\": [0.1, 0.2, 0.3]", "\"sigma_s\": [0.1, -0.2, 0.3]"), "medium.sigma_s"),
+        (bad("\"sigma_a\": 0.05", "\"sigma_a\": -0.05"), "medium.sigma_a"),
+        (bad("\"sigma_a\": 0.05", "\"sigma_a\": \"thick\""), "medium.sigma_a"),
+        (bad("\"max\": [5, 5, 5]", "\"max\": [5, -1, 5]"), "medium.bounds"),
+        (bad("\"max\": [5, 5, 5]", "\"max\": [-6, 5, 5]"), "medium.bounds"),
+        (bad("\"g\": 0.4", "\"g\": 1"), "medium.phase.g"),
+        (bad("\"type\": \"hg\"", "\"type\": \"rayleigh\""), "medium"),
+        (bad("\"bounds\"", "\"density\": 2, \"bounds\""), "density"),
+        (
+            bad(
+                "{ \"type\": \"spot\"",
+                "{ \"type\": \"directional\", \"direction\": [0, -1, 0], \"irradiance\": 1 }, { \"type\": \"spot\"",
+            ),
+            "medium",
+        ),
+    ];
+    for (json, field) in cases {
+        let e = err(&json);
+        assert!(e.contains(field), "error does not name {field}: {e}");
+    }
+}

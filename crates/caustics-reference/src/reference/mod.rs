@@ -7,6 +7,7 @@
 //! - [`bvh`], [`geometry`]: binned-SAH triangle BVH with watertight intersection, exact
 //!   analytic spheres, rectangles and open cylinders.
 //! - [`emit`]: photon emission with exact flux per photon.
+//! - [`medium`]: homogeneous participating media (transmittance, free flight, phase functions).
 //! - [`trace`]: photon tracing (caustic light: deposits in light-space maps, and light tracing
 //!   to the camera) and camera path tracing (everything else).
 //! - [`sampling`]: counter-based random numbers and scrambled Sobol points: the same seed gives
@@ -17,6 +18,7 @@
 pub mod bvh;
 pub mod emit;
 pub mod geometry;
+pub mod medium;
 pub mod optics;
 pub mod sampling;
 pub mod trace;
@@ -45,12 +47,15 @@ pub struct ReferenceSettings {
     pub photons_per_light: u64,
     /// Camera paths per pixel for the non-caustic image.
     pub camera_spp: u32,
-    /// Most surface interactions per path (specular and diffuse).
+    /// Most interactions per path (specular and diffuse surfaces, medium scatterings).
     pub max_depth: u32,
     /// Seed of every random number.
     pub seed: u64,
     /// Texels per side of each light-space caustic map face.
     pub caustic_map_size: u32,
+    /// Participating medium: single scattering only (every path from a light to the camera
+    /// scatters in the medium at most once) instead of multiple scattering.
+    pub medium_single_scattering_only: bool,
 }
 
 impl Default for ReferenceSettings {
@@ -61,6 +66,7 @@ impl Default for ReferenceSettings {
             max_depth: 16,
             seed: 0,
             caustic_map_size: 512,
+            medium_single_scattering_only: false,
         }
     }
 }
@@ -163,14 +169,22 @@ const CHUNK: u64 = 8192;
 const WAVE: u64 = 64;
 
 fn check_scene(scene: &Scene) -> Result<()> {
+    // The loader refuses these; scenes built in code are checked here.
     if scene.medium.is_some() {
-        return Err(Error::input(
-            &scene.source,
-            "medium",
-            "the CPU reference renderer does not render participating media (yet); remove the medium or use the GPU backend",
-        ));
+        if scene.lights.iter().any(|l| l.position().is_none()) {
+            return Err(Error::input(&scene.source, "medium", "a medium cannot be combined with a directional light"));
+        }
+        if scene.environment.is_some() {
+            return Err(Error::input(&scene.source, "medium", "a medium cannot be combined with an environment light"));
+        }
     }
     Ok(())
+}
+
+fn tracer<'a>(scene: &'a Scene, accel: &'a Accel, settings: &ReferenceSettings) -> Tracer<'a> {
+    let mut t = Tracer::new(scene, accel, settings.max_depth);
+    t.single_scattering = settings.medium_single_scattering_only;
+    t
 }
 
 /// Progress of a reference rendering, shared with another thread (a progress bar, a viewer),
@@ -243,7 +257,7 @@ pub fn render_with_progress(
     let t0 = Instant::now();
     let accel = Accel::new(scene);
     let bvh_seconds = t0.elapsed().as_secs_f64();
-    let tracer = Tracer::new(scene, &accel, settings.max_depth);
+    let tracer = tracer(scene, &accel, settings);
     let photons = photon_pass(scene, &tracer, settings, true, true, progress)?;
     let t1 = Instant::now();
     let (nocaustic, nocaustic_variance, camera_rays) = camera_pass(scene, &tracer, settings, progress)?;
@@ -286,7 +300,7 @@ pub fn caustic_maps(scene: &Scene, settings: &ReferenceSettings) -> Result<Vec<V
     settings.validate()?;
     check_scene(scene)?;
     let accel = Accel::new(scene);
-    let tracer = Tracer::new(scene, &accel, settings.max_depth);
+    let tracer = tracer(scene, &accel, settings);
     Ok(photon_pass(scene, &tracer, settings, false, true, &Progress::new())?.maps)
 }
 
@@ -303,7 +317,7 @@ pub fn caustic_deposits(scene: &Scene, settings: &ReferenceSettings, light: usiz
         ));
     }
     let accel = Accel::new(scene);
-    let tracer = Tracer::new(scene, &accel, settings.max_depth);
+    let tracer = tracer(scene, &accel, settings);
     let Some(emitter) = caustic_emitter(scene, light) else { return Ok(Vec::new()) };
     let targets = PhotonTargets { camera: false, map: None, record_deposits: true };
     let n = settings.photons_per_light;

@@ -12,8 +12,19 @@
 //! The environment light follows the same split: photons from it (`emit`) whose first surface
 //! is specular are caustic light; the camera paths see it directly or through specular
 //! surfaces before any diffuse vertex, and sample it at diffuse vertices (`trace_camera`).
+//!
+//! A participating medium ([`super::medium`]) follows the split with "first interaction"
+//! (surface or medium scattering) for "first surface": a photon reaches its first surface
+//! unscattered (its flux times the transmittance; light that scatters first is the camera
+//! paths'), and after its first specular interaction it scatters in the medium and is
+//! connected to the camera at every scattering point (the volume caustic). Camera paths
+//! sample scattering points too and estimate the light's direct contribution there with the
+//! phase function and a shadow ray (light shafts, multiple scattering). Shadow rays and camera
+//! connections are attenuated by the transmittance. With `single_scattering`, every path
+//! scatters in the medium at most once.
 
-use super::geometry::{Accel, spawn};
+use super::geometry::{Accel, Hit, spawn};
+use super::medium::{Flight, Media};
 use super::optics::{fresnel_conductor, fresnel_dielectric, reflect, refract};
 use super::sampling::{PathRng, cosine_hemisphere};
 use caustics::lightspace::LightView;
@@ -111,12 +122,38 @@ pub struct Tracer<'a> {
     mats: Vec<Material>,
     pub max_depth: u32,
     pub cam: CamProj,
+    /// The scene's participating medium, if any.
+    pub media: Option<Media>,
+    /// Every path (light to camera) scatters in the medium at most once.
+    pub single_scattering: bool,
 }
 
 impl<'a> Tracer<'a> {
     pub fn new(scene: &'a Scene, accel: &'a Accel, max_depth: u32) -> Self {
         let mats = scene.objects.iter().map(|o| scene.materials[o.material]).collect();
-        Tracer { scene, accel, mats, max_depth, cam: CamProj::new(&scene.camera) }
+        Tracer {
+            scene,
+            accel,
+            mats,
+            max_depth,
+            cam: CamProj::new(&scene.camera),
+            media: scene.medium.as_ref().map(Media::new),
+            single_scattering: false,
+        }
+    }
+
+    /// Whether the ray segment that ends at `hit` (or escapes) lies inside a dielectric: it
+    /// does exactly when it ends on a dielectric's back face (closed, non-nested dielectrics).
+    #[inline]
+    fn in_dielectric(&self, d: Vec3, hit: Option<&Hit>) -> bool {
+        hit.is_some_and(|h| matches!(self.mats[h.object as usize], Material::Dielectric { .. }) && d.dot(h.ng) >= 0.0)
+    }
+
+    /// Transmittance of the medium (if any) along the segment [0, t] of a ray outside
+    /// dielectrics.
+    #[inline]
+    fn transmittance(&self, o: Vec3, d: Vec3, t: f32) -> Vec3 {
+        self.media.as_ref().map_or(Vec3::ONE, |m| m.transmittance(o, d, t))
     }
 
     /// Trace one photon with flux `flux` (W) from `o` along `d`.
@@ -134,7 +171,40 @@ impl<'a> Tracer<'a> {
         let mut diffuse_seen = 0u32;
         for depth in 0..self.max_depth {
             out.rays += 1;
-            let Some(h) = self.accel.intersect(o, d, f32::INFINITY) else { break };
+            let hit = self.accel.intersect(o, d, f32::INFINITY);
+            if let Some(m) = &self.media
+                && !self.in_dielectric(d, hit.as_ref())
+            {
+                let t_hit = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
+                if depth == 0 {
+                    // Before the first surface: caustic light reaches it unscattered.
+                    flux *= m.transmittance(o, d, t_hit);
+                } else {
+                    match m.sample(o, d, t_hit, rng) {
+                        Flight::Pass { weight } => flux *= weight,
+                        Flight::Scatter { t: ts, weight } => {
+                            // In-medium caustic light (a volume caustic).
+                            flux *= weight;
+                            let x = o + d * ts;
+                            if t.camera {
+                                self.connect_camera_medium(m, x, d, flux, out);
+                            }
+                            if self.single_scattering || depth + 1 >= self.max_depth {
+                                break;
+                            }
+                            let q = weight.max_element().min(1.0);
+                            if q <= 0.0 || rng.next_f32() >= q {
+                                break;
+                            }
+                            flux /= q;
+                            d = m.sample_phase(d, rng);
+                            o = x;
+                            continue;
+                        }
+                    }
+                }
+            }
+            let Some(h) = hit else { break };
             let front = d.dot(h.ng) < 0.0;
             let (ng, ns) = if front { (h.ng, h.ns) } else { (-h.ng, -h.ns) };
             match self.mats[h.object as usize] {
@@ -209,7 +279,59 @@ impl<'a> Tracer<'a> {
             return;
         }
         let g = cos_x / (dist2 * self.cam.pix_area * cos_c * cos_c * cos_c);
-        out.cam.push((pix, flux * albedo * (g / PI)));
+        let mut v = flux * albedo * (g / PI);
+        if self.media.is_some() {
+            v *= self.transmittance(p, dir, dist);
+        }
+        out.cam.push((pix, v));
+    }
+
+    /// Light tracing from a medium scattering point `x` (photon travelling along `wi` with
+    /// weighted flux `flux`, the scattering coefficient already in it): splat the radiance it
+    /// sends to the camera, `flux · phase · T / (d² · A_pix · cos³ θc)`.
+    fn connect_camera_medium(&self, m: &Media, x: Vec3, wi: Vec3, flux: Vec3, out: &mut PhotonOut) {
+        let to = self.cam.pos - x;
+        let dist2 = to.length_squared();
+        let dist = dist2.sqrt();
+        if dist <= 0.0 {
+            return;
+        }
+        let dir = to / dist;
+        let Some((pix, cos_c)) = self.cam.project(-dir) else { return };
+        out.rays += 1;
+        if self.accel.occluded(x, dir, dist * (1.0 - 1e-5)) {
+            return;
+        }
+        let g = m.phase(wi, dir) / (dist2 * self.cam.pix_area * cos_c * cos_c * cos_c);
+        out.cam.push((pix, flux * m.transmittance(x, dir, dist) * g));
+    }
+
+    /// Radiance (W/(m² sr) per unit σs, the weight has σs) scattered at the medium point `x`
+    /// toward `-wi` straight from the lights, with shadow rays that any surface stops and the
+    /// medium attenuates. Returns (radiance, rays).
+    fn medium_direct(&self, m: &Media, x: Vec3, wi: Vec3) -> (Vec3, u64) {
+        let mut l = Vec3::ZERO;
+        let mut rays = 0;
+        for light in &self.scene.lights {
+            let Some(pos) = light.position() else { continue }; // no directional light in media
+            let to = pos - x;
+            let d2 = to.length_squared();
+            let dist = d2.sqrt();
+            if dist <= 0.0 {
+                continue;
+            }
+            let dir = to / dist;
+            let incident = light.intensity_toward(-dir) / d2;
+            if incident.max_element() <= 0.0 {
+                continue;
+            }
+            rays += 1;
+            if self.accel.occluded(x, dir, dist * (1.0 - 1e-5)) {
+                continue;
+            }
+            l += incident * m.transmittance(x, dir, dist) * m.phase(wi, dir);
+        }
+        (l, rays)
     }
 
     /// Radiance along the camera ray through image point (x, y), without caustic light.
@@ -233,7 +355,35 @@ impl<'a> Tracer<'a> {
         let mut bsdf_pdf: Option<f32> = None;
         for depth in 0..self.max_depth {
             rays += 1;
-            let Some(h) = self.accel.intersect(o, d, f32::INFINITY) else {
+            let hit = self.accel.intersect(o, d, f32::INFINITY);
+            if let Some(m) = &self.media
+                && !self.in_dielectric(d, hit.as_ref())
+            {
+                let t_hit = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
+                match m.sample(o, d, t_hit, rng) {
+                    Flight::Pass { weight } => beta *= weight,
+                    Flight::Scatter { t, weight } => {
+                        beta *= weight;
+                        let x = o + d * t;
+                        let (ls, r) = self.medium_direct(m, x, d);
+                        rays += r;
+                        l += beta * ls;
+                        if self.single_scattering || depth + 1 >= self.max_depth {
+                            break;
+                        }
+                        let q = weight.max_element().min(1.0);
+                        if q <= 0.0 || rng.next_f32() >= q {
+                            break;
+                        }
+                        beta /= q;
+                        d = m.sample_phase(d, rng);
+                        o = x;
+                        bsdf_pdf = None;
+                        continue;
+                    }
+                }
+            }
+            let Some(h) = hit else {
                 if let Some(env) = env {
                     if !seen_diffuse {
                         l += beta * env.lookup(d);
@@ -315,7 +465,11 @@ impl<'a> Tracer<'a> {
             if self.accel.occluded(spawn(p, ng_raw, dir), dir, dist) {
                 continue;
             }
-            e += incident * cos;
+            if self.media.is_some() {
+                e += incident * cos * self.transmittance(p, dir, dist);
+            } else {
+                e += incident * cos;
+            }
         }
         if let Some(env) = self.scene.environment.as_deref() {
             let u = rng.next_2d();
