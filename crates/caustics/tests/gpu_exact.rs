@@ -396,12 +396,9 @@ fn first_hit_from_the_light_buffer_gives_the_same_caustic() {
     let Some(ctx) = gpu() else { return };
     let sc = small(base_scene());
     let bvh = caustics::render::render(&ctx, &sc, &settings(Tracer::Exact)).unwrap();
-    let buf = caustics::render::render(
-        &ctx,
-        &sc,
-        &RenderSettings { first_hit_from_buffer: true, ..settings(Tracer::Exact) },
-    )
-    .unwrap();
+    let buf =
+        caustics::render::render(&ctx, &sc, &RenderSettings { first_hit_from_buffer: true, ..settings(Tracer::Exact) })
+            .unwrap();
     let m = caustics_reference::metrics::map_agreement(&buf.caustic_maps[0][0], &bvh.caustic_maps[0][0]);
     eprintln!("first hit from the buffer vs the BVH: {m}\n{:?}\n{:?}", buf.flux[0], bvh.flux[0]);
     assert!((m.energy_ratio - 1.0).abs() < 0.03, "{m}");
