@@ -64,6 +64,8 @@ override trace_internal_pass: bool = false;
 // reflected at the first surface, 2 reflected at the second), and whether the frame has the
 // residual pass (then no pass books untraced branches: the residual pass carries them).
 var<private> trace_residual: bool = false;
+// The probability of the residual pass's choices along the current path (1 elsewhere).
+var<private> residual_prob: f32 = 1.0;
 override trace_covered: u32 = 1u;
 override trace_residual_pass: bool = false;
 
@@ -806,7 +808,14 @@ fn land_photon(layer: u32, p: vec3f, dir: vec3f, flux: vec3f, sig: u32, lens: ve
                 let d_front = light_dist(light.faces[layer], lens_front);
                 out._pad = bitcast<u32>(lens_diameter(lens, d_front, length(p - lens_exit_p), cell.x * 0.5 * m));
             }
-            if (rd_active()) { out._pad = bitcast<u32>(beam_diameter(f, p, dir, m, q.xy)); }
+            if (rd_active()) {
+                // A residual-pass photon stands for the cells around it whose photons chose
+                // other paths: one in 1/residual_prob of its neighbours takes its path, so its
+                // footprint spans sqrt(1/residual_prob) cells per axis (energy is unchanged:
+                // splats are normalised). Without this, the residual light lands as sparse dots.
+                let spread = inverseSqrt(clamp(residual_prob, 1e-4, 1.0));
+                out._pad = bitcast<u32>(beam_diameter(f, p, dir, m, q.xy) * spread);
+            }
             add_fixed(2u, total);
             return out;
         }
@@ -981,6 +990,7 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     let branch = u32(trace_reflect) | (u32(trace_internal_branch) << 1u);
     let key = (bitcast<u32>(ndc.x) * 2654435761u) ^ (bitcast<u32>(ndc.y) * 2246822519u) ^ (layer * 3266489917u);
     var chosen = 0u;
+    residual_prob = 1.0;
 
     var dir = d;
     var sig = 0u;
@@ -1026,6 +1036,7 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
             if (trace_residual) {
                 // A random choice with the Fresnel probabilities: the whole flux follows it.
                 reflected = f >= 1.0 || residual_random(key, depth) < f;
+                if (f < 1.0) { residual_prob *= select(1.0 - f, f, reflected); }
                 if (reflected && f < 1.0) { chosen |= 1u << min(depth, 31u); }
                 kept = 1.0;
             }
