@@ -138,6 +138,10 @@ enum Command {
         /// Shadow map size per light-view face (texels).
         #[arg(long, default_value_t = 2048)]
         shadow_map: u32,
+        /// Scenes with a medium: ray-march steps of the lights' single scattering along each
+        /// camera ray (GPU; 1 to 4096).
+        #[arg(long, default_value_t = 64)]
+        medium_steps: u32,
         /// Gaussian splat standard deviation (caustic-map texels).
         #[arg(long, default_value_t = 1.0)]
         splat_sigma: f32,
@@ -244,6 +248,7 @@ fn flag_names(e: &mut anyhow::Error) {
         ("photon_memory", "--photon-memory"),
         ("quad_linearity", "--quad-linearity"),
         ("shadow_map_size", "--shadow-map"),
+        ("medium_steps", "--medium-steps"),
         ("camera.size", "--size"),
         ("splat_sigma", "--splat-sigma"),
         ("max_depth", "--max-depth"),
@@ -284,6 +289,7 @@ fn run(cli: Cli) -> Result<()> {
             backend,
             caustic_map,
             shadow_map,
+            medium_steps,
             splat_sigma,
             photon_memory,
             dump,
@@ -327,6 +333,7 @@ fn run(cli: Cli) -> Result<()> {
                 error_skip_hopeless: !no_error_skip,
                 caustic_map_size: caustic_map.unwrap_or(1024),
                 shadow_map_size: shadow_map,
+                medium_steps,
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),
                 ..Default::default()

@@ -4,7 +4,11 @@
 // light through glass arrives only as caustic. Shadows: 3x3 PCF with a normal offset. Caustics:
 // bilinear in the light-space irradiance map, over the texels whose receiver point is the
 // shaded point (so caustics do not leak onto surfaces the light cannot see).
-// Run once per light; adds into `radiance` (full) and `caustic` (caustic light only).
+// In a medium, both are attenuated by the transmittance from the light to the point (the
+// caustic along the straight line too). Run once per light; adds into `radiance` (full) and
+// `caustic` (caustic light only).
+
+#import medium
 
 struct ShadeParams {
     width: u32,
@@ -12,6 +16,10 @@ struct ShadeParams {
     shadow_size: u32,
     _pad: u32,
     camera: vec4f,
+    // The medium's box (w = 1 if the scene has a medium, else 0) and sigma_t (1/m).
+    medium_lo: vec4f,
+    medium_hi: vec4f,
+    sigma_t: vec4f,
 }
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
@@ -128,7 +136,12 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     }
     var e = vec3f(0.0);
     if (any(e_direct > vec3f(0.0))) { e = e_direct * shadow(p, n); }
-    let ec = caustic_box(p, vec2i(gid.xy), pw.w);
+    var ec = caustic_box(p, vec2i(gid.xy), pw.w);
+    if (sp.medium_lo.w > 0.5) {
+        let tr = exp(-sp.sigma_t.rgb * box_length(light.faces[0].origin.xyz, p, sp.medium_lo.xyz, sp.medium_hi.xyz));
+        e *= tr;
+        ec *= tr;
+    }
     let albedo = mat.a.rgb / PI;
     let idx = gid.y * sp.width + gid.x;
     radiance[idx] += vec4f(albedo * (e + ec), 0.0);

@@ -11,7 +11,8 @@
 //!    technique's photon stage ([`crate::techniques`]), `caustic_resolve` (flux per texel to
 //!    irradiance) and the temporal filter;
 //! 3. `shade_receivers` per light ([`record_shade`]), then `composite` (image-space refraction
-//!    and reflection) and `display` ([`record_composite`]).
+//!    and reflection), in scenes with a medium `medium_scatter` per light (attenuation and
+//!    single scattering along the camera rays), and `display` ([`record_composite`]).
 
 use crate::error::{Error, Result};
 use crate::gpu::pool::LayoutOf;
@@ -313,11 +314,11 @@ fn texture(
     ctx.texture(label, wgpu::Extent3d { width: size, height: size_y, depth_or_array_layers: layers }, format, usage)
 }
 
-fn layer_view(ctx: &GpuContext, t: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
+pub(crate) fn layer_view(ctx: &GpuContext, t: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
     ctx.view(t, Some(wgpu::TextureViewDimension::D2), layer, Some(1))
 }
 
-fn array_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::TextureView {
+pub(crate) fn array_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::TextureView {
     ctx.view(t, Some(wgpu::TextureViewDimension::D2Array), 0, None)
 }
 
@@ -608,6 +609,9 @@ impl RenderSettings {
         }
         if !(16..=max_tex).contains(&self.shadow_map_size) {
             return cl("shadow_map_size", format!("must be 16 to {max_tex} texels (got {})", self.shadow_map_size));
+        }
+        if !(1..=4096).contains(&self.medium_steps) {
+            return cl("medium_steps", format!("must be 1 to 4096 (got {})", self.medium_steps));
         }
         if !(self.splat_sigma > 0.1 && self.splat_sigma <= 16.0) {
             return cl("splat_sigma", format!("must lie in (0.1, 16] texels (got {})", self.splat_sigma));
@@ -993,6 +997,9 @@ pub(crate) fn record_shade(
             shadow_size: s.shadow_map_size,
             _pad: 0,
             camera: cam.position.extend(1.0).to_array(),
+            medium_lo: dc.scene.medium.as_ref().map_or([0.0; 4], |m| m.bounds_min.extend(1.0).to_array()),
+            medium_hi: dc.scene.medium.as_ref().map_or([0.0; 4], |m| m.bounds_max.extend(1.0).to_array()),
+            sigma_t: dc.scene.medium.as_ref().map_or([0.0; 4], |m| (m.sigma_s + m.sigma_a).extend(0.0).to_array()),
         }),
     );
     let (erp, ern) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
@@ -1066,11 +1073,96 @@ fn upload_environment(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
     texture
 }
 
-/// `composite` (image-space refraction and reflection of the camera's specular surfaces) and
-/// `display` (the tone-mapped image): (radiance image, caustic-only image, display texture).
+/// `medium_scatter` (scenes with a medium; nothing is recorded or requested otherwise): one
+/// dispatch per spot or point light over the composited images. The first attenuates both
+/// images by the transmittance along each pixel's camera ray to its first surface; each adds
+/// its light's single scattering along that ray (`RenderSettings::medium_steps` steps, shadowed
+/// by the light's shadow map) to the full image.
+fn record_medium(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    lights: &[&LightFrame],
+    s: &RenderSettings,
+    images: (&wgpu::Buffer, &wgpu::Buffer),
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let Some(m) = &dc.scene.medium else { return };
+    let ctx = dc.ctx;
+    let cam = &dc.scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let pl = ctx.compute_pipeline("medium_scatter");
+    let shadow_sampler = ctx.sampler(
+        "shadow",
+        &wgpu::SamplerDescriptor {
+            label: Some("shadow"),
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            ..Default::default()
+        },
+    );
+    let g = match m.phase {
+        crate::scene::Phase::Isotropic => 0.0,
+        crate::scene::Phase::HenyeyGreenstein { g } => g,
+    };
+    let scatters = m.sigma_s.max_element() > 0.0;
+    let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
+    for (li, lf) in lights.iter().enumerate() {
+        let flags = u32::from(li == 0) | (u32::from(scatters) << 1);
+        let params = ctx.uniform(
+            "medium_params",
+            bytemuck::bytes_of(&MediumParams {
+                clip_to_world: eye.cam_clip.inverse().to_cols_array_2d(),
+                camera: cam.position.extend(1.0).to_array(),
+                lo: m.bounds_min.extend(0.0).to_array(),
+                hi: m.bounds_max.extend(0.0).to_array(),
+                sigma_s: m.sigma_s.extend(g).to_array(),
+                sigma_t: (m.sigma_s + m.sigma_a).extend(0.0).to_array(),
+                width: w,
+                height: h,
+                steps: s.medium_steps,
+                flags,
+                shadow_size: s.shadow_map_size,
+                _pad: [0; 3],
+            }),
+        );
+        let shv = array_view(ctx, &lf.shadow);
+        let bg = crate::gpu::bind(
+            ctx,
+            &pl,
+            "medium_scatter",
+            &[
+                lf.light_buf.as_entire_binding(),
+                params.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&rv),
+                wgpu::BindingResource::TextureView(&sv),
+                wgpu::BindingResource::TextureView(&shv),
+                wgpu::BindingResource::Sampler(&shadow_sampler),
+                images.0.as_entire_binding(),
+                images.1.as_entire_binding(),
+            ],
+        );
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("medium_scatter"),
+            timestamp_writes: timer.compute("medium_scatter"),
+        });
+        cp.set_pipeline(&pl);
+        cp.set_bind_group(0, &bg, &[]);
+        cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    }
+}
+
+/// `composite` (image-space refraction and reflection of the camera's specular surfaces), the
+/// medium (`medium_scatter`, scenes with one) and `display` (the tone-mapped image): (radiance
+/// image, caustic-only image, display texture).
 pub(crate) fn record_composite(
     dc: &DrawCtx,
     eye: &EyeFrame,
+    lights: &[&LightFrame],
+    s: &RenderSettings,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Texture) {
@@ -1145,6 +1237,7 @@ pub(crate) fn record_composite(
         cp.set_bind_group(0, &cbg, &[]);
         cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
+    record_medium(dc, eye, lights, s, (&out_full, &out_caustic), enc, timer);
     let display = ctx.texture(
         "display",
         wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },

@@ -420,7 +420,7 @@ impl Renderer {
             ctx.end_scope();
         }
         ctx.begin_scope("composite", enc);
-        self.outputs = Some(crate::passes::record_composite(&dc, &eye, enc, &mut timer));
+        self.outputs = Some(crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer));
         ctx.end_scope();
 
         if request.stats {

@@ -293,6 +293,9 @@ pub struct RenderSettings {
     /// hierarchy (adaptive) is processed in batches that fit.
     pub photon_memory: u64,
     pub tessellation: Tessellation,
+    /// Scenes with a participating medium: steps of the camera ray march that adds the lights'
+    /// single scattering (`medium_scatter`, docs/architecture.md), 1 to 4096.
+    pub medium_steps: u32,
 }
 
 impl Default for RenderSettings {
@@ -320,6 +323,7 @@ impl Default for RenderSettings {
             light_second_layer: true,
             photon_memory: 64 << 20,
             tessellation: Tessellation::default(),
+            medium_steps: 64,
         }
     }
 }

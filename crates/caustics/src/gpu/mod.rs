@@ -20,6 +20,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("temporal_filter", include_str!("../../shaders/temporal_filter.wgsl")),
     ("shade_receivers", include_str!("../../shaders/shade_receivers.wgsl")),
     ("composite", include_str!("../../shaders/composite.wgsl")),
+    ("medium_scatter", include_str!("../../shaders/medium_scatter.wgsl")),
     ("coverage_mip", include_str!("../../shaders/coverage_mip.wgsl")),
     ("adaptive_plan", include_str!("../../shaders/adaptive_plan.wgsl")),
     ("adaptive_init", include_str!("../../shaders/adaptive_init.wgsl")),
@@ -47,6 +48,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("splat", include_str!("../../shaders/shared/splat.wgsl")),
     ("triangles", include_str!("../../shaders/shared/triangles.wgsl")),
     ("environment", include_str!("../../shaders/shared/environment.wgsl")),
+    ("medium", include_str!("../../shaders/shared/medium.wgsl")),
 ];
 
 /// Full source of a stage: the shared code, then the stage with its `#import` lines replaced by

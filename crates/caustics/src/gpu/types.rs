@@ -91,6 +91,31 @@ pub struct ShadeParams {
     pub shadow_size: u32,
     pub _pad: u32,
     pub camera: [f32; 4],
+    /// The medium's box (w = 1 with a medium, else all 0) and its extinction sigma_t (1/m).
+    pub medium_lo: [f32; 4],
+    pub medium_hi: [f32; 4],
+    pub sigma_t: [f32; 4],
+}
+
+/// `medium_scatter` (shaders/medium_scatter.wgsl).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct MediumParams {
+    pub clip_to_world: [[f32; 4]; 4],
+    pub camera: [f32; 4],
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+    /// rgb = sigma_s, w = Henyey-Greenstein g (0: isotropic).
+    pub sigma_s: [f32; 4],
+    /// rgb = sigma_t.
+    pub sigma_t: [f32; 4],
+    pub width: u32,
+    pub height: u32,
+    pub steps: u32,
+    /// Bit 0: attenuate the image first; bit 1: add this light's in-scattering.
+    pub flags: u32,
+    pub shadow_size: u32,
+    pub _pad: [u32; 3],
 }
 
 #[repr(C)]
@@ -350,6 +375,7 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("TemporalParams", "TemporalParams", std::mem::size_of::<TemporalParams>()),
     ("ShadeParams", "ShadeParams", std::mem::size_of::<ShadeParams>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
+    ("MediumParams", "MediumParams", std::mem::size_of::<MediumParams>()),
     ("TriParams", "TriParams", std::mem::size_of::<TriParams>()),
     ("BlendParams", "BlendParams", std::mem::size_of::<BlendParams>()),
     ("ObjectTransform", "ObjectTransform", std::mem::size_of::<ObjectTransform>()),

@@ -1,0 +1,114 @@
+// Stage: medium_scatter. Direct light in a homogeneous participating medium (scene `medium`),
+// seen by the camera, for one light (spot or point). Per pixel, the camera ray from the camera
+// to the first surface it sees (the nearer of the eye's diffuse and specular buffers; the far
+// side of the medium's box when it sees nothing), clipped to the box:
+//   - with `mp.flags & 1` (the first light's dispatch), the composited image (full and
+//     caustic-only) is multiplied by the transmittance exp(-sigma_t d) along that segment;
+//   - the single-scattered light of this light is added to the full image: a midpoint rule in
+//     `mp.steps` equal steps of
+//       sigma_s phase(cos) I(w)/r^2 exp(-sigma_t (r_in_box + s_in_box)) V,
+//     V from the light's shadow map (one bilinear comparison, one texel toward the light).
+// Segments beyond the first surface (through glass, in mirrors) are not attenuated.
+
+#import medium
+
+struct MediumParams {
+    clip_to_world: mat4x4f,
+    camera: vec4f,
+    // The medium's box.
+    lo: vec4f,
+    hi: vec4f,
+    // rgb = sigma_s (1/m), w = Henyey-Greenstein g (0: isotropic)
+    sigma_s: vec4f,
+    // rgb = sigma_t = sigma_s + sigma_a (1/m)
+    sigma_t: vec4f,
+    width: u32,
+    height: u32,
+    steps: u32,
+    // bit 0: attenuate the image first; bit 1: add this light's in-scattering
+    flags: u32,
+    shadow_size: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+@group(0) @binding(0) var<uniform> light: LightGpu;
+@group(0) @binding(1) var<uniform> mp: MediumParams;
+@group(0) @binding(2) var recv_pos: texture_2d<f32>;
+@group(0) @binding(3) var spec_pos: texture_2d<f32>;
+@group(0) @binding(4) var shadow_map: texture_depth_2d_array;
+@group(0) @binding(5) var shadow_sampler: sampler_comparison;
+@group(0) @binding(6) var<storage, read_write> out_full: array<vec4f>;
+@group(0) @binding(7) var<storage, read_write> out_caustic: array<vec4f>;
+
+fn phase(cos_t: f32) -> f32 {
+    let g = mp.sigma_s.w;
+    if (g == 0.0) { return 0.25 / PI; }
+    let den = max(1.0 + g * g - 2.0 * g * cos_t, 1e-12);
+    return (1.0 - g * g) / (4.0 * PI * den * sqrt(den));
+}
+
+// Whether the light reaches x (0..1): the shadow map of the face that holds x, depth clamped
+// to the map's range (a point beyond the far plane is lit where no object covers its texel).
+fn visibility(x: vec3f, to_l: vec3f) -> f32 {
+    let s = f32(mp.shadow_size);
+    for (var f = 0u; f < light.info.x; f++) {
+        let face = light.faces[f];
+        let c0 = face.world_to_clip * vec4f(x, 1.0);
+        if (c0.w <= 0.0) { continue; }
+        let n0 = c0.xyz / c0.w;
+        if (abs(n0.x) > 1.0 || abs(n0.y) > 1.0) { continue; }
+        let texel = sqrt(texel_area(face, x, to_l, s));
+        let c = face.world_to_clip * vec4f(x + to_l * texel, 1.0);
+        if (c.w <= 0.0) { return 1.0; }
+        let ndc = c.xyz / c.w;
+        let uv = vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
+        return textureSampleCompareLevel(shadow_map, shadow_sampler, uv, f, clamp(ndc.z, 0.0, 1.0));
+    }
+    return 1.0;
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3u) {
+    if (gid.x >= mp.width || gid.y >= mp.height) { return; }
+    let idx = gid.y * mp.width + gid.x;
+    let px = vec2i(gid.xy);
+    let cam = mp.camera.xyz;
+    let ndc = vec2f((f32(gid.x) + 0.5) / f32(mp.width) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(mp.height) * 2.0);
+    let q = mp.clip_to_world * vec4f(ndc, 0.5, 1.0);
+    let d = normalize(q.xyz / q.w - cam);
+    // The first surface along the pixel's ray.
+    var t_max = 1e30;
+    let r = textureLoad(recv_pos, px, 0);
+    let sp = textureLoad(spec_pos, px, 0);
+    if (r.w >= 0.0) { t_max = min(t_max, length(r.xyz - cam)); }
+    if (sp.w >= 0.0) { t_max = min(t_max, length(sp.xyz - cam)); }
+    let seg = box_clip(cam, d, t_max, mp.lo.xyz, mp.hi.xyz);
+    if (seg.y <= seg.x) { return; }
+    if ((mp.flags & 1u) != 0u) {
+        let tr = exp(-mp.sigma_t.rgb * (seg.y - seg.x));
+        out_full[idx] = vec4f(out_full[idx].rgb * tr, out_full[idx].a);
+        out_caustic[idx] = vec4f(out_caustic[idx].rgb * tr, out_caustic[idx].a);
+    }
+    if ((mp.flags & 2u) == 0u) { return; }
+    let lp = light.faces[0].origin.xyz;
+    let n = max(mp.steps, 1u);
+    let dt = (seg.y - seg.x) / f32(n);
+    var acc = vec3f(0.0);
+    for (var i = 0u; i < n; i++) {
+        let t = seg.x + (f32(i) + 0.5) * dt;
+        let x = cam + d * t;
+        let v = lp - x;
+        let rl = length(v);
+        if (rl <= 1e-6) { continue; }
+        let wl = -v / rl;
+        let e = intensity_toward(light, wl);
+        if (all(e <= vec3f(0.0))) { continue; }
+        let vis = visibility(x, -wl);
+        if (vis <= 0.0) { continue; }
+        let tr = exp(-mp.sigma_t.rgb * (box_length(lp, x, mp.lo.xyz, mp.hi.xyz) + (t - seg.x)));
+        acc += e / (rl * rl) * phase(dot(wl, -d)) * tr * vis;
+    }
+    out_full[idx] += vec4f(mp.sigma_s.rgb * acc * dt, 0.0);
+}
