@@ -963,6 +963,23 @@ pub(crate) fn record_light(
     Ok((frame, pending))
 }
 
+/// The shadow maps' comparison sampler (bilinear percentage-closer lookups), shared by the
+/// shading and the medium passes.
+fn shadow_sampler(ctx: &GpuContext) -> wgpu::Sampler {
+    ctx.sampler(
+        "shadow",
+        &wgpu::SamplerDescriptor {
+            label: Some("shadow"),
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            ..Default::default()
+        },
+    )
+}
+
 /// `shade_receivers`: the camera's diffuse surfaces lit by one light (added into the eye's
 /// radiance accumulators).
 pub(crate) fn record_shade(
@@ -977,18 +994,7 @@ pub(crate) fn record_shade(
     let cam = &dc.scene.camera;
     let (w, h) = (cam.width, cam.height);
     let shade_pl = ctx.compute_pipeline("shade_receivers");
-    let shadow_sampler = ctx.sampler(
-        "shadow",
-        &wgpu::SamplerDescriptor {
-            label: Some("shadow"),
-            compare: Some(wgpu::CompareFunction::LessEqual),
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            address_mode_u: wgpu::AddressMode::ClampToEdge,
-            address_mode_v: wgpu::AddressMode::ClampToEdge,
-            ..Default::default()
-        },
-    );
+    let shadow_sampler = shadow_sampler(ctx);
     let shp = ctx.uniform(
         "shade_params",
         bytemuck::bytes_of(&ShadeParams {
@@ -1092,18 +1098,7 @@ fn record_medium(
     let cam = &dc.scene.camera;
     let (w, h) = (cam.width, cam.height);
     let pl = ctx.compute_pipeline("medium_scatter");
-    let shadow_sampler = ctx.sampler(
-        "shadow",
-        &wgpu::SamplerDescriptor {
-            label: Some("shadow"),
-            compare: Some(wgpu::CompareFunction::LessEqual),
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            address_mode_u: wgpu::AddressMode::ClampToEdge,
-            address_mode_v: wgpu::AddressMode::ClampToEdge,
-            ..Default::default()
-        },
-    );
+    let shadow_sampler = shadow_sampler(ctx);
     let g = match m.phase {
         crate::scene::Phase::Isotropic => 0.0,
         crate::scene::Phase::HenyeyGreenstein { g } => g,
