@@ -276,10 +276,11 @@ fn scene_hit(o: vec3f, d: vec3f, tmax: f32) -> SceneHit {
         }
     }
     let ninst = arrayLength(&bvh_instances);
+    let inv_d = rt_inv(d);
     for (var ii = 0u; ii < ninst; ii++) {
         let inst = bvh_instances[ii];
         if (inst.object == INVALID) { continue; }
-        if (rt_box(inst.lo.xyz, inst.hi.xyz, o, rt_inv(d), best.t) >= 1e29) { continue; }
+        if (rt_box(inst.lo.xyz, inst.hi.xyz, o, inv_d, best.t) >= 1e29) { continue; }
         rt_instance(ii, o, d, &best, false);
     }
     return best;
@@ -296,10 +297,11 @@ fn scene_occluded(o: vec3f, d: vec3f, tmax: f32) -> bool {
     var best = rt_none();
     best.t = tmax;
     let ninst = arrayLength(&bvh_instances);
+    let inv_d = rt_inv(d);
     for (var ii = 0u; ii < ninst; ii++) {
         let inst = bvh_instances[ii];
         if (inst.object == INVALID) { continue; }
-        if (rt_box(inst.lo.xyz, inst.hi.xyz, o, rt_inv(d), tmax) >= 1e29) { continue; }
+        if (rt_box(inst.lo.xyz, inst.hi.xyz, o, inv_d, tmax) >= 1e29) { continue; }
         if (rt_instance(ii, o, d, &best, true)) { return true; }
     }
     return false;

@@ -54,10 +54,9 @@ override trace_max_depth: u32 = 8u;
 // light (`RenderSettings::first_hit_from_buffer`).
 override trace_first_hit_buffer: bool = false;
 // The branch reflected at the second interface (exact tracer; set by the stage: the pass that
-// traces it), and whether the frame has that pass (its flux is then not booked as untraced by
-// the transmitted pass).
+// traces it). Whether the frame has that pass is bit 2 of trace_covered (its flux is then not
+// booked as untraced by the transmitted pass).
 var<private> trace_internal_branch: bool = false;
-override trace_internal_pass: bool = false;
 // The residual pass (exact tracer; set by the stage): every Fresnel choice made at random, as
 // the CPU reference does, keeping only the paths no deterministic pass follows. Which masks of
 // reflections the deterministic passes cover (bit k: the path of mask k, k = 0 transmitted, 1
@@ -832,11 +831,9 @@ fn trace_photon_image(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     out.face = INVALID;
     out.flux = vec4f(0.0);
     let face = light.faces[layer];
-    let a4 = face.clip_to_world * vec4f(ndc, 0.0, 1.0);
-    let b4 = face.clip_to_world * vec4f(ndc, 1.0, 1.0);
-    let a = a4.xyz / a4.w;
-    let b = b4.xyz / b4.w;
-    let d = normalize(b - a);
+    let ray = light_ray(face, ndc);
+    let a = ray.o;
+    let d = ray.d;
 
     let g = f32(light.params.w);
     let uv = vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * g;
@@ -911,6 +908,19 @@ fn trace_photon_image(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     return out;
 }
 
+// The light's ray through NDC point ndc of a face: from the near plane, unit direction.
+struct LightRay {
+    o: vec3f,
+    d: vec3f,
+}
+
+fn light_ray(face: Face, ndc: vec2f) -> LightRay {
+    let a4 = face.clip_to_world * vec4f(ndc, 0.0, 1.0);
+    let b4 = face.clip_to_world * vec4f(ndc, 1.0, 1.0);
+    let a = a4.xyz / a4.w;
+    return LightRay(a, normalize(b4.xyz / b4.w - a));
+}
+
 // The setup both tracers share for the photon of a cell: the ray differentials across the
 // cell (light.splat.x == 3), from the light ray (a, d) through the cell's centre.
 fn rd_begin(layer: u32, ndc: vec2f, cell: vec2f, a: vec3f) {
@@ -923,10 +933,9 @@ fn rd_begin(layer: u32, ndc: vec2f, cell: vec2f, a: vec3f) {
     var ro: array<vec3f, 4>;
     var rdir: array<vec3f, 4>;
     for (var k = 0u; k < 4u; k++) {
-        let ak = face.clip_to_world * vec4f(ray[k], 0.0, 1.0);
-        let bk = face.clip_to_world * vec4f(ray[k], 1.0, 1.0);
-        ro[k] = ak.xyz / ak.w;
-        rdir[k] = normalize(bk.xyz / bk.w - ro[k]);
+        let r = light_ray(face, ray[k]);
+        ro[k] = r.o;
+        rdir[k] = r.d;
     }
     rd_pu = ro[0] - ro[1];
     rd_pv = ro[2] - ro[3];
@@ -956,10 +965,9 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     out.face = INVALID;
     out.flux = vec4f(0.0);
     let face = light.faces[layer];
-    let a4 = face.clip_to_world * vec4f(ndc, 0.0, 1.0);
-    let b4 = face.clip_to_world * vec4f(ndc, 1.0, 1.0);
-    let a = a4.xyz / a4.w;
-    let d = normalize(b4.xyz / b4.w - a);
+    let ray = light_ray(face, ndc);
+    let a = ray.o;
+    let d = ray.d;
     let g = f32(light.params.w);
     let uv = vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * g;
 
@@ -1043,7 +1051,7 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
             // The branch not followed (after the first surface, whose other branch is the
             // reflected pass's; at the second, the internal pass's when it runs): untraced,
             // unless the residual pass carries it.
-            let other_pass = depth == 1u && trace_internal_pass && !trace_reflect;
+            let other_pass = depth == 1u && ((trace_covered >> 2u) & 1u) == 1u && !trace_reflect;
             if (depth > 0u && kept < 1.0 && !other_pass && !trace_residual_pass) {
                 add_fixed(14u, (1.0 - kept) * (flux.r + flux.g + flux.b));
             }

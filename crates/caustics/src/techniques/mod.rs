@@ -126,7 +126,6 @@ impl Pipelines {
             ("trace_exact", f64::from(u8::from(exact))),
             ("trace_max_depth", f64::from(s.max_depth)),
             ("trace_first_hit_buffer", f64::from(u8::from(s.first_hit_from_buffer))),
-            ("trace_internal_pass", f64::from(u8::from(branches[1]))),
             ("trace_residual_pass", f64::from(u8::from(branches[2]))),
             ("trace_covered", f64::from(1 | u8::from(branches[0]) << 1 | u8::from(branches[1]) << 2)),
         ];
@@ -468,8 +467,8 @@ pub(crate) fn level_params(face: u32) -> LevelParams {
 /// and its arm in [`emission`]; the frame around it (light-space passes, resolve, shading,
 /// statistics) is shared.
 pub(crate) trait Emission {
-    /// Record face `face`'s photon stage (both branches, where the reflected one at glass is a
-    /// separate traversal), given the face's coverage mip `cover`; buffers whose contents the
+    /// Record face `face`'s photon stage (every branch of `Emit::branches`, each its own pass
+    /// or traversal), given the face's coverage mip `cover`; buffers whose contents the
     /// statistics need go into `pending`.
     fn record_face(
         &mut self,
