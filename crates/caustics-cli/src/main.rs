@@ -464,10 +464,19 @@ fn report_gpu(out: &GpuRender, wall_ms: f64) {
             println!("photons per ms (trace + splat): {:.0}", out.photons_traced as f64 / photon_ms);
         }
     }
+    // Watts with four decimals, or four significant digits for small fluxes (a scene in
+    // millimetres carries microwatts).
+    let w = |x: f64| if x == 0.0 || x.abs() >= 0.01 { format!("{x:.4}") } else { format!("{x:.4e}") };
     for (i, f) in out.flux.iter().enumerate() {
         println!(
-            "light {i}: caustic flux {:.4} W onto casters, {:.4} W in the caustic map; lost: {:.4} W no exit, {:.4} W total internal reflection, {:.4} W no receiver, {:.4} W outside the map; {:.4} W in Fresnel branches not traced",
-            f.emitted, f.landed, f.lost_no_exit, f.lost_tir, f.lost_no_receiver, f.lost_outside, f.untraced_branches
+            "light {i}: caustic flux {} W onto casters, {} W in the caustic map; lost: {} W no exit, {} W total internal reflection, {} W no receiver, {} W outside the map; {} W in Fresnel branches not traced",
+            w(f.emitted),
+            w(f.landed),
+            w(f.lost_no_exit),
+            w(f.lost_tir),
+            w(f.lost_no_receiver),
+            w(f.lost_outside),
+            w(f.untraced_branches)
         );
     }
     println!("frame: {:.1} ms from submission to completion (host clock)", out.frame_wall_ms);
