@@ -4,7 +4,7 @@
 //! internal reflection), so that the image-space tracer's share of the spread can be told apart
 //! from the optics'. `cargo run --release --example divergence -- SCENE GRID MAP_SIZE`
 use caustics::lightspace::LightView;
-use caustics::render::{RenderSettings, SplatMode, render};
+use caustics::render::{Inspect, RenderSettings, SplatMode, render_inspect};
 use caustics::scene::Material;
 use caustics_reference::reference::geometry::{Accel, spawn};
 use caustics_reference::reference::optics::{fresnel_dielectric, reflect, refract};
@@ -70,10 +70,9 @@ fn main() {
         shadow_map_size: 512,
         splat: SplatMode::Differential,
         dielectric_reflection: false,
-        keep_photons: true,
         ..Default::default()
     };
-    let out = render(&ctx, &scene, &s).unwrap();
+    let out = render_inspect(&ctx, &scene, &s, Inspect { photons: true, ..Default::default() }).unwrap();
     let ph = &out.technique.photons;
     println!("{} photons kept", ph.len());
     let view = LightView::new(&scene, &scene.lights[0]);

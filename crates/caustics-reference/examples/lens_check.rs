@@ -1,7 +1,7 @@
 //! Stored splat diameters (thin lens, thick lens, ray differentials) against the true beam size
 //! (the area of the cell's image, from neighbouring photons of the dense grid), per scene.
 //! `cargo run --release --example lens_check -- SCENE GRID MAP_SIZE`
-use caustics::render::{RenderSettings, SplatMode, render};
+use caustics::render::{Inspect, RenderSettings, SplatMode, render_inspect};
 fn main() {
     let a: Vec<String> = std::env::args().collect();
     let scene = caustics::Scene::load(std::path::Path::new(&a[1])).unwrap();
@@ -15,10 +15,9 @@ fn main() {
             shadow_map_size: 512,
             splat: mode,
             dielectric_reflection: false,
-            keep_photons: true,
             ..Default::default()
         };
-        let out = render(&ctx, &scene, &s).unwrap();
+        let out = render_inspect(&ctx, &scene, &s, Inspect { photons: true, ..Default::default() }).unwrap();
         let mut r = Vec::new();
         let mut tr = Vec::new();
         for b in caustics::splat::beam_samples(&out.technique.photons, n) {

@@ -824,7 +824,7 @@ pub(crate) fn record_light(
     dc: &DrawCtx,
     raster: &Raster,
     pipelines: &crate::techniques::Pipelines,
-    s: &RenderSettings,
+    (s, inspect): (&RenderSettings, crate::settings::Inspect),
     fc: &FrameConsts,
     (li, view, lg, scale): (usize, &LightView, &LightGpu, f64),
     temporal: Option<&mut crate::temporal::TemporalFilter>,
@@ -883,6 +883,7 @@ pub(crate) fn record_light(
     let emit = crate::techniques::Emit {
         ctx,
         settings: s,
+        inspect,
         pipelines,
         light_buf: &light_buf,
         front_pos: &fpv,

@@ -135,6 +135,7 @@ pub struct Renderer {
     scene: Scene,
     transforms: Vec<Affine3A>,
     settings: RenderSettings,
+    inspect: crate::settings::Inspect,
     temporal: Option<TemporalFilter>,
     geometry: Option<(crate::scene::Tessellation, Geometry)>,
     objects_dirty: bool,
@@ -168,6 +169,7 @@ impl Renderer {
             scene,
             transforms: vec![Affine3A::IDENTITY; n],
             settings,
+            inspect: Default::default(),
             temporal: None,
             geometry: None,
             objects_dirty: true,
@@ -295,6 +297,15 @@ impl Renderer {
         Ok(())
     }
 
+    /// What the next frames copy out for inspection (coverage masks, traced photons: tests and
+    /// tools). Changing it redoes every light, so that the copies are made.
+    pub fn set_inspect(&mut self, inspect: crate::settings::Inspect) {
+        if inspect != self.inspect {
+            self.inspect = inspect;
+            self.invalidate();
+        }
+    }
+
     /// Turn the temporal filter of the caustic maps on (with these settings) or off. The
     /// filter runs when a light's maps are redone; kept maps stay as they were filtered.
     pub fn set_temporal(&mut self, temporal: Option<TemporalSettings>) -> Result<()> {
@@ -398,7 +409,7 @@ impl Renderer {
                 &dc,
                 &raster,
                 pl,
-                &s,
+                (&s, self.inspect),
                 &fc,
                 (li, &view, &record, scale),
                 self.temporal.as_mut(),

@@ -252,13 +252,6 @@ pub struct RenderSettings {
     /// cluster's children predicts that it cannot pass (`docs/adaptive.md`); the check would
     /// only trace photons to refine them. On by default; off gives the paper's traversal.
     pub error_skip_hopeless: bool,
-    /// Keep the coverage masks (caster front-buffer texels per face) in the statistics, for
-    /// tests that model the traversal on the CPU.
-    pub keep_coverage: bool,
-    /// Basic technique with a photon-buffer splat (not `triangles`): keep every traced photon
-    /// (`TechniqueStats::photons`), for tests and tools that inspect photons (memory grows with
-    /// the grid).
-    pub keep_photons: bool,
     /// Caustic map (and receiver map) size M per face.
     pub caustic_map_size: u32,
     /// Shadow map size per face.
@@ -311,8 +304,6 @@ impl Default for RenderSettings {
             error_check_grid: 512,
             quad_linearity: 0.0,
             error_skip_hopeless: true,
-            keep_coverage: false,
-            keep_photons: false,
             caustic_map_size: 1024,
             shadow_map_size: 2048,
             splat_sigma: 1.0,
@@ -326,4 +317,17 @@ impl Default for RenderSettings {
             medium_steps: 64,
         }
     }
+}
+
+/// What a frame also copies out for inspection (tests and tools that look inside the photon
+/// stage; not part of rendering): set with `Renderer::set_inspect` or
+/// `render::render_inspect`, read in [`crate::techniques::TechniqueStats`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Inspect {
+    /// Keep the coverage masks (caster front-buffer texels per face,
+    /// `TechniqueStats::coverage_masks`), for tests that model the traversal on the CPU.
+    pub coverage: bool,
+    /// Basic technique with a photon-buffer splat (not `triangles`): keep every traced photon
+    /// (`TechniqueStats::photons`; memory grows with the grid).
+    pub photons: bool,
 }

@@ -5,7 +5,7 @@
 
 mod common;
 use caustics::Scene;
-use caustics::render::{GpuRender, RenderSettings, Technique, render};
+use caustics::render::{GpuRender, Inspect, RenderSettings, Technique, render, render_inspect};
 use common::gpu;
 
 /// The built-in glass ball, with a small camera (the tests are about the caustic map).
@@ -73,8 +73,8 @@ fn level_counts_match_a_cpu_model_of_the_traversal() {
     let s = scene();
     // N = 512 > G would be 512 too; use N = 1024 with the caster buffer at 1024 and N = 256.
     for n in [256, 1024] {
-        let set = RenderSettings { keep_coverage: true, ..settings(Technique::AdaptiveLevel, n) };
-        let out = render(&ctx, &s, &set).unwrap();
+        let set = settings(Technique::AdaptiveLevel, n);
+        let out = render_inspect(&ctx, &s, &set, Inspect { coverage: true, ..Default::default() }).unwrap();
         let t = &out.technique;
         let g = n.min(2048);
         assert_eq!(t.coverage_masks.len(), 1);

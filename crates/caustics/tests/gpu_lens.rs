@@ -12,7 +12,7 @@ mod common;
 #[path = "common/temp_scene.rs"]
 mod temp_scene;
 use caustics::Scene;
-use caustics::render::{RenderSettings, SplatMode, render};
+use caustics::render::{Inspect, RenderSettings, SplatMode, render_inspect};
 use caustics::techniques::Technique;
 use common::gpu;
 use glam::Vec3;
@@ -144,10 +144,9 @@ fn measure(ctx: &caustics::gpu::GpuContext, scene: &Scene, mode: SplatMode, with
         dielectric_reflection: false,
         internal_reflection: false,
         residual_branches: false,
-        keep_photons: true,
         ..Default::default()
     };
-    let out = render(ctx, scene, &s).unwrap();
+    let out = render_inspect(ctx, scene, &s, Inspect { photons: true, ..Default::default() }).unwrap();
     let ph = &out.technique.photons;
     assert_eq!(ph.len(), (n * n) as usize, "one photon per grid cell");
     let (mut stored, mut truth, mut ratio) = (Vec::new(), Vec::new(), Vec::new());

@@ -42,7 +42,7 @@ impl Basic {
 
     /// Trace and splat the grid of face `f`: the transmitted branch, then, when the scene has
     /// dielectric casters, the reflected branch (the face index's high bit tells the tracer).
-    /// `kept` receives copies of the traced photons when `RenderSettings::keep_photons` is set.
+    /// `kept` receives copies of the traced photons when `Inspect::photons` is set.
     fn record_face_inner(
         &mut self,
         e: &Emit,
@@ -120,7 +120,7 @@ impl Basic {
                 cp.set_bind_group(0, &tbg, &[]);
                 cp.dispatch_workgroups(groups, 1, 1);
             }
-            if e.settings.keep_photons {
+            if e.inspect.photons {
                 let bytes = count * std::mem::size_of::<Photon>() as u64;
                 let copy = storage(e.ctx, "kept_photons", bytes, wgpu::BufferUsages::empty());
                 enc.copy_buffer_to_buffer(&self.photons, 0, &copy, 0, bytes);

@@ -69,10 +69,10 @@ pub struct TechniqueStats {
     pub peak_photon_bytes: u64,
     /// Batches processed (all lights and faces).
     pub batches: u32,
-    /// With `RenderSettings::keep_coverage`: per light and face, the G × G coverage mask of the
+    /// With `Inspect::coverage`: per light and face, the G × G coverage mask of the
     /// caster front buffer (1 where a caster is), row-major.
     pub coverage_masks: Vec<Vec<u32>>,
-    /// With `RenderSettings::keep_photons` (basic technique, photon-buffer splats): every
+    /// With `Inspect::photons` (basic technique, photon-buffer splats): every
     /// traced photon in trace order (per light: faces in order, per face the transmitted
     /// branch's grid in row-major order, then the reflected branch's).
     pub photons: Vec<crate::gpu::types::Photon>,
@@ -147,6 +147,8 @@ impl Pipelines {
 pub(crate) struct Emit<'a> {
     pub ctx: &'a GpuContext,
     pub settings: &'a RenderSettings,
+    /// What the frame copies out for inspection.
+    pub inspect: crate::settings::Inspect,
     pub pipelines: &'a Pipelines,
     pub light_buf: &'a wgpu::Buffer,
     /// Caster front/back, receiver position/normal array views (2D arrays, all faces).
@@ -246,9 +248,9 @@ pub(crate) struct Pending {
     pub stats: TechniqueStats,
     /// Grid size of level index 0 of the control buffers' per-level counters.
     pub level0_grid: u32,
-    /// Copies of level 0 of the coverage mip per face (`keep_coverage`).
+    /// Copies of level 0 of the coverage mip per face (`Inspect::coverage`).
     pub masks: Vec<wgpu::Buffer>,
-    /// Copies of the traced photon batches (`keep_photons`), with their photon counts.
+    /// Copies of the traced photon batches (`Inspect::photons`), with their photon counts.
     pub kept: Vec<(wgpu::Buffer, u64)>,
     /// Bytes of one emitted photon's record (adaptive: the photon, and its quad's corners with
     /// caustic triangles), for the peak memory in use.
@@ -513,7 +515,7 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
     for f in 0..faces {
         build_mip(e, enc, timer, "coverage_mip", &cover, &dummy, f, g, 1, 0);
         enc.copy_buffer_to_buffer(&cover, mip_offset(g.trailing_zeros(), g) * 4, &pending.coverage, f as u64 * 4, 4);
-        if e.settings.keep_coverage {
+        if e.inspect.coverage {
             let m = storage(e.ctx, "coverage_mask", (g as u64).pow(2) * 4, wgpu::BufferUsages::empty());
             enc.copy_buffer_to_buffer(&cover, 0, &m, 0, (g as u64).pow(2) * 4);
             pending.masks.push(m);
