@@ -253,7 +253,13 @@ fn flag_names(e: &mut anyhow::Error) {
         ("splat_sigma", "--splat-sigma"),
         ("max_depth", "--max-depth"),
         ("tessellation", "--tessellation"),
+        ("adapter", "--adapter"),
     ];
+    if let Some(Error::NoAdapter(m)) = e.downcast_mut::<Error>()
+        && m.ends_with("render with the CPU reference")
+    {
+        *m += " (`--backend cpu`)";
+    }
     if let Some(Error::Input { file, field, .. }) = e.downcast_mut::<Error>()
         && file == "<settings>"
         && let Some((_, flag)) = FLAGS.iter().find(|(f, _)| f == field)

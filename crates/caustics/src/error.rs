@@ -27,7 +27,7 @@ pub enum Error {
     /// A shader failed to compile (a bug: shaders are validated in the tests).
     #[error("shader {name}: {message}")]
     Shader { name: String, message: String },
-    /// The caller cancelled the work (a [`crate::reference::Progress`] was cancelled); nothing
+    /// The caller cancelled the work (the CPU reference's `Progress` was cancelled); nothing
     /// was produced.
     #[error("cancelled")]
     Cancelled,

@@ -238,13 +238,10 @@ impl GpuContext {
         let adapter = match name {
             Some(n) => {
                 let n = n.to_lowercase();
-                adapters.into_iter().find(|a| a.get_info().name.to_lowercase().contains(&n)).ok_or_else(|| {
-                    Error::input(
-                        "<command line>",
-                        "--adapter",
-                        format!("no adapter named like \"{n}\" (see `caustics info`)"),
-                    )
-                })?
+                adapters
+                    .into_iter()
+                    .find(|a| a.get_info().name.to_lowercase().contains(&n))
+                    .ok_or_else(|| Error::input("<settings>", "adapter", format!("no adapter named like \"{n}\"")))?
             }
             None => {
                 let mut best = None;
@@ -262,7 +259,7 @@ impl GpuContext {
                 }
                 best.map(|(_, a)| a).ok_or_else(|| {
                     Error::NoAdapter(
-                        "no Vulkan, Metal or DX12 adapter was found. Install a GPU driver, or Mesa's software Vulkan driver (Debian/Ubuntu: `apt-get install mesa-vulkan-drivers`), or use `--backend cpu`".into(),
+                        "no Vulkan, Metal or DX12 adapter was found. Install a GPU driver, or Mesa's software Vulkan driver (Debian/Ubuntu: `apt-get install mesa-vulkan-drivers`), or render with the CPU reference".into(),
                     )
                 })?
             }
