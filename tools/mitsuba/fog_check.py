@@ -35,6 +35,7 @@ def main():
     ap.add_argument("--spp", type=int, default=512)
     ap.add_argument("--passes", type=int, default=8)
     ap.add_argument("--variant", default="scalar_rgb")
+    ap.add_argument("--seed0", type=int, default=0, help="first pass's seed (passes use seed0, seed0 + 1, ...)")
     ap.add_argument("--ours", help="the JSON line of examples/medium_energy.rs (else it is run)")
     ap.add_argument("--our-spp", type=int, default=256)
     ap.add_argument("--exr", help="write Mitsuba's mean image here")
@@ -52,7 +53,7 @@ def main():
         per = a.spp // a.passes
         sums, acc = [], None
         t0 = time.time()
-        for k in range(a.passes):
+        for k in range(a.seed0, a.seed0 + a.passes):
             d = convert.scene_dict(a.scene, spp=per, seed=k)
             img = np.array(mi.render(mi.load_dict(d), seed=k), dtype=np.float64)
             sums.append(float(img.sum()))
@@ -78,7 +79,7 @@ def main():
     comb = math.sqrt((osd / o) ** 2 + (sd / mean) ** 2)
     res = {
         "scene": a.scene, "mitsuba": mi.__version__, "variant": a.variant,
-        "mitsuba_spp": a.spp, "mitsuba_passes": a.passes, "mitsuba_seconds": secs,
+        "mitsuba_spp": a.spp, "mitsuba_passes": a.passes, "mitsuba_seconds": secs, "mitsuba_seed0": a.seed0,
         "mitsuba_sum": mean, "mitsuba_sd": sd,
         "ours_spp": ours["spp"], "ours_seconds": ours.get("seconds"),
         "ours_sum_nocaustic": o, "ours_sd": osd,

@@ -23,7 +23,8 @@ fn main() {
             for x in 0..dims[0] {
                 let u = (Vec3::new(x as f32, y as f32, z as f32) + 0.5)
                     / Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
-                let puff: f32 = lobes.iter().map(|&(c, r, a)| a * (-2.0 * (u - c).length_squared() / (r * r)).exp()).sum();
+                let puff: f32 =
+                    lobes.iter().map(|&(c, r, a)| a * (-2.0 * (u - c).length_squared() / (r * r)).exp()).sum();
                 // Haze thinning with height.
                 let haze = 0.15 * (1.0 - u.y);
                 data.push(haze + puff);

@@ -3,7 +3,7 @@
 //! estimates, as one JSON line: the number `tools/mitsuba/fog_check.py` compares with
 //! Mitsuba's `volpath` (which renders the non-caustic component of delta lights).
 //!
-//! `cargo run --release -p caustics-reference --example medium_energy SCENE.json SPP [PHOTONS] [OUT.exr]`
+//! `cargo run --release -p caustics-reference --example medium_energy SCENE.json SPP [PHOTONS] [OUT.exr] [SEED]`
 
 use caustics::Scene;
 use caustics_reference::io::ImageIo;
@@ -19,7 +19,7 @@ fn main() {
         photons_per_light: photons,
         camera_spp: spp,
         max_depth: 64,
-        seed: 1,
+        seed: args.get(5).map_or(1, |s| s.parse().expect("SEED")),
         caustic_map_size: 8,
         medium_single_scattering_only: false,
     };
@@ -27,12 +27,13 @@ fn main() {
     let sum = |img: &caustics::image_io::Image| img.pixels.iter().flatten().map(|&v| v as f64).sum::<f64>();
     let (nc, c) = (sum(&o.nocaustic), sum(&o.caustic));
     let (vnc, vc) = (sum(&o.nocaustic_variance), sum(&o.caustic_variance));
-    if let Some(out) = args.get(4) {
+    if let Some(out) = args.get(4).filter(|s| !s.is_empty()) {
         o.nocaustic.write(Path::new(out), 1.0).unwrap_or_else(|e| panic!("{e}"));
     }
     println!(
-        "{{\"scene\": \"{}\", \"spp\": {spp}, \"photons\": {photons}, \"sum_nocaustic\": {nc}, \"sd_nocaustic\": {}, \"sum_caustic\": {c}, \"sd_caustic\": {}, \"seconds\": {:.1}}}",
+        "{{\"scene\": \"{}\", \"spp\": {spp}, \"seed\": {}, \"photons\": {photons}, \"sum_nocaustic\": {nc}, \"sd_nocaustic\": {}, \"sum_caustic\": {c}, \"sd_caustic\": {}, \"seconds\": {:.1}}}",
         args[1],
+        s.seed,
         vnc.sqrt(),
         vc.sqrt(),
         o.stats.seconds

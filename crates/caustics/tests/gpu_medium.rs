@@ -7,9 +7,9 @@
 mod common;
 
 use caustics::Scene;
-use caustics::scene::DensityGrid;
 use caustics::render::{RenderSettings, render};
 use caustics::renderer::{FrameRequest, Renderer};
+use caustics::scene::DensityGrid;
 use caustics_reference::reference::{self, ReferenceSettings};
 use common::gpu;
 use glam::Vec3;

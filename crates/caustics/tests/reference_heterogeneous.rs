@@ -196,7 +196,13 @@ fn single_scattering_in_a_smoke_puff_matches_the_closed_form() {
     for c in 0..3 {
         let err = p[c] as f64 - want[c];
         let sd = (pv[c] as f64).sqrt();
-        println!("channel {c}: {} vs closed form {} (sd {sd:.2e}, {:.3}); multiple {}", p[c], want[c], err / want[c], pm[c]);
+        println!(
+            "channel {c}: {} vs closed form {} (sd {sd:.2e}, {:.3}); multiple {}",
+            p[c],
+            want[c],
+            err / want[c],
+            pm[c]
+        );
         // 4 standard deviations of the reference plus the quadrature's error (1500 × 150
         // midpoint steps through the puff: under 0.3 %).
         assert!(err.abs() < 4.0 * sd + 3e-3 * want[c], "channel {c}");
@@ -225,7 +231,11 @@ fn heterogeneous_media_are_deterministic() {
     let sc = with_grid(sc, puff());
     let s = ReferenceSettings { photons_per_light: 50_000, camera_spp: 2, ..settings(2, false) };
     let render = |threads: usize| {
-        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| reference::render(&sc, &s).unwrap())
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| reference::render(&sc, &s).unwrap())
     };
     let (a, b) = (render(1), render(3));
     assert_eq!(a.image.pixels, b.image.pixels);

@@ -68,7 +68,8 @@ fn the_shipped_grid_and_a_written_one_load() {
     let g = s.medium.as_ref().unwrap().density.as_ref().unwrap();
     assert_eq!((g.dims, g.max), ([2, 3, 4], 2.3));
     // A relative path is relative to the scene file's folder.
-    let s = Scene::from_json(&scene_with(r#", "density": { "path": "good.vol" }"#, BOUNDS), "good.json", &dir()).unwrap();
+    let s =
+        Scene::from_json(&scene_with(r#", "density": { "path": "good.vol" }"#, BOUNDS), "good.json", &dir()).unwrap();
     assert!(s.medium.unwrap().density.is_some());
 }
 

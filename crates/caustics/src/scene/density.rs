@@ -57,7 +57,8 @@ impl DensityGrid {
         let mut max = 0.0f32;
         for (i, &v) in data.iter().enumerate() {
             if !(v.is_finite() && v >= 0.0) {
-                let (x, y, z) = (i % dims[0] as usize, i / dims[0] as usize % dims[1] as usize, i / (count / dims[2] as usize));
+                let (x, y, z) =
+                    (i % dims[0] as usize, i / dims[0] as usize % dims[1] as usize, i / (count / dims[2] as usize));
                 return Err(format!("density at voxel ({x}, {y}, {z}) is {v}: must be finite and non-negative"));
             }
             max = max.max(v);
@@ -92,10 +93,7 @@ impl DensityGrid {
         for (k, d) in dims.iter_mut().enumerate() {
             let n = i32_at(8 + 4 * k);
             if n <= 0 || n as u32 > MAX_GRID_RES {
-                return Err(format!(
-                    "grid dimension {} is {n}: must be 1 to {MAX_GRID_RES}",
-                    ["x", "y", "z"][k]
-                ));
+                return Err(format!("grid dimension {} is {n}: must be 1 to {MAX_GRID_RES}", ["x", "y", "z"][k]));
             }
             *d = n as u32;
         }
