@@ -13,9 +13,10 @@ fn main() {
     let dims = [48u32, 40, 48];
     // Lobes in box coordinates (0..1 per axis): centre, radius (1/e² of the Gaussian), peak.
     let lobes = [
-        (Vec3::new(0.45, 0.35, 0.5), 0.22, 2.5),
-        (Vec3::new(0.62, 0.5, 0.42), 0.16, 1.8),
-        (Vec3::new(0.35, 0.55, 0.6), 0.14, 1.4),
+        // For scenes/smoke_puff.json's box: beside and below the ball, inside the spot's beam.
+        (Vec3::new(0.575, 0.45, 0.38), 0.16, 2.5),
+        (Vec3::new(0.4, 0.25, 0.28), 0.14, 1.8),
+        (Vec3::new(0.525, 0.625, 0.37), 0.1, 1.4),
     ];
     let mut data = Vec::with_capacity(dims.iter().product::<u32>() as usize);
     for z in 0..dims[2] {
