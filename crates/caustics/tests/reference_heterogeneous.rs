@@ -242,3 +242,37 @@ fn heterogeneous_media_are_deterministic() {
     assert_eq!(a.caustic.pixels, b.caustic.pixels);
     assert!(a.caustic.pixels.iter().flatten().any(|&v| v > 0.0));
 }
+
+#[test]
+fn scattering_in_a_grid_without_absorption_conserves_the_photon_flux() {
+    // Caustic photons through a glass ball fall into a puff (σa = 0) below it, inside a closed
+    // diffuse sphere: delta tracking with multiple scattering neither creates nor loses flux,
+    // so all the flux leaving the ball reaches the sphere, puff or not.
+    let json = |medium: &str| {
+        format!(
+            r#"{{ "schema_version": 1, "name": "flux",
+  "camera": {{ "position": [0, 0, 4], "look_at": [0, 0, 0], "fov_y_deg": 40, "width": 8, "height": 8 }},
+  "lights": [ {{ "type": "spot", "position": [0, 2, 0], "direction": [0, -1, 0], "cone_angle_deg": 20, "intensity": 10 }} ],
+  "materials": {{ "glass": {{ "type": "dielectric", "ior": 1.5 }}, "wall": {{ "type": "diffuse", "albedo": 0.5 }} }},
+  "objects": [ {{ "type": "sphere", "center": [0, 0, 0], "radius": 0.5, "material": "glass" }},
+               {{ "type": "sphere", "center": [0, 0, 0], "radius": 6, "material": "wall" }} ]
+  {medium} }}"#
+        )
+    };
+    let fog = r#", "medium": { "sigma_s": [0.6, 1.0, 1.6], "sigma_a": 0, "phase": { "type": "hg", "g": 0.3 },
+                  "bounds": { "min": [-3, -3, -3], "max": [3, -0.6, 3] } }"#;
+    let total = |sc: &Scene, single: bool| {
+        let s = ReferenceSettings { max_depth: 1000, photons_per_light: 300_000, ..settings(1, single) };
+        let d = reference::caustic_deposits(sc, &s, 0).unwrap();
+        d.iter().fold(DVec3::ZERO, |a, d| a + d.flux.as_dvec3())
+    };
+    let vacuum = total(&scene(&json("")), false);
+    let puffed = with_grid(scene(&json(fog)), puff());
+    let multi = total(&puffed, false);
+    let single = total(&puffed, true);
+    println!("deposited flux: vacuum {vacuum:?}, puff {multi:?}, puff single scattering {single:?}");
+    for c in 0..3 {
+        assert!((multi[c] / vacuum[c] - 1.0).abs() < 0.02, "channel {c}");
+        assert!(single[c] < 0.9 * vacuum[c], "channel {c}: the puff scatters");
+    }
+}
