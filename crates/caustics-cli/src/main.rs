@@ -142,6 +142,10 @@ enum Command {
         /// camera ray (GPU; 1 to 4096).
         #[arg(long, default_value_t = 64)]
         medium_steps: u32,
+        /// Heterogeneous media (a density grid): ray-march steps of each transmittance toward a
+        /// light (GPU; 1 to 1024).
+        #[arg(long, default_value_t = 16)]
+        medium_light_steps: u32,
         /// Gaussian splat standard deviation (caustic-map texels).
         #[arg(long, default_value_t = 1.0)]
         splat_sigma: f32,
@@ -249,6 +253,7 @@ fn flag_names(e: &mut anyhow::Error) {
         ("quad_linearity", "--quad-linearity"),
         ("shadow_map_size", "--shadow-map"),
         ("medium_steps", "--medium-steps"),
+        ("medium_light_steps", "--medium-light-steps"),
         ("camera.size", "--size"),
         ("splat_sigma", "--splat-sigma"),
         ("max_depth", "--max-depth"),
@@ -296,6 +301,7 @@ fn run(cli: Cli) -> Result<()> {
             caustic_map,
             shadow_map,
             medium_steps,
+            medium_light_steps,
             splat_sigma,
             photon_memory,
             dump,
@@ -340,6 +346,7 @@ fn run(cli: Cli) -> Result<()> {
                 caustic_map_size: caustic_map.unwrap_or(1024),
                 shadow_map_size: shadow_map,
                 medium_steps,
+                medium_light_steps,
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),
                 ..Default::default()

@@ -5,8 +5,9 @@
 // bilinear in the light-space irradiance map, over the texels whose receiver point is the
 // shaded point (so caustics do not leak onto surfaces the light cannot see).
 // In a medium, both are attenuated by the transmittance from the light to the point (the
-// caustic along the straight line too). Run once per light; adds into `radiance` (full) and
-// `caustic` (caustic light only).
+// caustic along the straight line too): exp(-sigma_t d) in a homogeneous medium, the ray march
+// `grid_optical_depth` in `medium_grid.y` steps through the density grid in a heterogeneous
+// one. Run once per light; adds into `radiance` (full) and `caustic` (caustic light only).
 
 #import medium
 
@@ -20,6 +21,8 @@ struct ShadeParams {
     medium_lo: vec4f,
     medium_hi: vec4f,
     sigma_t: vec4f,
+    // x = 1 with a density grid (heterogeneous medium), y = ray-march steps toward the light.
+    medium_grid: vec4u,
 }
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
@@ -33,6 +36,7 @@ struct ShadeParams {
 @group(0) @binding(8) var<storage, read> materials: array<MaterialGpu>;
 @group(0) @binding(9) var<storage, read_write> radiance: array<vec4f>;
 @group(0) @binding(10) var<storage, read_write> caustic: array<vec4f>;
+@group(0) @binding(11) var density: texture_3d<f32>;
 
 fn face_of(p: vec3f, size: f32) -> vec4f {
     for (var f = 0u; f < light.info.x; f++) {
@@ -138,7 +142,14 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (any(e_direct > vec3f(0.0))) { e = e_direct * shadow(p, n); }
     var ec = caustic_box(p, vec2i(gid.xy), pw.w);
     if (sp.medium_lo.w > 0.5) {
-        let tr = exp(-sp.sigma_t.rgb * box_length(light.faces[0].origin.xyz, p, sp.medium_lo.xyz, sp.medium_hi.xyz));
+        var tr: vec3f;
+        if (sp.medium_grid.x == 0u) {
+            tr = exp(-sp.sigma_t.rgb * box_length(light.faces[0].origin.xyz, p, sp.medium_lo.xyz, sp.medium_hi.xyz));
+        } else {
+            let od = grid_optical_depth(
+                density, light.faces[0].origin.xyz, p, sp.medium_lo.xyz, sp.medium_hi.xyz, sp.medium_grid.y);
+            tr = exp(-sp.sigma_t.rgb * od);
+        }
         e *= tr;
         ec *= tr;
     }

@@ -45,6 +45,8 @@ pub(crate) struct Geometry {
     pub transforms: wgpu::Buffer,
     /// The environment map (linear radiance, Rgba32Float; 1×1 black without one).
     pub environment: wgpu::Texture,
+    /// The medium's density grid (R32Float, 3D; 1×1×1 holding 1 without one).
+    pub density: wgpu::Texture,
     /// The exact tracer's BVH (`crate::accel`): bottom levels built once, instances rewritten
     /// when objects move ([`Geometry::write_instances`]).
     pub bvh: crate::accel::SceneBvh,
@@ -115,6 +117,7 @@ pub(crate) fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation)
         materials: ctx.buffer_init("materials", bytemuck::cast_slice(&material_records(scene)), storage),
         transforms: ctx.buffer_init("object_transforms", bytemuck::cast_slice(&transforms), storage),
         environment: upload_environment(ctx, scene),
+        density: upload_density(ctx, scene),
     }
 }
 
@@ -613,6 +616,22 @@ impl RenderSettings {
         if !(1..=4096).contains(&self.medium_steps) {
             return cl("medium_steps", format!("must be 1 to 4096 (got {})", self.medium_steps));
         }
+        if !(1..=1024).contains(&self.medium_light_steps) {
+            return cl("medium_light_steps", format!("must be 1 to 1024 (got {})", self.medium_light_steps));
+        }
+        if let Some(g) = scene.medium.as_ref().and_then(|m| m.density.as_ref()) {
+            let max3 = ctx.device.limits().max_texture_dimension_3d;
+            if g.dims.iter().any(|&n| n > max3) {
+                return Err(crate::Error::input(
+                    &scene.source,
+                    "medium.density.path",
+                    format!(
+                        "the density grid's {}×{}×{} voxels exceed this adapter's 3D texture limit {max3}",
+                        g.dims[0], g.dims[1], g.dims[2]
+                    ),
+                ));
+            }
+        }
         if !(self.splat_sigma > 0.1 && self.splat_sigma <= 16.0) {
             return cl("splat_sigma", format!("must lie in (0.1, 16] texels (got {})", self.splat_sigma));
         }
@@ -1007,8 +1026,13 @@ pub(crate) fn record_shade(
             medium_lo: dc.scene.medium.as_ref().map_or([0.0; 4], |m| m.bounds_min.extend(1.0).to_array()),
             medium_hi: dc.scene.medium.as_ref().map_or([0.0; 4], |m| m.bounds_max.extend(1.0).to_array()),
             sigma_t: dc.scene.medium.as_ref().map_or([0.0; 4], |m| (m.sigma_s + m.sigma_a).extend(0.0).to_array()),
+            medium_grid: match dc.scene.medium.as_ref().and_then(|m| m.density.as_ref()) {
+                Some(_) => [1, s.medium_light_steps, 0, 0],
+                None => [0; 4],
+            },
         }),
     );
+    let density = density_view(ctx, &dc.geo.density);
     let (erp, ern) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
     let (shv, rpv) = (array_view(ctx, &lf.shadow), array_view(ctx, &lf.recv.pos));
     let shbg = crate::gpu::bind(
@@ -1027,6 +1051,7 @@ pub(crate) fn record_shade(
             dc.geo.materials.as_entire_binding(),
             eye.radiance.as_entire_binding(),
             eye.caustic.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&density),
         ],
     );
     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -1080,6 +1105,43 @@ fn upload_environment(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
     texture
 }
 
+/// The medium's density grid as an R32Float 3D texture, uploaded once with the geometry (read
+/// with `textureLoad` and interpolated in the shader, `shared/medium.wgsl`: no filterable-float
+/// feature needed, and the CPU reference's arithmetic); 1×1×1 holding 1 without a grid, so the
+/// bindings are the same for every scene.
+fn upload_density(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
+    let grid = scene.medium.as_ref().and_then(|m| m.density.as_deref());
+    let (dims, data): ([u32; 3], &[f32]) = match grid {
+        Some(g) => (g.dims, &g.data),
+        None => ([1, 1, 1], &[1.0]),
+    };
+    let size = wgpu::Extent3d { width: dims[0], height: dims[1], depth_or_array_layers: dims[2] };
+    let texture = ctx.texture_dim(
+        "medium_density",
+        wgpu::TextureDimension::D3,
+        size,
+        wgpu::TextureFormat::R32Float,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+    );
+    ctx.queue.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture: &texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        bytemuck::cast_slice(data),
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(dims[0] * 4), rows_per_image: Some(dims[1]) },
+        size,
+    );
+    texture
+}
+
+/// The density grid's 3D view.
+fn density_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::TextureView {
+    ctx.view(t, Some(wgpu::TextureViewDimension::D3), 0, None)
+}
+
 /// `medium_scatter` (scenes with a medium; nothing is recorded or requested otherwise): one
 /// dispatch per spot or point light over the composited images. The first attenuates both
 /// images by the transmittance along each pixel's camera ray to its first surface; each adds
@@ -1106,6 +1168,7 @@ fn record_medium(
     };
     let scatters = m.sigma_s.max_element() > 0.0;
     let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
+    let density = density_view(ctx, &dc.geo.density);
     for (li, lf) in lights.iter().enumerate() {
         let flags = u32::from(li == 0) | (u32::from(scatters) << 1);
         let params = ctx.uniform(
@@ -1122,7 +1185,9 @@ fn record_medium(
                 steps: s.medium_steps,
                 flags,
                 shadow_size: s.shadow_map_size,
-                _pad: [0; 3],
+                grid: u32::from(m.density.is_some()),
+                light_steps: s.medium_light_steps,
+                _pad: 0,
             }),
         );
         let shv = array_view(ctx, &lf.shadow);
@@ -1139,6 +1204,7 @@ fn record_medium(
                 wgpu::BindingResource::Sampler(&shadow_sampler),
                 images.0.as_entire_binding(),
                 images.1.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&density),
             ],
         );
         let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {

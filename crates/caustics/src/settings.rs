@@ -289,6 +289,10 @@ pub struct RenderSettings {
     /// Scenes with a participating medium: steps of the camera ray march that adds the lights'
     /// single scattering (`medium_scatter`, docs/architecture.md), 1 to 4096.
     pub medium_steps: u32,
+    /// Heterogeneous media (a density grid): steps of each ray march for the transmittance
+    /// toward a light (per camera-ray step in `medium_scatter`, per surface point in
+    /// `shade_receivers`), 1 to 1024. Homogeneous media use the closed form.
+    pub medium_light_steps: u32,
 }
 
 impl Default for RenderSettings {
@@ -315,6 +319,7 @@ impl Default for RenderSettings {
             photon_memory: 64 << 20,
             tessellation: Tessellation::default(),
             medium_steps: 64,
+            medium_light_steps: 16,
         }
     }
 }

@@ -271,6 +271,7 @@ fn media_are_deterministic_and_an_empty_medium_changes_nothing() {
         phase: caustics::scene::Phase::HenyeyGreenstein { g: 0.2 },
         bounds_min: lo - 1.0,
         bounds_max: hi + 1.0,
+        density: None,
     };
     // σ = 0: bit for bit the image without a medium (no random number is drawn for it).
     let plain = render(&sc, 2);

@@ -12,11 +12,24 @@
 //! `T_c(t) σs_c / p(t)` at a collision and `T_c(t_max) / P` past the segment, with
 //! `T_c(t) = e^{−σt_c t}`: absorption enters as an analytic weight (an absorbing-only medium
 //! is rendered without noise), and every weight is at most 3.
+//!
+//! **Heterogeneous media** (a density grid, `caustics::scene::DensityGrid`: σs(x) = ρ(x) σs,
+//! σa(x) = ρ(x) σa, ρ trilinear): free flight by *delta tracking* and transmittance by *ratio
+//! tracking*, both with the majorant μ̄ = max ρ · max_c σt_c, one for the three channels.
+//! Tentative collisions are drawn from μ̄ e^{−μ̄ s}; at one at x, a real scattering is chosen with
+//! probability P_s = mean_c σs_c(x) / μ̄ (weight σs(x) / (μ̄ P_s)), else the collision is null
+//! (weight (μ̄ − σt(x)) / (μ̄ (1 − P_s)), per channel: absorption and the other channels'
+//! differences as weights, "weighted delta tracking"); past the segment the weight is the
+//! product of the null weights. Ratio tracking multiplies (1 − σt(x_i)/μ̄) over the tentative
+//! collisions before the segment's end. Both are unbiased for any μ̄ ≥ max σt; the homogeneous
+//! medium keeps the analytic code above (no random number drawn for its transmittance), so its
+//! images are bit for bit those of before.
 
 use super::sampling::PathRng;
-use caustics::scene::{Medium, Phase};
+use caustics::scene::{DensityGrid, Medium, Phase};
 use glam::Vec3;
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 /// What happened along a segment.
 pub enum Flight {
@@ -33,11 +46,38 @@ pub struct Media {
     pub phase: Phase,
     lo: Vec3,
     hi: Vec3,
+    /// The density grid of a heterogeneous medium (`None`: homogeneous).
+    grid: Option<Arc<DensityGrid>>,
+    /// μ̄ = max ρ · max_c σt_c (heterogeneous media only).
+    majorant: f32,
 }
 
 impl Media {
     pub fn new(m: &Medium) -> Self {
-        Media { sigma_s: m.sigma_s, sigma_t: m.sigma_s + m.sigma_a, phase: m.phase, lo: m.bounds_min, hi: m.bounds_max }
+        let sigma_t = m.sigma_s + m.sigma_a;
+        Media {
+            sigma_s: m.sigma_s,
+            sigma_t,
+            phase: m.phase,
+            lo: m.bounds_min,
+            hi: m.bounds_max,
+            grid: m.density.clone(),
+            majorant: m.max_density() * sigma_t.max_element(),
+        }
+    }
+
+    /// Whether the medium has a density grid.
+    pub fn heterogeneous(&self) -> bool {
+        self.grid.is_some()
+    }
+
+    /// The density at `x` (1 without a grid).
+    #[inline]
+    pub fn density(&self, x: Vec3) -> f32 {
+        match &self.grid {
+            None => 1.0,
+            Some(g) => g.lookup((x - self.lo) / (self.hi - self.lo)),
+        }
     }
 
     /// The part [t0, t1] of the ray o + t d, 0 ≤ t ≤ t_max, inside the box (None if empty).
@@ -67,15 +107,74 @@ impl Media {
         self.clip(o, d, t_max).map_or(0.0, |(a, b)| b - a)
     }
 
-    /// Transmittance along the segment [0, t_max] (which must not lie inside a dielectric).
-    pub fn transmittance(&self, o: Vec3, d: Vec3, t_max: f32) -> Vec3 {
+    /// Transmittance along the segment [0, t_max] (which must not lie inside a dielectric):
+    /// exact for a homogeneous medium (no random number drawn), an unbiased ratio-tracking
+    /// estimate for a heterogeneous one.
+    pub fn transmittance(&self, o: Vec3, d: Vec3, t_max: f32, rng: &mut PathRng) -> Vec3 {
+        if self.grid.is_some() {
+            return self.ratio_tracking(o, d, t_max, rng);
+        }
         let l = self.length_in(o, d, t_max);
         if l > 0.0 { (-self.sigma_t * l).exp() } else { Vec3::ONE }
+    }
+
+    /// Ratio tracking (module documentation) along [0, t_max] clipped to the box.
+    fn ratio_tracking(&self, o: Vec3, d: Vec3, t_max: f32, rng: &mut PathRng) -> Vec3 {
+        let Some((t0, t1)) = self.clip(o, d, t_max) else { return Vec3::ONE };
+        let mu = self.majorant;
+        if mu <= 0.0 {
+            return Vec3::ONE;
+        }
+        let mut tr = Vec3::ONE;
+        let mut t = t0;
+        loop {
+            t -= (1.0 - rng.next_f32()).ln() / mu;
+            if t >= t1 {
+                return tr;
+            }
+            let st = self.sigma_t * self.density(o + d * t);
+            tr *= (Vec3::ONE - st / mu).max(Vec3::ZERO);
+            if tr.max_element() <= 0.0 {
+                return Vec3::ZERO;
+            }
+        }
+    }
+
+    /// Weighted delta tracking (module documentation) along [t0, t1].
+    fn delta_tracking(&self, o: Vec3, d: Vec3, t0: f32, t1: f32, rng: &mut PathRng) -> Flight {
+        let mu = self.majorant;
+        let mean_ss = self.sigma_s.element_sum() / 3.0;
+        if mu <= 0.0 || mean_ss <= 0.0 {
+            // Nothing scatters: only the transmittance remains.
+            return Flight::Pass { weight: self.ratio_tracking(o, d, t1, rng) };
+        }
+        let mut w = Vec3::ONE;
+        let mut t = t0;
+        loop {
+            let u = rng.next_2d();
+            t -= (1.0 - u.x).ln() / mu;
+            if t >= t1 {
+                return Flight::Pass { weight: w };
+            }
+            let rho = self.density(o + d * t);
+            // P_s = mean σs(x) / μ̄; the scattering weight σs(x) / (μ̄ P_s) = σs / mean σs.
+            let ps = (rho * mean_ss / mu).min(1.0);
+            if u.y < ps {
+                return Flight::Scatter { t, weight: w * self.sigma_s / mean_ss };
+            }
+            w *= (Vec3::splat(mu) - self.sigma_t * rho).max(Vec3::ZERO) / (mu * (1.0 - ps));
+            if w.max_element() <= 0.0 {
+                return Flight::Pass { weight: Vec3::ZERO };
+            }
+        }
     }
 
     /// Sample a collision along the segment [0, t_max] of the ray (outside dielectrics).
     pub fn sample(&self, o: Vec3, d: Vec3, t_max: f32, rng: &mut PathRng) -> Flight {
         let Some((t0, t1)) = self.clip(o, d, t_max) else { return Flight::Pass { weight: Vec3::ONE } };
+        if self.grid.is_some() {
+            return self.delta_tracking(o, d, t0, t1, rng);
+        }
         let len = t1 - t0;
         let ss = self.sigma_s;
         if ss.max_element() <= 0.0 {
@@ -135,6 +234,7 @@ mod tests {
             phase: g.map_or(Phase::Isotropic, |g| Phase::HenyeyGreenstein { g }),
             bounds_min: Vec3::splat(-1.0),
             bounds_max: Vec3::splat(1.0),
+            density: None,
         })
     }
 

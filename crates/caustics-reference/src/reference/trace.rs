@@ -152,8 +152,8 @@ impl<'a> Tracer<'a> {
     /// Transmittance of the medium (if any) along the segment [0, t] of a ray outside
     /// dielectrics.
     #[inline]
-    fn transmittance(&self, o: Vec3, d: Vec3, t: f32) -> Vec3 {
-        self.media.as_ref().map_or(Vec3::ONE, |m| m.transmittance(o, d, t))
+    fn transmittance(&self, o: Vec3, d: Vec3, t: f32, rng: &mut PathRng) -> Vec3 {
+        self.media.as_ref().map_or(Vec3::ONE, |m| m.transmittance(o, d, t, rng))
     }
 
     /// Trace one photon with flux `flux` (W) from `o` along `d`.
@@ -178,7 +178,7 @@ impl<'a> Tracer<'a> {
                 let t_hit = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
                 if depth == 0 {
                     // Before the first surface: caustic light reaches it unscattered.
-                    flux *= m.transmittance(o, d, t_hit);
+                    flux *= m.transmittance(o, d, t_hit, rng);
                 } else {
                     match m.sample(o, d, t_hit, rng) {
                         Flight::Pass { weight } => flux *= weight,
@@ -187,7 +187,7 @@ impl<'a> Tracer<'a> {
                             flux *= weight;
                             let x = o + d * ts;
                             if t.camera {
-                                self.connect_camera_medium(m, x, d, flux, out);
+                                self.connect_camera_medium(m, x, d, flux, rng, out);
                             }
                             if self.single_scattering || depth + 1 >= self.max_depth {
                                 break;
@@ -234,7 +234,7 @@ impl<'a> Tracer<'a> {
                         }
                     }
                     if t.camera {
-                        self.connect_camera(h.p, ng, ns, albedo, flux, out);
+                        self.connect_camera(h.p, ng, ns, albedo, flux, rng, out);
                     }
                     diffuse_seen += 1;
                     if depth + 1 >= self.max_depth {
@@ -264,7 +264,17 @@ impl<'a> Tracer<'a> {
     }
 
     /// Light tracing: splat the radiance that the diffuse point `p` sends to the camera.
-    fn connect_camera(&self, p: Vec3, ng: Vec3, ns: Vec3, albedo: Vec3, flux: Vec3, out: &mut PhotonOut) {
+    #[allow(clippy::too_many_arguments)]
+    fn connect_camera(
+        &self,
+        p: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+        albedo: Vec3,
+        flux: Vec3,
+        rng: &mut PathRng,
+        out: &mut PhotonOut,
+    ) {
         let to = self.cam.pos - p;
         let dist2 = to.length_squared();
         let dist = dist2.sqrt();
@@ -281,7 +291,7 @@ impl<'a> Tracer<'a> {
         let g = cos_x / (dist2 * self.cam.pix_area * cos_c * cos_c * cos_c);
         let mut v = flux * albedo * (g / PI);
         if self.media.is_some() {
-            v *= self.transmittance(p, dir, dist);
+            v *= self.transmittance(p, dir, dist, rng);
         }
         out.cam.push((pix, v));
     }
@@ -289,7 +299,7 @@ impl<'a> Tracer<'a> {
     /// Light tracing from a medium scattering point `x` (photon travelling along `wi` with
     /// weighted flux `flux`, the scattering coefficient already in it): splat the radiance it
     /// sends to the camera, `flux · phase · T / (d² · A_pix · cos³ θc)`.
-    fn connect_camera_medium(&self, m: &Media, x: Vec3, wi: Vec3, flux: Vec3, out: &mut PhotonOut) {
+    fn connect_camera_medium(&self, m: &Media, x: Vec3, wi: Vec3, flux: Vec3, rng: &mut PathRng, out: &mut PhotonOut) {
         let to = self.cam.pos - x;
         let dist2 = to.length_squared();
         let dist = dist2.sqrt();
@@ -303,13 +313,13 @@ impl<'a> Tracer<'a> {
             return;
         }
         let g = m.phase(wi, dir) / (dist2 * self.cam.pix_area * cos_c * cos_c * cos_c);
-        out.cam.push((pix, flux * m.transmittance(x, dir, dist) * g));
+        out.cam.push((pix, flux * m.transmittance(x, dir, dist, rng) * g));
     }
 
     /// Radiance (W/(m² sr) per unit σs, the weight has σs) scattered at the medium point `x`
     /// toward `-wi` straight from the lights, with shadow rays that any surface stops and the
     /// medium attenuates. Returns (radiance, rays).
-    fn medium_direct(&self, m: &Media, x: Vec3, wi: Vec3) -> (Vec3, u64) {
+    fn medium_direct(&self, m: &Media, x: Vec3, wi: Vec3, rng: &mut PathRng) -> (Vec3, u64) {
         let mut l = Vec3::ZERO;
         let mut rays = 0;
         for light in &self.scene.lights {
@@ -329,7 +339,7 @@ impl<'a> Tracer<'a> {
             if self.accel.occluded(x, dir, dist * (1.0 - 1e-5)) {
                 continue;
             }
-            l += incident * m.transmittance(x, dir, dist) * m.phase(wi, dir);
+            l += incident * m.transmittance(x, dir, dist, rng) * m.phase(wi, dir);
         }
         (l, rays)
     }
@@ -365,7 +375,7 @@ impl<'a> Tracer<'a> {
                     Flight::Scatter { t, weight } => {
                         beta *= weight;
                         let x = o + d * t;
-                        let (ls, r) = self.medium_direct(m, x, d);
+                        let (ls, r) = self.medium_direct(m, x, d, rng);
                         rays += r;
                         l += beta * ls;
                         if self.single_scattering || depth + 1 >= self.max_depth {
@@ -466,7 +476,7 @@ impl<'a> Tracer<'a> {
                 continue;
             }
             if self.media.is_some() {
-                e += incident * cos * self.transmittance(p, dir, dist);
+                e += incident * cos * self.transmittance(p, dir, dist, rng);
             } else {
                 e += incident * cos;
             }

@@ -25,3 +25,52 @@ fn box_length(a: vec3f, b: vec3f, lo: vec3f, hi: vec3f) -> f32 {
     let c = box_clip(a, v / l, l, lo, hi);
     return max(c.y - c.x, 0.0);
 }
+
+// Heterogeneous media (scene `medium.density`): the density grid as an R32Float 3D texture
+// (`passes::upload_density`; 1×1×1 holding 1 for a homogeneous medium), read with textureLoad.
+
+// Trilinear density at x between voxel centres lo + (i + 1/2)/res (hi - lo), clamped to the
+// outermost ones: the arithmetic of `DensityGrid::lookup` (crates/caustics/src/scene/density.rs).
+fn grid_density(grid: texture_3d<f32>, x: vec3f, lo: vec3f, hi: vec3f) -> f32 {
+    let dims = vec3i(textureDimensions(grid));
+    let p = (x - lo) / (hi - lo) * vec3f(dims) - 0.5;
+    let f = floor(p);
+    let t = p - f;
+    let m = dims - 1;
+    let a = clamp(vec3i(f), vec3i(0), m);
+    let b = clamp(vec3i(f) + 1, vec3i(0), m);
+    let c000 = textureLoad(grid, vec3i(a.x, a.y, a.z), 0).r;
+    let c100 = textureLoad(grid, vec3i(b.x, a.y, a.z), 0).r;
+    let c010 = textureLoad(grid, vec3i(a.x, b.y, a.z), 0).r;
+    let c110 = textureLoad(grid, vec3i(b.x, b.y, a.z), 0).r;
+    let c001 = textureLoad(grid, vec3i(a.x, a.y, b.z), 0).r;
+    let c101 = textureLoad(grid, vec3i(b.x, a.y, b.z), 0).r;
+    let c011 = textureLoad(grid, vec3i(a.x, b.y, b.z), 0).r;
+    let c111 = textureLoad(grid, vec3i(b.x, b.y, b.z), 0).r;
+    let c00 = c000 + (c100 - c000) * t.x;
+    let c10 = c010 + (c110 - c010) * t.x;
+    let c01 = c001 + (c101 - c001) * t.x;
+    let c11 = c011 + (c111 - c011) * t.x;
+    let c0 = c00 + (c10 - c00) * t.y;
+    let c1 = c01 + (c11 - c01) * t.y;
+    return c0 + (c1 - c0) * t.z;
+}
+
+// Optical depth in density units (the integral of the density) along the part of the segment
+// a -> b inside the box lo..hi: a midpoint rule in `steps` equal steps over that part
+// (deterministic; the transmittance is exp(-sigma_t * it)).
+fn grid_optical_depth(grid: texture_3d<f32>, a: vec3f, b: vec3f, lo: vec3f, hi: vec3f, steps: u32) -> f32 {
+    let v = b - a;
+    let l = length(v);
+    if (l <= 0.0) { return 0.0; }
+    let dir = v / l;
+    let c = box_clip(a, dir, l, lo, hi);
+    if (c.y <= c.x) { return 0.0; }
+    let n = max(steps, 1u);
+    let dt = (c.y - c.x) / f32(n);
+    var s = 0.0;
+    for (var i = 0u; i < n; i++) {
+        s += grid_density(grid, a + dir * (c.x + (f32(i) + 0.5) * dt), lo, hi);
+    }
+    return s * dt;
+}

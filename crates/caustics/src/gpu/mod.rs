@@ -130,7 +130,9 @@ pub fn stage_bindings(name: &str) -> Result<Vec<wgpu::BindGroupLayoutEntry>> {
                 let view_dimension = match (dim, arrayed) {
                     (naga::ImageDimension::D2, false) => wgpu::TextureViewDimension::D2,
                     (naga::ImageDimension::D2, true) => wgpu::TextureViewDimension::D2Array,
-                    _ => return Err(bad("only 2D textures and 2D arrays are used")),
+                    // A medium's density grid.
+                    (naga::ImageDimension::D3, false) => wgpu::TextureViewDimension::D3,
+                    _ => return Err(bad("only 2D textures, 2D arrays and 3D textures are used")),
                 };
                 match class {
                     naga::ImageClass::Sampled { kind, multi } => wgpu::BindingType::Texture {
@@ -539,7 +541,19 @@ impl GpuContext {
         format: wgpu::TextureFormat,
         usage: wgpu::TextureUsages,
     ) -> wgpu::Texture {
-        let key = TextureKey { size, format, usage };
+        self.texture_dim(label, wgpu::TextureDimension::D2, size, format, usage)
+    }
+
+    /// A pooled texture of any dimension (a medium's 3D density grid).
+    pub fn texture_dim(
+        &self,
+        label: &str,
+        dimension: wgpu::TextureDimension,
+        size: wgpu::Extent3d,
+        format: wgpu::TextureFormat,
+        usage: wgpu::TextureUsages,
+    ) -> wgpu::Texture {
+        let key = TextureKey { dimension, size, format, usage };
         self.pooled(
             |slot| match slot {
                 Slot::Texture { key: k, texture } if *k == key => Some(texture.clone()),
@@ -552,7 +566,7 @@ impl GpuContext {
                     size,
                     mip_level_count: 1,
                     sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
+                    dimension,
                     format,
                     usage,
                     view_formats: &[],

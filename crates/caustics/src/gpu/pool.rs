@@ -108,6 +108,7 @@ pub(crate) enum Slot {
 
 #[derive(Clone, PartialEq)]
 pub(crate) struct TextureKey {
+    pub dimension: wgpu::TextureDimension,
     pub size: wgpu::Extent3d,
     pub format: wgpu::TextureFormat,
     pub usage: wgpu::TextureUsages,

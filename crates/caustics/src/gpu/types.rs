@@ -95,6 +95,8 @@ pub struct ShadeParams {
     pub medium_lo: [f32; 4],
     pub medium_hi: [f32; 4],
     pub sigma_t: [f32; 4],
+    /// x = 1 with a density grid (heterogeneous medium), y = ray-march steps toward the light.
+    pub medium_grid: [u32; 4],
 }
 
 /// `medium_scatter` (shaders/medium_scatter.wgsl).
@@ -115,7 +117,11 @@ pub struct MediumParams {
     /// Bit 0: attenuate the image first; bit 1: add this light's in-scattering.
     pub flags: u32,
     pub shadow_size: u32,
-    pub _pad: [u32; 3],
+    /// 1: heterogeneous medium (read the density grid), 0: homogeneous.
+    pub grid: u32,
+    /// Heterogeneous: ray-march steps of each transmittance toward the light.
+    pub light_steps: u32,
+    pub _pad: u32,
 }
 
 #[repr(C)]

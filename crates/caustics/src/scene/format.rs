@@ -322,6 +322,17 @@ pub struct MediumDesc {
     #[serde(default)]
     pub phase: Option<PhaseDesc>,
     pub bounds: BoundsDesc,
+    /// Heterogeneous medium: a density grid scaling `sigma_s` and `sigma_a` (this project's
+    /// extension, `docs/scene-format.md`).
+    #[serde(default)]
+    pub density: Option<DensityDesc>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DensityDesc {
+    /// A `.vol` file (`scene::density`), relative to the scene file.
+    pub path: String,
 }
 
 #[derive(Debug, Deserialize)]

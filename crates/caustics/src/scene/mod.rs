@@ -4,6 +4,7 @@
 //! Loading checks every value a renderer depends on and reports the file and the field
 //! (`lights[0].intensity`) of the first problem; it never panics on bad input.
 
+pub mod density;
 pub mod environment;
 pub mod environment_lights;
 pub mod format;
@@ -15,6 +16,7 @@ use glam::{Mat3, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+pub use density::DensityGrid;
 pub use environment::Environment;
 pub use mesh::TriMesh;
 
@@ -186,7 +188,8 @@ pub enum Phase {
     HenyeyGreenstein { g: f32 },
 }
 
-/// A homogeneous participating medium filling an axis-aligned box (outside dielectrics).
+/// A participating medium filling an axis-aligned box (outside dielectrics): homogeneous, or
+/// heterogeneous with a density grid that multiplies `sigma_s` and `sigma_a` point by point.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Medium {
     pub sigma_s: Vec3,
@@ -194,6 +197,23 @@ pub struct Medium {
     pub phase: Phase,
     pub bounds_min: Vec3,
     pub bounds_max: Vec3,
+    /// The density grid over the box (`None`: density 1 everywhere, a homogeneous medium).
+    pub density: Option<Arc<DensityGrid>>,
+}
+
+impl Medium {
+    /// The density at the world point `p` (inside the box; 1 without a grid).
+    pub fn density_at(&self, p: Vec3) -> f32 {
+        match &self.density {
+            None => 1.0,
+            Some(g) => g.lookup((p - self.bounds_min) / (self.bounds_max - self.bounds_min)),
+        }
+    }
+
+    /// The largest density in the box (1 without a grid).
+    pub fn max_density(&self) -> f32 {
+        self.density.as_ref().map_or(1.0, |g| g.max)
+    }
 }
 
 /// How finely analytic shapes are turned into triangles for rasterization.
@@ -656,7 +676,10 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
             let lo = cx.finite3("medium.bounds.min", m.bounds.min)?;
             let hi = cx.finite3("medium.bounds.max", m.bounds.max)?;
             if !lo.cmplt(hi).all() {
-                return Err(cx.err("medium.bounds", "min must be below max on every axis"));
+                return Err(cx.err(
+                    "medium.bounds",
+                    format!("min must be below max on every axis (an empty or inverted box: min {lo}, max {hi})"),
+                ));
             }
             if lights.iter().any(|l| matches!(l, Light::Directional { .. })) {
                 return Err(cx.err("medium", "a medium cannot be combined with a directional light"));
@@ -666,13 +689,19 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                     cx.err("medium", format!("a medium cannot be combined with an environment light (lights[{k}])"))
                 );
             }
-            Some(Medium {
-                sigma_s: cx.nonneg_rgb("medium.sigma_s", m.sigma_s)?,
-                sigma_a: cx.nonneg_rgb("medium.sigma_a", m.sigma_a)?,
-                phase,
-                bounds_min: lo,
-                bounds_max: hi,
-            })
+            let sigma_s = cx.nonneg_rgb("medium.sigma_s", m.sigma_s)?;
+            let sigma_a = cx.nonneg_rgb("medium.sigma_a", m.sigma_a)?;
+            let density = match &m.density {
+                None => None,
+                Some(d) => {
+                    let full = resolve_path(base, &d.path);
+                    let g = DensityGrid::load(&full).map_err(|msg| {
+                        cx.err("medium.density.path", format!("density grid {}: {msg}", full.display()))
+                    })?;
+                    Some(Arc::new(g))
+                }
+            };
+            Some(Medium { sigma_s, sigma_a, phase, bounds_min: lo, bounds_max: hi, density })
         }
     };
 
