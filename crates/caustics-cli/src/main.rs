@@ -142,6 +142,10 @@ enum Command {
         /// camera ray (GPU; 1 to 4096).
         #[arg(long, default_value_t = 64)]
         medium_steps: u32,
+        /// Scenes with an environment light: the directional lights it is segmented into on
+        /// the GPU (cube-map median cut; 1 to 256).
+        #[arg(long, default_value_t = caustics::settings::DEFAULT_ENV_LIGHTS)]
+        env_lights: u32,
         /// Gaussian splat standard deviation (caustic-map texels).
         #[arg(long, default_value_t = 1.0)]
         splat_sigma: f32,
@@ -249,6 +253,7 @@ fn flag_names(e: &mut anyhow::Error) {
         ("quad_linearity", "--quad-linearity"),
         ("shadow_map_size", "--shadow-map"),
         ("medium_steps", "--medium-steps"),
+        ("env_lights", "--env-lights"),
         ("camera.size", "--size"),
         ("splat_sigma", "--splat-sigma"),
         ("max_depth", "--max-depth"),
@@ -290,6 +295,7 @@ fn run(cli: Cli) -> Result<()> {
             caustic_map,
             shadow_map,
             medium_steps,
+            env_lights,
             splat_sigma,
             photon_memory,
             dump,
@@ -334,6 +340,7 @@ fn run(cli: Cli) -> Result<()> {
                 caustic_map_size: caustic_map.unwrap_or(1024),
                 shadow_map_size: shadow_map,
                 medium_steps,
+                env_lights,
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),
                 ..Default::default()

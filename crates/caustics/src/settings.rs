@@ -296,7 +296,14 @@ pub struct RenderSettings {
     /// Scenes with a participating medium: steps of the camera ray march that adds the lights'
     /// single scattering (`medium_scatter`, docs/architecture.md), 1 to 4096.
     pub medium_steps: u32,
+    /// Scenes with an environment light: the directional lights it is segmented into (the
+    /// cube-map median cut, `scene::environment_lights`), 1 to 256; they light diffuse surfaces
+    /// with shadow maps and cast caustics like the scene's own directional lights.
+    pub env_lights: u32,
 }
+
+/// The default of [`RenderSettings::env_lights`]: the paper's 24 (Tandianus et al. 2010).
+pub const DEFAULT_ENV_LIGHTS: u32 = 24;
 
 impl Default for RenderSettings {
     fn default() -> Self {
@@ -324,6 +331,7 @@ impl Default for RenderSettings {
             photon_memory: 64 << 20,
             tessellation: Tessellation::default(),
             medium_steps: 64,
+            env_lights: DEFAULT_ENV_LIGHTS,
         }
     }
 }
