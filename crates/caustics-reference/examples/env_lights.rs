@@ -2,6 +2,7 @@
 //! against the CPU reference under the same map: HDR-FLIP and energy of the full image and of
 //! the caustic-only image, per D.
 //! `cargo run --release --example env_lights -- SCENE WxH GRID CPU_PHOTONS SPP D1,D2,.. [OUT_DIR]`
+//! (`CAUSTIC_MAP=M` in the environment: caustic map size, default 512)
 use caustics_reference::ImageIo as _;
 use caustics_reference::metrics::{energy, hdr_flip};
 
@@ -30,6 +31,8 @@ fn main() {
     if let Some(o) = &out {
         cpu.image.write(&o.join("cpu.exr"), 1.0).unwrap();
         cpu.caustic.write(&o.join("cpu_caustic.exr"), 1.0).unwrap();
+        cpu.image.write(&o.join("cpu.png"), scene.exposure).unwrap();
+        cpu.caustic.write(&o.join("cpu_caustic.png"), scene.exposure).unwrap();
     }
     let ctx = caustics::gpu::GpuContext::new(None).unwrap();
     println!("| D | lights drawn | full HDR-FLIP | full energy GPU/CPU | caustic HDR-FLIP | caustic energy GPU/CPU | frame ms |");
@@ -37,7 +40,7 @@ fn main() {
     for d in ds {
         let s = caustics::render::RenderSettings {
             photons: grid,
-            caustic_map_size: 512,
+            caustic_map_size: std::env::var("CAUSTIC_MAP").map_or(512, |v| v.parse().unwrap()),
             shadow_map_size: 1024,
             env_lights: d,
             ..Default::default()
@@ -53,6 +56,8 @@ fn main() {
         if let Some(o) = &out {
             g.image.write(&o.join(format!("gpu_d{d}.exr")), 1.0).unwrap();
             g.caustic.write(&o.join(format!("gpu_d{d}_caustic.exr")), 1.0).unwrap();
+            g.image.write(&o.join(format!("gpu_d{d}.png")), scene.exposure).unwrap();
+            g.caustic.write(&o.join(format!("gpu_d{d}_caustic.png")), scene.exposure).unwrap();
         }
     }
 }
