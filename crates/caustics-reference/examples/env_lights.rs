@@ -35,7 +35,9 @@ fn main() {
         cpu.caustic.write(&o.join("cpu_caustic.png"), scene.exposure).unwrap();
     }
     let ctx = caustics::gpu::GpuContext::new(None).unwrap();
-    println!("| D | lights drawn | full HDR-FLIP | full energy GPU/CPU | caustic HDR-FLIP | caustic energy GPU/CPU | frame ms |");
+    println!(
+        "| D | lights drawn | full HDR-FLIP | full energy GPU/CPU | caustic HDR-FLIP | caustic energy GPU/CPU | frame ms |"
+    );
     println!("| --- | --- | --- | --- | --- | --- | --- |");
     for d in ds {
         let s = caustics::render::RenderSettings {

@@ -8,8 +8,8 @@ mod common;
 use caustics::Scene;
 use caustics::render::{RenderSettings, render};
 use caustics::renderer::{FrameRequest, Renderer};
-use caustics::scene::Light;
 use caustics::scene::Environment;
+use caustics::scene::Light;
 use common::gpu;
 use glam::{Vec2, Vec3};
 use std::path::Path;
@@ -129,7 +129,8 @@ fn pixel(cam: &caustics::scene::Camera, p: Vec3) -> Option<(u32, u32)> {
     ((0..cam.width as i64).contains(&px) && (0..cam.height as i64).contains(&py)).then_some((px as u32, py as u32))
 }
 
-const FLOOR: &str = r#"{ "type": "rectangle", "center": [0, 0, 0], "normal": [0, 1, 0], "size": [8, 8], "material": "floor" }"#;
+const FLOOR: &str =
+    r#"{ "type": "rectangle", "center": [0, 0, 0], "normal": [0, 1, 0], "size": [8, 8], "material": "floor" }"#;
 
 #[test]
 fn a_uniform_sky_gives_a_floor_pi_l() {
@@ -217,9 +218,8 @@ fn one_bright_texel_casts_the_caustic_of_a_directional_light() {
     let (bx, by) = (40u32, 8u32);
     let env = texel_map(w, h, Vec3::ZERO, &[(bx, by, Vec3::new(3000.0, 2000.0, 1000.0))]);
     let dir = env.direction(Vec2::new((bx as f32 + 0.5) / w as f32, (by as f32 + 0.5) / h as f32));
-    let objects = format!(
-        r#"{FLOOR}, {{ "type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": "glass" }}"#
-    );
+    let objects =
+        format!(r#"{FLOOR}, {{ "type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": "glass" }}"#);
     let json = |lights: &str| {
         format!(
             r#"{{ "schema_version": 1, "name": "env",
@@ -230,7 +230,8 @@ fn one_bright_texel_casts_the_caustic_of_a_directional_light() {
         )
     };
     let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
-    let mut a = Scene::from_json(&json(r#"{ "type": "environment", "path": "envmaps/city.exr" }"#), "a.json", &base).unwrap();
+    let mut a =
+        Scene::from_json(&json(r#"{ "type": "environment", "path": "envmaps/city.exr" }"#), "a.json", &base).unwrap();
     a.environment = Some(Arc::new(env.clone()));
     let e = Vec3::new(3000.0, 2000.0, 1000.0) * env.texel_solid_angle(by);
     let directional = format!(
@@ -315,7 +316,9 @@ fn region_visibility_without_and_inside_a_box() {
     assert!(((seen / total) - Vec3::ONE).abs().max_element() < 1e-4, "{seen} vs {total}");
     // A closed box of six diffuse walls around the ball: nothing seen.
     let wall = |c: [f32; 3], n: [f32; 3]| {
-        format!(r#"{{ "type": "rectangle", "center": {c:?}, "normal": {n:?}, "size": [2.2, 2.2], "material": "floor" }}"#)
+        format!(
+            r#"{{ "type": "rectangle", "center": {c:?}, "normal": {n:?}, "size": [2.2, 2.2], "material": "floor" }}"#
+        )
     };
     let walls = [
         wall([0.0, -0.5, 0.0], [0.0, 1.0, 0.0]),

@@ -291,7 +291,8 @@ fn to_light(r: Region) -> EnvironmentLight {
     } else {
         DVec3::Y
     };
-    let facing = r.points.iter().fold(DVec3::ZERO, |a, p| a + p.value.as_dvec3() * p.dir.as_dvec3().dot(centre).max(0.0));
+    let facing =
+        r.points.iter().fold(DVec3::ZERO, |a, p| a + p.value.as_dvec3() * p.dir.as_dvec3().dot(centre).max(0.0));
     EnvironmentLight {
         centre: centre.as_vec3(),
         irradiance: value.as_vec3(),
@@ -343,9 +344,8 @@ pub fn region_visibility(
     let centre = 0.5 * (lo + hi);
     let mut others = scene.clone();
     others.objects.remove(object);
-    let mut other_t: Vec<glam::Affine3A> = (0..scene.objects.len())
-        .map(|i| transforms.get(i).copied().unwrap_or(glam::Affine3A::IDENTITY))
-        .collect();
+    let mut other_t: Vec<glam::Affine3A> =
+        (0..scene.objects.len()).map(|i| transforms.get(i).copied().unwrap_or(glam::Affine3A::IDENTITY)).collect();
     other_t.remove(object);
     let r = rotation(rotate_y);
     let mut rays = Vec::new();
