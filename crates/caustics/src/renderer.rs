@@ -182,7 +182,13 @@ impl Renderer {
             latest: None,
             last_error: None,
             env_segments: None,
-        })
+        }
+        .with_env_segments())
+    }
+
+    fn with_env_segments(mut self) -> Renderer {
+        self.refresh_env_segments();
+        self
     }
 
     pub fn context(&self) -> &GpuContext {
@@ -262,24 +268,33 @@ impl Renderer {
         Ok(())
     }
 
+    /// Segment the environment for the current `env_lights` setting, in the map's own frame,
+    /// unless that is done already (once per D).
+    fn refresh_env_segments(&mut self) {
+        let d = self.settings.env_lights;
+        if self.env_segments.as_ref().is_none_or(|(k, _)| *k != d) {
+            self.env_segments = Some((d, self.env_segments()));
+        }
+    }
+
     /// The environment's segmentation for the current `env_lights` setting, in the map's own
-    /// frame (made once per D and kept); empty without an environment.
-    fn env_segments(&mut self) -> Arc<Vec<EnvironmentLight>> {
-        let Some(env) = self.scene.environment.clone() else {
+    /// frame (the kept one); empty without an environment.
+    fn env_segments(&self) -> Arc<Vec<EnvironmentLight>> {
+        let Some(env) = &self.scene.environment else {
             return Arc::new(Vec::new());
         };
         let d = self.settings.env_lights;
-        if self.env_segments.as_ref().is_none_or(|(k, _)| *k != d) {
-            self.env_segments = Some((d, Arc::new(environment_lights::segment_map(&env, d as usize))));
+        match &self.env_segments {
+            Some((k, segs)) if *k == d => segs.clone(),
+            _ => Arc::new(environment_lights::segment_map(env, d as usize)),
         }
-        self.env_segments.as_ref().unwrap().1.clone()
     }
 
     /// The environment's regions as they light the scene now (all `env_lights` of them, black
     /// ones included; centres in world space, the environment's rotation applied): their
     /// directional lights follow the scene's own lights in [`Renderer::lights`] (black ones
     /// left out). Empty without an environment.
-    pub fn environment_lights(&mut self) -> Vec<EnvironmentLight> {
+    pub fn environment_lights(&self) -> Vec<EnvironmentLight> {
         let rot = self.scene.environment.as_ref().map_or(0.0, |e| e.rotate_y);
         environment_lights::rotate(&self.env_segments(), rot)
     }
@@ -287,11 +302,11 @@ impl Renderer {
     /// Every light the renderer draws, in the order of the per-light outputs and statistics:
     /// the scene's lights, then one directional light per region of the environment that
     /// carries any light ([`Renderer::environment_lights`] in order, black regions skipped).
-    pub fn lights(&mut self) -> Vec<Light> {
+    pub fn lights(&self) -> Vec<Light> {
         self.lights_now()
     }
 
-    fn lights_now(&mut self) -> Vec<Light> {
+    fn lights_now(&self) -> Vec<Light> {
         let mut lights = self.scene.lights.clone();
         lights.extend(
             self.environment_lights().iter().filter(|l| l.facing.max_element() > 0.0).map(EnvironmentLight::to_light),
@@ -329,7 +344,7 @@ impl Renderer {
     /// ([`environment_lights::region_visibility`]: exact rays, blocking, not pooled: call it
     /// when objects moved or the environment turned, not every frame). Empty without an
     /// environment.
-    pub fn region_visibility(&mut self, object: usize) -> Result<Vec<f32>> {
+    pub fn region_visibility(&self, object: usize) -> Result<Vec<f32>> {
         let Some(env) = self.scene.environment.clone() else {
             return Ok(Vec::new());
         };
@@ -381,6 +396,7 @@ impl Renderer {
         settings.validate(&self.ctx, &self.scene)?;
         if settings != self.settings {
             self.settings = settings;
+            self.refresh_env_segments();
             self.light_dirty.iter_mut().for_each(|d| *d = true);
         }
         Ok(())

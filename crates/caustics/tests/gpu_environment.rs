@@ -299,7 +299,7 @@ fn region_visibility_without_and_inside_a_box() {
     let env = sky();
     let mut s = scene(r#"{ "type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": "mirror" }"#);
     s.environment = Some(Arc::new(env.clone()));
-    let mut r = Renderer::with_context(ctx.clone(), s.clone(), settings()).unwrap();
+    let r = Renderer::with_context(ctx.clone(), s.clone(), settings()).unwrap();
     // Nothing else in the scene: every region fully visible, and the regions' radiance seen
     // sums to the map's total.
     let vis = r.region_visibility(0).unwrap();
@@ -333,7 +333,7 @@ fn region_visibility_without_and_inside_a_box() {
         walls.join(", ")
     ));
     boxed.environment = Some(Arc::new(env));
-    let mut r = Renderer::with_context(ctx, boxed, settings()).unwrap();
+    let r = Renderer::with_context(ctx, boxed, settings()).unwrap();
     let vis = r.region_visibility(0).unwrap();
     assert!(vis.iter().all(|&v| v == 0.0), "{vis:?}");
     // The floor half-space alone: the regions below the horizon are hidden, those above seen.
