@@ -2,7 +2,8 @@
 //! against the CPU reference under the same map: HDR-FLIP and energy of the full image and of
 //! the caustic-only image, per D.
 //! `cargo run --release --example env_lights -- SCENE WxH GRID CPU_PHOTONS SPP D1,D2,.. [OUT_DIR]`
-//! (`CAUSTIC_MAP=M` in the environment: caustic map size, default 512)
+//! (`CAUSTIC_MAP=M` in the environment: caustic map size, default 512; `SPLIT_RULES=both`: each
+//! D with the default split rule and the paper's)
 use caustics_reference::ImageIo as _;
 use caustics_reference::metrics::{energy, hdr_flip};
 
@@ -39,8 +40,13 @@ fn main() {
         "| D | lights drawn | full HDR-FLIP | full energy GPU/CPU | caustic HDR-FLIP | caustic energy GPU/CPU | frame ms |"
     );
     println!("| --- | --- | --- | --- | --- | --- | --- |");
-    for d in ds {
+    let rules: Vec<caustics::scene::environment_lights::SplitRule> = match std::env::var("SPLIT_RULES") {
+        Ok(v) if v == "both" => vec![Default::default(), caustics::scene::environment_lights::SplitRule::Total],
+        _ => vec![Default::default()],
+    };
+    for (d, rule) in ds.iter().flat_map(|&d| rules.iter().map(move |&r| (d, r))) {
         let s = caustics::render::RenderSettings {
+            env_split: rule,
             photons: grid,
             caustic_map_size: std::env::var("CAUSTIC_MAP").map_or(512, |v| v.parse().unwrap()),
             shadow_map_size: 1024,
@@ -54,6 +60,7 @@ fn main() {
         let fc = hdr_flip(&g.caustic, &cpu.caustic, None).unwrap().mean;
         let ef = energy(&g.image, None) / energy(&cpu.image, None);
         let ec = energy(&g.caustic, None) / energy(&cpu.caustic, None);
+        let d = if rules.len() > 1 { format!("{d} ({rule:?})") } else { d.to_string() };
         println!("| {d} | {drawn} | {ff:.3} | {ef:.3} | {fc:.3} | {ec:.3} | {:.0} |", g.frame_wall_ms);
         if let Some(o) = &out {
             g.image.write(&o.join(format!("gpu_d{d}.exr")), 1.0).unwrap();

@@ -147,7 +147,7 @@ pub struct Renderer {
     latest: Option<FrameStats>,
     last_error: Option<String>,
     /// The environment's segmentation in the map's own frame, and the D it was made for.
-    env_segments: Option<(u32, Arc<Vec<EnvironmentLight>>)>,
+    env_segments: Option<((u32, environment_lights::SplitRule), Arc<Vec<EnvironmentLight>>)>,
 }
 
 impl Renderer {
@@ -271,9 +271,9 @@ impl Renderer {
     /// Segment the environment for the current `env_lights` setting, in the map's own frame,
     /// unless that is done already (once per D).
     fn refresh_env_segments(&mut self) {
-        let d = self.settings.env_lights;
-        if self.env_segments.as_ref().is_none_or(|(k, _)| *k != d) {
-            self.env_segments = Some((d, self.env_segments()));
+        let key = (self.settings.env_lights, self.settings.env_split);
+        if self.env_segments.as_ref().is_none_or(|(k, _)| *k != key) {
+            self.env_segments = Some((key, self.env_segments()));
         }
     }
 
@@ -283,10 +283,10 @@ impl Renderer {
         let Some(env) = &self.scene.environment else {
             return Arc::new(Vec::new());
         };
-        let d = self.settings.env_lights;
+        let key = (self.settings.env_lights, self.settings.env_split);
         match &self.env_segments {
-            Some((k, segs)) if *k == d => segs.clone(),
-            _ => Arc::new(environment_lights::segment_map(env, d as usize)),
+            Some((k, segs)) if *k == key => segs.clone(),
+            _ => Arc::new(environment_lights::segment_map_with(env, key.0 as usize, key.1)),
         }
     }
 

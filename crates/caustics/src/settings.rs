@@ -300,6 +300,9 @@ pub struct RenderSettings {
     /// cube-map median cut, `scene::environment_lights`), 1 to 256; they light diffuse surfaces
     /// with shadow maps and cast caustics like the scene's own directional lights.
     pub env_lights: u32,
+    /// How the median cut picks the region to split (`SplitRule`, default: by flux-weighted
+    /// angular radius; `Total` is the paper's rule), for comparisons.
+    pub env_split: crate::scene::environment_lights::SplitRule,
 }
 
 /// The default of [`RenderSettings::env_lights`]: the paper's 24 (Tandianus et al. 2010).
@@ -332,6 +335,7 @@ impl Default for RenderSettings {
             tessellation: Tessellation::default(),
             medium_steps: 64,
             env_lights: DEFAULT_ENV_LIGHTS,
+            env_split: Default::default(),
         }
     }
 }
