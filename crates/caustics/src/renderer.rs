@@ -128,6 +128,9 @@ struct StatsJob {
 
 const STATS_SLOTS: usize = 3;
 
+/// What an environment segmentation was made for: D and the split rule.
+type SegmentKey = (u32, environment_lights::SplitRule);
+
 /// The persistent GPU renderer (module documentation).
 pub struct Renderer {
     ctx: GpuContext,
@@ -147,7 +150,7 @@ pub struct Renderer {
     latest: Option<FrameStats>,
     last_error: Option<String>,
     /// The environment's segmentation in the map's own frame, and the D it was made for.
-    env_segments: Option<((u32, environment_lights::SplitRule), Arc<Vec<EnvironmentLight>>)>,
+    env_segments: Option<(SegmentKey, Arc<Vec<EnvironmentLight>>)>,
 }
 
 impl Renderer {
