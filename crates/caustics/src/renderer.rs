@@ -898,7 +898,8 @@ impl TemporalFilter {
         self.settings.validate()?;
         let mut r = crate::renderer::Renderer::with_context(ctx.clone(), scene.clone(), settings.clone())?;
         let out = r.render_once_filtered(self);
-        self.lights.truncate(scene.lights.len());
+        // The environment's directional lights have histories too.
+        self.lights.truncate(r.lights().len());
         out
     }
 }
