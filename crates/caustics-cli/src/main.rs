@@ -146,6 +146,10 @@ enum Command {
         /// light (GPU; 1 to 1024).
         #[arg(long, default_value_t = 16)]
         medium_light_steps: u32,
+        /// Scenes with an environment light: the directional lights it is segmented into on
+        /// the GPU (cube-map median cut; 1 to 256).
+        #[arg(long, default_value_t = caustics::settings::DEFAULT_ENV_LIGHTS)]
+        env_lights: u32,
         /// Gaussian splat standard deviation (caustic-map texels).
         #[arg(long, default_value_t = 1.0)]
         splat_sigma: f32,
@@ -254,6 +258,7 @@ fn flag_names(e: &mut anyhow::Error) {
         ("shadow_map_size", "--shadow-map"),
         ("medium_steps", "--medium-steps"),
         ("medium_light_steps", "--medium-light-steps"),
+        ("env_lights", "--env-lights"),
         ("camera.size", "--size"),
         ("splat_sigma", "--splat-sigma"),
         ("max_depth", "--max-depth"),
@@ -302,6 +307,7 @@ fn run(cli: Cli) -> Result<()> {
             shadow_map,
             medium_steps,
             medium_light_steps,
+            env_lights,
             splat_sigma,
             photon_memory,
             dump,
@@ -347,6 +353,7 @@ fn run(cli: Cli) -> Result<()> {
                 shadow_map_size: shadow_map,
                 medium_steps,
                 medium_light_steps,
+                env_lights,
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),
                 ..Default::default()

@@ -61,6 +61,9 @@ fn bad_output_and_settings_exit_2() {
     let e = run_err(&["render", "--photons", "100000", "-o", out.to_str().unwrap()]);
     assert!(e.contains("--photons"), "{e}");
     assert!(!out.exists());
+    let e = run_err(&["render", "--env-lights", "0", "-o", out.to_str().unwrap()]);
+    assert!(e.contains("--env-lights") && e.contains("1 to 256"), "{e}");
+    assert!(!out.exists());
 }
 
 #[test]

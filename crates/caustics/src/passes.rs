@@ -632,6 +632,9 @@ impl RenderSettings {
                 ));
             }
         }
+        if !(1..=256).contains(&self.env_lights) {
+            return cl("env_lights", format!("must be 1 to 256 directional lights (got {})", self.env_lights));
+        }
         if !(self.splat_sigma > 0.1 && self.splat_sigma <= 16.0) {
             return cl("splat_sigma", format!("must lie in (0.1, 16] texels (got {})", self.splat_sigma));
         }

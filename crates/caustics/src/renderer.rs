@@ -43,6 +43,7 @@ use crate::gpu::{GpuContext, PassTimer};
 use crate::image_io::Image;
 use crate::output::{FluxStats, GpuRender};
 use crate::passes::{DrawCtx, EyeFrame, FrameConsts, Geometry, LightFrame, bytes_to_image};
+use crate::scene::environment_lights::{self, EnvironmentLight};
 use crate::scene::{Camera, Light, Material, Scene};
 use crate::settings::RenderSettings;
 use crate::techniques::{Pending, TechniqueStats};
@@ -127,6 +128,9 @@ struct StatsJob {
 
 const STATS_SLOTS: usize = 3;
 
+/// What an environment segmentation was made for: D and the split rule.
+type SegmentKey = (u32, environment_lights::SplitRule);
+
 /// The persistent GPU renderer (module documentation).
 pub struct Renderer {
     ctx: GpuContext,
@@ -146,6 +150,8 @@ pub struct Renderer {
     ring: Vec<StatsSlot>,
     latest: Option<FrameStats>,
     last_error: Option<String>,
+    /// The environment's segmentation in the map's own frame, and the D it was made for.
+    env_segments: Option<(SegmentKey, Arc<Vec<EnvironmentLight>>)>,
 }
 
 impl Renderer {
@@ -180,7 +186,14 @@ impl Renderer {
             ring: Vec::new(),
             latest: None,
             last_error: None,
-        })
+            env_segments: None,
+        }
+        .with_env_segments())
+    }
+
+    fn with_env_segments(mut self) -> Renderer {
+        self.refresh_env_segments();
+        self
     }
 
     pub fn context(&self) -> &GpuContext {
@@ -246,7 +259,11 @@ impl Renderer {
         self.scene.objects[index].shape = shape;
         let after = self.scene.objects[index].shape.bounds();
         self.transforms[index] = transform;
-        for (l, light) in self.scene.lights.iter().enumerate() {
+        let lights = self.lights_now();
+        if self.light_dirty.len() < lights.len() {
+            self.light_dirty.resize(lights.len(), true);
+        }
+        for (l, light) in lights.iter().enumerate() {
             let view = crate::lightspace::LightView::new(&self.scene, light);
             if view.faces.iter().any(|f| box_in_view(before, f.world_to_clip) || box_in_view(after, f.world_to_clip)) {
                 self.light_dirty[l] = true;
@@ -254,6 +271,98 @@ impl Renderer {
         }
         self.objects_dirty = true;
         Ok(())
+    }
+
+    /// Segment the environment for the current `env_lights` setting, in the map's own frame,
+    /// unless that is done already (once per D).
+    fn refresh_env_segments(&mut self) {
+        let key = (self.settings.env_lights, self.settings.env_split);
+        if self.env_segments.as_ref().is_none_or(|(k, _)| *k != key) {
+            self.env_segments = Some((key, self.env_segments()));
+        }
+    }
+
+    /// The environment's segmentation for the current `env_lights` setting, in the map's own
+    /// frame (the kept one); empty without an environment.
+    fn env_segments(&self) -> Arc<Vec<EnvironmentLight>> {
+        let Some(env) = &self.scene.environment else {
+            return Arc::new(Vec::new());
+        };
+        let key = (self.settings.env_lights, self.settings.env_split);
+        match &self.env_segments {
+            Some((k, segs)) if *k == key => segs.clone(),
+            _ => Arc::new(environment_lights::segment_map_with(env, key.0 as usize, key.1)),
+        }
+    }
+
+    /// The environment's regions as they light the scene now (all `env_lights` of them, black
+    /// ones included; centres in world space, the environment's rotation applied): their
+    /// directional lights follow the scene's own lights in [`Renderer::lights`] (black ones
+    /// left out). Empty without an environment.
+    pub fn environment_lights(&self) -> Vec<EnvironmentLight> {
+        let rot = self.scene.environment.as_ref().map_or(0.0, |e| e.rotate_y);
+        environment_lights::rotate(&self.env_segments(), rot)
+    }
+
+    /// Every light the renderer draws, in the order of the per-light outputs and statistics:
+    /// the scene's lights, then one directional light per region of the environment that
+    /// carries any light ([`Renderer::environment_lights`] in order, black regions skipped).
+    pub fn lights(&self) -> Vec<Light> {
+        self.lights_now()
+    }
+
+    fn lights_now(&self) -> Vec<Light> {
+        let mut lights = self.scene.lights.clone();
+        lights.extend(
+            self.environment_lights().iter().filter(|l| l.facing.max_element() > 0.0).map(EnvironmentLight::to_light),
+        );
+        lights
+    }
+
+    /// Turn the environment to `rotate_y_deg` degrees about +Y (the scene format's
+    /// `rotate_y_deg`, absolute): the background and reflections follow, and the environment's
+    /// directional lights turn with it (their directions rotated, no re-segmentation), so their
+    /// maps are redone on the next frame. An error without an environment.
+    pub fn set_environment_rotation(&mut self, rotate_y_deg: f32) -> Result<()> {
+        if !rotate_y_deg.is_finite() {
+            return Err(Error::input("<renderer>", "environment.rotate_y_deg", "must be finite"));
+        }
+        let rad = rotate_y_deg.to_radians();
+        for s in [&mut self.scene, &mut self.base] {
+            let Some(env) = s.environment.as_mut() else {
+                return Err(Error::input("<renderer>", "environment", "the scene has no environment light"));
+            };
+            if env.rotate_y != rad {
+                Arc::make_mut(env).set_rotate_y(rad);
+            }
+        }
+        Ok(())
+    }
+
+    /// The environment's rotation about +Y, degrees (None without an environment).
+    pub fn environment_rotation(&self) -> Option<f32> {
+        self.scene.environment.as_ref().map(|e| e.rotate_y.to_degrees())
+    }
+
+    /// Per region of [`Renderer::environment_lights`], the unoccluded fraction of its radiance
+    /// seen from object `object`'s centre past the other objects as they are now
+    /// ([`environment_lights::region_visibility`]: exact rays, blocking, not pooled: call it
+    /// when objects moved or the environment turned, not every frame). Empty without an
+    /// environment.
+    pub fn region_visibility(&self, object: usize) -> Result<Vec<f32>> {
+        let Some(env) = self.scene.environment.clone() else {
+            return Ok(Vec::new());
+        };
+        let lights = self.environment_lights();
+        environment_lights::region_visibility(
+            &self.ctx,
+            &self.base,
+            &self.transforms,
+            &env,
+            &lights,
+            object,
+            env.rotate_y,
+        )
     }
 
     /// Replace material `index` (same kind of surface or not). Every light is redone, since any
@@ -292,6 +401,7 @@ impl Renderer {
         settings.validate(&self.ctx, &self.scene)?;
         if settings != self.settings {
             self.settings = settings;
+            self.refresh_env_segments();
             self.light_dirty.iter_mut().for_each(|d| *d = true);
         }
         Ok(())
@@ -349,6 +459,8 @@ impl Renderer {
         let enc = encoder;
         let ctx = self.ctx.clone();
         let s = self.settings.clone();
+        // The scene as drawn: its lights, then the environment's directional lights.
+        let full = Scene { lights: self.lights_now(), ..self.scene.clone() };
         // Geometry: uploaded once (again when the tessellation changes); moved objects rewrite
         // their transforms and analytic shapes.
         if self.geometry.as_ref().is_none_or(|(t, _)| *t != s.tessellation) {
@@ -366,7 +478,7 @@ impl Renderer {
             ctx.queue.write_buffer(&geo.materials, 0, bytemuck::cast_slice(&m));
             self.objects_dirty = false;
         }
-        let scene = &self.scene;
+        let scene = &full;
         let fc = FrameConsts::new(scene, &s);
         let raster = crate::passes::raster_pipelines(&ctx);
         let dc = DrawCtx { ctx: &ctx, geo, scene };
@@ -797,7 +909,8 @@ impl TemporalFilter {
         self.settings.validate()?;
         let mut r = crate::renderer::Renderer::with_context(ctx.clone(), scene.clone(), settings.clone())?;
         let out = r.render_once_filtered(self);
-        self.lights.truncate(scene.lights.len());
+        // The environment's directional lights have histories too.
+        self.lights.truncate(r.lights().len());
         out
     }
 }

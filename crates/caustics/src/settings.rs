@@ -293,7 +293,17 @@ pub struct RenderSettings {
     /// toward a light (per camera-ray step in `medium_scatter`, per surface point in
     /// `shade_receivers`), 1 to 1024. Homogeneous media use the closed form.
     pub medium_light_steps: u32,
+    /// Scenes with an environment light: the directional lights it is segmented into (the
+    /// cube-map median cut, `scene::environment_lights`), 1 to 256; they light diffuse surfaces
+    /// with shadow maps and cast caustics like the scene's own directional lights.
+    pub env_lights: u32,
+    /// How the median cut picks the region to split (`SplitRule`, default: by flux-weighted
+    /// angular radius; `Total` is the paper's rule), for comparisons.
+    pub env_split: crate::scene::environment_lights::SplitRule,
 }
+
+/// The default of [`RenderSettings::env_lights`]: the paper's 24 (Tandianus et al. 2010).
+pub const DEFAULT_ENV_LIGHTS: u32 = 24;
 
 impl Default for RenderSettings {
     fn default() -> Self {
@@ -320,6 +330,8 @@ impl Default for RenderSettings {
             tessellation: Tessellation::default(),
             medium_steps: 64,
             medium_light_steps: 16,
+            env_lights: DEFAULT_ENV_LIGHTS,
+            env_split: Default::default(),
         }
     }
 }

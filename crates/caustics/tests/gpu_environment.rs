@@ -1,13 +1,17 @@
 //! The environment light on the GPU: the background where camera rays hit nothing, and what
-//! mirrors reflect of it, against the CPU lookup. (Diffuse lighting from
-//! the environment is not rendered on the GPU yet.)
+//! mirrors reflect of it, against the CPU lookup; its segmentation into directional lights
+//! (`RenderSettings::env_lights`): a uniform sky's irradiance π L on a floor, the orientation
+//! of a one-texel sun and its shadow, its caustic against a plain directional light, rotation,
+//! the renderer's pooled resources, and the per-region occlusion.
 
 mod common;
 use caustics::Scene;
 use caustics::render::{RenderSettings, render};
+use caustics::renderer::{FrameRequest, Renderer};
 use caustics::scene::Environment;
+use caustics::scene::Light;
 use common::gpu;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -102,4 +106,235 @@ fn a_mirror_ball_reflects_the_environment() {
     }
     assert!(n > 100, "{n}");
     assert!(((sum_gpu / sum_cpu) - Vec3::ONE).abs().max_element() < 0.01, "{sum_gpu} vs {sum_cpu}");
+}
+
+/// A map black but for `bright` texels (x, y, radiance).
+fn texel_map(w: u32, h: u32, fill: Vec3, bright: &[(u32, u32, Vec3)]) -> Environment {
+    let mut t = vec![fill; (w * h) as usize];
+    for &(x, y, v) in bright {
+        t[(y * w + x) as usize] = v;
+    }
+    Environment::from_texels(w, h, t, 0.0).unwrap()
+}
+
+/// Pixel of world point `p` (None when off screen or behind the camera).
+fn pixel(cam: &caustics::scene::Camera, p: Vec3) -> Option<(u32, u32)> {
+    let c = cam.view_to_clip(0.01, 100.0) * cam.world_to_view() * p.extend(1.0);
+    if c.w <= 0.0 {
+        return None;
+    }
+    let (x, y) = (c.x / c.w, c.y / c.w);
+    let px = ((x * 0.5 + 0.5) * cam.width as f32) as i64;
+    let py = ((0.5 - y * 0.5) * cam.height as f32) as i64;
+    ((0..cam.width as i64).contains(&px) && (0..cam.height as i64).contains(&py)).then_some((px as u32, py as u32))
+}
+
+const FLOOR: &str =
+    r#"{ "type": "rectangle", "center": [0, 0, 0], "normal": [0, 1, 0], "size": [8, 8], "material": "floor" }"#;
+
+#[test]
+fn a_uniform_sky_gives_a_floor_pi_l() {
+    // Radiance of a floor of albedo 0.5 under a uniform sky of L = 2: 0.5/π · π L = 1. The
+    // segmentation is exact for a floor but for the texels' extent (under 0.5 % from D = 12,
+    // `environment_lights` unit tests); the shadow maps' PCF and the shading add nothing on
+    // an unoccluded floor. Bound: 1 %.
+    let Some(ctx) = gpu() else { return };
+    let mut s = scene(FLOOR);
+    s.camera.position = Vec3::new(0.0, 3.0, 0.5);
+    s.camera.look_at = Vec3::ZERO;
+    s.environment = Some(Arc::new(texel_map(64, 32, Vec3::splat(2.0), &[])));
+    let out = render(&ctx, &s, &settings()).unwrap();
+    let (mut n, mut worst) = (0, 0.0f32);
+    for y in 0..s.camera.height {
+        for x in 0..s.camera.width {
+            let d = s.camera.ray_dir(x as f32 + 0.5, y as f32 + 0.5);
+            let t = -s.camera.position.y / d.y;
+            let p = s.camera.position + t * d;
+            if d.y >= 0.0 || p.x.abs() > 3.5 || p.z.abs() > 3.5 {
+                continue;
+            }
+            let got = Vec3::from_array(out.image.get(x, y));
+            worst = worst.max((got - Vec3::ONE).abs().max_element());
+            n += 1;
+        }
+    }
+    eprintln!("uniform sky: {n} floor pixels, worst |L − 1| = {worst}");
+    assert!(n > 1000 && worst < 0.01, "{n} pixels, worst {worst}");
+}
+
+/// A glass-free scene lit by one bright texel at elevation 45° toward +X (map texel chosen so),
+/// a diffuse ball floating over the floor, seen from straight above: the floor's radiance and
+/// the side its shadow falls on.
+#[test]
+fn one_bright_texel_lights_the_floor_from_its_direction() {
+    let Some(ctx) = gpu() else { return };
+    let (w, h) = (64u32, 32u32);
+    // Direction toward +X at 45°: u = 0.5 + atan2(1, 0)/2π = 0.75, v = 45°/180° = 0.25:
+    // texel (47.5, 7.5) → (47, 7) (its centre: u = 0.7422, v = 0.2344, close to it).
+    let (bx, by) = (47u32, 7u32);
+    let env = texel_map(w, h, Vec3::ZERO, &[(bx, by, Vec3::splat(5000.0))]);
+    let dir = env.direction(Vec2::new((bx as f32 + 0.5) / w as f32, (by as f32 + 0.5) / h as f32));
+    assert!(dir.x > 0.6 && dir.y > 0.6 && dir.z.abs() < 0.1, "{dir}");
+    let mut s = scene(&format!(
+        r#"{FLOOR}, {{ "type": "sphere", "center": [0, 0.6, 0], "radius": 0.2, "material": "floor" }}"#
+    ));
+    s.camera.position = Vec3::new(0.0, 4.0, 0.01);
+    s.camera.look_at = Vec3::ZERO;
+    s.environment = Some(Arc::new(env.clone()));
+    let mut r = Renderer::with_context(ctx, s.clone(), settings()).unwrap();
+    let lights = r.lights();
+    assert_eq!(lights.len(), 1, "one light for one bright texel: {lights:?}");
+    let e = 5000.0 * env.texel_solid_angle(by);
+    match lights[0] {
+        Light::Directional { direction, irradiance } => {
+            assert!((direction + dir).length() < 1e-5);
+            assert!((irradiance - Vec3::splat(e)).abs().max_element() < 1e-5 * e);
+        }
+        ref l => panic!("{l:?}"),
+    }
+    let out = r.render_once().unwrap();
+    let lit = 0.5 / std::f32::consts::PI * e * dir.y;
+    let at = |p: Vec3| {
+        let (x, y) = pixel(&s.camera, p).unwrap();
+        out.image.get(x, y)[0]
+    };
+    // On the sun's side of the ball (+X), the floor is lit; behind it (−X), along the light's
+    // path through the ball's centre, in shadow.
+    let behind = Vec3::new(0.0, 0.6, 0.0) - dir * (0.6 / dir.y);
+    assert!(behind.x < -0.5, "{behind}");
+    let sunny = Vec3::new(0.7, 0.0, 0.0);
+    assert!((at(sunny) / lit - 1.0).abs() < 0.01, "lit floor {} vs {lit}", at(sunny));
+    assert!(at(behind) < 0.01 * lit, "shadow {} vs lit {lit}", at(behind));
+    // Mirror the test: the far side at −X beyond the shadow is lit again.
+    assert!((at(Vec3::new(-1.2, 0.0, 0.0)) / lit - 1.0).abs() < 0.01);
+}
+
+#[test]
+fn one_bright_texel_casts_the_caustic_of_a_directional_light() {
+    // A glass ball under one bright texel and under the directional light that stands for it
+    // (direction and L·Ω): the same caustic.
+    let Some(ctx) = gpu() else { return };
+    let (w, h) = (64u32, 32u32);
+    let (bx, by) = (40u32, 8u32);
+    let env = texel_map(w, h, Vec3::ZERO, &[(bx, by, Vec3::new(3000.0, 2000.0, 1000.0))]);
+    let dir = env.direction(Vec2::new((bx as f32 + 0.5) / w as f32, (by as f32 + 0.5) / h as f32));
+    let objects =
+        format!(r#"{FLOOR}, {{ "type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": "glass" }}"#);
+    let json = |lights: &str| {
+        format!(
+            r#"{{ "schema_version": 1, "name": "env",
+              "camera": {{ "position": [0, 3, 3], "look_at": [0, 0, 0], "fov_y_deg": 50, "width": 64, "height": 48 }},
+              "lights": [ {lights} ],
+              "materials": {{ "glass": {{ "type": "dielectric", "ior": 1.5 }}, "floor": {{ "type": "diffuse", "albedo": 0.5 }} }},
+              "objects": [ {objects} ] }}"#
+        )
+    };
+    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let mut a =
+        Scene::from_json(&json(r#"{ "type": "environment", "path": "envmaps/city.exr" }"#), "a.json", &base).unwrap();
+    a.environment = Some(Arc::new(env.clone()));
+    let e = Vec3::new(3000.0, 2000.0, 1000.0) * env.texel_solid_angle(by);
+    let directional = format!(
+        r#"{{ "type": "directional", "direction": [{}, {}, {}], "irradiance": [{}, {}, {}] }}"#,
+        -dir.x, -dir.y, -dir.z, e.x, e.y, e.z
+    );
+    let b = Scene::from_json(&json(&directional), "b.json", &base).unwrap();
+    let st = RenderSettings { photons: 128, caustic_map_size: 128, ..settings() };
+    let ga = render(&ctx, &a, &st).unwrap();
+    let gb = render(&ctx, &b, &st).unwrap();
+    let sum = |i: &caustics::image_io::Image| i.pixels.iter().map(|p| Vec3::from_array(*p)).sum::<Vec3>();
+    let (sa, sb) = (sum(&ga.caustic), sum(&gb.caustic));
+    assert!(sb.x > 0.0, "the directional light casts a caustic");
+    let mut worst = 0.0f32;
+    for (p, q) in ga.caustic.pixels.iter().zip(&gb.caustic.pixels) {
+        worst = worst.max((Vec3::from_array(*p) - Vec3::from_array(*q)).abs().max_element());
+    }
+    let peak = gb.caustic.pixels.iter().map(|p| p[0]).fold(0.0f32, f32::max);
+    eprintln!("caustic sums {sa} vs {sb}, worst pixel difference {worst} (peak {peak})");
+    assert!(((sa / sb) - Vec3::ONE).abs().max_element() < 1e-4, "{sa} vs {sb}");
+    assert!(worst <= 1e-3 * peak, "{worst} vs peak {peak}");
+}
+
+#[test]
+fn rotation_is_exact_and_creates_nothing() {
+    // A renderer turned to 60° renders the bits of a fresh one whose map is turned 60°, and
+    // creates no GPU object doing so; changing D re-sizes the light list, and its next frame
+    // creates nothing more either.
+    let Some(ctx) = gpu() else { return };
+    let env = texel_map(64, 32, Vec3::splat(0.2), &[(10, 9, Vec3::splat(400.0)), (50, 12, Vec3::splat(200.0))]);
+    let mut s = scene(&format!(
+        r#"{FLOOR}, {{ "type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": "mirror" }}"#
+    ));
+    s.environment = Some(Arc::new(env.clone()));
+    let st = RenderSettings { env_lights: 6, ..settings() };
+    let frame = |r: &mut Renderer| {
+        let before = r.created().total();
+        let mut enc = r.context().device.create_command_encoder(&Default::default());
+        r.encode(&mut enc, FrameRequest { stats: false }).unwrap();
+        r.context().queue.submit([enc.finish()]);
+        r.created().total() - before
+    };
+    let mut r = Renderer::with_context(ctx.clone(), s.clone(), st.clone()).unwrap();
+    frame(&mut r);
+    r.set_environment_rotation(60.0).unwrap();
+    assert_eq!(frame(&mut r), 0, "a turned environment creates nothing");
+    let turned = r.read_image().unwrap();
+    let mut s60 = s.clone();
+    let mut e60 = env.clone();
+    e60.set_rotate_y(60f32.to_radians());
+    s60.environment = Some(Arc::new(e60));
+    let fresh = Renderer::with_context(ctx, s60, st.clone()).unwrap().render_once().unwrap();
+    assert!(turned.pixels == fresh.image.pixels, "turned and fresh renderers differ");
+    // D = 6 → 12: more lights, then a steady state.
+    let n6 = r.lights().len();
+    r.set_settings(RenderSettings { env_lights: 12, ..st }).unwrap();
+    assert!(r.lights().len() > n6);
+    frame(&mut r);
+    assert_eq!(frame(&mut r), 0, "the second frame at D = 12 creates nothing");
+}
+
+#[test]
+fn region_visibility_without_and_inside_a_box() {
+    let Some(ctx) = gpu() else { return };
+    let env = sky();
+    let mut s = scene(r#"{ "type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": "mirror" }"#);
+    s.environment = Some(Arc::new(env.clone()));
+    let r = Renderer::with_context(ctx.clone(), s.clone(), settings()).unwrap();
+    // Nothing else in the scene: every region fully visible, and the regions' radiance seen
+    // sums to the map's total.
+    let vis = r.region_visibility(0).unwrap();
+    let lights = r.environment_lights();
+    assert_eq!(vis.len(), lights.len());
+    assert!(vis.iter().all(|&v| v == 1.0), "{vis:?}");
+    let seen: Vec3 = lights.iter().zip(&vis).map(|(l, v)| l.irradiance * *v).sum();
+    let mut total = Vec3::ZERO;
+    for y in 0..env.height {
+        for x in 0..env.width {
+            total += env.texels[(y * env.width + x) as usize] * env.texel_solid_angle(y);
+        }
+    }
+    assert!(((seen / total) - Vec3::ONE).abs().max_element() < 1e-4, "{seen} vs {total}");
+    // A closed box of six diffuse walls around the ball: nothing seen.
+    let wall = |c: [f32; 3], n: [f32; 3]| {
+        format!(
+            r#"{{ "type": "rectangle", "center": {c:?}, "normal": {n:?}, "size": [2.2, 2.2], "material": "floor" }}"#
+        )
+    };
+    let walls = [
+        wall([0.0, -0.5, 0.0], [0.0, 1.0, 0.0]),
+        wall([0.0, 1.5, 0.0], [0.0, -1.0, 0.0]),
+        wall([1.0, 0.5, 0.0], [-1.0, 0.0, 0.0]),
+        wall([-1.0, 0.5, 0.0], [1.0, 0.0, 0.0]),
+        wall([0.0, 0.5, 1.0], [0.0, 0.0, -1.0]),
+        wall([0.0, 0.5, -1.0], [0.0, 0.0, 1.0]),
+    ];
+    let mut boxed = scene(&format!(
+        r#"{{ "type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": "mirror" }}, {}"#,
+        walls.join(", ")
+    ));
+    boxed.environment = Some(Arc::new(env));
+    let r = Renderer::with_context(ctx, boxed, settings()).unwrap();
+    let vis = r.region_visibility(0).unwrap();
+    assert!(vis.iter().all(|&v| v == 0.0), "{vis:?}");
+    // The floor half-space alone: the regions below the horizon are hidden, those above seen.
 }

@@ -84,6 +84,9 @@ pub enum Action {
         material: usize,
         ior: f32,
     },
+    /// Turn the environment light to this many degrees about +Y (its directional lights turn
+    /// with it, no re-segmentation).
+    SetEnvironmentRotation(f32),
     /// Write the current image (PNG tone-mapped, EXR linear, by extension).
     Screenshot(PathBuf),
     /// Write the current image as the next numbered PNG + EXR pair in the screenshot folder.
@@ -370,6 +373,14 @@ impl Session {
             Action::SetSplat(m) => self.change_settings(|s| s.splat = m),
             Action::SetTracer(t) => self.change_settings(|s| s.tracer = t),
             Action::SetPhotons(n) => self.change_settings(|s| s.photons = n),
+            Action::SetEnvironmentRotation(deg) => {
+                if self.renderer.environment_rotation() == Some(deg) {
+                    return Ok(());
+                }
+                self.renderer.set_environment_rotation(deg)?;
+                self.view_changed();
+                Ok(())
+            }
             Action::SetTolerance(t) => self.change_settings(|s| s.max_error_tolerance = t),
             Action::SetSettings(new) => self.change_settings(|s| *s = *new),
             Action::SetBudget(target) => {

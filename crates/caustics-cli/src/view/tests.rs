@@ -446,3 +446,37 @@ fn time_budget_lowers_the_grid_from_light_frames_only() {
     s.act(Action::SetBudget(None)).expect("off");
     assert!(s.budget().is_none());
 }
+
+#[test]
+fn environment_rotation_turns_its_lights_live() {
+    // The sky scene: turning the environment turns its directional lights (no re-segmentation:
+    // the same irradiances, directions rotated about +Y) and the frame after creates nothing.
+    let Some(d) = device() else { return };
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/glass_sphere_sky.json");
+    let scene = Scene::load(&path).unwrap();
+    let settings = RenderSettings { env_lights: 6, ..small_settings() };
+    let mut s = Session::new(&d.0, &d.1, scene, settings, tmp("")).expect("a session on the sky scene");
+    s.act(Action::Resize { width: 48, height: 36 }).unwrap();
+    frame(&mut s);
+    let before = s.renderer().environment_lights();
+    // (The first frames fill the ring of statistics buffers; the turn after creates nothing.)
+    for deg in [30.0, 60.0] {
+        s.act(Action::SetEnvironmentRotation(deg)).unwrap();
+        frame(&mut s);
+        s.wait_stats();
+    }
+    s.act(Action::SetEnvironmentRotation(90.0)).unwrap();
+    assert_eq!(s.renderer().environment_rotation(), Some(90.0));
+    let created = s.renderer().created().total();
+    frame(&mut s);
+    assert_eq!(s.renderer().created().total(), created, "a turned environment creates nothing");
+    let after = s.renderer().environment_lights();
+    let r = glam::Mat3::from_rotation_y(90f32.to_radians());
+    for (a, b) in before.iter().zip(&after) {
+        assert_eq!(a.irradiance, b.irradiance);
+        assert!((r * a.centre - b.centre).length() < 1e-5, "{} vs {}", r * a.centre, b.centre);
+    }
+    // The same rotation again changes nothing: no frame.
+    s.act(Action::SetEnvironmentRotation(90.0)).unwrap();
+    assert!(!s.render().unwrap());
+}

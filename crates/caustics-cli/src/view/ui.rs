@@ -390,6 +390,20 @@ fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
     if r.drag_stopped() || (r.changed() && !r.dragged()) {
         act(session, Action::SetTolerance(tol));
     }
+    if let Some(rot) = session.renderer().environment_rotation() {
+        let mut deg = rot;
+        let r = ui.add(egui::Slider::new(&mut deg, -180.0..=180.0).text("environment rotation °"));
+        if r.changed() {
+            act(session, Action::SetEnvironmentRotation(deg));
+        }
+        let mut d = s.env_lights;
+        let r = ui.add(egui::Slider::new(&mut d, 1..=96).text("environment lights"));
+        if r.drag_stopped() || (r.changed() && !r.dragged()) {
+            let mut s2 = s.clone();
+            s2.env_lights = d;
+            act(session, Action::SetSettings(Box::new(s2)));
+        }
+    }
     let mut reflection = s.dielectric_reflection;
     if ui.checkbox(&mut reflection, "light reflected at glass").changed() {
         let mut s2 = s.clone();

@@ -120,6 +120,13 @@ impl Environment {
         })
     }
 
+    /// Turn the map to `rotate_y` radians about +Y (the scene format's `rotate_y_deg`, in
+    /// radians); lookups and sampling follow.
+    pub fn set_rotate_y(&mut self, rotate_y: f32) {
+        self.rotate_y = rotate_y;
+        self.world_to_map = Mat3::from_rotation_y(-rotate_y);
+    }
+
     /// Map coordinates (u, v) in [0, 1]² of unit world direction `d` (toward the sky).
     pub fn uv(&self, d: Vec3) -> Vec2 {
         let m = self.world_to_map * d;
