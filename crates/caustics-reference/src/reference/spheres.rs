@@ -224,7 +224,13 @@ pub fn render_caustic(
                         }
                         for light in &scene.lights {
                             if let caustics::scene::Light::Directional { direction, irradiance } = light {
-                                e += *irradiance * sp.irradiance(hit.p, n, *direction, layout, blend);
+                                // A table of one direction is that direction rotated onto any light.
+                                let f = if sp.layout_dirs.len() == 1 {
+                                    sp.irradiance_of(0, hit.p, n, *direction)
+                                } else {
+                                    sp.irradiance(hit.p, n, *direction, layout, blend)
+                                };
+                                e += *irradiance * f;
                             }
                         }
                     }

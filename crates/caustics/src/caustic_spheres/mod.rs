@@ -179,6 +179,12 @@ impl DirectionLayout {
     }
 }
 
+/// The angle between unit `q` and the pole `w`, accurate near the pole (where acos of the dot
+/// product loses most of its digits in f32, and the warped rows are finest).
+pub fn polar_angle(q: Vec3, w: Vec3) -> f32 {
+    q.cross(w).length().atan2(q.dot(w))
+}
+
 fn grid_coord(i: u32, n: u32) -> f32 {
     -1.0 + 2.0 * i as f32 / (n - 1) as f32
 }
@@ -215,7 +221,7 @@ impl SphereGeometry {
     /// The cell (row, column) holding unit direction `q` in the frame of pole `w`.
     pub fn cell_of(&self, q: Vec3, w: Vec3) -> (u32, u32) {
         let (a, b) = basis(w);
-        let th = q.dot(w).clamp(-1.0, 1.0).acos();
+        let th = polar_angle(q, w);
         let t = (th / PI).sqrt();
         let mut ph = q.dot(b).atan2(q.dot(a));
         if ph < 0.0 {
@@ -342,7 +348,7 @@ impl CausticSpheres {
         let w = self.layout_dirs[dir];
         let (a, b) = basis(w);
         let u = q / r;
-        let th = u.dot(w).clamp(-1.0, 1.0).acos();
+        let th = polar_angle(u, w);
         let ft = (th / PI).sqrt() * g.height as f32 - 0.5;
         let mut ph = u.dot(b).atan2(u.dot(a));
         if ph < 0.0 {
