@@ -296,6 +296,12 @@ pub struct RenderSettings {
     /// Scenes with a participating medium: steps of the camera ray march that adds the lights'
     /// single scattering (`medium_scatter`, docs/architecture.md), 1 to 4096.
     pub medium_steps: u32,
+    /// Caustic spheres (`crate::caustic_spheres`, `--technique caustic-spheres`): the caustics
+    /// of directional lights come from the precomputed spheres set with
+    /// `Renderer::set_caustic_spheres` (one eye-space pass, `sphere_gather`, for all of them)
+    /// instead of photons: their light passes trace none. Spot and point lights keep the
+    /// technique's caustic maps.
+    pub caustic_spheres: bool,
 }
 
 impl Default for RenderSettings {
@@ -324,6 +330,7 @@ impl Default for RenderSettings {
             photon_memory: 64 << 20,
             tessellation: Tessellation::default(),
             medium_steps: 64,
+            caustic_spheres: false,
         }
     }
 }

@@ -187,6 +187,21 @@ pub fn render_caustic(
     blend: caustics::caustic_spheres::Blend,
     ss: u32,
 ) -> caustics::image_io::Image {
+    let identity = vec![glam::Affine3A::IDENTITY; spheres.len()];
+    render_caustic_moved(scene, spheres, &identity, layout, blend, ss)
+}
+
+/// [`render_caustic`] with the caustic objects moved: `scene` holds them where they are now,
+/// `moves[i]` is how `spheres[i]`'s object moved from the pose its table was made in (the
+/// lookup is in the object's frame, as the renderer's).
+pub fn render_caustic_moved(
+    scene: &Scene,
+    spheres: &[(usize, &CausticSpheres)],
+    moves: &[glam::Affine3A],
+    layout: &DirectionLayout,
+    blend: caustics::caustic_spheres::Blend,
+    ss: u32,
+) -> caustics::image_io::Image {
     let accel = Accel::new(scene);
     // Per caustic object, the scene without it: the occlusion of its caustic.
     let others: Vec<Accel> = spheres
@@ -215,8 +230,11 @@ pub fn render_caustic(
                     };
                     let n = if d.dot(hit.ng) < 0.0 { hit.ns } else { -hit.ns };
                     let mut e = Vec3::ZERO;
-                    for ((_, sp), occ) in spheres.iter().zip(&others) {
-                        let c = sp.geometry.center;
+                    for (((_, sp), occ), mv) in spheres.iter().zip(&others).zip(moves) {
+                        let inv = mv.inverse();
+                        let rot = glam::Mat3::from(inv.matrix3);
+                        let (p_obj, n_obj) = (inv.transform_point3(hit.p), (rot * n).normalize());
+                        let c = mv.transform_point3(sp.geometry.center);
                         let to = hit.p - c;
                         let dist = to.length();
                         if dist <= 0.0 || occ.occluded(c, to / dist, dist * (1.0 - 1e-4)) {
@@ -224,11 +242,12 @@ pub fn render_caustic(
                         }
                         for light in &scene.lights {
                             if let caustics::scene::Light::Directional { direction, irradiance } = light {
+                                let l = (rot * *direction).normalize();
                                 // A table of one direction is that direction rotated onto any light.
                                 let f = if sp.layout_dirs.len() == 1 {
-                                    sp.irradiance_of(0, hit.p, n, *direction)
+                                    sp.irradiance_of(0, p_obj, n_obj, l)
                                 } else {
-                                    sp.irradiance(hit.p, n, *direction, layout, blend)
+                                    sp.irradiance(p_obj, n_obj, l, layout, blend)
                                 };
                                 e += *irradiance * f;
                             }

@@ -27,6 +27,7 @@
 //! that rows are dense where the caustic forms, downstream of the object along ω.
 
 pub mod cache;
+pub mod gpu;
 
 use glam::{Quat, Vec3};
 use std::f32::consts::PI;
