@@ -93,9 +93,18 @@ fn main() {
         }
         "lights" => {
             scene.lights = vec![
-                Light::Directional { direction: Vec3::new(0.3, -1.0, 0.2).normalize(), irradiance: Vec3::new(2.0, 0.3, 0.3) },
-                Light::Directional { direction: Vec3::new(-0.4, -1.0, 0.1).normalize(), irradiance: Vec3::new(0.3, 2.0, 0.3) },
-                Light::Directional { direction: Vec3::new(0.05, -1.0, -0.45).normalize(), irradiance: Vec3::new(0.3, 0.3, 2.0) },
+                Light::Directional {
+                    direction: Vec3::new(0.3, -1.0, 0.2).normalize(),
+                    irradiance: Vec3::new(2.0, 0.3, 0.3),
+                },
+                Light::Directional {
+                    direction: Vec3::new(-0.4, -1.0, 0.1).normalize(),
+                    irradiance: Vec3::new(0.3, 2.0, 0.3),
+                },
+                Light::Directional {
+                    direction: Vec3::new(0.05, -1.0, -0.45).normalize(),
+                    irradiance: Vec3::new(0.3, 0.3, 2.0),
+                },
             ];
             let t = Instant::now();
             let img = spheres::render_caustic(&scene, &[(obj, &sp)], &layout, Blend::Triangle, 2);
@@ -105,6 +114,10 @@ fn main() {
             let r = reference::render(&scene, &rs).unwrap();
             let rt = t.elapsed().as_secs_f64();
             let (fa, fc, n) = flip(&img, &r.caustic);
+            // The reference's own noise: a second reference of another seed against it.
+            let r2 = reference::render(&scene, &ReferenceSettings { seed: 1, ..rs.clone() }).unwrap();
+            let (na, nc, _) = flip(&r2.caustic, &r.caustic);
+            println!("reference vs reference (seed 1): HDR-FLIP {na:.4} (caustic pixels {nc:.4})");
             println!(
                 "| {} | 3 coloured | {fa:.4} | {fc:.4} | {n} | {:.3} | CPU eval {eval:.2} s, reference {rt:.1} s |",
                 scene.name,

@@ -34,7 +34,10 @@ fn ball_scene(lights: &str, extra: &str) -> Scene {
 }
 
 fn directional(d: Vec3, e: [f32; 3]) -> String {
-    format!(r#"{{ "type": "directional", "direction": [{}, {}, {}], "irradiance": [{}, {}, {}] }}"#, d.x, d.y, d.z, e[0], e[1], e[2])
+    format!(
+        r#"{{ "type": "directional", "direction": [{}, {}, {}], "irradiance": [{}, {}, {}] }}"#,
+        d.x, d.y, d.z, e[0], e[1], e[2]
+    )
 }
 
 #[test]
@@ -90,7 +93,11 @@ fn layout_weights_are_a_partition_exact_at_vertices() {
                 let reach = if blend == Blend::Triangle { 1.5 * step } else { 2.5 * step };
                 for (k, wk) in w {
                     if wk > 1e-4 {
-                        assert!(layout.dirs[k as usize].dot(d) >= reach.min(std::f32::consts::PI).cos() - 1e-5, "n {n} {d} {blend:?}: {w:?} {:?}", w.map(|(k, _)| layout.dirs[k as usize].dot(d)));
+                        assert!(
+                            layout.dirs[k as usize].dot(d) >= reach.min(std::f32::consts::PI).cos() - 1e-5,
+                            "n {n} {d} {blend:?}: {w:?} {:?}",
+                            w.map(|(k, _)| layout.dirs[k as usize].dot(d))
+                        );
                     }
                 }
             }
@@ -156,7 +163,11 @@ fn precomputed_direction_reproduces_its_table() {
             // largest value.
             let sphere = &sp.data[idx - (row * g.width + col) as usize..][..g.cells()];
             let top = sphere.iter().map(|c| c[0]).fold(0.0, f32::max);
-            assert!((c.x - want).abs() <= 1e-4 * top, "k {k} sphere {si} cell ({row}, {col}): {} vs {want} (max {top})", c.x);
+            assert!(
+                (c.x - want).abs() <= 1e-4 * top,
+                "k {k} sphere {si} cell ({row}, {col}): {} vs {want} (max {top})",
+                c.x
+            );
         }
     }
 }
@@ -176,9 +187,8 @@ fn blended_glass_sphere_equals_traced_at_any_direction() {
             let (b, tb) = receiver_disc(|p, n| sp.irradiance(p, n, l, &layout, Blend::Triangle).x, l, dist);
             let (d, td) = receiver_disc(|p, n| direct.irradiance_of(0, p, n, l).x, l, dist);
             let (d2, _) = receiver_disc(|p, n| direct.irradiance_of(1, p, n, l).x, l, dist);
-            let rel_l1 = |a: &[f32], b: &[f32]| {
-                a.iter().zip(b).map(|(x, y)| (x - y).abs()).sum::<f32>() / b.iter().sum::<f32>()
-            };
+            let rel_l1 =
+                |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(x, y)| (x - y).abs()).sum::<f32>() / b.iter().sum::<f32>();
             let (l1, noise) = (rel_l1(&b, &d), rel_l1(&d2, &d));
             eprintln!("{l} at {dist}: total {tb} vs {td}, relative L1 {l1}, between two traces {noise}");
             // The ball is symmetric: the blend of rotated patterns is the pattern. They differ
@@ -231,7 +241,15 @@ fn closed_box_around_the_object_gives_no_caustic() {
             let c = Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32) * 0.7 * sgn + C;
             walls += &format!(
                 r#", {{ "type": "rectangle", "center": [{}, {}, {}], "normal": [{}, {}, {}], "u_axis": [{}, {}, {}], "size": [1.4, 1.4], "material": "floor" }}"#,
-                c.x, c.y, c.z, n[0] as f32 * sgn, n[1] as f32 * sgn, n[2] as f32 * sgn, u[0], u[1], u[2]
+                c.x,
+                c.y,
+                c.z,
+                n[0] as f32 * sgn,
+                n[1] as f32 * sgn,
+                n[2] as f32 * sgn,
+                u[0],
+                u[1],
+                u[2]
             );
         }
     }

@@ -52,7 +52,11 @@ fn table() -> Arc<CausticSpheres> {
     .clone()
 }
 
-fn render(ctx: &caustics::gpu::GpuContext, scene: &Scene, transform: Option<glam::Affine3A>) -> caustics::render::GpuRender {
+fn render(
+    ctx: &caustics::gpu::GpuContext,
+    scene: &Scene,
+    transform: Option<glam::Affine3A>,
+) -> caustics::render::GpuRender {
     let s = RenderSettings {
         photons: 64,
         caustic_map_size: 128,
@@ -92,12 +96,13 @@ fn gather_matches_cpu_evaluation() {
     // The directional lights' passes trace no photons: their caustics are the spheres'.
     assert_eq!(out.photons_traced, 0);
     let t = table();
-    let cpu = spheres::render_caustic(&sc, &[(0, &t)], &DirectionLayout::new(settings().directions), Blend::Triangle, 1);
+    let cpu =
+        spheres::render_caustic(&sc, &[(0, &t)], &DirectionLayout::new(settings().directions), Blend::Triangle, 1);
     let e = rel_l1(&out.caustic, &cpu);
     eprintln!("GPU vs CPU evaluation: relative L1 {e}, sums {} {}", out.caustic.sum(), cpu.sum());
     // The same table, lookup and blend in f32 on both sides; the pixels' receiver points come
-    // from the rasterizer on the GPU and from ray casting on the CPU.
-    assert!(e < 0.02, "relative L1 {e}");
+    // from the rasterizer on the GPU and from ray casting on the CPU (measured: 2e-4).
+    assert!(e < 2e-3, "relative L1 {e}");
     assert!(cpu.sum() > 0.0);
 }
 
@@ -139,7 +144,8 @@ fn moved_object_moves_its_caustic() {
     let cpu = spheres::render_caustic_moved(&sc, &[(0, &t)], &[shift], &DirectionLayout::new(5), Blend::Triangle, 1);
     let e = rel_l1(&moved, &cpu);
     eprintln!("moved: relative L1 {e}");
-    assert!(e < 0.02, "relative L1 {e}");
+    // Measured: 1e-5.
+    assert!(e < 2e-3, "relative L1 {e}");
     // And it did move: the unmoved caustic is elsewhere.
     let still = render(&ctx, &scene(&[(l, [1.0; 3])]), None).caustic;
     assert!(rel_l1(&still, &cpu) > 0.5);

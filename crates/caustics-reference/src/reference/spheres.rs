@@ -225,7 +225,8 @@ pub fn render_caustic_moved(
                     let y = py as f32 + (sy as f32 + 0.5) / ss as f32;
                     let d = cam.ray_dir(x, y);
                     let Some(hit) = accel.intersect(cam.position, d, f32::INFINITY) else { continue };
-                    let Material::Diffuse { albedo } = scene.materials[scene.objects[hit.object as usize].material] else {
+                    let Material::Diffuse { albedo } = scene.materials[scene.objects[hit.object as usize].material]
+                    else {
                         continue;
                     };
                     let n = if d.dot(hit.ng) < 0.0 { hit.ns } else { -hit.ns };

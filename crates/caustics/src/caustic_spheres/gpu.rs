@@ -52,7 +52,9 @@ impl GpuSpheres {
             return Err(crate::Error::input(
                 "<command line>",
                 "--directions/--spheres",
-                format!("caustic sphere tables of {bytes} bytes exceed the device's storage binding limit of {max} bytes"),
+                format!(
+                    "caustic sphere tables of {bytes} bytes exceed the device's storage binding limit of {max} bytes"
+                ),
             ));
         }
         let table = ctx.buffer_init("sphere_table", bytemuck::cast_slice(&data), wgpu::BufferUsages::STORAGE);

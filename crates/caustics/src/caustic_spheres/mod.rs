@@ -360,7 +360,8 @@ impl CausticSpheres {
         let wr = ft - r0;
         let c0 = fp.floor();
         let wc = fp - c0;
-        let rows = [(r0 as i64).clamp(0, g.height as i64 - 1) as u32, (r0 as i64 + 1).clamp(0, g.height as i64 - 1) as u32];
+        let rows =
+            [(r0 as i64).clamp(0, g.height as i64 - 1) as u32, (r0 as i64 + 1).clamp(0, g.height as i64 - 1) as u32];
         let cols = [(c0 as i64).rem_euclid(g.width as i64) as u32, (c0 as i64 + 1).rem_euclid(g.width as i64) as u32];
         let mut c = Vec3::ZERO;
         let mut d = Vec3::ZERO;
@@ -426,6 +427,11 @@ impl SphereGeometry {
         };
         let r_max = 4.0 * d;
         let r_min = (1.02 * nearest).min(0.5 * r_max);
-        SphereGeometry { center, radii: radii(r_min, r_max, settings.spheres), width: settings.width, height: settings.height }
+        SphereGeometry {
+            center,
+            radii: radii(r_min, r_max, settings.spheres),
+            width: settings.width,
+            height: settings.height,
+        }
     }
 }
