@@ -47,7 +47,7 @@ impl GpuSpheres {
             data.push([0.0; 4]);
         }
         let bytes = (data.len() * 16) as u64;
-        let max = ctx.device.limits().max_storage_buffer_binding_size as u64;
+        let max = ctx.device.limits().max_storage_buffer_binding_size;
         if bytes > max {
             return Err(crate::Error::input(
                 "<command line>",

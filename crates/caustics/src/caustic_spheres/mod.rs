@@ -59,7 +59,7 @@ impl SphereSettings {
     /// Checks the settings; the message names the setting.
     pub fn validate(&self) -> crate::Result<()> {
         let bad = |f: &str, m: &str| Err(crate::Error::input("<command line>", f, m));
-        if self.directions < 3 || self.directions % 2 == 0 || self.directions > 33 {
+        if self.directions < 3 || self.directions.is_multiple_of(2) || self.directions > 33 {
             return bad("--directions", "the octahedral grid side must be odd, from 3 to 33");
         }
         if self.spheres < 2 || self.spheres > 64 {
