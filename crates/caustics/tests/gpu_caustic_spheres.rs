@@ -150,3 +150,41 @@ fn moved_object_moves_its_caustic() {
     let still = render(&ctx, &scene(&[(l, [1.0; 3])]), None).caustic;
     assert!(rel_l1(&still, &cpu) > 0.5);
 }
+
+#[test]
+fn steady_frames_create_nothing() {
+    let Some(ctx) = gpu() else { return };
+    let l = Vec3::new(0.2, -1.0, 0.1).normalize();
+    let s = RenderSettings {
+        photons: 64,
+        caustic_map_size: 128,
+        shadow_map_size: 256,
+        caustic_spheres: true,
+        ..Default::default()
+    };
+    let mut r = Renderer::with_context(ctx.clone(), scene(&[(l, [1.0; 3])]), s).unwrap();
+    r.set_caustic_spheres(vec![(0, table())], Blend::Triangle).unwrap();
+    let frame = |r: &mut Renderer| {
+        let before = r.created();
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        r.encode(&mut enc, caustics::renderer::FrameRequest { stats: true }).unwrap();
+        let created = (r.created() - before).total();
+        ctx.queue.submit([enc.finish()]);
+        r.wait_stats().unwrap();
+        created
+    };
+    assert!(frame(&mut r) > 0);
+    assert_eq!(frame(&mut r), 0, "a steady frame");
+    // A light turned: the sphere records change, nothing is created.
+    r.set_light(
+        0,
+        caustics::scene::Light::Directional {
+            direction: Vec3::new(-0.3, -1.0, 0.2).normalize(),
+            irradiance: Vec3::ONE,
+        },
+    )
+    .unwrap();
+    assert_eq!(frame(&mut r), 0, "a turned light");
+    r.set_object_transform(0, glam::Affine3A::from_translation(Vec3::new(0.3, 0.0, 0.0))).unwrap();
+    assert_eq!(frame(&mut r), 0, "a moved object");
+}
