@@ -4,6 +4,12 @@
 // `radiance` and `caustic` as albedo/pi * E. One pass for all lights: the cost is per pixel and
 // record, with no light-space work. `src/caustic_spheres/mod.rs` documents the table (and
 // `CausticSpheres::sample` is the CPU twin of `sample` here).
+// Occlusion: a caustic object's caustic reaches the point only if the segment from the object's
+// sphere centre to it meets no other object (the paper's caustic cube map makes this depth test
+// from the object's centre; here it is one exact ray per pixel and object through the scene's
+// BVH, shared/raytrace.wgsl, skipping the caustic object itself).
+
+#import raytrace
 
 struct SphereGatherParams {
     width: u32,
@@ -26,7 +32,8 @@ struct SphereRecord {
     shape: vec4f,
     // Blend weight times the light's irradiance (W/m^2, rgb).
     irradiance: vec4f,
-    // x: the table index of the stored direction's first cell (two vec4f per cell).
+    // x: the table index of the stored direction's first cell (two vec4f per cell); y: the
+    // caustic object's index.
     base: vec4u,
 }
 
@@ -38,6 +45,40 @@ struct SphereRecord {
 @group(0) @binding(5) var<storage, read> table: array<vec4f>;
 @group(0) @binding(6) var<storage, read_write> radiance: array<vec4f>;
 @group(0) @binding(7) var<storage, read_write> caustic: array<vec4f>;
+@group(0) @binding(8) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(9) var<storage, read> bvh_tris: array<BvhTri>;
+@group(0) @binding(10) var<storage, read> bvh_instances: array<BvhInstance>;
+
+// Whether anything but object `skip` lies along o + t d, 0 < t < tmax (scene_occluded with
+// one object left out).
+fn occluded_except(o: vec3f, d: vec3f, tmax: f32, skip: u32) -> bool {
+    let count = arrayLength(&materials);
+    for (var i = 0u; i < count; i++) {
+        let m = materials[i];
+        if (m.kind.z == SHAPE_MESH || i == skip) { continue; }
+        if (rt_shape(m, o, d, tmax).x > 0.0) { return true; }
+    }
+    var best = rt_none();
+    best.t = tmax;
+    let ninst = arrayLength(&bvh_instances);
+    let inv_d = rt_inv(d);
+    for (var ii = 0u; ii < ninst; ii++) {
+        let inst = bvh_instances[ii];
+        if (inst.object == INVALID || inst.object == skip) { continue; }
+        if (rt_box(inst.lo.xyz, inst.hi.xyz, o, inv_d, tmax) >= 1e29) { continue; }
+        if (rt_instance(ii, o, d, &best, true)) { return true; }
+    }
+    return false;
+}
+
+// The world centre of record r's spheres (its object's frame mapped back to the world).
+fn world_center(r: SphereRecord) -> vec3f {
+    let m = mat3x3f(r.to_obj[0].xyz, r.to_obj[1].xyz, r.to_obj[2].xyz);
+    // to_obj = [A | t] rows; world = A^-1 (c - t). A is a similarity: A^-1 = A^T / s^2.
+    let t = vec3f(r.to_obj[0].w, r.to_obj[1].w, r.to_obj[2].w);
+    let s2 = dot(r.to_obj[0].xyz, r.to_obj[0].xyz);
+    return m * (r.center.xyz - t) / s2;
+}
 
 fn cell(base: u32, sphere: u32, row: u32, col: u32, w: u32, h: u32) -> u32 {
     return base + ((sphere * h + row) * w + col) * 2u;
@@ -109,8 +150,22 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     var n = normalize(textureLoad(eye_nrm, vec2i(gid.xy), 0).xyz);
     if (dot(n, gp.camera.xyz - p) < 0.0) { n = -n; }
     var e = vec3f(0.0);
+    var object = INVALID;
+    var visible = false;
     for (var i = 0u; i < gp.records; i++) {
-        e += record_irradiance(records[i], p, n);
+        let r = records[i];
+        if (r.base.y != object) {
+            object = r.base.y;
+            let c = world_center(r);
+            let to = p - c;
+            let dist = length(to);
+            rt_overflow = 0u;
+            visible = dist > 0.0 && !occluded_except(c, to / dist, dist * (1.0 - 1e-4), object);
+            // A ray that overflowed the BVH stack may have missed an occluder: no caustic
+            // (conservative; not yet counted in the frame's statistics).
+            visible = visible && rt_overflow == 0u;
+        }
+        if (visible) { e += record_irradiance(r, p, n); }
     }
     let lo = mat.a.rgb / PI * e;
     let idx = gid.y * gp.width + gid.x;

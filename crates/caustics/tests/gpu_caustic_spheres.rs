@@ -20,6 +20,10 @@ fn settings() -> SphereSettings {
 }
 
 fn scene(lights: &[(Vec3, [f32; 3])]) -> Scene {
+    scene_with(lights, "")
+}
+
+fn scene_with(lights: &[(Vec3, [f32; 3])], extra: &str) -> Scene {
     let lights: Vec<String> = lights
         .iter()
         .map(|(d, e)| {
@@ -37,8 +41,10 @@ fn scene(lights: &[(Vec3, [f32; 3])]) -> Scene {
         "objects": [
           {{ "type": "sphere", "center": [0, 1, 0], "radius": 0.5, "material": "glass" }},
           {{ "type": "rectangle", "center": [0, 0, 0], "normal": [0, 1, 0], "size": [8, 8], "material": "floor" }}
+          {}
         ] }}"#,
-        lights.join(", ")
+        lights.join(", "),
+        extra
     );
     Scene::from_json(&json, "spheres_gpu.json", Path::new(".")).unwrap()
 }
@@ -187,4 +193,34 @@ fn steady_frames_create_nothing() {
     assert_eq!(frame(&mut r), 0, "a turned light");
     r.set_object_transform(0, glam::Affine3A::from_translation(Vec3::new(0.3, 0.0, 0.0))).unwrap();
     assert_eq!(frame(&mut r), 0, "a moved object");
+}
+
+#[test]
+fn closed_box_around_the_object_gives_no_caustic() {
+    let Some(ctx) = gpu() else { return };
+    let l = Vec3::new(0.2, -1.0, 0.1).normalize();
+    let open = render(&ctx, &scene(&[(l, [1.0; 3])]), None).caustic;
+    assert!(open.pixels.iter().any(|p| p[0] > 0.0));
+    // Six diffuse walls around the ball (half-size 0.7 about its centre (0, 1, 0)).
+    let mut walls = String::new();
+    for (n, u) in [([1.0f32, 0.0, 0.0], [0, 1, 0]), ([0.0, 1.0, 0.0], [0, 0, 1]), ([0.0, 0.0, 1.0], [1, 0, 0])] {
+        for sgn in [-1.0f32, 1.0] {
+            let c = Vec3::from(n) * 0.7 * sgn + Vec3::Y;
+            walls += &format!(
+                r#", {{ "type": "rectangle", "center": [{}, {}, {}], "normal": [{}, {}, {}], "u_axis": [{}, {}, {}], "size": [1.4, 1.4], "material": "floor" }}"#,
+                c.x,
+                c.y,
+                c.z,
+                n[0] * sgn,
+                n[1] * sgn,
+                n[2] * sgn,
+                u[0],
+                u[1],
+                u[2]
+            );
+        }
+    }
+    let boxed = render(&ctx, &scene_with(&[(l, [1.0; 3])], &walls), None).caustic;
+    // The camera sees the box's outside and the floor: the caustic cannot get out.
+    assert!(boxed.pixels.iter().all(|p| p[0] == 0.0 && p[1] == 0.0 && p[2] == 0.0));
 }

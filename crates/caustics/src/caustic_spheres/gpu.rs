@@ -92,7 +92,7 @@ impl GpuSpheres {
                         center: g.center.extend(g.radii[0]).to_array(),
                         shape: [g.radii[s - 1], s as f32, g.width as f32, g.height as f32],
                         irradiance: (*irradiance * w).extend(0.0).to_array(),
-                        base: [base + k * cells, 0, 0, 0],
+                        base: [base + k * cells, *oi as u32, 0, 0],
                     });
                 }
             }
@@ -142,6 +142,9 @@ pub(crate) fn record_gather(
             spheres.table.as_entire_binding(),
             eye.radiance.as_entire_binding(),
             eye.caustic.as_entire_binding(),
+            dc.geo.bvh_nodes.as_entire_binding(),
+            dc.geo.bvh_tris.as_entire_binding(),
+            dc.geo.bvh_instances.as_entire_binding(),
         ],
     );
     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {

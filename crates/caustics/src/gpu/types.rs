@@ -124,7 +124,7 @@ pub struct SphereRecord {
     pub shape: [f32; 4],
     /// Blend weight × the light's irradiance (W/m², rgb).
     pub irradiance: [f32; 4],
-    /// x: table index (in vec4s) of the stored direction's first cell.
+    /// x: table index (in vec4s) of the stored direction's first cell; y: the object's index.
     pub base: [u32; 4],
 }
 
