@@ -397,7 +397,11 @@ fn run(cli: Cli) -> Result<()> {
                                 scene.clone(),
                                 settings.clone(),
                             )?;
-                            r.set_caustic_spheres(tables, caustics::caustic_spheres::Blend::Triangle)?;
+                            r.set_caustic_spheres(
+                                tables,
+                                caustics::caustic_spheres::Blend::Triangle,
+                                sphere_args.half,
+                            )?;
                             let out = r.render_once()?;
                             println!(
                                 "caustic spheres on the GPU: {:.1} MiB; render {:.1} ms",

@@ -51,13 +51,13 @@ fn main() {
         };
         let run = |s: RenderSettings| {
             let mut r = Renderer::with_context(ctx.clone(), scene.clone(), s).unwrap();
-            r.set_caustic_spheres(vec![(obj, table.clone())], Blend::Triangle).unwrap();
+            r.set_caustic_spheres(vec![(obj, table.clone())], Blend::Triangle, false).unwrap();
             let _ = r.render_once().unwrap(); // pipelines built
             let mut best = f64::INFINITY;
             let mut out = None;
             for _ in 0..3 {
                 let mut r2 = Renderer::with_context(ctx.clone(), scene.clone(), r.settings().clone()).unwrap();
-                r2.set_caustic_spheres(vec![(obj, table.clone())], Blend::Triangle).unwrap();
+                r2.set_caustic_spheres(vec![(obj, table.clone())], Blend::Triangle, false).unwrap();
                 let o = r2.render_once().unwrap();
                 best = best.min(o.frame_wall_ms);
                 out = Some(o);

@@ -32,8 +32,9 @@ struct SphereRecord {
     shape: vec4f,
     // Blend weight times the light's irradiance (W/m^2, rgb).
     irradiance: vec4f,
-    // x: the table index of the stored direction's first cell (two vec4f per cell); y: the
-    // caustic object's index.
+    // x: the table index of the stored direction's first cell; y: the caustic object's index;
+    // z: 1 for half floats (one vec4u per cell: C and d as f16 pairs), 0 for f32 (two vec4u of
+    // f32 bits per cell).
     base: vec4u,
 }
 
@@ -42,7 +43,7 @@ struct SphereRecord {
 @group(0) @binding(2) var eye_nrm: texture_2d<f32>;
 @group(0) @binding(3) var<storage, read> materials: array<MaterialGpu>;
 @group(0) @binding(4) var<storage, read> records: array<SphereRecord>;
-@group(0) @binding(5) var<storage, read> table: array<vec4f>;
+@group(0) @binding(5) var<storage, read> table: array<vec4u>;
 @group(0) @binding(6) var<storage, read_write> radiance: array<vec4f>;
 @group(0) @binding(7) var<storage, read_write> caustic: array<vec4f>;
 @group(0) @binding(8) var<storage, read> bvh_nodes: array<BvhNode>;
@@ -80,8 +81,8 @@ fn world_center(r: SphereRecord) -> vec3f {
     return m * (r.center.xyz - t) / s2;
 }
 
-fn cell(base: u32, sphere: u32, row: u32, col: u32, w: u32, h: u32) -> u32 {
-    return base + ((sphere * h + row) * w + col) * 2u;
+fn cell(base: u32, sphere: u32, row: u32, col: u32, w: u32, h: u32, stride: u32) -> u32 {
+    return base + ((sphere * h + row) * w + col) * stride;
 }
 
 // Irradiance of record `r` at world point p on a receiver of world normal n (W/m^2, rgb).
@@ -121,16 +122,27 @@ fn record_irradiance(r: SphereRecord, p: vec3f, n: vec3f) -> vec3f {
     let cols = vec2u(u32(((i32(c0) % iw) + iw) % iw), u32(((i32(c0) + 1) % iw + iw) % iw));
     var c = vec3f(0.0);
     var d = vec3f(0.0);
+    let half = r.base.z == 1u;
+    let stride = select(2u, 1u, half);
     for (var k = 0u; k < 8u; k++) {
         let si = k & 1u;
         let ri = (k >> 1u) & 1u;
         let ci = (k >> 2u) & 1u;
         let wt = select(1.0 - ws, ws, si == 1u) * select(1.0 - wr, wr, ri == 1u) * select(1.0 - wc, wc, ci == 1u);
         if (wt == 0.0) { continue; }
-        let at = cell(r.base.x, s0 + si, rows[ri], cols[ci], w, h);
-        let ce = table[at].rgb;
+        let at = cell(r.base.x, s0 + si, rows[ri], cols[ci], w, h, stride);
+        var ce: vec3f;
+        var de: vec3f;
+        if (half) {
+            let v = table[at];
+            ce = vec3f(unpack2x16float(v.x), unpack2x16float(v.y).x);
+            de = vec3f(unpack2x16float(v.z), unpack2x16float(v.w).x);
+        } else {
+            ce = bitcast<vec4f>(table[at]).rgb;
+            de = bitcast<vec4f>(table[at + 1u]).xyz;
+        }
         c += ce * wt;
-        d += table[at + 1u].xyz * (wt * (ce.r + ce.g + ce.b));
+        d += de * (wt * (ce.r + ce.g + ce.b));
     }
     if (dot(d, d) <= 0.0) { return vec3f(0.0); }
     let dn = normalize(d);

@@ -214,17 +214,19 @@ impl Renderer {
     }
 
     /// The precomputed caustic spheres of caustic objects (object index, table in the object's
-    /// scene-file pose), uploaded now; with `RenderSettings::caustic_spheres` they give the
-    /// caustics of every directional light (`sphere_gather`), blended as `blend` says.
+    /// scene-file pose), uploaded now (as half floats with `half`: half the memory); with
+    /// `RenderSettings::caustic_spheres` they give the caustics of every directional light
+    /// (`sphere_gather`), blended as `blend` says.
     pub fn set_caustic_spheres(
         &mut self,
         objects: Vec<(usize, std::sync::Arc<crate::caustic_spheres::CausticSpheres>)>,
         blend: crate::caustic_spheres::Blend,
+        half: bool,
     ) -> Result<()> {
         if let Some((oi, _)) = objects.iter().find(|(oi, _)| *oi >= self.base.objects.len()) {
             return Err(Error::input("<renderer>", format!("objects[{oi}]"), "no such object"));
         }
-        self.spheres = Some(crate::caustic_spheres::gpu::GpuSpheres::new(&self.ctx, objects)?);
+        self.spheres = Some(crate::caustic_spheres::gpu::GpuSpheres::new(&self.ctx, objects, half)?);
         self.sphere_blend = blend;
         Ok(())
     }

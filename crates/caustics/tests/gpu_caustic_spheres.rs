@@ -71,7 +71,7 @@ fn render(
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), scene.clone(), s).unwrap();
-    r.set_caustic_spheres(vec![(0, table())], Blend::Triangle).unwrap();
+    r.set_caustic_spheres(vec![(0, table())], Blend::Triangle, false).unwrap();
     if let Some(t) = transform {
         r.set_object_transform(0, t).unwrap();
     }
@@ -169,7 +169,7 @@ fn steady_frames_create_nothing() {
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), scene(&[(l, [1.0; 3])]), s).unwrap();
-    r.set_caustic_spheres(vec![(0, table())], Blend::Triangle).unwrap();
+    r.set_caustic_spheres(vec![(0, table())], Blend::Triangle, false).unwrap();
     let frame = |r: &mut Renderer| {
         let before = r.created();
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -223,4 +223,29 @@ fn closed_box_around_the_object_gives_no_caustic() {
     let boxed = render(&ctx, &scene_with(&[(l, [1.0; 3])], &walls), None).caustic;
     // The camera sees the box's outside and the floor: the caustic cannot get out.
     assert!(boxed.pixels.iter().all(|p| p[0] == 0.0 && p[1] == 0.0 && p[2] == 0.0));
+}
+
+#[test]
+fn half_float_table_matches_f32() {
+    let Some(ctx) = gpu() else { return };
+    let sc = scene(&[(Vec3::new(0.3, -1.0, 0.2).normalize(), [2.0, 1.0, 0.5])]);
+    let s = RenderSettings {
+        photons: 64,
+        caustic_map_size: 128,
+        shadow_map_size: 256,
+        caustic_spheres: true,
+        ..Default::default()
+    };
+    let run = |half: bool| {
+        let mut r = Renderer::with_context(ctx.clone(), sc.clone(), s.clone()).unwrap();
+        r.set_caustic_spheres(vec![(0, table())], Blend::Triangle, half).unwrap();
+        (r.render_once().unwrap().caustic, r.caustic_sphere_bytes())
+    };
+    let (full, full_bytes) = run(false);
+    let (half, half_bytes) = run(true);
+    assert_eq!(half_bytes * 2, full_bytes);
+    let e = rel_l1(&half, &full);
+    eprintln!("half vs f32: relative L1 {e}");
+    // f16 keeps 11 significant bits: 2^-11 relative per value, averaged over a lookup.
+    assert!(e < 1e-3, "relative L1 {e}");
 }

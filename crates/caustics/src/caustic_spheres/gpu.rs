@@ -16,19 +16,23 @@ use crate::scene::Light;
 use glam::{Affine3A, Quat, Vec3};
 use std::sync::Arc;
 
-/// The caustic spheres of a renderer: per caustic object, its table, on the GPU in one buffer.
+/// The caustic spheres of a renderer: per caustic object, its table, on the GPU in one buffer
+/// of `vec4<u32>`: per cell two (f32 bits: C, d) or, with half floats, one (the 8 values as
+/// f16 pairs, `unpack2x16float`).
 pub struct GpuSpheres {
     /// (object index, table, index of its first vec4 in `table`).
     pub objects: Vec<(usize, Arc<CausticSpheres>, u32)>,
+    pub half: bool,
     pub layouts: Vec<DirectionLayout>,
     pub table: wgpu::Buffer,
     pub bytes: u64,
 }
 
 impl GpuSpheres {
-    /// Uploads the tables (f32, two vec4 per cell).
-    pub fn new(ctx: &GpuContext, objects: Vec<(usize, Arc<CausticSpheres>)>) -> crate::Result<GpuSpheres> {
-        let mut data: Vec<[f32; 4]> = Vec::new();
+    /// Uploads the tables (f32, or half floats: half the memory; a value beyond the f16 range
+    /// is an error).
+    pub fn new(ctx: &GpuContext, objects: Vec<(usize, Arc<CausticSpheres>)>, half: bool) -> crate::Result<GpuSpheres> {
+        let mut data: Vec<[u32; 4]> = Vec::new();
         let mut out = Vec::new();
         let mut layouts = Vec::new();
         for (oi, sp) in objects {
@@ -36,15 +40,29 @@ impl GpuSpheres {
             if base > u32::MAX as usize {
                 return Err(crate::Error::input("<renderer>", "caustic spheres", "tables over 2^32 vec4s"));
             }
-            for c in &sp.data {
-                data.push([c[0], c[1], c[2], c[3]]);
-                data.push([c[4], c[5], c[6], c[7]]);
+            if half {
+                let h = |v: f32| half::f16::from_f32(v).to_bits() as u32;
+                if let Some(v) = sp.data.iter().flatten().find(|v| !half::f16::from_f32(**v).is_finite()) {
+                    return Err(crate::Error::input(
+                        "<command line>",
+                        "--half",
+                        format!("object {oi}: a caustic sphere value ({v}) is beyond the half-float range; use f32"),
+                    ));
+                }
+                for c in &sp.data {
+                    data.push([0, 2, 4, 6].map(|i| h(c[i]) | h(c[i + 1]) << 16));
+                }
+            } else {
+                for c in &sp.data {
+                    data.push([c[0], c[1], c[2], c[3]].map(f32::to_bits));
+                    data.push([c[4], c[5], c[6], c[7]].map(f32::to_bits));
+                }
             }
             layouts.push(DirectionLayout::new(sp.settings.directions));
             out.push((oi, sp, base as u32));
         }
         if data.is_empty() {
-            data.push([0.0; 4]);
+            data.push([0; 4]);
         }
         let bytes = (data.len() * 16) as u64;
         let max = ctx.device.limits().max_storage_buffer_binding_size;
@@ -58,7 +76,7 @@ impl GpuSpheres {
             ));
         }
         let table = ctx.buffer_init("sphere_table", bytemuck::cast_slice(&data), wgpu::BufferUsages::STORAGE);
-        Ok(GpuSpheres { objects: out, layouts, table, bytes })
+        Ok(GpuSpheres { objects: out, half, layouts, table, bytes })
     }
 
     /// The records of a frame: per directional light (world direction, irradiance), per object
@@ -75,7 +93,8 @@ impl GpuSpheres {
                 let to_obj = [m.row(0).to_array(), m.row(1).to_array(), m.row(2).to_array()];
                 let g = &sp.geometry;
                 let s = g.radii.len();
-                let cells = (s * g.cells()) as u32 * 2;
+                let stride = if self.half { 1 } else { 2 };
+                let cells = (s * g.cells()) as u32 * stride;
                 for (k, w) in layout.weights(l, blend) {
                     if w <= 0.0 {
                         continue;
@@ -92,7 +111,7 @@ impl GpuSpheres {
                         center: g.center.extend(g.radii[0]).to_array(),
                         shape: [g.radii[s - 1], s as f32, g.width as f32, g.height as f32],
                         irradiance: (*irradiance * w).extend(0.0).to_array(),
-                        base: [base + k * cells, *oi as u32, 0, 0],
+                        base: [base + k * cells, *oi as u32, self.half as u32, 0],
                     });
                 }
             }

@@ -124,7 +124,8 @@ pub struct SphereRecord {
     pub shape: [f32; 4],
     /// Blend weight × the light's irradiance (W/m², rgb).
     pub irradiance: [f32; 4],
-    /// x: table index (in vec4s) of the stored direction's first cell; y: the object's index.
+    /// x: table index (in vec4s) of the stored direction's first cell; y: the object's index;
+    /// z: 1 for a half-float table (one vec4 per cell), 0 for f32 (two).
     pub base: [u32; 4],
 }
 
