@@ -389,6 +389,14 @@ fn run(cli: Cli) -> Result<()> {
                     }
                     let t0 = std::time::Instant::now();
                     let out = match dump.as_deref() {
+                        Some(_) if caustic_spheres => {
+                            return Err(Error::input(
+                                "<command line>",
+                                "--dump",
+                                "not available with --caustic-spheres (no light-space caustic maps for directional lights)",
+                            )
+                            .into());
+                        }
                         _ if caustic_spheres => {
                             let tables = spheres::build(&scene, &sphere_args)?;
                             let t0 = std::time::Instant::now();
