@@ -5,6 +5,7 @@
 mod bench;
 mod compare;
 mod progress;
+mod spheres;
 mod view;
 
 use anyhow::Result;
@@ -175,6 +176,21 @@ enum Command {
         /// CPU backend: render a participating medium with single scattering only.
         #[arg(long)]
         single_scattering: bool,
+        /// Caustic spheres (Tandianus et al. 2010): the caustics of directional lights come
+        /// from precomputed caustic spheres (cached; built first if needed) in one eye-space
+        /// pass instead of photons; --technique still applies to spot and point lights.
+        #[arg(long)]
+        caustic_spheres: bool,
+        #[command(flatten)]
+        sphere_args: spheres::SphereArgs,
+    },
+    /// Precompute the caustic spheres of a scene's caustic objects into the cache (what
+    /// `render --caustic-spheres` loads).
+    Precompute {
+        /// Scene file (JSON); the built-in glass-ball scene if omitted.
+        scene: Option<PathBuf>,
+        #[command(flatten)]
+        sphere_args: spheres::SphereArgs,
     },
     /// Compare two images (EXR or PNG): RMSE, relative MSE, PSNR, FLIP, energy ratio.
     Compare {
@@ -284,6 +300,17 @@ fn run(cli: Cli) -> Result<()> {
         Command::Info => info(),
         Command::Bench(args) => bench::run(&args),
         Command::View(args) => view::run(args),
+        Command::Precompute { scene, sphere_args } => {
+            let scene = match &scene {
+                Some(p) => Scene::load(p)?,
+                None => Scene::default_scene(),
+            };
+            let built = spheres::build(&scene, &sphere_args)?;
+            if built.is_empty() {
+                println!("{}: no caustic object, nothing to precompute", scene.source);
+            }
+            Ok(())
+        }
         Command::Compare { a, b, mask, heatmap } => Ok(compare::run(&a, &b, mask.as_deref(), heatmap.as_deref())?),
         Command::Render {
             scene,
@@ -316,6 +343,8 @@ fn run(cli: Cli) -> Result<()> {
             spp,
             seed,
             single_scattering,
+            caustic_spheres,
+            sphere_args,
         } => {
             check_output(&output)?;
             if let Some(c) = &caustic_output {
@@ -356,6 +385,7 @@ fn run(cli: Cli) -> Result<()> {
                 env_lights,
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),
+                caustic_spheres,
                 ..Default::default()
             };
             let ctx = match backend {
@@ -379,6 +409,35 @@ fn run(cli: Cli) -> Result<()> {
                     }
                     let t0 = std::time::Instant::now();
                     let out = match dump.as_deref() {
+                        Some(_) if caustic_spheres => {
+                            return Err(Error::input(
+                                "<command line>",
+                                "--dump",
+                                "not available with --caustic-spheres (no light-space caustic maps for directional lights)",
+                            )
+                            .into());
+                        }
+                        _ if caustic_spheres => {
+                            let tables = spheres::build(&scene, &sphere_args)?;
+                            let t0 = std::time::Instant::now();
+                            let mut r = caustics::renderer::Renderer::with_context(
+                                ctx.clone(),
+                                scene.clone(),
+                                settings.clone(),
+                            )?;
+                            r.set_caustic_spheres(
+                                tables,
+                                caustics::caustic_spheres::Blend::Triangle,
+                                sphere_args.half,
+                            )?;
+                            let out = r.render_once()?;
+                            println!(
+                                "caustic spheres on the GPU: {:.1} MiB; render {:.1} ms",
+                                r.caustic_sphere_bytes() as f64 / (1 << 20) as f64,
+                                t0.elapsed().as_secs_f64() * 1e3
+                            );
+                            out
+                        }
                         Some(dir) => {
                             let (out, images) = caustics::render::render_dump(&ctx, &scene, &settings)?;
                             caustics_reference::dump::write(dir, &images)?;
@@ -394,6 +453,9 @@ fn run(cli: Cli) -> Result<()> {
                     }
                 }
                 None => {
+                    if caustic_spheres {
+                        eprintln!("notice: the CPU reference renders the exact caustics, not the caustic spheres");
+                    }
                     let rs = caustics_reference::reference::ReferenceSettings {
                         photons_per_light: (photons as u64).pow(2),
                         camera_spp: spp,

@@ -113,3 +113,42 @@ fn ctrl_c_cancels_the_cpu_reference_cleanly() {
     assert!(!out.exists(), "a cancelled render left {}", out.display());
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "a cancelled render left files behind");
 }
+
+#[test]
+fn precompute_builds_then_reads_the_cache() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/glass_sphere_3dir.json");
+    let cache = tmp("sphere-cache");
+    let _ = std::fs::remove_dir_all(&cache);
+    let args = [
+        "precompute",
+        scene,
+        "--directions",
+        "3",
+        "--spheres",
+        "4",
+        "--sphere-size",
+        "16x8",
+        "--sphere-photons",
+        "4096",
+        "--half",
+        "--sphere-cache",
+        cache.to_str().unwrap(),
+    ];
+    let first = caustics().args(args).output().unwrap();
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    let text = String::from_utf8_lossy(&first.stdout);
+    assert!(text.contains("precomputed") && text.contains("MiB"), "{text}");
+    let second = caustics().args(args).output().unwrap();
+    assert!(second.status.success());
+    assert!(String::from_utf8_lossy(&second.stdout).contains("read from the cache"));
+    // A truncated cache is rebuilt, never trusted.
+    let file = std::fs::read_dir(&cache).unwrap().next().unwrap().unwrap().path();
+    let bytes = std::fs::read(&file).unwrap();
+    std::fs::write(&file, &bytes[..bytes.len() - 100]).unwrap();
+    let third = caustics().args(args).output().unwrap();
+    let text = String::from_utf8_lossy(&third.stdout);
+    assert!(third.status.success() && text.contains("precomputed") && text.contains("checksum"), "{text}");
+    let e = run_err(&["precompute", scene, "--directions", "4"]);
+    assert!(e.contains("--directions"), "{e}");
+    let _ = std::fs::remove_dir_all(&cache);
+}

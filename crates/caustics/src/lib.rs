@@ -10,6 +10,7 @@
 
 pub mod accel;
 pub mod budget;
+pub mod caustic_spheres;
 pub mod error;
 pub mod gpu;
 pub mod image_io;

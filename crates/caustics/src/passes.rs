@@ -926,6 +926,7 @@ pub(crate) fn record_light(
         reflect_branch: fc.reflect_branch,
         internal_branch: fc.internal_branch,
         residual_branch: fc.residual_branch,
+        skip_photons: s.caustic_spheres && matches!(scene.lights[li], Light::Directional { .. }),
     };
     let pending = crate::techniques::emit(&emit, enc, timer, nf)?;
     splat_targets.finish(ctx, &pipelines.splat, &light_buf, &accum, enc, timer);

@@ -152,6 +152,10 @@ pub struct Renderer {
     last_error: Option<String>,
     /// The environment's segmentation in the map's own frame, and the D it was made for.
     env_segments: Option<(SegmentKey, Arc<Vec<EnvironmentLight>>)>,
+    /// Caustic spheres of the caustic objects (`set_caustic_spheres`), used when
+    /// `RenderSettings::caustic_spheres` is on.
+    spheres: Option<crate::caustic_spheres::gpu::GpuSpheres>,
+    sphere_blend: crate::caustic_spheres::Blend,
 }
 
 impl Renderer {
@@ -187,6 +191,8 @@ impl Renderer {
             latest: None,
             last_error: None,
             env_segments: None,
+            spheres: None,
+            sphere_blend: crate::caustic_spheres::Blend::Triangle,
         }
         .with_env_segments())
     }
@@ -220,6 +226,29 @@ impl Renderer {
             return Err(e);
         }
         Ok(())
+    }
+
+    /// The precomputed caustic spheres of caustic objects (object index, table in the object's
+    /// scene-file pose), uploaded now (as half floats with `half`: half the memory); with
+    /// `RenderSettings::caustic_spheres` they give the caustics of every directional light
+    /// (`sphere_gather`), blended as `blend` says.
+    pub fn set_caustic_spheres(
+        &mut self,
+        objects: Vec<(usize, std::sync::Arc<crate::caustic_spheres::CausticSpheres>)>,
+        blend: crate::caustic_spheres::Blend,
+        half: bool,
+    ) -> Result<()> {
+        if let Some((oi, _)) = objects.iter().find(|(oi, _)| *oi >= self.base.objects.len()) {
+            return Err(Error::input("<renderer>", format!("objects[{oi}]"), "no such object"));
+        }
+        self.spheres = Some(crate::caustic_spheres::gpu::GpuSpheres::new(&self.ctx, objects, half)?);
+        self.sphere_blend = blend;
+        Ok(())
+    }
+
+    /// Bytes of the caustic sphere tables on the GPU (0 without).
+    pub fn caustic_sphere_bytes(&self) -> u64 {
+        self.spheres.as_ref().map_or(0, |s| s.bytes)
     }
 
     /// Replace light `index` (its kind may change: a point light's six faces are made on the
@@ -540,6 +569,14 @@ impl Renderer {
         for (li, lf) in light_frames.iter().enumerate() {
             ctx.begin_scope(&format!("shade{li}"), enc);
             crate::passes::record_shade(&dc, &eye, lf, &s, enc, &mut timer);
+            ctx.end_scope();
+        }
+        if s.caustic_spheres
+            && let Some(sp) = &self.spheres
+        {
+            ctx.begin_scope("spheres", enc);
+            let records = sp.records(&scene.lights, &self.transforms, self.sphere_blend);
+            crate::caustic_spheres::gpu::record_gather(&dc, &eye, sp, &records, enc, &mut timer);
             ctx.end_scope();
         }
         ctx.begin_scope("composite", enc);

@@ -300,6 +300,12 @@ pub struct RenderSettings {
     /// How the median cut picks the region to split (`SplitRule`, default: by flux-weighted
     /// angular radius; `Total` is the paper's rule), for comparisons.
     pub env_split: crate::scene::environment_lights::SplitRule,
+    /// Caustic spheres (`crate::caustic_spheres`, `--caustic-spheres`): the caustics
+    /// of directional lights come from the precomputed spheres set with
+    /// `Renderer::set_caustic_spheres` (one eye-space pass, `sphere_gather`, for all of them)
+    /// instead of photons: their light passes trace none. Spot and point lights keep the
+    /// technique's caustic maps.
+    pub caustic_spheres: bool,
 }
 
 /// The default of [`RenderSettings::env_lights`]: the paper's 24 (Tandianus et al. 2010).
@@ -332,6 +338,7 @@ impl Default for RenderSettings {
             medium_light_steps: 16,
             env_lights: DEFAULT_ENV_LIGHTS,
             env_split: Default::default(),
+            caustic_spheres: false,
         }
     }
 }

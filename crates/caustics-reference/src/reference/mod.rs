@@ -21,6 +21,7 @@ pub mod geometry;
 pub mod medium;
 pub mod optics;
 pub mod sampling;
+pub mod spheres;
 pub mod trace;
 
 use caustics::error::{Error, Result};

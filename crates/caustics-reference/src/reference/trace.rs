@@ -504,7 +504,14 @@ impl<'a> Tracer<'a> {
 /// (outside, for a dielectric). Dielectrics choose reflection with probability F (unbiased,
 /// weight 1).
 #[inline]
-fn scatter_specular(m: Material, d: Vec3, ng: Vec3, ns: Vec3, front: bool, rng: &mut PathRng) -> Option<(Vec3, Vec3)> {
+pub(crate) fn scatter_specular(
+    m: Material,
+    d: Vec3,
+    ng: Vec3,
+    ns: Vec3,
+    front: bool,
+    rng: &mut PathRng,
+) -> Option<(Vec3, Vec3)> {
     let reflect_checked = |n: Vec3| {
         let r = reflect(d, n);
         if r.dot(ng) > 0.0 { r } else { reflect(d, ng) }

@@ -19,6 +19,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("caustic_resolve", include_str!("../../shaders/caustic_resolve.wgsl")),
     ("temporal_filter", include_str!("../../shaders/temporal_filter.wgsl")),
     ("shade_receivers", include_str!("../../shaders/shade_receivers.wgsl")),
+    ("sphere_gather", include_str!("../../shaders/sphere_gather.wgsl")),
     ("composite", include_str!("../../shaders/composite.wgsl")),
     ("medium_scatter", include_str!("../../shaders/medium_scatter.wgsl")),
     ("coverage_mip", include_str!("../../shaders/coverage_mip.wgsl")),

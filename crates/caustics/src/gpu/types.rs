@@ -99,6 +99,38 @@ pub struct ShadeParams {
     pub medium_grid: [u32; 4],
 }
 
+/// `sphere_gather` (shaders/sphere_gather.wgsl).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct SphereGatherParams {
+    pub width: u32,
+    pub height: u32,
+    pub records: u32,
+    pub _pad: u32,
+    pub camera: [f32; 4],
+}
+
+/// One (directional light, caustic object, blended stored direction) of `sphere_gather`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct SphereRecord {
+    /// World → the object's frame (the scene file's pose): rows of a 3×4 matrix.
+    pub to_obj: [[f32; 4]; 3],
+    /// The stored pattern's frame rotated onto the light: R a, R b, R ω.
+    pub axes: [[f32; 4]; 3],
+    /// Rows of R (stored mean directions d appear as R d).
+    pub rot: [[f32; 4]; 3],
+    /// Sphere centre (xyz), r_min (w).
+    pub center: [f32; 4],
+    /// r_max, sphere count, longitudes, latitudes.
+    pub shape: [f32; 4],
+    /// Blend weight × the light's irradiance (W/m², rgb).
+    pub irradiance: [f32; 4],
+    /// x: table index (in vec4s) of the stored direction's first cell; y: the object's index;
+    /// z: 1 for a half-float table (one vec4 per cell), 0 for f32 (two).
+    pub base: [u32; 4],
+}
+
 /// `medium_scatter` (shaders/medium_scatter.wgsl).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
@@ -380,6 +412,8 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("CountParams", "ResolveParams", std::mem::size_of::<CountParams>()),
     ("TemporalParams", "TemporalParams", std::mem::size_of::<TemporalParams>()),
     ("ShadeParams", "ShadeParams", std::mem::size_of::<ShadeParams>()),
+    ("SphereGatherParams", "SphereGatherParams", std::mem::size_of::<SphereGatherParams>()),
+    ("SphereRecord", "SphereRecord", std::mem::size_of::<SphereRecord>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
     ("MediumParams", "MediumParams", std::mem::size_of::<MediumParams>()),
     ("TriParams", "TriParams", std::mem::size_of::<TriParams>()),

@@ -182,6 +182,9 @@ pub(crate) struct Emit<'a> {
     pub internal_branch: bool,
     /// Also trace the residual pass (exact tracer).
     pub residual_branch: bool,
+    /// Trace no photons (a directional light whose caustics come from the caustic spheres):
+    /// the map stays zero and the statistics count nothing.
+    pub skip_photons: bool,
 }
 
 impl Emit<'_> {
@@ -511,6 +514,9 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
         kept: Vec::new(),
         record_bytes: 32,
     };
+    if e.skip_photons {
+        return Ok(pending);
+    }
     let mut emission = emission(t, e)?;
     for f in 0..faces {
         build_mip(e, enc, timer, "coverage_mip", &cover, &dummy, f, g, 1, 0);

@@ -1,0 +1,115 @@
+//! Caustic spheres on the command line: `caustics precompute SCENE` builds the caches ahead of
+//! time, `caustics render --caustic-spheres` loads (or builds) them and renders directional
+//! lights' caustics from them. The precomputation shows a progress bar (indicatif) and
+//! Ctrl-C cancels it cleanly (no cache file written).
+
+use caustics::Scene;
+use caustics::caustic_spheres::cache::Storage;
+use caustics::caustic_spheres::{CausticSpheres, DirectionLayout, SphereSettings};
+use caustics_reference::reference::Progress;
+use caustics_reference::reference::spheres::{Origin, load_or_precompute};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct SphereArgs {
+    /// Caustic spheres: side N of the octahedral grid of precomputed light directions (odd, 3
+    /// to 33; (N-1)^2 + 2 directions).
+    #[arg(long, default_value_t = 7)]
+    pub directions: u32,
+    /// Caustic spheres: concentric spheres per object (radii by the paper's equation (1)).
+    #[arg(long, default_value_t = 16)]
+    pub spheres: u32,
+    /// Caustic spheres: longitudes x latitudes per sphere.
+    #[arg(long, default_value = "64x48", value_parser = crate::parse_size)]
+    pub sphere_size: (u32, u32),
+    /// Caustic spheres: photons traced per precomputed direction.
+    #[arg(long, default_value_t = 1 << 18)]
+    pub sphere_photons: u64,
+    /// Caustic spheres: store the tables as half floats (half the disk and memory).
+    #[arg(long)]
+    pub half: bool,
+    /// Caustic spheres: the cache folder.
+    #[arg(long, default_value = ".caustics-cache")]
+    pub sphere_cache: PathBuf,
+}
+
+impl SphereArgs {
+    pub fn settings(&self) -> SphereSettings {
+        SphereSettings {
+            directions: self.directions,
+            spheres: self.spheres,
+            width: self.sphere_size.0,
+            height: self.sphere_size.1,
+            photons: self.sphere_photons,
+            max_depth: 16,
+        }
+    }
+}
+
+/// The caustic spheres of every caustic object of `scene`: from the cache, or precomputed with
+/// a progress bar and cached. Reports what it did and the memory per object.
+pub fn build(scene: &Scene, args: &SphereArgs) -> caustics::Result<Vec<(usize, Arc<CausticSpheres>)>> {
+    let settings = args.settings();
+    settings.validate()?;
+    let storage = if args.half { Storage::F16 } else { Storage::F32 };
+    let progress = Arc::new(Progress::new());
+    {
+        let p = progress.clone();
+        let _ = ctrlc::set_handler(move || p.cancel());
+    }
+    let dirs = DirectionLayout::new(settings.directions).dirs.len();
+    let mut out = Vec::new();
+    for (oi, o) in scene.objects.iter().enumerate() {
+        if !o.caustic_caster || !scene.material_of(o).is_specular() {
+            continue;
+        }
+        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr_with_hz(4));
+        bar.set_style(
+            ProgressStyle::with_template(&format!(
+                "caustic spheres, object {oi} {{bar:40}} {{percent:>3}}% {{elapsed_precise}} elapsed, about {{eta}} left"
+            ))
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        let t0 = std::time::Instant::now();
+        let result = std::thread::scope(|s| {
+            let worker = s.spawn(|| load_or_precompute(scene, oi, &settings, storage, &args.sphere_cache, &progress));
+            while !worker.is_finished() {
+                let total = progress.total();
+                if total > 0 {
+                    bar.set_length(total);
+                    bar.set_position(progress.done());
+                }
+                std::thread::sleep(Duration::from_millis(100));
+            }
+            worker.join().unwrap_or_else(|_| Err(caustics::Error::Device("the precomputation panicked".into())))
+        });
+        bar.finish_and_clear();
+        let (sp, origin) = result?;
+        let mib = |b: u64| b as f64 / (1 << 20) as f64;
+        let bytes = if args.half { sp.bytes() / 2 } else { sp.bytes() };
+        match origin {
+            Origin::Cache => println!("caustic spheres, object {oi}: read from the cache"),
+            Origin::Built(why) => println!(
+                "caustic spheres, object {oi}: precomputed in {:.1} s ({dirs} directions x {} photons; no usable cache: {why})",
+                t0.elapsed().as_secs_f64(),
+                settings.photons
+            ),
+        }
+        println!(
+            "caustic spheres, object {oi}: {} spheres of {}x{} cells, radii {:.4} to {:.4} m; {:.1} MiB on disk ({}), {:.1} MiB on the GPU (f32)",
+            settings.spheres,
+            settings.width,
+            settings.height,
+            sp.geometry.radii[0],
+            sp.geometry.radii[settings.spheres as usize - 1],
+            mib(bytes),
+            if args.half { "f16" } else { "f32" },
+            mib(sp.bytes())
+        );
+        out.push((oi, Arc::new(sp)));
+    }
+    Ok(out)
+}

@@ -1,0 +1,182 @@
+//! The run time of caustic spheres on the GPU: the tables uploaded once, and per frame the
+//! records of every (directional light, caustic object, blended stored direction) and the
+//! `sphere_gather` pass (`shaders/sphere_gather.wgsl`).
+//!
+//! Why one eye-space pass over the visible receivers rather than a caustic map per light: the
+//! spheres already hold each light's caustic in 3D around the object, so a light costs one
+//! table lookup per visible pixel and blended direction (three records), with no light-space
+//! rasterization, photon tracing or splatting. D lights cost D × 3 lookups per pixel in one
+//! dispatch (the paper's single-pass variant), and nothing is redone when a light turns.
+
+use super::{Blend, CausticSpheres, DirectionLayout};
+use crate::gpu::types::{SphereGatherParams, SphereRecord};
+use crate::gpu::{GpuContext, PassTimer};
+use crate::passes::{DrawCtx, EyeFrame, layer_view};
+use crate::scene::Light;
+use glam::{Affine3A, Quat, Vec3};
+use std::sync::Arc;
+
+/// The caustic spheres of a renderer: per caustic object, its table, on the GPU in one buffer
+/// of `vec4<u32>`: per cell two (f32 bits: C, d) or, with half floats, one (the 8 values as
+/// f16 pairs, `unpack2x16float`).
+pub struct GpuSpheres {
+    /// (object index, table, index of its first vec4 in `table`).
+    pub objects: Vec<(usize, Arc<CausticSpheres>, u32)>,
+    pub half: bool,
+    pub layouts: Vec<DirectionLayout>,
+    pub table: wgpu::Buffer,
+    pub bytes: u64,
+}
+
+impl GpuSpheres {
+    /// Uploads the tables (f32, or half floats: half the memory; a value beyond the f16 range
+    /// is an error).
+    pub fn new(ctx: &GpuContext, objects: Vec<(usize, Arc<CausticSpheres>)>, half: bool) -> crate::Result<GpuSpheres> {
+        let mut data: Vec<[u32; 4]> = Vec::new();
+        let mut out = Vec::new();
+        let mut layouts = Vec::new();
+        for (oi, sp) in objects {
+            let base = data.len();
+            if base > u32::MAX as usize {
+                return Err(crate::Error::input("<renderer>", "caustic spheres", "tables over 2^32 vec4s"));
+            }
+            if half {
+                let h = |v: f32| half::f16::from_f32(v).to_bits() as u32;
+                if let Some(v) = sp.data.iter().flatten().find(|v| !half::f16::from_f32(**v).is_finite()) {
+                    return Err(crate::Error::input(
+                        "<command line>",
+                        "--half",
+                        format!("object {oi}: a caustic sphere value ({v}) is beyond the half-float range; use f32"),
+                    ));
+                }
+                for c in &sp.data {
+                    data.push([0, 2, 4, 6].map(|i| h(c[i]) | h(c[i + 1]) << 16));
+                }
+            } else {
+                for c in &sp.data {
+                    data.push([c[0], c[1], c[2], c[3]].map(f32::to_bits));
+                    data.push([c[4], c[5], c[6], c[7]].map(f32::to_bits));
+                }
+            }
+            layouts.push(DirectionLayout::new(sp.settings.directions));
+            out.push((oi, sp, base as u32));
+        }
+        if data.is_empty() {
+            data.push([0; 4]);
+        }
+        let bytes = (data.len() * 16) as u64;
+        let max = ctx.device.limits().max_storage_buffer_binding_size;
+        if bytes > max {
+            return Err(crate::Error::input(
+                "<command line>",
+                "--directions/--spheres",
+                format!(
+                    "caustic sphere tables of {bytes} bytes exceed the device's storage binding limit of {max} bytes"
+                ),
+            ));
+        }
+        let table = ctx.buffer_init("sphere_table", bytemuck::cast_slice(&data), wgpu::BufferUsages::STORAGE);
+        Ok(GpuSpheres { objects: out, half, layouts, table, bytes })
+    }
+
+    /// The records of a frame: per directional light (world direction, irradiance), per object
+    /// (moved by `transforms[object]` from the scene file's pose), per stored direction of the
+    /// blend with a positive weight.
+    pub fn records(&self, lights: &[Light], transforms: &[Affine3A], blend: Blend) -> Vec<SphereRecord> {
+        let mut out = Vec::new();
+        for light in lights {
+            let Light::Directional { direction, irradiance } = light else { continue };
+            for ((oi, sp, base), layout) in self.objects.iter().zip(&self.layouts) {
+                let inv = transforms[*oi].inverse();
+                let l = (glam::Mat3::from(inv.matrix3) * *direction).normalize();
+                let m = glam::Mat4::from(inv);
+                let to_obj = [m.row(0).to_array(), m.row(1).to_array(), m.row(2).to_array()];
+                let g = &sp.geometry;
+                let s = g.radii.len();
+                let stride = if self.half { 1 } else { 2 };
+                let cells = (s * g.cells()) as u32 * stride;
+                for (k, w) in layout.weights(l, blend) {
+                    if w <= 0.0 {
+                        continue;
+                    }
+                    let wk = sp.layout_dirs[k as usize];
+                    let r = Quat::from_rotation_arc(wk, l);
+                    let (a, b) = super::basis(wk);
+                    let rm = glam::Mat3::from_quat(r);
+                    let row = |v: Vec3| v.extend(0.0).to_array();
+                    out.push(SphereRecord {
+                        to_obj,
+                        axes: [row(r * a), row(r * b), row(r * wk)],
+                        rot: [row(rm.row(0)), row(rm.row(1)), row(rm.row(2))],
+                        center: g.center.extend(g.radii[0]).to_array(),
+                        shape: [g.radii[s - 1], s as f32, g.width as f32, g.height as f32],
+                        irradiance: (*irradiance * w).extend(0.0).to_array(),
+                        base: [base + k * cells, *oi as u32, self.half as u32, 0],
+                    });
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Records `sphere_gather`: adds the caustic radiance of `records` to the eye's diffuse
+/// radiance and caustic buffers.
+pub(crate) fn record_gather(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    spheres: &GpuSpheres,
+    records: &[SphereRecord],
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let ctx = dc.ctx;
+    let cam = &dc.scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let pl = ctx.compute_pipeline("sphere_gather");
+    let params = ctx.uniform(
+        "sphere_gather_params",
+        bytemuck::bytes_of(&SphereGatherParams {
+            width: w,
+            height: h,
+            records: records.len() as u32,
+            _pad: 0,
+            camera: cam.position.extend(1.0).to_array(),
+        }),
+    );
+    let zero = [SphereRecord::zeroed_record()];
+    let recs = if records.is_empty() { &zero[..] } else { records };
+    let rb = ctx.buffer_init("sphere_records", bytemuck::cast_slice(recs), wgpu::BufferUsages::STORAGE);
+    let (erp, ern) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
+    let bg = crate::gpu::bind(
+        ctx,
+        &pl,
+        "sphere_gather",
+        &[
+            params.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&erp),
+            wgpu::BindingResource::TextureView(&ern),
+            dc.geo.materials.as_entire_binding(),
+            rb.as_entire_binding(),
+            spheres.table.as_entire_binding(),
+            eye.radiance.as_entire_binding(),
+            eye.caustic.as_entire_binding(),
+            dc.geo.bvh_nodes.as_entire_binding(),
+            dc.geo.bvh_tris.as_entire_binding(),
+            dc.geo.bvh_instances.as_entire_binding(),
+        ],
+    );
+    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("sphere_gather"),
+        timestamp_writes: timer.compute("sphere_gather"),
+    });
+    cp.set_pipeline(&pl);
+    cp.set_bind_group(0, &bg, &[]);
+    cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+}
+
+impl SphereRecord {
+    fn zeroed_record() -> SphereRecord {
+        bytemuck::Zeroable::zeroed()
+    }
+}
