@@ -375,7 +375,7 @@ impl Renderer {
 
     /// Per region of [`Renderer::environment_lights`], the unoccluded fraction of its radiance
     /// seen from object `object`'s centre past the other objects as they are now
-    /// ([`environment_lights::region_visibility`]: exact rays, blocking, not pooled: call it
+    /// ([`crate::raycast::region_visibility`]: exact rays, blocking, not pooled: call it
     /// when objects moved or the environment turned, not every frame). Empty without an
     /// environment.
     pub fn region_visibility(&self, object: usize) -> Result<Vec<f32>> {
@@ -383,15 +383,7 @@ impl Renderer {
             return Ok(Vec::new());
         };
         let lights = self.environment_lights();
-        environment_lights::region_visibility(
-            &self.ctx,
-            &self.base,
-            &self.transforms,
-            &env,
-            &lights,
-            object,
-            env.rotate_y,
-        )
+        crate::raycast::region_visibility(&self.ctx, &self.base, &self.transforms, &env, &lights, object, env.rotate_y)
     }
 
     /// Replace material `index` (same kind of surface or not). Every light is redone, since any
