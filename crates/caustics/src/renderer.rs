@@ -156,6 +156,8 @@ pub struct Renderer {
     /// `RenderSettings::caustic_spheres` is on.
     spheres: Option<crate::caustic_spheres::gpu::GpuSpheres>,
     sphere_blend: crate::caustic_spheres::Blend,
+    /// The environment regions' visibility per sphere object, and what it was computed for.
+    sphere_vis: Option<(Vec<u32>, Arc<std::collections::HashMap<usize, Vec<f32>>>)>,
 }
 
 impl Renderer {
@@ -193,6 +195,7 @@ impl Renderer {
             env_segments: None,
             spheres: None,
             sphere_blend: crate::caustic_spheres::Blend::Triangle,
+            sphere_vis: None,
         }
         .with_env_segments())
     }
@@ -348,6 +351,40 @@ impl Renderer {
         lights
     }
 
+    /// Caustic spheres under an environment: per sphere object, the visibility of each drawn
+    /// environment light (the non-black regions of [`Renderer::environment_lights`], in the order
+    /// of [`Renderer::lights`] after the scene's own), from [`crate::raycast::region_visibility`].
+    /// Kept until an object moves, the environment turns or its segmentation changes; recomputing
+    /// it casts rays on the GPU and waits for them (a read-back, outside the steady state).
+    fn sphere_visibility(&mut self) -> Result<Option<Arc<std::collections::HashMap<usize, Vec<f32>>>>> {
+        let (Some(sp), Some(env)) = (&self.spheres, &self.scene.environment) else {
+            return Ok(None);
+        };
+        let objects: Vec<usize> = sp.objects.iter().map(|o| o.0).collect();
+        let mut key: Vec<u32> = vec![env.rotate_y.to_bits(), self.settings.env_lights, self.settings.env_split as u32];
+        for t in &self.transforms {
+            key.extend(t.to_cols_array().iter().map(|v| v.to_bits()));
+        }
+        key.extend(objects.iter().map(|&o| o as u32));
+        if let Some((k, v)) = &self.sphere_vis
+            && *k == key
+        {
+            return Ok(Some(v.clone()));
+        }
+        let regions = self.environment_lights();
+        let mut map = std::collections::HashMap::new();
+        for &o in &objects {
+            let all = self.region_visibility(o)?;
+            // Only the drawn (non-black) regions, in the order of the light list.
+            let drawn: Vec<f32> =
+                regions.iter().zip(&all).filter(|(l, _)| l.facing.max_element() > 0.0).map(|(_, v)| *v).collect();
+            map.insert(o, drawn);
+        }
+        let v = Arc::new(map);
+        self.sphere_vis = Some((key, v.clone()));
+        Ok(Some(v))
+    }
+
     /// Turn the environment to `rotate_y_deg` degrees about +Y (the scene format's
     /// `rotate_y_deg`, absolute): the background and reflections follow, and the environment's
     /// directional lights turn with it (their directions rotated, no re-segmentation), so their
@@ -482,6 +519,7 @@ impl Renderer {
         let s = self.settings.clone();
         // The scene as drawn: its lights, then the environment's directional lights.
         let full = Scene { lights: self.lights_now(), ..self.scene.clone() };
+        let sphere_vis = if s.caustic_spheres { self.sphere_visibility()? } else { None };
         // Geometry: uploaded once (again when the tessellation changes); moved objects rewrite
         // their transforms and analytic shapes.
         if self.geometry.as_ref().is_none_or(|(t, _)| *t != s.tessellation) {
@@ -567,7 +605,14 @@ impl Renderer {
             && let Some(sp) = &self.spheres
         {
             ctx.begin_scope("spheres", enc);
-            let records = sp.records(&scene.lights, &self.transforms, self.sphere_blend);
+            let n_own = self.scene.lights.len();
+            let vis = |li: usize, object: usize| -> f32 {
+                match (&sphere_vis, li.checked_sub(n_own)) {
+                    (Some(v), Some(k)) => v.get(&object).and_then(|r| r.get(k)).copied().unwrap_or(1.0),
+                    _ => 1.0,
+                }
+            };
+            let records = sp.records(&scene.lights, &self.transforms, self.sphere_blend, vis);
             crate::caustic_spheres::gpu::record_gather(&dc, &eye, sp, &records, enc, &mut timer);
             ctx.end_scope();
         }

@@ -68,8 +68,8 @@ impl GpuSpheres {
         let max = ctx.device.limits().max_storage_buffer_binding_size;
         if bytes > max {
             return Err(crate::Error::input(
-                "<command line>",
-                "--directions/--spheres",
+                "<settings>",
+                "caustic_spheres",
                 format!(
                     "caustic sphere tables of {bytes} bytes exceed the device's storage binding limit of {max} bytes"
                 ),
@@ -81,12 +81,24 @@ impl GpuSpheres {
 
     /// The records of a frame: per directional light (world direction, irradiance), per object
     /// (moved by `transforms[object]` from the scene file's pose), per stored direction of the
-    /// blend with a positive weight.
-    pub fn records(&self, lights: &[Light], transforms: &[Affine3A], blend: Blend) -> Vec<SphereRecord> {
+    /// blend with a positive weight. `visibility(light, object)` scales a light's irradiance for
+    /// one object (the environment's regions, occluded as seen from the object: section 5 of the
+    /// paper; 1 for the scene's own lights).
+    pub fn records(
+        &self,
+        lights: &[Light],
+        transforms: &[Affine3A],
+        blend: Blend,
+        visibility: impl Fn(usize, usize) -> f32,
+    ) -> Vec<SphereRecord> {
         let mut out = Vec::new();
-        for light in lights {
+        for (li, light) in lights.iter().enumerate() {
             let Light::Directional { direction, irradiance } = light else { continue };
             for ((oi, sp, base), layout) in self.objects.iter().zip(&self.layouts) {
+                let irradiance = *irradiance * visibility(li, *oi);
+                if irradiance.max_element() <= 0.0 {
+                    continue;
+                }
                 let inv = transforms[*oi].inverse();
                 let l = (glam::Mat3::from(inv.matrix3) * *direction).normalize();
                 let m = glam::Mat4::from(inv);
@@ -110,7 +122,7 @@ impl GpuSpheres {
                         rot: [row(rm.row(0)), row(rm.row(1)), row(rm.row(2))],
                         center: g.center.extend(g.radii[0]).to_array(),
                         shape: [g.radii[s - 1], s as f32, g.width as f32, g.height as f32],
-                        irradiance: (*irradiance * w).extend(0.0).to_array(),
+                        irradiance: (irradiance * w).extend(0.0).to_array(),
                         base: [base + k * cells, *oi as u32, self.half as u32, 0],
                     });
                 }
