@@ -130,6 +130,8 @@ const STATS_SLOTS: usize = 3;
 
 /// What an environment segmentation was made for: D and the split rule.
 type SegmentKey = (u32, environment_lights::SplitRule);
+/// Per caustic-sphere object, the visibility of each drawn environment light.
+type SphereVisibility = std::collections::HashMap<usize, Vec<f32>>;
 
 /// The persistent GPU renderer (module documentation).
 pub struct Renderer {
@@ -157,7 +159,7 @@ pub struct Renderer {
     spheres: Option<crate::caustic_spheres::gpu::GpuSpheres>,
     sphere_blend: crate::caustic_spheres::Blend,
     /// The environment regions' visibility per sphere object, and what it was computed for.
-    sphere_vis: Option<(Vec<u32>, Arc<std::collections::HashMap<usize, Vec<f32>>>)>,
+    sphere_vis: Option<(Vec<u32>, Arc<SphereVisibility>)>,
 }
 
 impl Renderer {
@@ -356,7 +358,7 @@ impl Renderer {
     /// of [`Renderer::lights`] after the scene's own), from [`crate::raycast::region_visibility`].
     /// Kept until an object moves, the environment turns or its segmentation changes; recomputing
     /// it casts rays on the GPU and waits for them (a read-back, outside the steady state).
-    fn sphere_visibility(&mut self) -> Result<Option<Arc<std::collections::HashMap<usize, Vec<f32>>>>> {
+    fn sphere_visibility(&mut self) -> Result<Option<Arc<SphereVisibility>>> {
         let (Some(sp), Some(env)) = (&self.spheres, &self.scene.environment) else {
             return Ok(None);
         };
