@@ -142,6 +142,8 @@ enum Command {
         /// camera ray (GPU; 1 to 4096).
         #[arg(long, default_value_t = 64)]
         medium_steps: u32,
+        #[command(flatten)]
+        beams: BeamArgs,
         /// Gaussian splat standard deviation (caustic-map texels).
         #[arg(long, default_value_t = 1.0)]
         splat_sigma: f32,
@@ -237,6 +239,57 @@ fn main() -> ExitCode {
     }
 }
 
+/// Volume caustics by adaptive beam tracing (scenes with a medium and a specular caster; GPU).
+/// A separate switch from --technique: the beams render the light focused into the medium,
+/// the photon technique the caustic on surfaces, and both run in the same frame.
+#[derive(clap::Args, Debug, Clone)]
+pub struct BeamArgs {
+    /// Do not render volume caustics (beams).
+    #[arg(long)]
+    no_beams: bool,
+    /// Beams: cells per side of the coarse projected grid over each light face.
+    #[arg(long, default_value_t = 16)]
+    beam_grid: u32,
+    /// Beams: refinement levels (each splits a beam 1 -> 4); 0 for a regular grid.
+    #[arg(long, default_value_t = 3)]
+    beam_levels: u32,
+    /// Beams: split where the edges' first-surface normals differ by more (degrees).
+    #[arg(long, default_value_t = 10.0)]
+    beam_normal_threshold: f32,
+    /// Beams: split where the edges' distances to the first surface differ by more (fraction).
+    #[arg(long, default_value_t = 0.05)]
+    beam_depth_threshold: f32,
+    /// Beams: split where flux (relative to the face's) x convergence exceeds this.
+    #[arg(long, default_value_t = 2e-3)]
+    beam_energy_threshold: f32,
+    /// Beams: split where the beam's width over its distance to the camera exceeds this (rad).
+    #[arg(long, default_value_t = 0.05)]
+    beam_camera_threshold: f32,
+    /// Beams held per light (more is an overflow, reported as an error).
+    #[arg(long, default_value_t = 1 << 17)]
+    beam_capacity: u32,
+    /// Beams: midpoint-rule points per piece of a camera ray inside a beam.
+    #[arg(long, default_value_t = 4)]
+    beam_samples: u32,
+}
+
+impl BeamArgs {
+    pub fn settings(&self) -> caustics::settings::BeamSettings {
+        caustics::settings::BeamSettings {
+            enabled: !self.no_beams,
+            grid: self.beam_grid,
+            levels: self.beam_levels,
+            normal_threshold_deg: self.beam_normal_threshold,
+            depth_threshold: self.beam_depth_threshold,
+            energy_threshold: self.beam_energy_threshold,
+            camera_threshold: self.beam_camera_threshold,
+            capacity: self.beam_capacity,
+            samples: self.beam_samples,
+            reflection: true,
+        }
+    }
+}
+
 /// The library names a bad setting by its field (`<settings>`, `photons`); the user gave it as a
 /// flag: say so.
 fn flag_names(e: &mut anyhow::Error) {
@@ -249,6 +302,14 @@ fn flag_names(e: &mut anyhow::Error) {
         ("quad_linearity", "--quad-linearity"),
         ("shadow_map_size", "--shadow-map"),
         ("medium_steps", "--medium-steps"),
+        ("beams.grid", "--beam-grid"),
+        ("beams.levels", "--beam-levels"),
+        ("beams.normal_threshold_deg", "--beam-normal-threshold"),
+        ("beams.depth_threshold", "--beam-depth-threshold"),
+        ("beams.energy_threshold", "--beam-energy-threshold"),
+        ("beams.camera_threshold", "--beam-camera-threshold"),
+        ("beams.capacity", "--beam-capacity"),
+        ("beams.samples", "--beam-samples"),
         ("camera.size", "--size"),
         ("splat_sigma", "--splat-sigma"),
         ("max_depth", "--max-depth"),
@@ -290,6 +351,7 @@ fn run(cli: Cli) -> Result<()> {
             caustic_map,
             shadow_map,
             medium_steps,
+            beams,
             splat_sigma,
             photon_memory,
             dump,
@@ -334,6 +396,7 @@ fn run(cli: Cli) -> Result<()> {
                 caustic_map_size: caustic_map.unwrap_or(1024),
                 shadow_map_size: shadow_map,
                 medium_steps,
+                beams: beams.settings(),
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),
                 ..Default::default()
@@ -428,6 +491,12 @@ fn report_gpu(out: &GpuRender, wall_ms: f64) {
     println!("adapter: {}", out.adapter);
     let t = &out.technique;
     println!("photons: {} traced in {} batch(es)", out.photons_traced, out.batches);
+    for (li, (b, _)) in out.beams.iter().enumerate() {
+        println!(
+            "beams (light {li}): {} rendered; kept per level {:?}, traced per level {:?}; {} lost at the last level (edges disagree), {} grazing, {} over capacity",
+            b.beams, b.kept_per_level, b.visited_per_level, b.inconsistent, b.grazing, b.overflow
+        );
+    }
     println!(
         "technique {}: {} photons splatted, {} relevant (dense {}^2 photons hitting a caster), coverage {:.2} %, photon memory {:.1} MiB (peak {:.1} MiB)",
         t.technique,

@@ -9,6 +9,7 @@
 #![forbid(unsafe_code)]
 
 pub mod accel;
+pub mod beams;
 pub mod budget;
 pub mod error;
 pub mod gpu;

@@ -1,0 +1,167 @@
+// Stage: beam_gather. The single scattering of the beams' light toward the camera (Liktor &
+// Dachsbacher 2011, section 5, equations 2-5, after Ernst et al. 2005), one thread per pixel
+// over the ordered beam list (beam_order): every beam is met once per pixel, so a camera inside
+// a beam counts it once too. Per beam, the pixel centre's ray from the camera to the first
+// surface it sees (the nearer of the eye's diffuse and specular buffers), clipped to the
+// medium's box, is tested against the beam's bounding sphere, then intersected with the beam
+// exactly: in beam space (the base triangle's plane, edges scaled to unit height y) the
+// cross-section at height y is the triangle q_i(y) = v_i + y d_i / (n . d_i), and along the ray
+// its three edge functions are quadratics in the ray parameter, so the ray's pieces inside the
+// beam lie between their roots. Each piece is integrated by the midpoint rule in
+// `bp.samples` points of
+//   sigma_s phase(d . -w) Phi / (A(y) cos theta) exp(-sigma_t (l_light + s)) exp(-sigma_t t_eye),
+// A(y) the cross-section's area (a quadratic in y), theta the angle between the interpolated
+// edge direction d and the base normal (Phi / A(y) is the irradiance of the cross-section's
+// plane; over cos theta, the fluence of the beam's light), l_light the in-medium length of the
+// light's path up to the base (interpolated), s the in-medium length from the base to the
+// point, t_eye from the camera's box entry to the point. A point lies in the beam up to the
+// plane through its edges' ends (the receivers). The pixel's camera ray ends at the first
+// surface (a hard clip: the exact interval needs no soft clipping).
+
+#import beams
+
+@group(0) @binding(0) var<uniform> bp: BeamParams;
+@group(0) @binding(1) var recv_pos: texture_2d<f32>;
+@group(0) @binding(2) var spec_pos: texture_2d<f32>;
+@group(0) @binding(3) var<storage, read> beams: array<BeamGpu>;
+@group(0) @binding(4) var<storage, read> order: array<u32>;
+@group(0) @binding(5) var<storage, read> stats: array<u32>;
+@group(0) @binding(6) var<storage, read_write> out_full: array<vec4f>;
+@group(0) @binding(7) var<storage, read_write> out_caustic: array<vec4f>;
+
+// Roots of c2 u^2 + c1 u + c0 in (0, len), appended to `cuts` (count in `n`).
+fn add_roots(c: vec3f, len: f32, cuts: ptr<function, array<f32, 12>>, n: ptr<function, u32>) {
+    var r = vec2f(-1.0);
+    let scale = abs(c.x) * len * len + abs(c.y) * len + abs(c.z);
+    if (abs(c.z) * len * len <= 1e-7 * scale) {
+        if (c.y != 0.0) { r.x = -c.x / c.y; }
+    } else {
+        let disc = c.y * c.y - 4.0 * c.z * c.x;
+        if (disc < 0.0) { return; }
+        let q = -0.5 * (c.y + select(-1.0, 1.0, c.y >= 0.0) * sqrt(disc));
+        r.x = q / c.z;
+        if (q != 0.0) { r.y = c.x / q; }
+    }
+    for (var k = 0; k < 2; k++) {
+        if (r[k] > 0.0 && r[k] < len && *n < 12u) {
+            (*cuts)[*n] = r[k];
+            *n += 1u;
+        }
+    }
+}
+
+// The radiance the beam scatters toward the camera along o + u d, 0 <= u <= len; the camera's
+// box entry is at u = -eye_in (the transmittance toward the camera starts there).
+fn beam_radiance(b: BeamGpu, o: vec3f, d: vec3f, len: f32, eye_in: f32) -> vec3f {
+    let v = array<vec3f, 3>(b.v0.xyz, b.v1.xyz, b.v2.xyz);
+    let dir = array<vec3f, 3>(b.d0.xyz, b.d1.xyz, b.d2.xyz);
+    var nrm = normalize(cross(v[1] - v[0], v[2] - v[0]));
+    if (dot(nrm, dir[0] + dir[1] + dir[2]) < 0.0) { nrm = -nrm; }
+    var s: array<vec3f, 3>;
+    var yend: vec3f;
+    for (var i = 0; i < 3; i++) {
+        let c = dot(nrm, dir[i]);
+        s[i] = dir[i] / c;
+        yend[i] = select(b.d0.w, select(b.d1.w, b.d2.w, i == 2), i >= 1) * c;
+    }
+    let y0 = dot(o - v[0], nrm);
+    let yr = dot(d, nrm);
+    // Edge functions E_k(u) (edge i -> j opposite vertex k) as quadratics (c0, c1, c2).
+    var ek: array<vec3f, 3>;
+    for (var k = 0; k < 3; k++) {
+        let i = (k + 1) % 3;
+        let j = (k + 2) % 3;
+        let p0 = (v[j] - v[i]) + y0 * (s[j] - s[i]);
+        let p1 = yr * (s[j] - s[i]);
+        let q0 = o - v[i] - y0 * s[i];
+        let q1 = d - yr * s[i];
+        ek[k] = vec3f(dot(nrm, cross(p0, q0)), dot(nrm, cross(p0, q1) + cross(p1, q0)), dot(nrm, cross(p1, q1)));
+    }
+    var cuts: array<f32, 12>;
+    var n = 0u;
+    cuts[0] = 0.0;
+    n = 1u;
+    for (var k = 0; k < 3; k++) { add_roots(ek[k], len, &cuts, &n); }
+    if (yr != 0.0) {
+        let u = -y0 / yr;
+        if (u > 0.0 && u < len) { cuts[n] = u; n++; }
+    }
+    cuts[n] = len;
+    n++;
+    // Sort the cuts (insertion sort; at most 9).
+    for (var a = 1u; a < n; a++) {
+        let x = cuts[a];
+        var c = a;
+        while (c > 0u && cuts[c - 1u] > x) { cuts[c] = cuts[c - 1u]; c--; }
+        cuts[c] = x;
+    }
+    let phi = b.flux.rgb;
+    let g = bp.sigma_s.w;
+    var acc = vec3f(0.0);
+    let m = max(bp.samples, 1u);
+    for (var p = 0u; p + 1u < n; p++) {
+        let ua = cuts[p];
+        let ub = cuts[p + 1u];
+        if (ub <= ua) { continue; }
+        // Inside at the piece's midpoint?
+        let um = 0.5 * (ua + ub);
+        let em = vec3f(ek[0].x + um * (ek[0].y + um * ek[0].z), ek[1].x + um * (ek[1].y + um * ek[1].z), ek[2].x + um * (ek[2].y + um * ek[2].z));
+        let sm = em.x + em.y + em.z;
+        if (sm == 0.0 || any(em * sign(sm) < vec3f(0.0)) || y0 + um * yr < 0.0) { continue; }
+        let du = (ub - ua) / f32(m);
+        for (var q = 0u; q < m; q++) {
+            let u = ua + (f32(q) + 0.5) * du;
+            let y = y0 + u * yr;
+            let e = vec3f(ek[0].x + u * (ek[0].y + u * ek[0].z), ek[1].x + u * (ek[1].y + u * ek[1].z), ek[2].x + u * (ek[2].y + u * ek[2].z));
+            let sum = e.x + e.y + e.z;
+            if (sum == 0.0) { continue; }
+            let w = e / sum;
+            if (y > dot(w, yend)) { continue; }
+            let area = 0.5 * abs(sum);
+            let dl = normalize(w.x * dir[0] + w.y * dir[1] + w.z * dir[2]);
+            let cos_t = max(dot(nrm, dl), 1e-4);
+            let x = o + d * u;
+            let base = w.x * v[0] + w.y * v[1] + w.z * v[2];
+            let pre = w.x * b.v0.w + w.y * b.v1.w + w.z * b.v2.w;
+            let sl = bm_box_length(base, x, bp.lo.xyz, bp.hi.xyz);
+            let tr = exp(-bp.sigma_t.rgb * (pre + sl + eye_in + u));
+            acc += phi / (area * cos_t) * bm_phase(dot(dl, -d), g) * tr * du;
+        }
+    }
+    return bp.sigma_s.rgb * acc;
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3u) {
+    if (gid.x >= bp.width || gid.y >= bp.height) { return; }
+    let idx = gid.y * bp.width + gid.x;
+    let px = vec2i(gid.xy);
+    let cam = bp.camera.xyz;
+    let ndc = vec2f((f32(gid.x) + 0.5) / f32(bp.width) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(bp.height) * 2.0);
+    let q = bp.clip_to_world * vec4f(ndc, 0.5, 1.0);
+    let d = normalize(q.xyz / q.w - cam);
+    var t_max = 1e30;
+    let r = textureLoad(recv_pos, px, 0);
+    let sp = textureLoad(spec_pos, px, 0);
+    if (r.w >= 0.0) { t_max = min(t_max, length(r.xyz - cam)); }
+    if (sp.w >= 0.0) { t_max = min(t_max, length(sp.xyz - cam)); }
+    let seg = bm_box_clip(cam, d, t_max, bp.lo.xyz, bp.hi.xyz);
+    if (seg.y <= seg.x) { return; }
+    let count = min(stats[1u + BS_ORDERED], bp.capacity);
+    var acc = vec3f(0.0);
+    for (var k = 0u; k < count; k++) {
+        let b = beams[order[k]];
+        let oc = cam - b.bound.xyz;
+        let tb = -dot(oc, d);
+        let h2 = b.bound.w * b.bound.w - (dot(oc, oc) - tb * tb);
+        if (h2 <= 0.0) { continue; }
+        let h = sqrt(h2);
+        let t0 = max(tb - h, seg.x);
+        let t1 = min(tb + h, seg.y);
+        if (t1 <= t0) { continue; }
+        acc += beam_radiance(b, cam + d * t0, d, t1 - t0, t0 - seg.x);
+    }
+    if (all(acc == vec3f(0.0))) { return; }
+    out_full[idx] += vec4f(acc, 0.0);
+    out_caustic[idx] += vec4f(acc, 0.0);
+}
