@@ -254,16 +254,16 @@ pub struct BeamArgs {
     #[arg(long, default_value_t = 3)]
     beam_levels: u32,
     /// Beams: split where the edges' first-surface normals differ by more (degrees).
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 25.0)]
     beam_normal_threshold: f32,
     /// Beams: split where the edges' distances to the first surface differ by more (fraction).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.1)]
     beam_depth_threshold: f32,
     /// Beams: split where flux (relative to the face's) x convergence exceeds this.
-    #[arg(long, default_value_t = 2e-3)]
+    #[arg(long, default_value_t = 0.05)]
     beam_energy_threshold: f32,
     /// Beams: split where the beam's width over its distance to the camera exceeds this (rad).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.2)]
     beam_camera_threshold: f32,
     /// Beams held per light (more is an overflow, reported as an error).
     #[arg(long, default_value_t = 1 << 17)]

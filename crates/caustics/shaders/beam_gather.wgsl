@@ -150,16 +150,18 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let count = min(stats[1u + BS_ORDERED], bp.capacity);
     var acc = vec3f(0.0);
     for (var k = 0u; k < count; k++) {
-        let b = beams[order[k]];
-        let oc = cam - b.bound.xyz;
+        let bi = order[k];
+        // The bounding sphere first (only it is read for the beams the ray misses).
+        let bound = beams[bi].bound;
+        let oc = cam - bound.xyz;
         let tb = -dot(oc, d);
-        let h2 = b.bound.w * b.bound.w - (dot(oc, oc) - tb * tb);
+        let h2 = bound.w * bound.w - (dot(oc, oc) - tb * tb);
         if (h2 <= 0.0) { continue; }
         let h = sqrt(h2);
         let t0 = max(tb - h, seg.x);
         let t1 = min(tb + h, seg.y);
         if (t1 <= t0) { continue; }
-        acc += beam_radiance(b, cam + d * t0, d, t1 - t0, t0 - seg.x);
+        acc += beam_radiance(beams[bi], cam + d * t0, d, t1 - t0, t0 - seg.x);
     }
     if (all(acc == vec3f(0.0))) { return; }
     out_full[idx] += vec4f(acc, 0.0);

@@ -295,7 +295,8 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         // (the longest edge: at least the end height over the base)
         let ym = max(max(e0.t_end, e1.t_end), e2.t_end);
         let ar = min_area(e0, e1, e2, ym);
-        let conv = ar.x / max(ar.y, 1e-3 * ar.x);
+        // (capped at 100: a ball lens's beams all but vanish at their focus)
+        let conv = ar.x / max(ar.y, 1e-2 * ar.x);
         let face_omega = solid_angle(light_dir(face, vec2f(-1.0, -1.0)), light_dir(face, vec2f(1.0, -1.0)), light_dir(face, vec2f(1.0, 1.0)))
             + solid_angle(light_dir(face, vec2f(-1.0, -1.0)), light_dir(face, vec2f(1.0, 1.0)), light_dir(face, vec2f(-1.0, 1.0)));
         let peak = max(max(light.power.r, light.power.g), light.power.b);

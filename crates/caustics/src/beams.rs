@@ -314,7 +314,10 @@ fn record_light_beams(
     let slots = u64::from(bp.slots);
     let params = ctx.uniform("beam_params", bytemuck::bytes_of(bp));
     let work = crate::gpu::storage(ctx, "beam_work", slots * std::mem::size_of::<BeamTri>() as u64, storage);
-    let args = crate::gpu::storage(ctx, "beam_args", 16 * 8, wgpu::BufferUsages::INDIRECT);
+    let args = crate::gpu::storage(ctx, "beam_args", 16 * 8, storage);
+    // The next level's dispatch size, copied out of `args` (a buffer a dispatch writes cannot be
+    // its own indirect argument).
+    let indirect = crate::gpu::storage(ctx, "beam_indirect", 16 * 8, wgpu::BufferUsages::INDIRECT);
     let slot_buf = crate::gpu::storage(ctx, "beam_slots", 2 * slots * 4, storage);
     let cap = u64::from(bp.capacity);
     let beams = crate::gpu::storage(ctx, "beams", cap * std::mem::size_of::<BeamGpu>() as u64, storage);
@@ -349,17 +352,23 @@ fn record_light_beams(
                 stats.as_entire_binding(),
             ],
         );
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("beam_refine"),
-            timestamp_writes: timer.compute("beam_refine"),
-        });
-        cp.set_pipeline(&refine);
-        cp.set_bind_group(0, &bg, &[]);
-        if l == 0 {
-            let groups = (per_level(0) as u32).div_ceil(64);
-            cp.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
-        } else {
-            cp.dispatch_workgroups_indirect(&args, 16 * u64::from(l));
+        {
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("beam_refine"),
+                timestamp_writes: timer.compute("beam_refine"),
+            });
+            cp.set_pipeline(&refine);
+            cp.set_bind_group(0, &bg, &[]);
+            if l == 0 {
+                let groups = (per_level(0) as u32).div_ceil(64);
+                cp.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
+            } else {
+                cp.dispatch_workgroups_indirect(&indirect, 16 * u64::from(l));
+            }
+        }
+        if l < levels {
+            let at = 16 * u64::from(l + 1);
+            enc.copy_buffer_to_buffer(&args, at, &indirect, at, 16);
         }
     }
     let size = (dc.scene.camera.width, dc.scene.camera.height);
