@@ -271,6 +271,9 @@ pub struct BeamArgs {
     /// Beams: midpoint-rule points per piece of a camera ray inside a beam.
     #[arg(long, default_value_t = 4)]
     beam_samples: u32,
+    /// Beams: camera rays per pixel side (box filter; n² per pixel; above 1 has a known bug).
+    #[arg(long, default_value_t = 1)]
+    beam_pixel_samples: u32,
 }
 
 impl BeamArgs {
@@ -285,6 +288,7 @@ impl BeamArgs {
             camera_threshold: self.beam_camera_threshold,
             capacity: self.beam_capacity,
             samples: self.beam_samples,
+            pixel_samples: self.beam_pixel_samples,
             reflection: true,
         }
     }
@@ -310,6 +314,7 @@ fn flag_names(e: &mut anyhow::Error) {
         ("beams.camera_threshold", "--beam-camera-threshold"),
         ("beams.capacity", "--beam-capacity"),
         ("beams.samples", "--beam-samples"),
+        ("beams.pixel_samples", "--beam-pixel-samples"),
         ("camera.size", "--size"),
         ("splat_sigma", "--splat-sigma"),
         ("max_depth", "--max-depth"),

@@ -1,6 +1,6 @@
 // Stage: beam_gather. The single scattering of the beams' light toward the camera (Liktor &
 // Dachsbacher 2011, section 5, equations 2-5, after Ernst et al. 2005), one thread per pixel
-// over the ordered beam list (beam_order): every beam is met once per pixel, so a camera inside
+// over the ordered beam list (beam_order): every beam is met once per pixel ray, so a camera inside
 // a beam counts it once too. Per beam, the pixel centre's ray from the camera to the first
 // surface it sees (the nearer of the eye's diffuse and specular buffers), clipped to the
 // medium's box, is tested against the beam's bounding sphere, then intersected with the beam
@@ -16,7 +16,8 @@
 // light's path up to the base (interpolated), s the in-medium length from the base to the
 // point, t_eye from the camera's box entry to the point. A point lies in the beam up to the
 // plane through its edges' ends (the receivers). The pixel's camera ray ends at the first
-// surface (a hard clip: the exact interval needs no soft clipping).
+// surface (a hard clip: the exact interval needs no soft clipping). Each pixel averages
+// `bp.pixel_samples`^2 stratified rays (the box pixel filter).
 
 #import beams
 
@@ -137,17 +138,36 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let idx = gid.y * bp.width + gid.x;
     let px = vec2i(gid.xy);
     let cam = bp.camera.xyz;
-    let ndc = vec2f((f32(gid.x) + 0.5) / f32(bp.width) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(bp.height) * 2.0);
-    let q = bp.clip_to_world * vec4f(ndc, 0.5, 1.0);
-    let d = normalize(q.xyz / q.w - cam);
-    var t_max = 1e30;
+    // The first surface's distance along the pixel centre's ray (the eye buffers hold one
+    // point per pixel): the sub-pixel rays end at the plane through it facing the camera.
+    var depth = 1e30;
     let r = textureLoad(recv_pos, px, 0);
     let sp = textureLoad(spec_pos, px, 0);
-    if (r.w >= 0.0) { t_max = min(t_max, length(r.xyz - cam)); }
-    if (sp.w >= 0.0) { t_max = min(t_max, length(sp.xyz - cam)); }
-    let seg = bm_box_clip(cam, d, t_max, bp.lo.xyz, bp.hi.xyz);
-    if (seg.y <= seg.x) { return; }
+    let centre = ray_of(vec2f(gid.xy) + 0.5);
+    if (r.w >= 0.0) { depth = min(depth, dot(r.xyz - cam, centre)); }
+    if (sp.w >= 0.0) { depth = min(depth, dot(sp.xyz - cam, centre)); }
     let count = min(stats[1u + BS_ORDERED], bp.capacity);
+    // The box pixel filter: ns x ns stratified rays (a volume caustic's focal line is thinner
+    // than a pixel: the pixel centre alone would miss or overweight it).
+    let ns = max(bp.pixel_samples, 1u);
+    var acc = vec3f(0.0);
+    for (var si = 0u; si < ns * ns; si++) {
+        let sub = vec2f(f32(si % ns), f32(si / ns));
+        let d = ray_of(vec2f(gid.xy) + (sub + 0.5) / f32(ns));
+        let t_max = select(1e30, depth / max(dot(d, centre), 1e-6), depth < 1e29);
+        let seg = bm_box_clip(cam, d, t_max, bp.lo.xyz, bp.hi.xyz);
+        if (seg.y > seg.x) {
+            acc += gather_ray(cam, d, seg, count);
+        }
+    }
+    acc /= f32(ns * ns);
+    if (all(acc == vec3f(0.0))) { return; }
+    out_full[idx] += vec4f(acc, 0.0);
+    out_caustic[idx] += vec4f(acc, 0.0);
+}
+
+// The beams' light along the camera ray cam + t d, seg.x <= t <= seg.y (its part in the box).
+fn gather_ray(cam: vec3f, d: vec3f, seg: vec2f, count: u32) -> vec3f {
     var acc = vec3f(0.0);
     for (var k = 0u; k < count; k++) {
         let bi = order[k];
@@ -156,14 +176,21 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         let oc = cam - bound.xyz;
         let tb = -dot(oc, d);
         let h2 = bound.w * bound.w - (dot(oc, oc) - tb * tb);
-        if (h2 <= 0.0) { continue; }
-        let h = sqrt(h2);
-        let t0 = max(tb - h, seg.x);
-        let t1 = min(tb + h, seg.y);
-        if (t1 <= t0) { continue; }
-        acc += beam_radiance(beams[bi], cam + d * t0, d, t1 - t0, t0 - seg.x);
+        if (h2 > 0.0) {
+            let h = sqrt(h2);
+            let t0 = max(tb - h, seg.x);
+            let t1 = min(tb + h, seg.y);
+            if (t1 > t0) {
+                acc += beam_radiance(beams[bi], cam + d * t0, d, t1 - t0, t0 - seg.x);
+            }
+        }
     }
-    if (all(acc == vec3f(0.0))) { return; }
-    out_full[idx] += vec4f(acc, 0.0);
-    out_caustic[idx] += vec4f(acc, 0.0);
+    return acc;
+}
+
+// The unit camera ray through image point p (pixels, (0, 0) the top-left corner).
+fn ray_of(p: vec2f) -> vec3f {
+    let ndc = vec2f(p.x / f32(bp.width) * 2.0 - 1.0, 1.0 - p.y / f32(bp.height) * 2.0);
+    let q = bp.clip_to_world * vec4f(ndc, 0.5, 1.0);
+    return normalize(q.xyz / q.w - bp.camera.xyz);
 }

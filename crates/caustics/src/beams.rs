@@ -194,6 +194,9 @@ pub fn validate(b: &BeamSettings) -> std::result::Result<(), (&'static str, Stri
     if !(1..=1 << 22).contains(&b.capacity) {
         return Err(("beams.capacity", format!("must be 1 to 4194304 beams (got {})", b.capacity)));
     }
+    if !(1..=8).contains(&b.pixel_samples) {
+        return Err(("beams.pixel_samples", format!("must be 1 to 8 (got {})", b.pixel_samples)));
+    }
     if !(1..=64).contains(&b.samples) {
         return Err(("beams.samples", format!("must be 1 to 64 (got {})", b.samples)));
     }
@@ -253,7 +256,7 @@ fn params(
         width: cam.width,
         height: cam.height,
         flags: u32::from(b.reflection),
-        _pad1: 0,
+        pixel_samples: b.pixel_samples,
     }
 }
 
@@ -281,7 +284,12 @@ pub(crate) fn record_beams(
         }
         let faces = lf.faces;
         let slots = b.slots_per_face() * u64::from(faces);
-        let bp = params(dc.scene, eye.cam_clip.inverse(), b, s.max_depth, faces, slots);
+        // Only the directions of the camera's rays are used: a projection of moderate depth
+        // range keeps them exact in f32 (the eye passes' near plane can be very close).
+        let cam = &dc.scene.camera;
+        let _ = eye.cam_clip;
+        let rays = (cam.view_to_clip(0.1, 100.0) * cam.world_to_view()).inverse();
+        let bp = params(dc.scene, rays, b, s.max_depth, faces, slots);
         frames.push(record_light_beams(
             ctx,
             dc,

@@ -34,7 +34,8 @@ struct BeamParams {
     height: u32,
     // bit 0: trace the branch reflected at the first dielectric surface too.
     flags: u32,
-    _pad1: u32,
+    // Camera rays per pixel side (beam_gather: the box pixel filter).
+    pixel_samples: u32,
 }
 
 // One refinement level's dispatch.

@@ -145,7 +145,8 @@ pub struct BeamParams {
     pub height: u32,
     /// Bit 0: trace the branch reflected at the first dielectric surface too.
     pub flags: u32,
-    pub _pad1: u32,
+    /// Camera rays per pixel side in `beam_gather`.
+    pub pixel_samples: u32,
 }
 
 /// One level of `beam_refine` (WGSL `BeamLevel`).
