@@ -15,7 +15,11 @@ fn main() {
                     sb += y.get(bx * bs + i, by * bs + j)[1];
                 }
             }
-            line += &if sb > 1e-4 || sa > 1e-4 { format!("{:5.2}/{:<5.3}", sa / sb.max(1e-9), sb) } else { "     .     ".into() };
+            line += &if sb > 1e-4 || sa > 1e-4 {
+                format!("{:5.2}/{:<5.3}", sa / sb.max(1e-9), sb)
+            } else {
+                "     .     ".into()
+            };
         }
         println!("{line}");
     }

@@ -104,12 +104,7 @@ impl Beam {
             level: self.level + 1,
         };
         let (ab, bc, ca) = (mid(0, 1), mid(1, 2), mid(2, 0));
-        [
-            make([corner(0), ab, ca]),
-            make([ab, corner(1), bc]),
-            make([ca, bc, corner(2)]),
-            make([bc, ca, ab]),
-        ]
+        [make([corner(0), ab, ca]), make([ab, corner(1), bc]), make([ca, bc, corner(2)]), make([bc, ca, ab])]
     }
 
     /// The GPU record (with its bounding sphere).
@@ -220,14 +215,7 @@ pub(crate) struct BeamFrame {
     levels: u32,
 }
 
-fn params(
-    scene: &Scene,
-    clip_to_world: Mat4,
-    b: &BeamSettings,
-    max_depth: u32,
-    faces: u32,
-    slots: u64,
-) -> BeamParams {
+fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, faces: u32, slots: u64) -> BeamParams {
     let m = scene.medium.as_ref();
     let g = m.map_or(0.0, |m| match m.phase {
         Phase::Isotropic => 0.0,
@@ -287,7 +275,6 @@ pub(crate) fn record_beams(
         // Only the directions of the camera's rays are used: a projection of moderate depth
         // range keeps them exact in f32 (the eye passes' near plane can be very close).
         let cam = &dc.scene.camera;
-        let _ = eye.cam_clip;
         let rays = (cam.view_to_clip(0.1, 100.0) * cam.world_to_view()).inverse();
         let bp = params(dc.scene, rays, b, s.max_depth, faces, slots);
         frames.push(record_light_beams(
@@ -317,7 +304,7 @@ fn record_light_beams(
 ) -> BeamFrame {
     let storage = wgpu::BufferUsages::empty();
     let levels = bp.levels;
-    let per_level = |l: u32| 2 * u64::from(bp.grid).pow(2) * u64::from(bp.faces) << (2 * l);
+    let per_level = |l: u32| (2 * u64::from(bp.grid).pow(2) * u64::from(bp.faces)) << (2 * l);
     let offset = |l: u32| (0..l).map(per_level).sum::<u64>();
     let slots = u64::from(bp.slots);
     let params = ctx.uniform("beam_params", bytemuck::bytes_of(bp));
@@ -492,7 +479,11 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
         ctx.buffer_init("beams", bytemuck::cast_slice(&recs), usage)
     };
     let slots: Vec<u32> = (0..2 * beams.len() as u32).map(|i| if i % 2 == 0 { i / 2 + 1 } else { 0 }).collect();
-    let slot_buf = ctx.buffer_init("beam_slots", bytemuck::cast_slice(&slots.iter().copied().chain([0]).collect::<Vec<_>>()), usage);
+    let slot_buf = ctx.buffer_init(
+        "beam_slots",
+        bytemuck::cast_slice(&slots.iter().copied().chain([0]).collect::<Vec<_>>()),
+        usage,
+    );
     let order = crate::gpu::storage(&ctx, "beam_order", 4 * beams.len().max(1) as u64, wgpu::BufferUsages::empty());
     let stats = crate::gpu::storage(&ctx, "beam_stats", STATS_WORDS * 4, wgpu::BufferUsages::empty());
     let img_bytes = u64::from(w) * u64::from(h) * 16;
@@ -515,7 +506,19 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     let nv = ctx.view(&none, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
     let tv = wgpu::BindingResource::TextureView(&nv);
     let mut timer = PassTimer::disabled();
-    record_order_gather(&ctx, &params, &slot_buf, &beam_buf, &order, &stats, (&tv, &tv), (&full, &caustic), (w, h), &mut enc, &mut timer);
+    record_order_gather(
+        &ctx,
+        &params,
+        &slot_buf,
+        &beam_buf,
+        &order,
+        &stats,
+        (&tv, &tv),
+        (&full, &caustic),
+        (w, h),
+        &mut enc,
+        &mut timer,
+    );
     ctx.end_scope();
     ctx.queue.submit([enc.finish()]);
     let data = ctx.read_buffer(&full, img_bytes)?;

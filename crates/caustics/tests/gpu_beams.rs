@@ -226,6 +226,12 @@ fn splitting_a_beam_leaves_the_image_unchanged_and_children_tile() {
         let diff = |a: &caustics::image_io::Image| {
             a.pixels.iter().zip(&p.pixels).map(|(a, b)| (a[0] - b[0]).abs()).fold(0.0f32, f32::max) / peak
         };
+        let mut many = vec![parent];
+        for _ in 0..5 {
+            many = many.iter().flat_map(|c| c.split()).collect();
+        }
+        let m = beams::gather(&ctx, &sc, &many, &s).unwrap();
+        println!("{focus:?}: 1024 beams / 1: sum ratio {:.4}", sum(&m) / sum(&p));
         let (dc, dg) = (diff(&c), diff(&g));
         // Measured: 1e-6 to 1e-5 of the peak: children tile their parent without gaps or
         // overlaps (a pixel whose ray runs along a shared side gets each part once).
@@ -409,7 +415,8 @@ fn gpu_beams_match_the_cpu_reference_in_fog() {
         );
         if std::env::var_os("BEAM_DUMP").is_some() {
             let dir = std::path::PathBuf::from(std::env::var_os("BEAM_DUMP").unwrap());
-            caustics_reference::io::ImageIo::write(&g.caustic, &dir.join(format!("gpu_{}.exr", b.levels)), 1.0).unwrap();
+            caustics_reference::io::ImageIo::write(&g.caustic, &dir.join(format!("gpu_{}.exr", b.levels)), 1.0)
+                .unwrap();
             caustics_reference::io::ImageIo::write(&r.caustic, &dir.join("reference.exr"), 1.0).unwrap();
         }
         assert!(flip < 0.1, "{name}: HDR-FLIP {flip}");
