@@ -44,7 +44,7 @@ fn add_roots(c: vec3f, len: f32, cuts: ptr<function, array<f32, 12>>, n: ptr<fun
         if (q != 0.0) { r.y = c.x / q; }
     }
     for (var k = 0; k < 2; k++) {
-        if (r[k] > 0.0 && r[k] < len && *n < 12u) {
+        if (r[k] > 0.0 && r[k] < len && *n < 10u) {
             (*cuts)[*n] = r[k];
             *n += 1u;
         }
@@ -83,13 +83,16 @@ fn beam_radiance(b: BeamGpu, o: vec3f, d: vec3f, len: f32, eye_in: f32) -> vec3f
     cuts[0] = 0.0;
     n = 1u;
     for (var k = 0; k < 3; k++) { add_roots(ek[k], len, &cuts, &n); }
+    // Where the cross-section's area passes through zero (a focus) the barycentrics change
+    // sign without any edge function doing so: a cut too.
+    add_roots(ek[0] + ek[1] + ek[2], len, &cuts, &n);
     if (yr != 0.0) {
         let u = -y0 / yr;
         if (u > 0.0 && u < len) { cuts[n] = u; n++; }
     }
     cuts[n] = len;
     n++;
-    // Sort the cuts (insertion sort; at most 9).
+    // Sort the cuts (insertion sort; at most 11).
     for (var a = 1u; a < n; a++) {
         let x = cuts[a];
         var c = a;
@@ -117,7 +120,7 @@ fn beam_radiance(b: BeamGpu, o: vec3f, d: vec3f, len: f32, eye_in: f32) -> vec3f
             let sum = e.x + e.y + e.z;
             if (sum == 0.0) { continue; }
             let w = e / sum;
-            if (y > dot(w, yend)) { continue; }
+            if (any(w < vec3f(0.0)) || y < 0.0 || y > dot(w, yend)) { continue; }
             let area = 0.5 * abs(sum);
             let dl = normalize(w.x * dir[0] + w.y * dir[1] + w.z * dir[2]);
             let cos_t = max(dot(nrm, dl), 1e-4);
