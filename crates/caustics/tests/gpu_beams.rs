@@ -423,3 +423,38 @@ fn gpu_beams_match_the_cpu_reference_in_fog() {
         assert!((eg / er - 1.0).abs() < 0.05, "{name}: energy {eg} vs {er}");
     }
 }
+
+#[test]
+fn beams_are_deterministic_create_nothing_after_the_first_frame_and_bad_settings_are_named() {
+    use caustics::renderer::{FrameRequest, Renderer};
+    let Some(ctx) = gpu() else { return };
+    let sc = ball_in_fog(14.0, 16, 12);
+    let s = render_settings(BeamSettings::default());
+    // Same input, same bits (the beams are summed in hierarchy order, not atomics' order).
+    let a = render(&ctx, &sc, &s).unwrap();
+    let b = render(&ctx, &sc, &s).unwrap();
+    assert!(a.caustic.pixels.iter().any(|p| p[0] > 0.0));
+    assert_eq!(a.image.pixels, b.image.pixels);
+    assert_eq!(a.beams[0].1, b.beams[0].1);
+    // The renderer's steady state: nothing created after the first frame.
+    let mut r = Renderer::with_context(ctx.clone(), sc.clone(), s.clone()).unwrap();
+    let frame = |r: &mut Renderer| {
+        let before = r.created();
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        r.encode(&mut enc, FrameRequest { stats: false }).unwrap();
+        let created = (r.created() - before).total();
+        ctx.queue.submit([enc.finish()]);
+        created
+    };
+    assert!(frame(&mut r) > 0);
+    assert_eq!(frame(&mut r), 0);
+    // Bad beam settings: an error naming the field.
+    for (bad, field) in [
+        (BeamSettings { grid: 0, ..Default::default() }, "beams.grid"),
+        (BeamSettings { levels: 9, ..Default::default() }, "beams.levels"),
+        (BeamSettings { energy_threshold: -1.0, ..Default::default() }, "beams.energy_threshold"),
+    ] {
+        let e = render(&ctx, &sc, &render_settings(bad)).err().expect("an error").to_string();
+        assert!(e.contains(field), "{e}");
+    }
+}
