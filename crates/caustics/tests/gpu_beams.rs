@@ -454,7 +454,8 @@ fn beams_are_deterministic_create_nothing_after_the_first_frame_and_bad_settings
         (BeamSettings { levels: 9, ..Default::default() }, "beams.levels"),
         (BeamSettings { energy_threshold: -1.0, ..Default::default() }, "beams.energy_threshold"),
     ] {
-        let e = render(&ctx, &sc, &render_settings(bad)).err().expect("an error").to_string();
+        let Err(e) = render(&ctx, &sc, &render_settings(bad)) else { panic!("{field}: no error") };
+        let e = e.to_string();
         assert!(e.contains(field), "{e}");
     }
 }
