@@ -29,6 +29,10 @@
 @group(0) @binding(5) var<storage, read> stats: array<u32>;
 @group(0) @binding(6) var<storage, read_write> out_full: array<vec4f>;
 @group(0) @binding(7) var<storage, read_write> out_caustic: array<vec4f>;
+// The chunk of the ordered list this dispatch gathers: beams offset .. offset + base_count.
+// One dispatch per chunk, in order: lavapipe was measured to stop a pixel's loop after about
+// 65536 loop iterations in all (some 950 beams), so a pixel never loops over all beams at once.
+@group(0) @binding(8) var<uniform> chunk: BeamLevel;
 
 // Roots of c2 u^2 + c1 u + c0 in (0, len), appended to `cuts` (count in `n`).
 fn add_roots(c: vec3f, len: f32, cuts: ptr<function, array<f32, 12>>, n: ptr<function, u32>) {
@@ -150,6 +154,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (r.w >= 0.0) { depth = min(depth, dot(r.xyz - cam, centre)); }
     if (sp.w >= 0.0) { depth = min(depth, dot(sp.xyz - cam, centre)); }
     let count = min(stats[1u + BS_ORDERED], bp.capacity);
+    if (chunk.offset >= count) { return; }
     // The box pixel filter: ns x ns stratified rays (a volume caustic's focal line is thinner
     // than a pixel: the pixel centre alone would miss or overweight it).
     let ns = max(bp.pixel_samples, 1u);
@@ -172,7 +177,8 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
 // The beams' light along the camera ray cam + t d, seg.x <= t <= seg.y (its part in the box).
 fn gather_ray(cam: vec3f, d: vec3f, seg: vec2f, count: u32) -> vec3f {
     var acc = vec3f(0.0);
-    for (var k = 0u; k < count; k++) {
+    let end = min(count, chunk.offset + chunk.base_count);
+    for (var k = chunk.offset; k < end; k++) {
         let bi = order[k];
         // The bounding sphere first (only it is read for the beams the ray misses).
         let bound = beams[bi].bound;

@@ -367,7 +367,8 @@ fn record_light_beams(
         }
     }
     let size = (dc.scene.camera.width, dc.scene.camera.height);
-    record_order_gather(ctx, &params, &slot_buf, &beams, &order, &stats, eye_views, images, size, enc, timer);
+    let limits = (bp.capacity, bp.slots, bp.pixel_samples);
+    record_order_gather(ctx, &params, &slot_buf, &beams, &order, &stats, eye_views, images, size, limits, enc, timer);
     BeamFrame { stats, beams, order, capacity: bp.capacity, levels }
 }
 
@@ -382,6 +383,7 @@ fn record_order_gather(
     eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
     images: (&wgpu::Buffer, &wgpu::Buffer),
     size: (u32, u32),
+    (capacity, slots_total, pixel_samples): (u32, u32, u32),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -402,29 +404,44 @@ fn record_order_gather(
         cp.dispatch_workgroups(1, 1, 1);
     }
     let gpl = ctx.compute_pipeline("beam_gather");
-    let gbg = bind(
-        ctx,
-        &gpl,
-        "beam_gather",
-        &[
-            params.as_entire_binding(),
-            eye_views.0.clone(),
-            eye_views.1.clone(),
-            beams.as_entire_binding(),
-            order.as_entire_binding(),
-            stats.as_entire_binding(),
-            images.0.as_entire_binding(),
-            images.1.as_entire_binding(),
-        ],
-    );
-    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("beam_gather"),
-        timestamp_writes: timer.compute("beam_gather"),
-    });
-    cp.set_pipeline(&gpl);
-    cp.set_bind_group(0, &gbg, &[]);
-    cp.dispatch_workgroups(size.0.div_ceil(8), size.1.div_ceil(8), 1);
+    // One dispatch per chunk of the ordered list (see beam_gather.wgsl): at most `capacity`
+    // beams, and at most two per slot of the hierarchy.
+    let rays = pixel_samples.max(1) * pixel_samples.max(1);
+    let chunk = (GATHER_CHUNK / rays).max(1);
+    let most = u64::from(capacity).min(2 * u64::from(slots_total)).max(1) as u32;
+    for c in 0..most.div_ceil(chunk) {
+        let cu = ctx.uniform(
+            "beam_chunk",
+            bytemuck::bytes_of(&BeamLevel { level: c, offset: c * chunk, next_offset: 0, base_count: chunk }),
+        );
+        let gbg = bind(
+            ctx,
+            &gpl,
+            "beam_gather",
+            &[
+                params.as_entire_binding(),
+                eye_views.0.clone(),
+                eye_views.1.clone(),
+                beams.as_entire_binding(),
+                order.as_entire_binding(),
+                stats.as_entire_binding(),
+                images.0.as_entire_binding(),
+                images.1.as_entire_binding(),
+                cu.as_entire_binding(),
+            ],
+        );
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("beam_gather"),
+            timestamp_writes: timer.compute("beam_gather"),
+        });
+        cp.set_pipeline(&gpl);
+        cp.set_bind_group(0, &gbg, &[]);
+        cp.dispatch_workgroups(size.0.div_ceil(8), size.1.div_ceil(8), 1);
+    }
 }
+
+/// Beams one `beam_gather` dispatch loops over per camera ray (beam_gather.wgsl says why).
+const GATHER_CHUNK: u32 = 256;
 
 /// Read a light's beams (in rendering order) and statistics back (blocking).
 pub(crate) fn read_frame(ctx: &GpuContext, f: &BeamFrame) -> Result<(BeamStats, Vec<Beam>)> {
@@ -516,6 +533,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
         (&tv, &tv),
         (&full, &caustic),
         (w, h),
+        (bp.capacity, bp.slots, bp.pixel_samples),
         &mut enc,
         &mut timer,
     );

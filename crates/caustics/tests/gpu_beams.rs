@@ -459,3 +459,27 @@ fn beams_are_deterministic_create_nothing_after_the_first_frame_and_bad_settings
         assert!(e.contains(field), "{e}");
     }
 }
+
+/// Thousands of beams over one pixel: every one is gathered (lavapipe stops a long loop of one
+/// invocation: the gather runs in chunks of the list).
+#[test]
+fn many_overlapping_beams_sum_like_one() {
+    let Some(ctx) = gpu() else { return };
+    let sc = side_view(0.6, 16, 16, 10.0, SIGMA_S, 0.05);
+    let one = vertical_beam(0.15, Some(1.2), 1.0, 1.0);
+    let p = beams::gather(&ctx, &sc, &[one], &settings()).unwrap();
+    for n in [100usize, 4000] {
+        let copy = Beam { flux: one.flux / n as f32, ..one };
+        let m = beams::gather(&ctx, &sc, &vec![copy; n], &settings()).unwrap();
+        println!("{n} copies: sum ratio {:.4}", sum(&m) / sum(&p));
+        assert!((sum(&m) / sum(&p) - 1.0).abs() < 1e-3);
+        let mut last = vec![Beam { flux: Vec3::ZERO, ..one }; n];
+        last[n - 1] = one;
+        let l = beams::gather(&ctx, &sc, &last, &settings()).unwrap();
+        let mut first = vec![Beam { flux: Vec3::ZERO, ..one }; n];
+        first[0] = one;
+        let f = beams::gather(&ctx, &sc, &first, &settings()).unwrap();
+        println!("{n}: only the last lit {:.4}, only the first {:.4}", sum(&l) / sum(&p), sum(&f) / sum(&p));
+        assert!((sum(&l) / sum(&p) - 1.0).abs() < 1e-4 && (sum(&f) / sum(&p) - 1.0).abs() < 1e-4);
+    }
+}
