@@ -271,7 +271,7 @@ pub struct BeamArgs {
     /// Beams: midpoint-rule points per piece of a camera ray inside a beam.
     #[arg(long, default_value_t = 4)]
     beam_samples: u32,
-    /// Beams: camera rays per pixel side (box filter; n² per pixel; above 1 has a known bug).
+    /// Beams: camera rays per pixel side (box filter; n² per pixel).
     #[arg(long, default_value_t = 1)]
     beam_pixel_samples: u32,
 }

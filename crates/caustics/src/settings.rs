@@ -328,9 +328,7 @@ pub struct BeamSettings {
     /// Midpoint-rule points per piece of a camera ray inside a beam.
     pub samples: u32,
     /// Camera rays per pixel side (the box pixel filter: n² stratified rays per pixel), 1 to 8.
-    /// Default 1 (the pixel centre). Known bug: in a frame with surfaces, more than 1 loses
-    /// the light of all but one sub-pixel ray (the image drops by about 1/n²); the standalone
-    /// `beams::gather` (no surfaces) is right. Not found yet.
+    /// Default 1 (the pixel centre; n rays cost n² times the gather).
     pub pixel_samples: u32,
     /// Also the beams of light reflected at the first dielectric surface.
     pub reflection: bool,
