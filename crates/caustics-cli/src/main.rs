@@ -151,6 +151,8 @@ enum Command {
         /// the GPU (cube-map median cut; 1 to 256).
         #[arg(long, default_value_t = caustics::settings::DEFAULT_ENV_LIGHTS)]
         env_lights: u32,
+        #[command(flatten)]
+        beams: BeamArgs,
         /// Gaussian splat standard deviation (caustic-map texels).
         #[arg(long, default_value_t = 1.0)]
         splat_sigma: f32,
@@ -261,6 +263,61 @@ fn main() -> ExitCode {
     }
 }
 
+/// Volume caustics by adaptive beam tracing (scenes with a medium and a specular caster; GPU).
+/// A separate switch from --technique: the beams render the light focused into the medium,
+/// the photon technique the caustic on surfaces, and both run in the same frame.
+#[derive(clap::Args, Debug, Clone)]
+pub struct BeamArgs {
+    /// Do not render volume caustics (beams).
+    #[arg(long)]
+    no_beams: bool,
+    /// Beams: cells per side of the coarse projected grid over each light face.
+    #[arg(long, default_value_t = 16)]
+    beam_grid: u32,
+    /// Beams: refinement levels (each splits a beam 1 -> 4); 0 for a regular grid.
+    #[arg(long, default_value_t = 3)]
+    beam_levels: u32,
+    /// Beams: split where the edges' first-surface normals differ by more (degrees).
+    #[arg(long, default_value_t = 25.0)]
+    beam_normal_threshold: f32,
+    /// Beams: split where the edges' distances to the first surface differ by more (fraction).
+    #[arg(long, default_value_t = 0.1)]
+    beam_depth_threshold: f32,
+    /// Beams: split where flux (relative to the face's) x convergence exceeds this.
+    #[arg(long, default_value_t = 0.05)]
+    beam_energy_threshold: f32,
+    /// Beams: split where the beam's width over its distance to the camera exceeds this (rad).
+    #[arg(long, default_value_t = 0.2)]
+    beam_camera_threshold: f32,
+    /// Beams held per light (more is an overflow, reported as an error).
+    #[arg(long, default_value_t = 1 << 17)]
+    beam_capacity: u32,
+    /// Beams: midpoint-rule points per piece of a camera ray inside a beam.
+    #[arg(long, default_value_t = 4)]
+    beam_samples: u32,
+    /// Beams: camera rays per pixel side (box filter; n² per pixel).
+    #[arg(long, default_value_t = 1)]
+    beam_pixel_samples: u32,
+}
+
+impl BeamArgs {
+    pub fn settings(&self) -> caustics::settings::BeamSettings {
+        caustics::settings::BeamSettings {
+            enabled: !self.no_beams,
+            grid: self.beam_grid,
+            levels: self.beam_levels,
+            normal_threshold_deg: self.beam_normal_threshold,
+            depth_threshold: self.beam_depth_threshold,
+            energy_threshold: self.beam_energy_threshold,
+            camera_threshold: self.beam_camera_threshold,
+            capacity: self.beam_capacity,
+            samples: self.beam_samples,
+            pixel_samples: self.beam_pixel_samples,
+            reflection: true,
+        }
+    }
+}
+
 /// The library names a bad setting by its field (`<settings>`, `photons`); the user gave it as a
 /// flag: say so.
 fn flag_names(e: &mut anyhow::Error) {
@@ -275,6 +332,15 @@ fn flag_names(e: &mut anyhow::Error) {
         ("medium_steps", "--medium-steps"),
         ("medium_light_steps", "--medium-light-steps"),
         ("env_lights", "--env-lights"),
+        ("beams.grid", "--beam-grid"),
+        ("beams.levels", "--beam-levels"),
+        ("beams.normal_threshold_deg", "--beam-normal-threshold"),
+        ("beams.depth_threshold", "--beam-depth-threshold"),
+        ("beams.energy_threshold", "--beam-energy-threshold"),
+        ("beams.camera_threshold", "--beam-camera-threshold"),
+        ("beams.capacity", "--beam-capacity"),
+        ("beams.samples", "--beam-samples"),
+        ("beams.pixel_samples", "--beam-pixel-samples"),
         ("camera.size", "--size"),
         ("splat_sigma", "--splat-sigma"),
         ("max_depth", "--max-depth"),
@@ -335,6 +401,7 @@ fn run(cli: Cli) -> Result<()> {
             medium_steps,
             medium_light_steps,
             env_lights,
+            beams,
             splat_sigma,
             photon_memory,
             dump,
@@ -383,6 +450,7 @@ fn run(cli: Cli) -> Result<()> {
                 medium_steps,
                 medium_light_steps,
                 env_lights,
+                beams: beams.settings(),
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),
                 caustic_spheres,
@@ -510,6 +578,12 @@ fn report_gpu(out: &GpuRender, wall_ms: f64) {
     println!("adapter: {}", out.adapter);
     let t = &out.technique;
     println!("photons: {} traced in {} batch(es)", out.photons_traced, out.batches);
+    for (li, (b, _)) in out.beams.iter().enumerate() {
+        println!(
+            "beams (light {li}): {} rendered; kept per level {:?}, traced per level {:?}; {} lost at the last level (edges disagree), {} grazing, {} over capacity",
+            b.beams, b.kept_per_level, b.visited_per_level, b.inconsistent, b.grazing, b.overflow
+        );
+    }
     println!(
         "technique {}: {} photons splatted, {} relevant (dense {}^2 photons hitting a caster), coverage {:.2} %, photon memory {:.1} MiB (peak {:.1} MiB)",
         t.technique,

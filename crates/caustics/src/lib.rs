@@ -9,6 +9,7 @@
 #![forbid(unsafe_code)]
 
 pub mod accel;
+pub mod beams;
 pub mod budget;
 pub mod caustic_spheres;
 pub mod error;

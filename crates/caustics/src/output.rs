@@ -59,4 +59,7 @@ pub struct GpuRender {
     /// per level, memory, batches).
     pub technique: TechniqueStats,
     pub adapter: String,
+    /// Per light with beams (volume caustics, `crate::beams`): the statistics and the beams
+    /// rendered, in rendering order.
+    pub beams: Vec<(crate::beams::BeamStats, Vec<crate::beams::Beam>)>,
 }

@@ -635,6 +635,9 @@ impl RenderSettings {
         if !(1..=256).contains(&self.env_lights) {
             return cl("env_lights", format!("must be 1 to 256 directional lights (got {})", self.env_lights));
         }
+        if let Err((field, msg)) = crate::beams::validate(&self.beams) {
+            return cl(field, msg);
+        }
         if !(self.splat_sigma > 0.1 && self.splat_sigma <= 16.0) {
             return cl("splat_sigma", format!("must lie in (0.1, 16] texels (got {})", self.splat_sigma));
         }
@@ -1231,7 +1234,7 @@ pub(crate) fn record_composite(
     s: &RenderSettings,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
-) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Texture) {
+) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Texture, Vec<crate::beams::BeamFrame>) {
     let ctx = dc.ctx;
     let cam = &dc.scene.camera;
     let (w, h) = (cam.width, cam.height);
@@ -1304,6 +1307,7 @@ pub(crate) fn record_composite(
         cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
     record_medium(dc, eye, lights, s, (&out_full, &out_caustic), enc, timer);
+    let beams = crate::beams::record_beams(dc, eye, lights, s, (&out_full, &out_caustic), enc, timer);
     let display = ctx.texture(
         "display",
         wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
@@ -1331,7 +1335,7 @@ pub(crate) fn record_composite(
         cp.set_bind_group(0, &dbg, &[]);
         cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
-    (out_full, out_caustic, display)
+    (out_full, out_caustic, display, beams)
 }
 
 /// The flux bookkeeping from a light's `flux_stats` words (fixed point, `scale` per watt).

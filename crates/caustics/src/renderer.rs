@@ -149,6 +149,8 @@ pub struct Renderer {
     light_dirty: Vec<bool>,
     frame: u64,
     outputs: Option<(wgpu::Buffer, wgpu::Buffer, wgpu::Texture)>,
+    /// The last frame's beam buffers per light with beams (`crate::beams`).
+    beam_frames: Vec<crate::beams::BeamFrame>,
     ring: Vec<StatsSlot>,
     latest: Option<FrameStats>,
     last_error: Option<String>,
@@ -191,6 +193,7 @@ impl Renderer {
             light_dirty: vec![true; lights],
             frame: 0,
             outputs: None,
+            beam_frames: Vec::new(),
             ring: Vec::new(),
             latest: None,
             last_error: None,
@@ -619,7 +622,10 @@ impl Renderer {
             ctx.end_scope();
         }
         ctx.begin_scope("composite", enc);
-        self.outputs = Some(crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer));
+        let (full, caustic, display, beams) =
+            crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
+        self.outputs = Some((full, caustic, display));
+        self.beam_frames = beams;
         ctx.end_scope();
 
         if request.stats {
@@ -909,7 +915,15 @@ impl Renderer {
         let caustic_maps = (0..n).map(|l| self.read_caustic_maps(l)).collect::<Result<Vec<_>>>()?;
         let caustic_flux_bits = (0..n).map(|l| self.read_caustic_flux_bits(l)).collect::<Result<Vec<_>>>()?;
         let technique = stats.technique;
+        let beams = self.beam_frames.iter().map(|f| crate::beams::read_frame(&ctx, f)).collect::<Result<Vec<_>>>()?;
+        if let Some(b) = beams.iter().find(|b| b.0.overflow > 0) {
+            return Err(Error::Device(format!(
+                "beam buffer overflow: {} beams did not fit (capacity {}; raise BeamSettings::capacity, --beam-capacity)",
+                b.0.overflow, self.settings.beams.capacity
+            )));
+        }
         Ok(GpuRender {
+            beams,
             image: self.read_image()?,
             caustic: self.read_caustic_image()?,
             caustic_maps,

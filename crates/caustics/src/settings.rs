@@ -306,6 +306,72 @@ pub struct RenderSettings {
     /// instead of photons: their light passes trace none. Spot and point lights keep the
     /// technique's caustic maps.
     pub caustic_spheres: bool,
+    /// Volume caustics by adaptive beam tracing in scenes with a medium (`crate::beams`).
+    pub beams: BeamSettings,
+}
+
+/// Volume caustics by adaptive beam tracing (Liktor & Dachsbacher 2011; `crate::beams`,
+/// docs/architecture.md "Volume caustics from beams"). Used in scenes with a participating
+/// medium and a specular caster, for every spot and point light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BeamSettings {
+    /// Render the volume caustic (on by default; off: the medium's direct light only).
+    pub enabled: bool,
+    /// Cells per side of the projected grid over each light face (two beams per cell), 1 to 1024.
+    pub grid: u32,
+    /// Refinement levels (each splits a triangle 1 -> 4), 0 (a regular grid) to 6.
+    pub levels: u32,
+    /// Split where the edges' normals at the first specular surface differ by more than this
+    /// angle (degrees).
+    pub normal_threshold_deg: f32,
+    /// Split where the edges' distances from the light to the first surface differ by more
+    /// than this fraction of their mean.
+    pub depth_threshold: f32,
+    /// Split where the beam's flux, relative to the flux of the light face at the light's peak
+    /// intensity, times its convergence (base area over its smallest cross-section before the
+    /// receiver, at least 1), exceeds this.
+    pub energy_threshold: f32,
+    /// Split where the beam's width over its distance from the camera exceeds this (radians).
+    pub camera_threshold: f32,
+    /// Beams held per light (more are dropped and reported as an overflow).
+    pub capacity: u32,
+    /// Midpoint-rule points per piece of a camera ray inside a beam.
+    pub samples: u32,
+    /// Camera rays per pixel side (the box pixel filter: n² stratified rays per pixel), 1 to 8.
+    /// Default 1 (the pixel centre; n rays cost n² times the gather).
+    pub pixel_samples: u32,
+    /// Also the beams of light reflected at the first dielectric surface.
+    pub reflection: bool,
+}
+
+impl Default for BeamSettings {
+    fn default() -> Self {
+        BeamSettings {
+            enabled: true,
+            grid: 16,
+            levels: 3,
+            normal_threshold_deg: 25.0,
+            depth_threshold: 0.1,
+            energy_threshold: 0.05,
+            camera_threshold: 0.2,
+            capacity: 1 << 17,
+            samples: 4,
+            pixel_samples: 1,
+            reflection: true,
+        }
+    }
+}
+
+impl BeamSettings {
+    /// A regular grid of `grid` cells per side (no refinement).
+    pub fn regular(grid: u32) -> BeamSettings {
+        BeamSettings { grid, levels: 0, ..Default::default() }
+    }
+
+    /// Slots of the refinement hierarchy per light face and branch: 2 grid^2 (4^(levels+1) - 1) / 3.
+    pub fn slots_per_face(&self) -> u64 {
+        2 * u64::from(self.grid).pow(2) * ((1u64 << (2 * (self.levels + 1))) - 1) / 3
+    }
 }
 
 /// The default of [`RenderSettings::env_lights`]: the paper's 24 (Tandianus et al. 2010).
@@ -339,6 +405,7 @@ impl Default for RenderSettings {
             env_lights: DEFAULT_ENV_LIGHTS,
             env_split: Default::default(),
             caustic_spheres: false,
+            beams: BeamSettings::default(),
         }
     }
 }

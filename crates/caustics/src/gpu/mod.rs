@@ -35,6 +35,9 @@ pub const STAGES: &[(&str, &str)] = &[
     ("splat_quads", include_str!("../../shaders/splat_quads.wgsl")),
     ("display", include_str!("../../shaders/display.wgsl")),
     ("ray_query", include_str!("../../shaders/ray_query.wgsl")),
+    ("beam_refine", include_str!("../../shaders/beam_refine.wgsl")),
+    ("beam_order", include_str!("../../shaders/beam_order.wgsl")),
+    ("beam_gather", include_str!("../../shaders/beam_gather.wgsl")),
 ];
 pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 
@@ -50,6 +53,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("triangles", include_str!("../../shaders/shared/triangles.wgsl")),
     ("environment", include_str!("../../shaders/shared/environment.wgsl")),
     ("medium", include_str!("../../shaders/shared/medium.wgsl")),
+    ("beams", include_str!("../../shaders/shared/beams.wgsl")),
 ];
 
 /// Full source of a stage: the shared code, then the stage with its `#import` lines replaced by
@@ -752,6 +756,11 @@ impl PassTimer {
     pub fn new(ctx: &GpuContext, capacity: u32) -> PassTimer {
         let set = ctx.timestamps.then(|| ctx.timestamp_set(capacity * 2));
         PassTimer { set, names: Vec::new(), capacity }
+    }
+
+    /// A timer that times nothing (for one-off dispatches outside a frame).
+    pub fn disabled() -> PassTimer {
+        PassTimer { set: None, names: Vec::new(), capacity: 0 }
     }
 
     /// Timestamp writes for a compute pass named `name` (None when timing is off or full).

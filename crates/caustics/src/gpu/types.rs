@@ -156,6 +156,69 @@ pub struct MediumParams {
     pub _pad: u32,
 }
 
+/// Parameters of the beam stages (`shaders/shared/beams.wgsl`, `BeamParams`; `crate::beams`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct BeamParams {
+    pub clip_to_world: [[f32; 4]; 4],
+    pub camera: [f32; 4],
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+    /// rgb = sigma_s, w = Henyey-Greenstein g.
+    pub sigma_s: [f32; 4],
+    pub sigma_t: [f32; 4],
+    pub grid: u32,
+    pub levels: u32,
+    pub faces: u32,
+    pub max_depth: u32,
+    pub normal_cos: f32,
+    pub depth_rel: f32,
+    pub energy: f32,
+    pub camera_size: f32,
+    pub _pad0: f32,
+    pub capacity: u32,
+    pub slots: u32,
+    pub samples: u32,
+    pub width: u32,
+    pub height: u32,
+    /// Bit 0: trace the branch reflected at the first dielectric surface too.
+    pub flags: u32,
+    /// Camera rays per pixel side in `beam_gather`.
+    pub pixel_samples: u32,
+}
+
+/// One level of `beam_refine` (WGSL `BeamLevel`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct BeamLevel {
+    pub level: u32,
+    pub offset: u32,
+    pub next_offset: u32,
+    pub base_count: u32,
+}
+
+/// A triangle of the beams' projected grid (WGSL `BeamTri`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct BeamTri {
+    pub a: [f32; 2],
+    pub b: [f32; 2],
+    pub c: [f32; 2],
+    pub id: u32,
+    pub face: u32,
+}
+
+/// A beam (WGSL `BeamGpu`): base vertices (w: in-medium light path before them), unit edge
+/// directions (w: length to the edge's end), flux (W; w: level), bounding sphere.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct BeamGpu {
+    pub v: [[f32; 4]; 3],
+    pub d: [[f32; 4]; 3],
+    pub flux: [f32; 4],
+    pub bound: [f32; 4],
+}
+
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct CompositeParams {
@@ -416,6 +479,10 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("SphereRecord", "SphereRecord", std::mem::size_of::<SphereRecord>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
     ("MediumParams", "MediumParams", std::mem::size_of::<MediumParams>()),
+    ("BeamParams", "BeamParams", std::mem::size_of::<BeamParams>()),
+    ("BeamLevel", "BeamLevel", std::mem::size_of::<BeamLevel>()),
+    ("BeamTri", "BeamTri", std::mem::size_of::<BeamTri>()),
+    ("BeamGpu", "BeamGpu", std::mem::size_of::<BeamGpu>()),
     ("TriParams", "TriParams", std::mem::size_of::<TriParams>()),
     ("BlendParams", "BlendParams", std::mem::size_of::<BlendParams>()),
     ("ObjectTransform", "ObjectTransform", std::mem::size_of::<ObjectTransform>()),

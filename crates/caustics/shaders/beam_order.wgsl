@@ -1,0 +1,44 @@
+// Stage: beam_order. The beams' list in hierarchy order: one workgroup walks the slots (level,
+// triangle id, branch) and writes the index of every kept beam in slot order, so that
+// beam_gather sums the beams in the same order whatever order beam_refine's atomics appended
+// them in (the image is the same bits from run to run). Each of the 256 threads counts the
+// beams of its run of slots, a prefix sum over the threads places the runs.
+
+#import beams
+
+@group(0) @binding(0) var<uniform> bp: BeamParams;
+@group(0) @binding(1) var<storage, read> slots: array<u32>;
+@group(0) @binding(2) var<storage, read_write> order: array<u32>;
+@group(0) @binding(3) var<storage, read_write> stats: array<u32>;
+
+var<workgroup> counts: array<u32, 256>;
+
+@compute @workgroup_size(256)
+fn main(@builtin(local_invocation_index) t: u32) {
+    let total = 2u * bp.slots;
+    let run = (total + 255u) / 256u;
+    let s0 = min(t * run, total);
+    let s1 = min(s0 + run, total);
+    var n = 0u;
+    for (var s = s0; s < s1; s++) { n += u32(slots[s] != 0u); }
+    counts[t] = n;
+    workgroupBarrier();
+    if (t == 0u) {
+        var acc = 0u;
+        for (var k = 0u; k < 256u; k++) {
+            let c = counts[k];
+            counts[k] = acc;
+            acc += c;
+        }
+        stats[1u + BS_ORDERED] = acc;
+    }
+    workgroupBarrier();
+    var at = counts[t];
+    for (var s = s0; s < s1; s++) {
+        let b = slots[s];
+        if (b != 0u && at < bp.capacity) {
+            order[at] = b - 1u;
+            at++;
+        }
+    }
+}

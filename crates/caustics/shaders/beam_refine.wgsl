@@ -1,0 +1,340 @@
+// Stage: beam_refine. One level of the adaptive projected grid of beams (Liktor & Dachsbacher
+// 2011, section 4.2), one thread per triangle: level 0 from the thread index (the B x B grid
+// over each light face, two triangles per cell), later levels from the work list the level
+// before appended (indirect dispatch). The triangle's three edge rays are traced exactly
+// (shared/raytrace.wgsl: refraction with Fresnel, total internal reflection, mirrors) from
+// the light to the first diffuse surface; then the triangle is
+//   - discarded: no edge meets a specular caster first (no caustic light);
+//   - split 1 -> 4 (edge midpoints; appended to the next level's list, its indirect dispatch
+//     size raised by atomicMax) while levels remain, when: the edges meet a caster's silhouette
+//     (some meet the caster, some not), a different object, or their first-surface normals
+//     differ by more than the normal threshold or their distances from the light by more than
+//     the depth threshold (discontinuities); the edges took different paths or land on
+//     different objects; the beam's flux relative to the face's flux, times its convergence
+//     (base area over its smallest cross-section before the receiver), exceeds the energy
+//     threshold; or the beam's width over its distance from the camera exceeds the camera
+//     threshold;
+//   - kept: one beam per traced branch whose three edges took the same path (the transmitted
+//     branch; with flags bit 0 also the branch reflected at the first dielectric surface),
+//     appended to the beam buffer (overflow counted, never written out of bounds) and entered
+//     in its slot of the hierarchy (beam_order lists the slots in order, so the image does not
+//     depend on the order of the atomics). At the last level, triangles whose edges still
+//     disagree are counted (their light is lost).
+
+#import raytrace
+#import beams
+
+@group(0) @binding(0) var<uniform> light: LightGpu;
+@group(0) @binding(1) var<uniform> bp: BeamParams;
+@group(0) @binding(2) var<uniform> lv: BeamLevel;
+@group(0) @binding(3) var<storage, read> materials: array<MaterialGpu>;
+@group(0) @binding(4) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(5) var<storage, read> bvh_tris: array<BvhTri>;
+@group(0) @binding(6) var<storage, read> bvh_instances: array<BvhInstance>;
+@group(0) @binding(7) var<storage, read_write> work: array<BeamTri>;
+// Per level l: (workgroups x, 1, 1, triangles appended) at words 4l..4l+3.
+@group(0) @binding(8) var<storage, read_write> args: array<atomic<u32>>;
+// Per slot and branch: beam index + 1 (0: none).
+@group(0) @binding(9) var<storage, read_write> slots: array<u32>;
+@group(0) @binding(10) var<storage, read_write> beams: array<BeamGpu>;
+// Word 0: beams appended; BS_WORDS statistics words follow at 1.
+@group(0) @binding(11) var<storage, read_write> stats: array<atomic<u32>>;
+
+// One traced edge.
+struct Edge {
+    // The first surface the light ray meets is a specular caster.
+    caster: bool,
+    // The path reached a diffuse surface or left the scene outside any dielectric, within the
+    // interactions allowed (a beam can be built on it).
+    ok: bool,
+    first_obj: u32,
+    first_n: vec3f,
+    first_t: f32,
+    // The path (objects, reflected or refracted, side) and the object it lands on.
+    sig: u32,
+    land: u32,
+    // The last segment: from the last specular interaction o along unit d, t_end to its end.
+    o: vec3f,
+    d: vec3f,
+    t_end: f32,
+    // In-medium length of the path before o (outside dielectrics, inside the box).
+    pre: f32,
+    // Radiant intensity toward the edge (W/sr) times the Fresnel and mirror factors.
+    weight: vec3f,
+}
+
+fn light_dir(face: Face, ndc: vec2f) -> vec3f {
+    let a4 = face.clip_to_world * vec4f(ndc, 0.0, 1.0);
+    let b4 = face.clip_to_world * vec4f(ndc, 1.0, 1.0);
+    return normalize(b4.xyz / b4.w - a4.xyz / a4.w);
+}
+
+// The edge ray of light-NDC point ndc of face f, on branch `branch` (0: transmitted at every
+// dielectric interface, total internal reflection reflecting; 1: reflected at the first
+// surface, then transmitted).
+fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
+    var e: Edge;
+    e.caster = false;
+    e.ok = false;
+    e.first_obj = INVALID;
+    e.land = INVALID;
+    e.sig = 0u;
+    let face = light.faces[f];
+    let lp = face.origin.xyz;
+    var o = lp;
+    var dir = light_dir(face, ndc);
+    var w = intensity_toward(light, dir);
+    var inside = false;
+    var pre = 0.0;
+    var depth = 0u;
+    var seg_o = lp;
+    loop {
+        let h = scene_hit(o, dir, 1e30);
+        if (h.object == INVALID) {
+            if (depth == 0u) { return e; }
+            // Leaves the scene: the beam runs to the far side of the medium's box.
+            e.ok = !inside;
+            e.land = INVALID;
+            e.o = seg_o;
+            e.d = dir;
+            let c = bm_box_clip(seg_o, dir, 1e30, bp.lo.xyz, bp.hi.xyz);
+            e.t_end = max(c.y, 0.0);
+            break;
+        }
+        let mat = materials[h.object];
+        if (depth == 0u) {
+            e.first_obj = h.object;
+            e.first_n = h.ns;
+            e.first_t = h.t;
+            if (mat.kind.x == KIND_DIFFUSE || mat.kind.y == 0u) { return e; }
+            e.caster = true;
+            if (branch == 1u && mat.kind.x != KIND_DIELECTRIC) { return e; }
+        }
+        if (mat.kind.x == KIND_DIFFUSE) {
+            e.ok = !inside;
+            e.land = h.object;
+            e.o = seg_o;
+            e.d = dir;
+            e.t_end = length(h.p - seg_o);
+            break;
+        }
+        if (depth >= bp.max_depth) { return e; }
+        if (!inside) { pre += bm_box_length(seg_o, h.p, bp.lo.xyz, bp.hi.xyz); }
+        let front = dot(dir, h.ng) < 0.0;
+        let ng = select(-h.ng, h.ng, front);
+        let ns = select(-h.ns, h.ns, front);
+        var n = ns;
+        var new_dir = vec3f(0.0);
+        var reflected = true;
+        if (mat.kind.x == KIND_MIRROR || mat.kind.x == KIND_CONDUCTOR) {
+            let cos_i = clamp(-dot(dir, ns), 0.0, 1.0);
+            if (mat.kind.x == KIND_MIRROR) { w *= mat.a.rgb; } else { w *= fresnel_conductor(cos_i, mat.a.rgb, mat.b.rgb); }
+        } else {
+            let eta = select(mat.a.y / mat.a.x, mat.a.x / mat.a.y, front);
+            var cos_i = -dot(dir, n);
+            if (cos_i <= 0.0) { n = ng; cos_i = -dot(dir, n); }
+            let fr = fresnel_dielectric(cos_i, eta);
+            reflected = (branch == 1u && depth == 0u) || fr >= 1.0;
+            w *= select(1.0 - fr, select(fr, 1.0, fr >= 1.0), reflected);
+            if (!reflected) {
+                var t = refract_dir(dir, n, 1.0 / eta);
+                if (dot(t.xyz, ng) >= 0.0) { t = refract_dir(dir, ng, 1.0 / eta); n = ng; }
+                if (t.w < 0.5) { reflected = true; } else { new_dir = t.xyz; inside = front; }
+            }
+        }
+        if (reflected) {
+            new_dir = reflect(dir, n);
+            if (dot(new_dir, ng) <= 0.0) { n = ng; new_dir = reflect(dir, ng); }
+        }
+        e.sig = (e.sig * 31u + h.object * 8u + u32(reflected) * 2u + u32(front) + 1u) & 0xffffffu;
+        dir = new_dir;
+        seg_o = h.p;
+        o = rt_spawn(h.p, h.ng, dir);
+        depth++;
+    }
+    e.pre = pre;
+    e.weight = w;
+    return e;
+}
+
+// Solid angle of the spherical triangle of unit directions a, b, c (Van Oosterom & Strackee).
+fn solid_angle(a: vec3f, b: vec3f, c: vec3f) -> f32 {
+    let num = abs(dot(a, cross(b, c)));
+    let den = 1.0 + dot(a, b) + dot(b, c) + dot(c, a);
+    return 2.0 * atan2(num, den);
+}
+
+// The beam over edges e0..e2 of a triangle of light directions l0..l2. Returns flux.w < 0 when
+// the base is degenerate or grazing.
+fn make_beam(e0: Edge, e1: Edge, e2: Edge, omega: f32, level: u32) -> BeamGpu {
+    var b: BeamGpu;
+    b.v0 = vec4f(e0.o, e0.pre);
+    b.v1 = vec4f(e1.o, e1.pre);
+    b.v2 = vec4f(e2.o, e2.pre);
+    b.d0 = vec4f(e0.d, e0.t_end);
+    b.d1 = vec4f(e1.d, e1.t_end);
+    b.d2 = vec4f(e2.d, e2.t_end);
+    b.flux = vec4f(omega * (e0.weight + e1.weight + e2.weight) / 3.0, f32(level));
+    var nrm = cross(e1.o - e0.o, e2.o - e0.o);
+    let len = length(nrm);
+    if (len <= 0.0) { b.flux.w = -1.0; return b; }
+    nrm /= len;
+    if (dot(nrm, e0.d + e1.d + e2.d) < 0.0) { nrm = -nrm; }
+    if (min(min(dot(nrm, e0.d), dot(nrm, e1.d)), dot(nrm, e2.d)) < 1e-3) { b.flux.w = -1.0; return b; }
+    // Bounding sphere of the six corners (the beam between its base and its farthest end
+    // height lies in their convex hull).
+    let y0 = e0.t_end * dot(nrm, e0.d);
+    let y1 = e1.t_end * dot(nrm, e1.d);
+    let y2 = e2.t_end * dot(nrm, e2.d);
+    let ym = max(max(y0, y1), y2);
+    let p = array<vec3f, 6>(e0.o, e1.o, e2.o,
+        e0.o + e0.d * (ym / dot(nrm, e0.d)), e1.o + e1.d * (ym / dot(nrm, e1.d)), e2.o + e2.d * (ym / dot(nrm, e2.d)));
+    var lo = p[0];
+    var hi = p[0];
+    for (var k = 1; k < 6; k++) { lo = min(lo, p[k]); hi = max(hi, p[k]); }
+    let c = 0.5 * (lo + hi);
+    var r = 0.0;
+    for (var k = 0; k < 6; k++) { r = max(r, length(p[k] - c)); }
+    b.bound = vec4f(c, r * 1.0001 + 1e-6);
+    return b;
+}
+
+// Signed twice-area of the beam's cross-section at height y over its base plane (normal nrm):
+// a quadratic in y (Ernst et al. 2005), returned as its value; its smallest |value| over
+// [0, ym] is what the energy criterion's convergence uses.
+fn min_area(e0: Edge, e1: Edge, e2: Edge, ym: f32) -> vec2f {
+    var nrm = normalize(cross(e1.o - e0.o, e2.o - e0.o));
+    if (dot(nrm, e0.d + e1.d + e2.d) < 0.0) { nrm = -nrm; }
+    let s0 = e0.d / max(dot(nrm, e0.d), 1e-3);
+    let s1 = e1.d / max(dot(nrm, e1.d), 1e-3);
+    let s2 = e2.d / max(dot(nrm, e2.d), 1e-3);
+    // 2A(y) = nrm . ((a + y b) x (c + y d)), a = v1 - v0, b = s1 - s0, c = v2 - v0, d = s2 - s0.
+    let a = e1.o - e0.o;
+    let bb = s1 - s0;
+    let c = e2.o - e0.o;
+    let dd = s2 - s0;
+    let k0 = dot(nrm, cross(a, c));
+    let k1 = dot(nrm, cross(a, dd) + cross(bb, c));
+    let k2 = dot(nrm, cross(bb, dd));
+    var m = min(abs(k0), abs(k0 + k1 * ym + k2 * ym * ym));
+    if (abs(k2) > 0.0) {
+        let yv = -k1 / (2.0 * k2);
+        if (yv > 0.0 && yv < ym) { m = min(m, abs(k0 + k1 * yv + k2 * yv * yv)); }
+    }
+    return vec2f(abs(k0), m);
+}
+
+fn consistent(e0: Edge, e1: Edge, e2: Edge) -> bool {
+    return e0.ok && e1.ok && e2.ok && e0.sig == e1.sig && e1.sig == e2.sig && e0.land == e1.land && e1.land == e2.land;
+}
+
+fn emit(b: BeamGpu, slot: u32) {
+    if (b.flux.w < 0.0) { atomicAdd(&stats[1u + BS_GRAZING], 1u); return; }
+    let i = atomicAdd(&stats[0], 1u);
+    if (i >= bp.capacity) { atomicAdd(&stats[1u + BS_OVERFLOW], 1u); return; }
+    beams[i] = b;
+    slots[slot] = i + 1u;
+    atomicAdd(&stats[1u + BS_KEPT + min(u32(b.flux.w), 7u)], 1u);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3u) {
+    let i = gid.x + gid.y * 65535u * 64u;
+    let level = lv.level;
+    var tri: BeamTri;
+    if (level == 0u) {
+        if (i >= lv.base_count) { return; }
+        if (i == 0u) {
+            for (var l = 0u; l < 8u; l++) {
+                atomicStore(&args[4u * l + 1u], 1u);
+                atomicStore(&args[4u * l + 2u], 1u);
+            }
+        }
+        let per_face = 2u * bp.grid * bp.grid;
+        let f = i / per_face;
+        let r = i % per_face;
+        let cell = r / 2u;
+        let s = 2.0 / f32(bp.grid);
+        let x0 = -1.0 + s * f32(cell % bp.grid);
+        let y0 = -1.0 + s * f32(cell / bp.grid);
+        tri.face = f;
+        tri.id = i;
+        tri.a = vec2f(x0, y0);
+        if ((r & 1u) == 0u) {
+            tri.b = vec2f(x0 + s, y0);
+            tri.c = vec2f(x0 + s, y0 + s);
+        } else {
+            tri.b = vec2f(x0 + s, y0 + s);
+            tri.c = vec2f(x0, y0 + s);
+        }
+    } else {
+        if (i >= atomicLoad(&args[4u * level + 3u])) { return; }
+        tri = work[lv.offset + i];
+    }
+    atomicAdd(&stats[1u + BS_VISITED + min(level, 7u)], 1u);
+    let e0 = trace_edge(tri.face, tri.a, 0u);
+    let e1 = trace_edge(tri.face, tri.b, 0u);
+    let e2 = trace_edge(tri.face, tri.c, 0u);
+    let casters = u32(e0.caster) + u32(e1.caster) + u32(e2.caster);
+    if (casters == 0u) { return; }
+    let face = light.faces[tri.face];
+    let omega = solid_angle(light_dir(face, tri.a), light_dir(face, tri.b), light_dir(face, tri.c));
+    var split = casters < 3u || !consistent(e0, e1, e2);
+    if (!split) {
+        // Discontinuities of the specular surface.
+        let same_obj = e0.first_obj == e1.first_obj && e1.first_obj == e2.first_obj;
+        let ncos = min(min(dot(e0.first_n, e1.first_n), dot(e1.first_n, e2.first_n)), dot(e2.first_n, e0.first_n));
+        let tm = (e0.first_t + e1.first_t + e2.first_t) / 3.0;
+        let dt = max(max(e0.first_t, e1.first_t), e2.first_t) - min(min(e0.first_t, e1.first_t), e2.first_t);
+        split = !same_obj || ncos < bp.normal_cos || dt > bp.depth_rel * tm;
+    }
+    if (!split) {
+        // Energy and convergence.
+        let w = (e0.weight + e1.weight + e2.weight) / 3.0;
+        let phi = omega * (w.r + w.g + w.b) / 3.0;
+        // (the longest edge: at least the end height over the base)
+        let ym = max(max(e0.t_end, e1.t_end), e2.t_end);
+        let ar = min_area(e0, e1, e2, ym);
+        // (capped at 100: a ball lens's beams all but vanish at their focus)
+        let conv = ar.x / max(ar.y, 1e-2 * ar.x);
+        let face_omega = solid_angle(light_dir(face, vec2f(-1.0, -1.0)), light_dir(face, vec2f(1.0, -1.0)), light_dir(face, vec2f(1.0, 1.0)))
+            + solid_angle(light_dir(face, vec2f(-1.0, -1.0)), light_dir(face, vec2f(1.0, 1.0)), light_dir(face, vec2f(-1.0, 1.0)));
+        let peak = max(max(light.power.r, light.power.g), light.power.b);
+        split = phi / max(face_omega * peak, 1e-30) * max(conv, 1.0) > bp.energy;
+        // Distance to the camera: the closest point of the central ray to the camera.
+        let co = (e0.o + e1.o + e2.o) / 3.0;
+        let cd = normalize(e0.d + e1.d + e2.d);
+        let tc = clamp(dot(bp.camera.xyz - co, cd), 0.0, ym);
+        let dist = max(length(co + cd * tc - bp.camera.xyz), 1e-6);
+        split = split || sqrt(0.5 * ar.x) / dist > bp.camera_size;
+    }
+    if (split && level < bp.levels) {
+        let k = atomicAdd(&args[4u * (level + 1u) + 3u], 4u);
+        atomicMax(&args[4u * (level + 1u)], (k + 4u + 63u) / 64u);
+        let ab = 0.5 * (tri.a + tri.b);
+        let bc = 0.5 * (tri.b + tri.c);
+        let ca = 0.5 * (tri.c + tri.a);
+        let base = lv.next_offset + k;
+        work[base] = BeamTri(tri.a, ab, ca, tri.id * 4u, tri.face);
+        work[base + 1u] = BeamTri(ab, tri.b, bc, tri.id * 4u + 1u, tri.face);
+        work[base + 2u] = BeamTri(ca, bc, tri.c, tri.id * 4u + 2u, tri.face);
+        work[base + 3u] = BeamTri(bc, ca, ab, tri.id * 4u + 3u, tri.face);
+        return;
+    }
+    let slot = lv.offset + tri.id;
+    if (consistent(e0, e1, e2)) {
+        emit(make_beam(e0, e1, e2, omega, level), 2u * slot);
+    } else {
+        atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
+    }
+    if ((bp.flags & 1u) != 0u) {
+        let r0 = trace_edge(tri.face, tri.a, 1u);
+        let r1 = trace_edge(tri.face, tri.b, 1u);
+        let r2 = trace_edge(tri.face, tri.c, 1u);
+        if (consistent(r0, r1, r2)) {
+            emit(make_beam(r0, r1, r2, omega, level), 2u * slot + 1u);
+        } else if (r0.ok || r1.ok || r2.ok) {
+            atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
+        }
+    }
+}

@@ -1,0 +1,117 @@
+// Shared WGSL (`#import beams`): volume caustics by adaptive beam tracing (Liktor & Dachsbacher
+// 2011; docs/architecture.md, "Volume caustics from beams"). The records the beam stages share
+// (src/gpu/types.rs mirrors them) and the exact trace of one beam edge.
+
+struct BeamParams {
+    // The camera (pixel rays) and the medium (box, coefficients).
+    clip_to_world: mat4x4f,
+    camera: vec4f,
+    lo: vec4f,
+    hi: vec4f,
+    // rgb = sigma_s (1/m), w = Henyey-Greenstein g
+    sigma_s: vec4f,
+    // rgb = sigma_t (1/m)
+    sigma_t: vec4f,
+    // Base grid B (cells per face side), refinement levels L, light faces, specular interactions
+    // followed per edge.
+    grid: u32,
+    levels: u32,
+    faces: u32,
+    max_depth: u32,
+    // Split thresholds (BeamSettings): cos of the normal angle, relative depth difference,
+    // energy (beam flux over the face's flux at the light's peak intensity, times convergence), camera (beam width / distance, radians).
+    normal_cos: f32,
+    depth_rel: f32,
+    energy: f32,
+    camera_size: f32,
+    _pad0: f32,
+    // Beam records the beam buffer holds; slots of the hierarchy (all levels, one branch).
+    capacity: u32,
+    slots: u32,
+    // Quadrature points per piece of a camera ray inside a beam.
+    samples: u32,
+    width: u32,
+    height: u32,
+    // bit 0: trace the branch reflected at the first dielectric surface too.
+    flags: u32,
+    // Camera rays per pixel side (beam_gather: the box pixel filter).
+    pixel_samples: u32,
+}
+
+// One refinement level's dispatch.
+struct BeamLevel {
+    level: u32,
+    // Slot offset of this level (and its work list) in the hierarchy.
+    offset: u32,
+    // Slot offset of the next level.
+    next_offset: u32,
+    // Level-0 triangles (faces x 2 B^2).
+    base_count: u32,
+}
+
+// A triangle of the projected grid (light NDC of its vertices), its id within its level
+// (level 0: face x 2B^2 + cell x 2 + half; a child: parent x 4 + k) and face.
+struct BeamTri {
+    a: vec2f,
+    b: vec2f,
+    c: vec2f,
+    id: u32,
+    face: u32,
+}
+
+// A beam: base vertices v_i (w: the in-medium length of the light's path before v_i), unit
+// edge directions d_i (w: distance from v_i to the edge's end on a surface), flux (W, rgb;
+// w: the hierarchy level) and a bounding sphere of the beam (centre, radius).
+struct BeamGpu {
+    v0: vec4f,
+    v1: vec4f,
+    v2: vec4f,
+    d0: vec4f,
+    d1: vec4f,
+    d2: vec4f,
+    flux: vec4f,
+    bound: vec4f,
+}
+
+// Statistics words (u32): 0..7 beams kept per level, 8..15 triangles visited per level,
+// 16 beams over the capacity (dropped: an overflow, reported), 17 triangles with inconsistent
+// edges at the last level (their light is lost), 18 beams in the ordered list, 19 beams
+// discarded for grazing bases.
+const BS_KEPT: u32 = 0u;
+const BS_VISITED: u32 = 8u;
+const BS_OVERFLOW: u32 = 16u;
+const BS_INCONSISTENT: u32 = 17u;
+const BS_ORDERED: u32 = 18u;
+const BS_GRAZING: u32 = 19u;
+const BS_WORDS: u32 = 32u;
+
+// Length of the segment from a to b inside the box lo..hi (as shared/medium.wgsl's box_length).
+fn bm_box_clip(o: vec3f, d: vec3f, t_max: f32, lo: vec3f, hi: vec3f) -> vec2f {
+    var t0 = 0.0;
+    var t1 = t_max;
+    for (var k = 0; k < 3; k++) {
+        if (abs(d[k]) < 1e-12) {
+            if (o[k] < lo[k] || o[k] > hi[k]) { return vec2f(1.0, 0.0); }
+            continue;
+        }
+        let a = (lo[k] - o[k]) / d[k];
+        let b = (hi[k] - o[k]) / d[k];
+        t0 = max(t0, min(a, b));
+        t1 = min(t1, max(a, b));
+    }
+    return vec2f(t0, t1);
+}
+
+fn bm_box_length(a: vec3f, b: vec3f, lo: vec3f, hi: vec3f) -> f32 {
+    let v = b - a;
+    let l = length(v);
+    if (l <= 0.0) { return 0.0; }
+    let c = bm_box_clip(a, v / l, l, lo, hi);
+    return max(c.y - c.x, 0.0);
+}
+
+fn bm_phase(cos_t: f32, g: f32) -> f32 {
+    if (g == 0.0) { return 0.25 / PI; }
+    let den = max(1.0 + g * g - 2.0 * g * cos_t, 1e-12);
+    return (1.0 - g * g) / (4.0 * PI * den * sqrt(den));
+}

@@ -1,0 +1,552 @@
+//! Volume caustics by adaptive beam tracing (Liktor & Dachsbacher 2011): light focused by
+//! specular casters into a participating medium and scattered toward the camera.
+//!
+//! Per spot or point light, in scenes with a medium and a specular caster (docs/architecture.md,
+//! "Volume caustics from beams"):
+//! 1. `beam_refine`, once per level: a projected grid of `BeamSettings::grid`² cells (two
+//!    triangles each) over every light face; each triangle's three edge rays are traced exactly
+//!    through the casters; the triangle is discarded, split 1 → 4 into the next level's work
+//!    list (atomic append, indirect dispatch) or kept as a beam (atomic append into the beam
+//!    buffer; overflow counted and reported). No CPU round trip between levels.
+//! 2. `beam_order`: the kept beams listed in hierarchy order (so the image is the same bits
+//!    from run to run whatever order the atomics ran in).
+//! 3. `beam_gather`: per pixel, every beam's exact intersection with the camera ray and the
+//!    single-scattering integral along it, added to the image (and to the caustic-only image:
+//!    the volume caustic is caustic light).
+//!
+//! The paper rasterizes a bounding hull per beam with additive blending; we gather per pixel in
+//! a compute pass over the ordered list, culled by each beam's bounding sphere. Why: every beam
+//! is met exactly once per pixel by construction (a camera inside a beam included, no hull
+//! faces to choose), the sum is in a fixed order (deterministic bits, which blending does not
+//! give), and the intersection is exact, so no soft clipping is needed. The price is a loop
+//! over all beams per pixel (sphere tests), which a hull rasterizer or a screen-space binning
+//! of the beams would avoid: `docs/benchmarks.md` measures it.
+
+use crate::error::{Error, Result};
+use crate::gpu::types::{BeamGpu, BeamLevel, BeamParams, BeamTri};
+use crate::gpu::{GpuContext, PassTimer, bind};
+use crate::image_io::Image;
+use crate::passes::{DrawCtx, EyeFrame, LightFrame, layer_view};
+use crate::scene::{Light, Phase, Scene};
+use crate::settings::{BeamSettings, RenderSettings};
+use glam::{Mat4, Vec3};
+
+/// Statistics words of a light's beam stages (`shaders/shared/beams.wgsl`, after the append
+/// counter at word 0).
+const STATS_WORDS: u64 = 33;
+
+/// A beam: a triangle of light leaving the last specular surface of its path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Beam {
+    /// Base vertices (on the last specular surface).
+    pub vertices: [Vec3; 3],
+    /// In-medium length of the light's path before each base vertex (m).
+    pub pre: [f32; 3],
+    /// Unit edge directions.
+    pub dirs: [Vec3; 3],
+    /// Length of each edge from its base vertex to its end on a surface (m).
+    pub ends: [f32; 3],
+    /// Flux (W, rgb).
+    pub flux: Vec3,
+    /// Refinement level it was kept at.
+    pub level: u32,
+}
+
+impl Beam {
+    /// The base triangle's unit normal, oriented along the edges.
+    pub fn normal(&self) -> Vec3 {
+        let [a, b, c] = self.vertices;
+        let n = (b - a).cross(c - a).normalize();
+        if n.dot(self.dirs[0] + self.dirs[1] + self.dirs[2]) < 0.0 { -n } else { n }
+    }
+
+    /// Edge directions scaled to unit height over the base plane (beam space).
+    fn scaled(&self) -> [Vec3; 3] {
+        let n = self.normal();
+        self.dirs.map(|d| d / n.dot(d))
+    }
+
+    /// The cross-section at height y over the base plane.
+    pub fn section(&self, y: f32) -> [Vec3; 3] {
+        let s = self.scaled();
+        [0, 1, 2].map(|i| self.vertices[i] + s[i] * y)
+    }
+
+    /// Area of the cross-section parallel to the base at height y (a quadratic in y: the
+    /// paper's A(y)); unsigned.
+    pub fn area(&self, y: f32) -> f32 {
+        let [a, b, c] = self.section(y);
+        0.5 * (b - a).cross(c - a).dot(self.normal()).abs()
+    }
+
+    /// The four beams of the midpoint subdivision (flux split by base area: uniform), which
+    /// tile this one exactly.
+    pub fn split(&self) -> [Beam; 4] {
+        let s = self.scaled();
+        let n = self.normal();
+        let mid = |i: usize, j: usize| {
+            let d = (s[i] + s[j]) * 0.5;
+            (
+                (self.vertices[i] + self.vertices[j]) * 0.5,
+                (self.pre[i] + self.pre[j]) * 0.5,
+                d.normalize(),
+                // The end height interpolated along the edge.
+                0.5 * (self.ends[i] * n.dot(self.dirs[i]) + self.ends[j] * n.dot(self.dirs[j])) / n.dot(d.normalize()),
+            )
+        };
+        let corner = |i: usize| (self.vertices[i], self.pre[i], self.dirs[i], self.ends[i]);
+        let make = |p: [(Vec3, f32, Vec3, f32); 3]| Beam {
+            vertices: p.map(|q| q.0),
+            pre: p.map(|q| q.1),
+            dirs: p.map(|q| q.2),
+            ends: p.map(|q| q.3),
+            flux: self.flux * 0.25,
+            level: self.level + 1,
+        };
+        let (ab, bc, ca) = (mid(0, 1), mid(1, 2), mid(2, 0));
+        [make([corner(0), ab, ca]), make([ab, corner(1), bc]), make([ca, bc, corner(2)]), make([bc, ca, ab])]
+    }
+
+    /// The GPU record (with its bounding sphere).
+    pub fn to_gpu(&self) -> BeamGpu {
+        let n = self.normal();
+        let ym = (0..3).map(|i| self.ends[i] * n.dot(self.dirs[i])).fold(0.0f32, f32::max);
+        let s = self.scaled();
+        let pts: Vec<Vec3> = (0..3).flat_map(|i| [self.vertices[i], self.vertices[i] + s[i] * ym]).collect();
+        let lo = pts.iter().fold(Vec3::splat(f32::MAX), |a, p| a.min(*p));
+        let hi = pts.iter().fold(Vec3::splat(f32::MIN), |a, p| a.max(*p));
+        let c = (lo + hi) * 0.5;
+        let r = pts.iter().map(|p| (*p - c).length()).fold(0.0f32, f32::max);
+        BeamGpu {
+            v: [0, 1, 2].map(|i| self.vertices[i].extend(self.pre[i]).to_array()),
+            d: [0, 1, 2].map(|i| self.dirs[i].extend(self.ends[i]).to_array()),
+            flux: self.flux.extend(self.level as f32).to_array(),
+            bound: c.extend(r * 1.0001 + 1e-6).to_array(),
+        }
+    }
+
+    fn from_gpu(b: &BeamGpu) -> Beam {
+        let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+        Beam {
+            vertices: b.v.map(v3),
+            pre: b.v.map(|a| a[3]),
+            dirs: b.d.map(v3),
+            ends: b.d.map(|a| a[3]),
+            flux: v3(b.flux),
+            level: b.flux[3] as u32,
+        }
+    }
+}
+
+/// What the beam stages of one light did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BeamStats {
+    /// Beams kept per level (0 ..= levels).
+    pub kept_per_level: Vec<u32>,
+    /// Triangles traced per level.
+    pub visited_per_level: Vec<u32>,
+    /// Beams rendered (in the ordered list).
+    pub beams: u32,
+    /// Beams that did not fit the beam buffer (`BeamSettings::capacity`): an overflow.
+    pub overflow: u32,
+    /// Triangles at the last level whose edges still took different paths (their light is lost).
+    pub inconsistent: u32,
+    /// Beams dropped for a degenerate or grazing base.
+    pub grazing: u32,
+}
+
+/// Check the beam settings: (field, message) on error.
+pub fn validate(b: &BeamSettings) -> std::result::Result<(), (&'static str, String)> {
+    if !(1..=1024).contains(&b.grid) {
+        return Err(("beams.grid", format!("must be 1 to 1024 cells (got {})", b.grid)));
+    }
+    if b.levels > 6 {
+        return Err(("beams.levels", format!("must be 0 to 6 (got {})", b.levels)));
+    }
+    if b.slots_per_face() * 6 > 4_000_000 {
+        return Err((
+            "beams.grid",
+            format!(
+                "a grid of {} with {} levels has {} triangle slots per face; at most 666666 (6 faces)",
+                b.grid,
+                b.levels,
+                b.slots_per_face()
+            ),
+        ));
+    }
+    if !(b.normal_threshold_deg >= 0.0 && b.normal_threshold_deg <= 180.0) {
+        return Err(("beams.normal_threshold_deg", format!("must be 0 to 180 (got {})", b.normal_threshold_deg)));
+    }
+    for (name, v) in [
+        ("beams.depth_threshold", b.depth_threshold),
+        ("beams.energy_threshold", b.energy_threshold),
+        ("beams.camera_threshold", b.camera_threshold),
+    ] {
+        if !(v > 0.0 && v.is_finite()) {
+            return Err((name, format!("must be a positive number (got {v})")));
+        }
+    }
+    if !(1..=1 << 22).contains(&b.capacity) {
+        return Err(("beams.capacity", format!("must be 1 to 4194304 beams (got {})", b.capacity)));
+    }
+    if !(1..=8).contains(&b.pixel_samples) {
+        return Err(("beams.pixel_samples", format!("must be 1 to 8 (got {})", b.pixel_samples)));
+    }
+    if !(1..=64).contains(&b.samples) {
+        return Err(("beams.samples", format!("must be 1 to 64 (got {})", b.samples)));
+    }
+    Ok(())
+}
+
+/// Whether the beam stages run for this scene: a medium that scatters, a specular caster, and
+/// the beams enabled.
+pub fn active(scene: &Scene, s: &RenderSettings) -> bool {
+    s.beams.enabled
+        && scene.medium.as_ref().is_some_and(|m| m.sigma_s.max_element() > 0.0)
+        && scene.objects.iter().any(|o| scene.material_of(o).is_specular())
+}
+
+/// A light's beam buffers, kept for the statistics read-back.
+pub(crate) struct BeamFrame {
+    stats: wgpu::Buffer,
+    beams: wgpu::Buffer,
+    order: wgpu::Buffer,
+    capacity: u32,
+    levels: u32,
+}
+
+fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, faces: u32, slots: u64) -> BeamParams {
+    let m = scene.medium.as_ref();
+    let g = m.map_or(0.0, |m| match m.phase {
+        Phase::Isotropic => 0.0,
+        Phase::HenyeyGreenstein { g } => g,
+    });
+    let cam = &scene.camera;
+    BeamParams {
+        clip_to_world: clip_to_world.to_cols_array_2d(),
+        camera: cam.position.extend(1.0).to_array(),
+        lo: m.map_or([0.0; 4], |m| m.bounds_min.extend(0.0).to_array()),
+        hi: m.map_or([0.0; 4], |m| m.bounds_max.extend(0.0).to_array()),
+        sigma_s: m.map_or(Vec3::ZERO, |m| m.sigma_s).extend(g).to_array(),
+        sigma_t: m.map_or(Vec3::ZERO, |m| m.sigma_s + m.sigma_a).extend(0.0).to_array(),
+        grid: b.grid,
+        levels: b.levels,
+        faces,
+        max_depth,
+        normal_cos: b.normal_threshold_deg.to_radians().cos(),
+        depth_rel: b.depth_threshold,
+        energy: b.energy_threshold,
+        camera_size: b.camera_threshold,
+        _pad0: 0.0,
+        capacity: b.capacity,
+        slots: slots as u32,
+        samples: b.samples,
+        width: cam.width,
+        height: cam.height,
+        flags: u32::from(b.reflection),
+        pixel_samples: b.pixel_samples,
+    }
+}
+
+/// The beam stages of every spot and point light (nothing is recorded or requested when
+/// [`active`] is false), adding the volume caustic to both images.
+pub(crate) fn record_beams(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    lights: &[&LightFrame],
+    s: &RenderSettings,
+    images: (&wgpu::Buffer, &wgpu::Buffer),
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> Vec<BeamFrame> {
+    if !active(dc.scene, s) {
+        return Vec::new();
+    }
+    let ctx = dc.ctx;
+    let b = &s.beams;
+    let mut frames = Vec::new();
+    let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
+    for (li, lf) in lights.iter().enumerate() {
+        if matches!(dc.scene.lights[li], Light::Directional { .. }) {
+            continue;
+        }
+        let faces = lf.faces;
+        let slots = b.slots_per_face() * u64::from(faces);
+        // Only the directions of the camera's rays are used: a projection of moderate depth
+        // range keeps them exact in f32 (the eye passes' near plane can be very close).
+        let cam = &dc.scene.camera;
+        let rays = (cam.view_to_clip(0.1, 100.0) * cam.world_to_view()).inverse();
+        let bp = params(dc.scene, rays, b, s.max_depth, faces, slots);
+        frames.push(record_light_beams(
+            ctx,
+            dc,
+            &lf.light_buf,
+            &bp,
+            (&wgpu::BindingResource::TextureView(&rv), &wgpu::BindingResource::TextureView(&sv)),
+            images,
+            enc,
+            timer,
+        ));
+    }
+    frames
+}
+
+#[expect(clippy::too_many_arguments, reason = "a light's beam stages are described by all of these")]
+fn record_light_beams(
+    ctx: &GpuContext,
+    dc: &DrawCtx,
+    light_buf: &wgpu::Buffer,
+    bp: &BeamParams,
+    eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
+    images: (&wgpu::Buffer, &wgpu::Buffer),
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> BeamFrame {
+    let storage = wgpu::BufferUsages::empty();
+    let levels = bp.levels;
+    let per_level = |l: u32| (2 * u64::from(bp.grid).pow(2) * u64::from(bp.faces)) << (2 * l);
+    let offset = |l: u32| (0..l).map(per_level).sum::<u64>();
+    let slots = u64::from(bp.slots);
+    let params = ctx.uniform("beam_params", bytemuck::bytes_of(bp));
+    let work = crate::gpu::storage(ctx, "beam_work", slots * std::mem::size_of::<BeamTri>() as u64, storage);
+    let args = crate::gpu::storage(ctx, "beam_args", 16 * 8, storage);
+    // The next level's dispatch size, copied out of `args` (a buffer a dispatch writes cannot be
+    // its own indirect argument).
+    let indirect = crate::gpu::storage(ctx, "beam_indirect", 16 * 8, wgpu::BufferUsages::INDIRECT);
+    let slot_buf = crate::gpu::storage(ctx, "beam_slots", 2 * slots * 4, storage);
+    let cap = u64::from(bp.capacity);
+    let beams = crate::gpu::storage(ctx, "beams", cap * std::mem::size_of::<BeamGpu>() as u64, storage);
+    let order = crate::gpu::storage(ctx, "beam_order", cap * 4, storage);
+    let stats = crate::gpu::storage(ctx, "beam_stats", STATS_WORDS * 4, storage);
+    let refine = ctx.compute_pipeline("beam_refine");
+    let geo = dc.geo;
+    for l in 0..=levels {
+        let lv = BeamLevel {
+            level: l,
+            offset: offset(l) as u32,
+            next_offset: offset(l + 1) as u32,
+            base_count: per_level(0) as u32,
+        };
+        let lvb = ctx.uniform("beam_level", bytemuck::bytes_of(&lv));
+        let bg = bind(
+            ctx,
+            &refine,
+            "beam_refine",
+            &[
+                light_buf.as_entire_binding(),
+                params.as_entire_binding(),
+                lvb.as_entire_binding(),
+                geo.materials.as_entire_binding(),
+                geo.bvh_nodes.as_entire_binding(),
+                geo.bvh_tris.as_entire_binding(),
+                geo.bvh_instances.as_entire_binding(),
+                work.as_entire_binding(),
+                args.as_entire_binding(),
+                slot_buf.as_entire_binding(),
+                beams.as_entire_binding(),
+                stats.as_entire_binding(),
+            ],
+        );
+        {
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("beam_refine"),
+                timestamp_writes: timer.compute("beam_refine"),
+            });
+            cp.set_pipeline(&refine);
+            cp.set_bind_group(0, &bg, &[]);
+            if l == 0 {
+                let groups = (per_level(0) as u32).div_ceil(64);
+                cp.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
+            } else {
+                cp.dispatch_workgroups_indirect(&indirect, 16 * u64::from(l));
+            }
+        }
+        if l < levels {
+            let at = 16 * u64::from(l + 1);
+            enc.copy_buffer_to_buffer(&args, at, &indirect, at, 16);
+        }
+    }
+    let size = (dc.scene.camera.width, dc.scene.camera.height);
+    let limits = (bp.capacity, bp.slots, bp.pixel_samples);
+    record_order_gather(ctx, &params, &slot_buf, &beams, &order, &stats, eye_views, images, size, limits, enc, timer);
+    BeamFrame { stats, beams, order, capacity: bp.capacity, levels }
+}
+
+#[expect(clippy::too_many_arguments, reason = "the ordering and gathering stages' resources")]
+fn record_order_gather(
+    ctx: &GpuContext,
+    params: &wgpu::Buffer,
+    slots: &wgpu::Buffer,
+    beams: &wgpu::Buffer,
+    order: &wgpu::Buffer,
+    stats: &wgpu::Buffer,
+    eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
+    images: (&wgpu::Buffer, &wgpu::Buffer),
+    size: (u32, u32),
+    (capacity, slots_total, pixel_samples): (u32, u32, u32),
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let opl = ctx.compute_pipeline("beam_order");
+    let obg = bind(
+        ctx,
+        &opl,
+        "beam_order",
+        &[params.as_entire_binding(), slots.as_entire_binding(), order.as_entire_binding(), stats.as_entire_binding()],
+    );
+    {
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("beam_order"),
+            timestamp_writes: timer.compute("beam_order"),
+        });
+        cp.set_pipeline(&opl);
+        cp.set_bind_group(0, &obg, &[]);
+        cp.dispatch_workgroups(1, 1, 1);
+    }
+    let gpl = ctx.compute_pipeline("beam_gather");
+    // One dispatch per chunk of the ordered list (see beam_gather.wgsl): at most `capacity`
+    // beams, and at most two per slot of the hierarchy.
+    let rays = pixel_samples.max(1) * pixel_samples.max(1);
+    let chunk = (GATHER_CHUNK / rays).max(1);
+    let most = u64::from(capacity).min(2 * u64::from(slots_total)).max(1) as u32;
+    for c in 0..most.div_ceil(chunk) {
+        let cu = ctx.uniform(
+            "beam_chunk",
+            bytemuck::bytes_of(&BeamLevel { level: c, offset: c * chunk, next_offset: 0, base_count: chunk }),
+        );
+        let gbg = bind(
+            ctx,
+            &gpl,
+            "beam_gather",
+            &[
+                params.as_entire_binding(),
+                eye_views.0.clone(),
+                eye_views.1.clone(),
+                beams.as_entire_binding(),
+                order.as_entire_binding(),
+                stats.as_entire_binding(),
+                images.0.as_entire_binding(),
+                images.1.as_entire_binding(),
+                cu.as_entire_binding(),
+            ],
+        );
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("beam_gather"),
+            timestamp_writes: timer.compute("beam_gather"),
+        });
+        cp.set_pipeline(&gpl);
+        cp.set_bind_group(0, &gbg, &[]);
+        cp.dispatch_workgroups(size.0.div_ceil(8), size.1.div_ceil(8), 1);
+    }
+}
+
+/// Beams one `beam_gather` dispatch loops over per camera ray (beam_gather.wgsl says why).
+const GATHER_CHUNK: u32 = 256;
+
+/// Read a light's beams (in rendering order) and statistics back (blocking).
+pub(crate) fn read_frame(ctx: &GpuContext, f: &BeamFrame) -> Result<(BeamStats, Vec<Beam>)> {
+    let words: Vec<u32> = bytemuck::cast_slice(&ctx.read_buffer(&f.stats, STATS_WORDS * 4)?).to_vec();
+    let w = |i: usize| words[1 + i];
+    let n = f.levels as usize + 1;
+    let stats = BeamStats {
+        kept_per_level: (0..n).map(|l| w(l.min(7))).collect(),
+        visited_per_level: (0..n).map(|l| w(8 + l.min(7))).collect(),
+        beams: w(18).min(f.capacity),
+        overflow: w(16),
+        inconsistent: w(17),
+        grazing: w(19),
+    };
+    let count = stats.beams as u64;
+    if count == 0 {
+        return Ok((stats, Vec::new()));
+    }
+    let order: Vec<u32> = bytemuck::cast_slice(&ctx.read_buffer(&f.order, count * 4)?).to_vec();
+    let size = std::mem::size_of::<BeamGpu>() as u64;
+    let all = ctx.read_buffer(&f.beams, u64::from(f.capacity.min(words[0].max(1))) * size)?;
+    let recs: &[BeamGpu] = bytemuck::cast_slice(&all);
+    Ok((stats, order.iter().map(|&i| Beam::from_gpu(&recs[i as usize])).collect()))
+}
+
+/// The radiance `beams` scatter toward `scene`'s camera in its medium, alone (no surfaces: the
+/// camera rays end at the medium's box): `beam_gather` over the given beams, for tests and
+/// tools. Blocking.
+pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings) -> Result<Image> {
+    let field = |f: &'static str, m: String| Error::input("<beams>", f, m);
+    validate(b).map_err(|(f, m)| field(f, m))?;
+    if scene.medium.is_none() {
+        return Err(field("medium", "the scene has no medium".into()));
+    }
+    if beams.len() > b.capacity as usize {
+        return Err(field("beams", format!("{} beams, capacity {}", beams.len(), b.capacity)));
+    }
+    let ctx = ctx.with_own_pool();
+    let cam = &scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let clip = cam.view_to_clip(0.01, 100.0) * cam.world_to_view();
+    let mut bp = params(scene, clip.inverse(), b, 0, 1, 1);
+    bp.slots = beams.len().max(1) as u32;
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    ctx.begin_scope("beam_gather", &mut enc);
+    let usage = wgpu::BufferUsages::STORAGE;
+    let params = ctx.uniform("beam_params", bytemuck::bytes_of(&bp));
+    let recs: Vec<BeamGpu> = beams.iter().map(Beam::to_gpu).collect();
+    let beam_buf = if recs.is_empty() {
+        crate::gpu::storage(&ctx, "beams", 128, wgpu::BufferUsages::empty())
+    } else {
+        ctx.buffer_init("beams", bytemuck::cast_slice(&recs), usage)
+    };
+    let slots: Vec<u32> = (0..2 * beams.len() as u32).map(|i| if i % 2 == 0 { i / 2 + 1 } else { 0 }).collect();
+    let slot_buf = ctx.buffer_init(
+        "beam_slots",
+        bytemuck::cast_slice(&slots.iter().copied().chain([0]).collect::<Vec<_>>()),
+        usage,
+    );
+    let order = crate::gpu::storage(&ctx, "beam_order", 4 * beams.len().max(1) as u64, wgpu::BufferUsages::empty());
+    let stats = crate::gpu::storage(&ctx, "beam_stats", STATS_WORDS * 4, wgpu::BufferUsages::empty());
+    let img_bytes = u64::from(w) * u64::from(h) * 16;
+    let full = crate::gpu::storage(&ctx, "image", img_bytes, wgpu::BufferUsages::empty());
+    let caustic = crate::gpu::storage(&ctx, "caustic_image", img_bytes, wgpu::BufferUsages::empty());
+    // No surfaces: every pixel's position buffer says "nothing" (w = -1).
+    let none = ctx.texture(
+        "beam_no_surface",
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        wgpu::TextureFormat::Rgba32Float,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+    );
+    let texels: Vec<f32> = (0..w * h).flat_map(|_| [0.0, 0.0, 0.0, -1.0]).collect();
+    ctx.queue.write_texture(
+        none.as_image_copy(),
+        bytemuck::cast_slice(&texels),
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(w * 16), rows_per_image: Some(h) },
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+    );
+    let nv = ctx.view(&none, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
+    let tv = wgpu::BindingResource::TextureView(&nv);
+    let mut timer = PassTimer::disabled();
+    record_order_gather(
+        &ctx,
+        &params,
+        &slot_buf,
+        &beam_buf,
+        &order,
+        &stats,
+        (&tv, &tv),
+        (&full, &caustic),
+        (w, h),
+        (bp.capacity, bp.slots, bp.pixel_samples),
+        &mut enc,
+        &mut timer,
+    );
+    ctx.end_scope();
+    ctx.queue.submit([enc.finish()]);
+    let data = ctx.read_buffer(&full, img_bytes)?;
+    let px: &[f32] = bytemuck::cast_slice(&data);
+    let mut img = Image::new(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let i = ((y * w + x) * 4) as usize;
+            img.set(x, y, [px[i], px[i + 1], px[i + 2]]);
+        }
+    }
+    Ok(img)
+}
