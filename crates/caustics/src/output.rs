@@ -2,6 +2,7 @@
 
 use crate::image_io::Image;
 use crate::techniques::TechniqueStats;
+use glam::Vec3;
 
 /// Flux bookkeeping of one light (watts, summed over r, g and b).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -59,7 +60,127 @@ pub struct GpuRender {
     /// per level, memory, batches).
     pub technique: TechniqueStats,
     pub adapter: String,
-    /// Per light with beams (volume caustics, `crate::beams`): the statistics and the beams
+    /// Per light with beams (volume caustics, the `beams` module): the statistics and the beams
     /// rendered, in rendering order.
-    pub beams: Vec<(crate::beams::BeamStats, Vec<crate::beams::Beam>)>,
+    pub beams: Vec<(BeamStats, Vec<Beam>)>,
+}
+
+/// A beam: a triangle of light leaving the last specular surface of its path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Beam {
+    /// Base vertices (on the last specular surface).
+    pub vertices: [Vec3; 3],
+    /// In-medium length of the light's path before each base vertex (m).
+    pub pre: [f32; 3],
+    /// Unit edge directions.
+    pub dirs: [Vec3; 3],
+    /// Length of each edge from its base vertex to its end on a surface (m).
+    pub ends: [f32; 3],
+    /// Flux (W, rgb).
+    pub flux: Vec3,
+    /// Refinement level it was kept at.
+    pub level: u32,
+}
+
+impl Beam {
+    /// The base triangle's unit normal, oriented along the edges.
+    pub fn normal(&self) -> Vec3 {
+        let [a, b, c] = self.vertices;
+        let n = (b - a).cross(c - a).normalize();
+        if n.dot(self.dirs[0] + self.dirs[1] + self.dirs[2]) < 0.0 { -n } else { n }
+    }
+
+    /// Edge directions scaled to unit height over the base plane (beam space).
+    fn scaled(&self) -> [Vec3; 3] {
+        let n = self.normal();
+        self.dirs.map(|d| d / n.dot(d))
+    }
+
+    /// The cross-section at height y over the base plane.
+    pub fn section(&self, y: f32) -> [Vec3; 3] {
+        let s = self.scaled();
+        [0, 1, 2].map(|i| self.vertices[i] + s[i] * y)
+    }
+
+    /// Area of the cross-section parallel to the base at height y (a quadratic in y: the
+    /// paper's A(y)); unsigned.
+    pub fn area(&self, y: f32) -> f32 {
+        let [a, b, c] = self.section(y);
+        0.5 * (b - a).cross(c - a).dot(self.normal()).abs()
+    }
+
+    /// The four beams of the midpoint subdivision (flux split by base area: uniform), which
+    /// tile this one exactly.
+    pub fn split(&self) -> [Beam; 4] {
+        let s = self.scaled();
+        let n = self.normal();
+        let mid = |i: usize, j: usize| {
+            let d = (s[i] + s[j]) * 0.5;
+            (
+                (self.vertices[i] + self.vertices[j]) * 0.5,
+                (self.pre[i] + self.pre[j]) * 0.5,
+                d.normalize(),
+                // The end height interpolated along the edge.
+                0.5 * (self.ends[i] * n.dot(self.dirs[i]) + self.ends[j] * n.dot(self.dirs[j])) / n.dot(d.normalize()),
+            )
+        };
+        let corner = |i: usize| (self.vertices[i], self.pre[i], self.dirs[i], self.ends[i]);
+        let make = |p: [(Vec3, f32, Vec3, f32); 3]| Beam {
+            vertices: p.map(|q| q.0),
+            pre: p.map(|q| q.1),
+            dirs: p.map(|q| q.2),
+            ends: p.map(|q| q.3),
+            flux: self.flux * 0.25,
+            level: self.level + 1,
+        };
+        let (ab, bc, ca) = (mid(0, 1), mid(1, 2), mid(2, 0));
+        [make([corner(0), ab, ca]), make([ab, corner(1), bc]), make([ca, bc, corner(2)]), make([bc, ca, ab])]
+    }
+
+    /// The GPU record (with its bounding sphere).
+    pub fn to_gpu(&self) -> crate::gpu::types::BeamGpu {
+        let n = self.normal();
+        let ym = (0..3).map(|i| self.ends[i] * n.dot(self.dirs[i])).fold(0.0f32, f32::max);
+        let s = self.scaled();
+        let pts: Vec<Vec3> = (0..3).flat_map(|i| [self.vertices[i], self.vertices[i] + s[i] * ym]).collect();
+        let lo = pts.iter().fold(Vec3::splat(f32::MAX), |a, p| a.min(*p));
+        let hi = pts.iter().fold(Vec3::splat(f32::MIN), |a, p| a.max(*p));
+        let c = (lo + hi) * 0.5;
+        let r = pts.iter().map(|p| (*p - c).length()).fold(0.0f32, f32::max);
+        crate::gpu::types::BeamGpu {
+            v: [0, 1, 2].map(|i| self.vertices[i].extend(self.pre[i]).to_array()),
+            d: [0, 1, 2].map(|i| self.dirs[i].extend(self.ends[i]).to_array()),
+            flux: self.flux.extend(self.level as f32).to_array(),
+            bound: c.extend(r * 1.0001 + 1e-6).to_array(),
+        }
+    }
+
+    pub(crate) fn from_gpu(b: &crate::gpu::types::BeamGpu) -> Beam {
+        let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+        Beam {
+            vertices: b.v.map(v3),
+            pre: b.v.map(|a| a[3]),
+            dirs: b.d.map(v3),
+            ends: b.d.map(|a| a[3]),
+            flux: v3(b.flux),
+            level: b.flux[3] as u32,
+        }
+    }
+}
+
+/// What the beam stages of one light did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BeamStats {
+    /// Beams kept per level (0 ..= levels).
+    pub kept_per_level: Vec<u32>,
+    /// Triangles traced per level.
+    pub visited_per_level: Vec<u32>,
+    /// Beams rendered (in the ordered list).
+    pub beams: u32,
+    /// Beams that did not fit the beam buffer (`BeamSettings::capacity`): an overflow.
+    pub overflow: u32,
+    /// Triangles at the last level whose edges still took different paths (their light is lost).
+    pub inconsistent: u32,
+    /// Beams dropped for a degenerate or grazing base.
+    pub grazing: u32,
 }

@@ -635,7 +635,7 @@ impl RenderSettings {
         if !(1..=256).contains(&self.env_lights) {
             return cl("env_lights", format!("must be 1 to 256 directional lights (got {})", self.env_lights));
         }
-        if let Err((field, msg)) = crate::beams::validate(&self.beams) {
+        if let Err((field, msg)) = self.beams.validate() {
             return cl(field, msg);
         }
         if !(self.splat_sigma > 0.1 && self.splat_sigma <= 16.0) {
@@ -1224,9 +1224,9 @@ fn record_medium(
     }
 }
 
-/// `composite` (image-space refraction and reflection of the camera's specular surfaces), the
-/// medium (`medium_scatter`, scenes with one) and `display` (the tone-mapped image): (radiance
-/// image, caustic-only image, display texture).
+/// `composite` (image-space refraction and reflection of the camera's specular surfaces) and the
+/// medium (`medium_scatter`, scenes with one): (radiance image, caustic-only image). The
+/// renderer adds the volume caustics (`crate::beams`), then [`record_display`].
 pub(crate) fn record_composite(
     dc: &DrawCtx,
     eye: &EyeFrame,
@@ -1234,7 +1234,7 @@ pub(crate) fn record_composite(
     s: &RenderSettings,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
-) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Texture, Vec<crate::beams::BeamFrame>) {
+) -> (wgpu::Buffer, wgpu::Buffer) {
     let ctx = dc.ctx;
     let cam = &dc.scene.camera;
     let (w, h) = (cam.width, cam.height);
@@ -1307,7 +1307,18 @@ pub(crate) fn record_composite(
         cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
     record_medium(dc, eye, lights, s, (&out_full, &out_caustic), enc, timer);
-    let beams = crate::beams::record_beams(dc, eye, lights, s, (&out_full, &out_caustic), enc, timer);
+    (out_full, out_caustic)
+}
+
+/// `display`: the radiance image `out_full` tone-mapped into an Rgba8Unorm texture.
+pub(crate) fn record_display(
+    dc: &DrawCtx,
+    out_full: &wgpu::Buffer,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> wgpu::Texture {
+    let ctx = dc.ctx;
+    let (w, h) = (dc.scene.camera.width, dc.scene.camera.height);
     let display = ctx.texture(
         "display",
         wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
@@ -1335,7 +1346,7 @@ pub(crate) fn record_composite(
         cp.set_bind_group(0, &dbg, &[]);
         cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
-    (out_full, out_caustic, display, beams)
+    display
 }
 
 /// The flux bookkeeping from a light's `flux_stats` words (fixed point, `scale` per watt).

@@ -622,8 +622,9 @@ impl Renderer {
             ctx.end_scope();
         }
         ctx.begin_scope("composite", enc);
-        let (full, caustic, display, beams) =
-            crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
+        let (full, caustic) = crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
+        let beams = crate::beams::record_beams(&dc, &eye, &light_frames, &s, (&full, &caustic), enc, &mut timer);
+        let display = crate::passes::record_display(&dc, &full, enc, &mut timer);
         self.outputs = Some((full, caustic, display));
         self.beam_frames = beams;
         ctx.end_scope();

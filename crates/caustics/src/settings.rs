@@ -368,6 +368,50 @@ impl BeamSettings {
         BeamSettings { grid, levels: 0, ..Default::default() }
     }
 
+    /// Check the beam settings: (field, message) on error.
+    pub fn validate(&self) -> std::result::Result<(), (&'static str, String)> {
+        let b = self;
+        if !(1..=1024).contains(&b.grid) {
+            return Err(("beams.grid", format!("must be 1 to 1024 cells (got {})", b.grid)));
+        }
+        if b.levels > 6 {
+            return Err(("beams.levels", format!("must be 0 to 6 (got {})", b.levels)));
+        }
+        if b.slots_per_face() * 6 > 4_000_000 {
+            return Err((
+                "beams.grid",
+                format!(
+                    "a grid of {} with {} levels has {} triangle slots per face; at most 666666 (6 faces)",
+                    b.grid,
+                    b.levels,
+                    b.slots_per_face()
+                ),
+            ));
+        }
+        if !(b.normal_threshold_deg >= 0.0 && b.normal_threshold_deg <= 180.0) {
+            return Err(("beams.normal_threshold_deg", format!("must be 0 to 180 (got {})", b.normal_threshold_deg)));
+        }
+        for (name, v) in [
+            ("beams.depth_threshold", b.depth_threshold),
+            ("beams.energy_threshold", b.energy_threshold),
+            ("beams.camera_threshold", b.camera_threshold),
+        ] {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err((name, format!("must be a positive number (got {v})")));
+            }
+        }
+        if !(1..=1 << 22).contains(&b.capacity) {
+            return Err(("beams.capacity", format!("must be 1 to 4194304 beams (got {})", b.capacity)));
+        }
+        if !(1..=8).contains(&b.pixel_samples) {
+            return Err(("beams.pixel_samples", format!("must be 1 to 8 (got {})", b.pixel_samples)));
+        }
+        if !(1..=64).contains(&b.samples) {
+            return Err(("beams.samples", format!("must be 1 to 64 (got {})", b.samples)));
+        }
+        Ok(())
+    }
+
     /// Slots of the refinement hierarchy per light face and branch: 2 grid^2 (4^(levels+1) - 1) / 3.
     pub fn slots_per_face(&self) -> u64 {
         2 * u64::from(self.grid).pow(2) * ((1u64 << (2 * (self.levels + 1))) - 1) / 3
