@@ -31,15 +31,27 @@ pub fn reference_render(scene: &Scene, settings: &ReferenceSettings) -> caustics
         // A second handler cannot be installed (only one render per process): ignore that.
         let _ = ctrlc::set_handler(move || p.cancel());
     }
+    with_bar("CPU reference", &progress, || {
+        caustics_reference::reference::render_with_progress(scene, settings, &progress)
+    })
+}
+
+/// Run `work` on a worker thread while a bar on stderr (hidden when stderr is not a terminal),
+/// labelled `label`, follows `progress`; a panic of the worker is an error naming `label`.
+pub fn with_bar<T: Send>(
+    label: &str,
+    progress: &Progress,
+    work: impl FnOnce() -> caustics::Result<T> + Send,
+) -> caustics::Result<T> {
     let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr_with_hz(4));
     bar.set_style(
-        ProgressStyle::with_template(
-            "CPU reference {bar:40} {percent:>3}% {elapsed_precise} elapsed, about {eta} left",
-        )
+        ProgressStyle::with_template(&format!(
+            "{label} {{bar:40}} {{percent:>3}}% {{elapsed_precise}} elapsed, about {{eta}} left"
+        ))
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let result = std::thread::scope(|s| {
-        let worker = s.spawn(|| caustics_reference::reference::render_with_progress(scene, settings, &progress));
+        let worker = s.spawn(work);
         while !worker.is_finished() {
             let total = progress.total();
             if total > 0 {
@@ -48,7 +60,7 @@ pub fn reference_render(scene: &Scene, settings: &ReferenceSettings) -> caustics
             }
             std::thread::sleep(Duration::from_millis(100));
         }
-        worker.join().unwrap_or_else(|_| Err(caustics::Error::Device("the CPU reference renderer panicked".into())))
+        worker.join().unwrap_or_else(|_| Err(caustics::Error::Device(format!("{label}: the worker thread panicked"))))
     });
     bar.finish_and_clear();
     result

@@ -8,10 +8,8 @@ use caustics::caustic_spheres::cache::Storage;
 use caustics::caustic_spheres::{CausticSpheres, DirectionLayout, SphereSettings};
 use caustics_reference::reference::Progress;
 use caustics_reference::reference::spheres::{Origin, load_or_precompute};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Duration;
 
 #[derive(clap::Args, Debug, Clone)]
 pub struct SphereArgs {
@@ -66,27 +64,10 @@ pub fn build(scene: &Scene, args: &SphereArgs) -> caustics::Result<Vec<(usize, A
         if !o.caustic_caster || !scene.material_of(o).is_specular() {
             continue;
         }
-        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr_with_hz(4));
-        bar.set_style(
-            ProgressStyle::with_template(&format!(
-                "caustic spheres, object {oi} {{bar:40}} {{percent:>3}}% {{elapsed_precise}} elapsed, about {{eta}} left"
-            ))
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
         let t0 = std::time::Instant::now();
-        let result = std::thread::scope(|s| {
-            let worker = s.spawn(|| load_or_precompute(scene, oi, &settings, storage, &args.sphere_cache, &progress));
-            while !worker.is_finished() {
-                let total = progress.total();
-                if total > 0 {
-                    bar.set_length(total);
-                    bar.set_position(progress.done());
-                }
-                std::thread::sleep(Duration::from_millis(100));
-            }
-            worker.join().unwrap_or_else(|_| Err(caustics::Error::Device("the precomputation panicked".into())))
+        let result = crate::progress::with_bar(&format!("caustic spheres, object {oi}"), &progress, || {
+            load_or_precompute(scene, oi, &settings, storage, &args.sphere_cache, &progress)
         });
-        bar.finish_and_clear();
         let (sp, origin) = result?;
         let mib = |b: u64| b as f64 / (1 << 20) as f64;
         let bytes = if args.half { sp.bytes() / 2 } else { sp.bytes() };
