@@ -20,6 +20,7 @@
 // `bp.pixel_samples`^2 stratified rays (the box pixel filter).
 
 #import beams
+#import medium
 
 @group(0) @binding(0) var<uniform> bp: BeamParams;
 @group(0) @binding(1) var recv_pos: texture_2d<f32>;
@@ -131,7 +132,7 @@ fn beam_radiance(b: BeamGpu, o: vec3f, d: vec3f, len: f32, eye_in: f32) -> vec3f
             let x = o + d * u;
             let base = w.x * v[0] + w.y * v[1] + w.z * v[2];
             let pre = w.x * b.v0.w + w.y * b.v1.w + w.z * b.v2.w;
-            let sl = bm_box_length(base, x, bp.lo.xyz, bp.hi.xyz);
+            let sl = box_length(base, x, bp.lo.xyz, bp.hi.xyz);
             let tr = exp(-bp.sigma_t.rgb * (pre + sl + eye_in + u));
             acc += phi / (area * cos_t) * bm_phase(dot(dl, -d), g) * tr * du;
         }
@@ -163,7 +164,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         let sub = vec2f(f32(si % ns), f32(si / ns));
         let d = ray_of(vec2f(gid.xy) + (sub + 0.5) / f32(ns));
         let t_max = select(1e30, depth / max(dot(d, centre), 1e-6), depth < 1e29);
-        let seg = bm_box_clip(cam, d, t_max, bp.lo.xyz, bp.hi.xyz);
+        let seg = box_clip(cam, d, t_max, bp.lo.xyz, bp.hi.xyz);
         if (seg.y > seg.x) {
             acc += gather_ray(cam, d, seg, count);
         }

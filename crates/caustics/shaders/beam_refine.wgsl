@@ -23,6 +23,7 @@
 
 #import raytrace
 #import beams
+#import medium
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<uniform> bp: BeamParams;
@@ -97,7 +98,7 @@ fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
             e.land = INVALID;
             e.o = seg_o;
             e.d = dir;
-            let c = bm_box_clip(seg_o, dir, 1e30, bp.lo.xyz, bp.hi.xyz);
+            let c = box_clip(seg_o, dir, 1e30, bp.lo.xyz, bp.hi.xyz);
             e.t_end = max(c.y, 0.0);
             break;
         }
@@ -119,7 +120,7 @@ fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
             break;
         }
         if (depth >= bp.max_depth) { return e; }
-        if (!inside) { pre += bm_box_length(seg_o, h.p, bp.lo.xyz, bp.hi.xyz); }
+        if (!inside) { pre += box_length(seg_o, h.p, bp.lo.xyz, bp.hi.xyz); }
         let front = dot(dir, h.ng) < 0.0;
         let ng = select(-h.ng, h.ng, front);
         let ns = select(-h.ns, h.ns, front);

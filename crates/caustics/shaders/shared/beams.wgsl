@@ -85,31 +85,6 @@ const BS_ORDERED: u32 = 18u;
 const BS_GRAZING: u32 = 19u;
 const BS_WORDS: u32 = 32u;
 
-// Length of the segment from a to b inside the box lo..hi (as shared/medium.wgsl's box_length).
-fn bm_box_clip(o: vec3f, d: vec3f, t_max: f32, lo: vec3f, hi: vec3f) -> vec2f {
-    var t0 = 0.0;
-    var t1 = t_max;
-    for (var k = 0; k < 3; k++) {
-        if (abs(d[k]) < 1e-12) {
-            if (o[k] < lo[k] || o[k] > hi[k]) { return vec2f(1.0, 0.0); }
-            continue;
-        }
-        let a = (lo[k] - o[k]) / d[k];
-        let b = (hi[k] - o[k]) / d[k];
-        t0 = max(t0, min(a, b));
-        t1 = min(t1, max(a, b));
-    }
-    return vec2f(t0, t1);
-}
-
-fn bm_box_length(a: vec3f, b: vec3f, lo: vec3f, hi: vec3f) -> f32 {
-    let v = b - a;
-    let l = length(v);
-    if (l <= 0.0) { return 0.0; }
-    let c = bm_box_clip(a, v / l, l, lo, hi);
-    return max(c.y - c.x, 0.0);
-}
-
 fn bm_phase(cos_t: f32, g: f32) -> f32 {
     if (g == 0.0) { return 0.25 / PI; }
     let den = max(1.0 + g * g - 2.0 * g * cos_t, 1e-12);
