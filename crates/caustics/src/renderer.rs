@@ -350,8 +350,14 @@ impl Renderer {
 
     fn lights_now(&self) -> Vec<Light> {
         let mut lights = self.scene.lights.clone();
+        // Every frame: rotate the kept regions' centres only (`environment_lights` would clone
+        // each region's texel list too).
+        let r = environment_lights::rotation(self.scene.environment.as_ref().map_or(0.0, |e| e.rotate_y));
         lights.extend(
-            self.environment_lights().iter().filter(|l| l.facing.max_element() > 0.0).map(EnvironmentLight::to_light),
+            self.env_segments()
+                .iter()
+                .filter(|l| l.facing.max_element() > 0.0)
+                .map(|l| Light::Directional { direction: -(r * l.centre).normalize(), irradiance: l.facing }),
         );
         lights
     }
