@@ -11,6 +11,7 @@
 pub mod accel;
 pub mod beams;
 pub mod budget;
+pub mod env_taps;
 pub mod caustic_spheres;
 pub mod error;
 pub mod gpu;
