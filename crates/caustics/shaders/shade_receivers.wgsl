@@ -141,7 +141,8 @@ fn caustic_box(p: vec3f, px: vec2i, object: f32) -> vec3f {
 // The caustic of an environment region spread over its sub-directions (src/env_taps.rs): per
 // tap k, the point p (at the k-th point of an R2 sequence over the pixel's footprint) turned by
 // R_k^T about the casters' centre c, followed from c to the tangent plane at p (f = c + s q'),
-// the map read there, scaled by 1/s (a source at c: cos/r^2 on the plane) and by the weight.
+// the map read there, scaled by s^3 (a source at c: cos/r^2 on the plane, r_f = s r_p and
+// cos_p / cos_f = s) and by the weight.
 fn caustic_taps(p: vec3f, n: vec3f, px: vec2i, object: f32) -> vec3f {
     let size = vec2i(i32(sp.width), i32(sp.height));
     var dx = vec3f(0.0);
@@ -165,7 +166,7 @@ fn caustic_taps(p: vec3f, n: vec3f, px: vec2i, object: f32) -> vec3f {
         // The turned point must lie on the plane's side of c that p does.
         if (a * b <= 0.0) { continue; }
         let s = a / b;
-        acc += t.weight.rgb * caustic_at(c + s * qr) / s;
+        acc += t.weight.rgb * caustic_at(c + s * qr) * (s * s * s);
     }
     return acc;
 }

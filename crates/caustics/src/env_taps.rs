@@ -16,9 +16,10 @@
 //! direction ω_k is exactly the caustic of ω_c turned by the rotation R_k taking ω_c to ω_k, so
 //! E_k(p) = E_c(c + R_kᵀ (p − c)). That point lies off the receiver; we follow the ray from c
 //! through it to the receiver's tangent plane at p (f = c + s R_kᵀ (p − c),
-//! s = n·(p − c) / n·(R_kᵀ (p − c))), read the map there and scale by 1/s: the caustic light
-//! leaves the caster as from a source at c, so its irradiance on the plane goes as cos/r², and
-//! cos_p/r_p² over cos_f/r_f² is 1/s. Tap k is weighted by its sub-region's total over the
+//! s = n·(p − c) / n·(R_kᵀ (p − c))), read the map there and scale by s³: the caustic light
+//! leaves the caster as from a source at c, so its irradiance on the plane goes as cos/r²,
+//! and cos_p/r_p² over cos_f/r_f² is s · s² (cos_p/cos_f = s, r_f = s r_p): the Jacobian of
+//! the map p → f, so the turned caustic keeps its flux. Tap k is weighted by its sub-region's total over the
 //! light's `facing` irradiance (per channel): the flux a sphere of constant cross-section
 //! intercepts from the sub-region, against what the map was traced with. So the weights sum to
 //! total/facing ≥ 1 (the light's `facing` loses the region's spread; a sphere does not).
