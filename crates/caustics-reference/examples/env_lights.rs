@@ -5,7 +5,7 @@
 //! (`CAUSTIC_MAP=M` in the environment: caustic map size, default 512; `SPLIT_RULES=both`: each
 //! D with the default split rule and the paper's; `TAPS=0,16`: each D with each number of
 //! sub-directions per region, `RenderSettings::env_taps`; `FLUX=1`: where each light's flux went; `DECOMPOSE=1`: also the CPU
-//! reference lit by the D directional lights, against both)
+//! reference lit by the D directional lights, against both; `PASS_MS=1`: GPU ms of the passes)
 use caustics_reference::ImageIo as _;
 use caustics_reference::metrics::{energy, hdr_flip};
 
@@ -46,9 +46,8 @@ fn main() {
         Ok(v) if v == "both" => vec![Default::default(), caustics::scene::environment_lights::SplitRule::Total],
         _ => vec![Default::default()],
     };
-    let taps: Vec<u32> = std::env::var("TAPS").map_or(vec![caustics::settings::DEFAULT_ENV_TAPS], |v| {
-        v.split(',').map(|x| x.parse().unwrap()).collect()
-    });
+    let taps: Vec<u32> = std::env::var("TAPS")
+        .map_or(vec![caustics::settings::DEFAULT_ENV_TAPS], |v| v.split(',').map(|x| x.parse().unwrap()).collect());
     let mut runs = Vec::new();
     for &d in &ds {
         for &r in &rules {
@@ -79,6 +78,12 @@ fn main() {
             d = format!("{d}, K = {env_taps}");
         }
         println!("| {d} | {drawn} | {ff:.3} | {ef:.3} | {fc:.3} | {ec:.3} | {:.0} |", g.frame_wall_ms);
+        if std::env::var("PASS_MS").is_ok() {
+            // GPU time of the shading passes (all lights) and of the whole frame's passes.
+            let shade: f64 = g.timings.iter().filter(|(n, _)| n == "shade_receivers").map(|(_, t)| t).sum();
+            let all: f64 = g.timings.iter().map(|(_, t)| t).sum();
+            println!("pass ms {d}: shade_receivers {shade:.1}, all passes {all:.1}");
+        }
         if std::env::var("DECOMPOSE").is_ok() {
             // The CPU reference lit by the very directional lights the GPU draws (no map; the
             // same photon total): against the reference under the map it is the error of the

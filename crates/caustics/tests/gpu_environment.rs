@@ -356,7 +356,8 @@ fn spread(img: &caustics::image_io::Image) -> (f64, f64) {
         }
     }
     let (cx, cy) = (sx / e, sy / e);
-    let mut r: Vec<(f64, f64)> = px.iter().map(|&(x, y, l)| (((x - cx).powi(2) + (y - cy).powi(2)).sqrt(), l)).collect();
+    let mut r: Vec<(f64, f64)> =
+        px.iter().map(|&(x, y, l)| (((x - cx).powi(2) + (y - cy).powi(2)).sqrt(), l)).collect();
     r.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut acc = 0.0;
     for (d, l) in r {
