@@ -130,6 +130,8 @@ const STATS_SLOTS: usize = 3;
 
 /// What an environment segmentation was made for: D and the split rule.
 type SegmentKey = (u32, environment_lights::SplitRule);
+/// The segmentation and the sub-directions per region (`RenderSettings::env_taps`).
+type TapsKey = (SegmentKey, u32);
 /// Per caustic-sphere object, the visibility of each drawn environment light.
 type SphereVisibility = std::collections::HashMap<usize, Vec<f32>>;
 
@@ -157,7 +159,7 @@ pub struct Renderer {
     /// The environment's segmentation in the map's own frame, and the D it was made for.
     env_segments: Option<(SegmentKey, Arc<Vec<EnvironmentLight>>)>,
     /// Each region's sub-directions (`crate::env_taps`) and the (segmentation, K) they are for.
-    env_taps: Option<((SegmentKey, u32), Arc<Vec<crate::env_taps::RegionTaps>>)>,
+    env_taps: Option<(TapsKey, Arc<Vec<crate::env_taps::RegionTaps>>)>,
     /// Caustic spheres of the caustic objects (`set_caustic_spheres`), used when
     /// `RenderSettings::caustic_spheres` is on.
     spheres: Option<crate::caustic_spheres::gpu::GpuSpheres>,
