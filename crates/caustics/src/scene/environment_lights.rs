@@ -434,6 +434,34 @@ mod tests {
     }
 
     #[test]
+    fn subdivide_partitions_a_region() {
+        // A region cut again into K sub-regions: they partition its texels and its L·Ω, each
+        // centre lies within the region's extent; a region lit by one texel gives one lit
+        // sub-region (so `env_taps` gives it no taps).
+        let env = map(128, 64, |x, y| Vec3::new(0.5 + (x as f32 * 0.1).sin().abs(), 0.7, 1.0 + y as f32 * 0.01));
+        let lights = segment_map(&env, 24);
+        for l in &lights {
+            let subs = subdivide(&env, l, 16);
+            assert!(!subs.is_empty() && subs.len() <= 16);
+            let mut members: Vec<u32> = subs.iter().flat_map(|s| s.members.clone()).collect();
+            members.sort();
+            let mut want = l.members.clone();
+            want.sort();
+            assert_eq!(members, want);
+            let e = subs.iter().fold(Vec3::ZERO, |a, s| a + s.irradiance);
+            assert!(((e - l.irradiance) / l.irradiance).abs().max_element() < 1e-4, "{e} vs {}", l.irradiance);
+            let spread = l.members.iter().map(|&i| point(&env, i).1.dir.dot(l.centre)).fold(1.0f32, f32::min);
+            assert!(subs.iter().all(|s| s.centre.dot(l.centre) >= spread - 1e-4));
+        }
+        let one = map(64, 32, |x, y| if (x, y) == (10, 10) { Vec3::ONE } else { Vec3::ZERO });
+        let lit: Vec<_> = segment_map(&one, 6).into_iter().filter(|l| l.facing.max_element() > 0.0).collect();
+        let subs = subdivide(&one, &lit[0], 16);
+        assert_eq!(subs.len(), 1, "one lit sub-region (the black ones are dropped)");
+        assert!(subs[0].members.contains(&(10 * 64 + 10)));
+        assert_eq!(subs[0].irradiance, lit[0].irradiance);
+    }
+
+    #[test]
     fn rotation_turns_the_lights_without_resegmenting() {
         let texels: Vec<Vec3> = (0..64 * 32).map(|i| Vec3::splat(1.0 + (i % 7) as f32 + (i / 64) as f32)).collect();
         let a = Environment::from_texels(64, 32, texels.clone(), 0.0).unwrap();
