@@ -300,6 +300,9 @@ pub struct RenderSettings {
     /// How the median cut picks the region to split (`SplitRule`, default: by flux-weighted
     /// angular radius; `Total` is the paper's rule), for comparisons.
     pub env_split: crate::scene::environment_lights::SplitRule,
+    /// Sub-directions each environment region's caustic is spread over (`crate::env_taps`),
+    /// 0 to 32; 0 or 1: none (each region's caustic from its one direction, as the paper).
+    pub env_taps: u32,
     /// Caustic spheres (`crate::caustic_spheres`, `--caustic-spheres`): the caustics
     /// of directional lights come from the precomputed spheres set with
     /// `Renderer::set_caustic_spheres` (one eye-space pass, `sphere_gather`, for all of them)
@@ -418,6 +421,10 @@ impl BeamSettings {
     }
 }
 
+/// The default of [`RenderSettings::env_taps`] (`docs/benchmarks.md`, "Environment caustics
+/// spread over their regions").
+pub const DEFAULT_ENV_TAPS: u32 = 16;
+
 /// The default of [`RenderSettings::env_lights`]: the paper's 24 (Tandianus et al. 2010).
 pub const DEFAULT_ENV_LIGHTS: u32 = 24;
 
@@ -448,6 +455,7 @@ impl Default for RenderSettings {
             medium_light_steps: 16,
             env_lights: DEFAULT_ENV_LIGHTS,
             env_split: Default::default(),
+            env_taps: DEFAULT_ENV_TAPS,
             caustic_spheres: false,
             beams: BeamSettings::default(),
         }
