@@ -10,7 +10,7 @@
 //     (some meet the caster, some not), a different object, or their first-surface normals
 //     differ by more than the normal threshold or their distances from the light by more than
 //     the depth threshold (discontinuities); the edges took different paths or land on
-//     different objects; the beam's flux relative to the face's flux, times its convergence
+//     different objects (on any traced branch); the beam's flux relative to the face's flux, times its convergence
 //     (base area over its smallest cross-section before the receiver), exceeds the energy
 //     threshold; or the beam's width over its distance from the camera exceeds the camera
 //     threshold;
@@ -342,6 +342,20 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         let dist = max(length(co + cd * tc - bp.camera.xyz), 1e-6);
         split = split || sqrt(0.5 * ar.x) / dist > bp.camera_size;
     }
+    // The reflected branches (flags bit 0) split where their edges disagree too (their light
+    // would be lost otherwise: reflected edges that land on different objects, or leave the
+    // scene, near the silhouette).
+    var rb: array<Edge, 6>;
+    let branches = select(1u, BEAM_BRANCHES, (bp.flags & 1u) != 0u);
+    for (var br = 1u; br < branches; br++) {
+        rb[3u * (br - 1u)] = trace_edge(tri.face, tri.a, br);
+        rb[3u * (br - 1u) + 1u] = trace_edge(tri.face, tri.b, br);
+        rb[3u * (br - 1u) + 2u] = trace_edge(tri.face, tri.c, br);
+        let r0 = rb[3u * (br - 1u)];
+        let r1 = rb[3u * (br - 1u) + 1u];
+        let r2 = rb[3u * (br - 1u) + 2u];
+        split = split || ((r0.ok || r1.ok || r2.ok) && !consistent(r0, r1, r2));
+    }
     if (split && level < bp.levels) {
         let k = atomicAdd(&args[4u * (level + 1u) + 3u], 4u);
         atomicMax(&args[4u * (level + 1u)], (k + 4u + 63u) / 64u);
@@ -361,18 +375,16 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     } else {
         atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
     }
-    if ((bp.flags & 1u) != 0u) {
-        // Branch 1: reflected at the first surface; branch 2: refracted in, reflected once
-        // inside, then refracted out (the light a sphere sends back toward the light's side).
-        for (var br = 1u; br < BEAM_BRANCHES; br++) {
-            let r0 = trace_edge(tri.face, tri.a, br);
-            let r1 = trace_edge(tri.face, tri.b, br);
-            let r2 = trace_edge(tri.face, tri.c, br);
-            if (consistent(r0, r1, r2)) {
-                emit(make_beam(r0, r1, r2, omega, level), BEAM_BRANCHES * slot + br);
-            } else if (r0.ok || r1.ok || r2.ok) {
-                atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
-            }
+    // Branch 1: reflected at the first surface; branch 2: refracted in, reflected once inside,
+    // then refracted out (the light a sphere sends back toward the light's side).
+    for (var br = 1u; br < branches; br++) {
+        let r0 = rb[3u * (br - 1u)];
+        let r1 = rb[3u * (br - 1u) + 1u];
+        let r2 = rb[3u * (br - 1u) + 2u];
+        if (consistent(r0, r1, r2)) {
+            emit(make_beam(r0, r1, r2, omega, level), BEAM_BRANCHES * slot + br);
+        } else if (r0.ok || r1.ok || r2.ok) {
+            atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
         }
     }
 }
