@@ -185,7 +185,8 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     }
     bar.finish_and_clear();
     let name = scene.name.clone();
-    let md = markdown(&name, &adapter, a, &grids, &techniques, &runs, &skipped);
+    let mut md = markdown(&name, &adapter, a, &grids, &techniques, &runs, &skipped);
+    md.push_str(&crate::bench_beams::markdown(runs.iter().map(|r| (format!("{} {}²", r.technique, r.n), &r.out))));
     let js = to_json(&name, &adapter, a, &runs, &skipped);
     println!("\n{md}");
     let md_path = a.out.join(format!("bench_{name}.md"));

@@ -3,6 +3,7 @@
 //! paths), 130 cancelled by Ctrl-C, 1 anything else.
 
 mod bench;
+mod bench_beams;
 mod compare;
 mod progress;
 mod spheres;

@@ -7,9 +7,10 @@
 // exactly: in beam space (the base triangle's plane, edges scaled to unit height y) the
 // cross-section at height y is the triangle q_i(y) = v_i + y d_i / (n . d_i), and along the ray
 // its three edge functions are quadratics in the ray parameter, so the ray's pieces inside the
-// beam lie between their roots. Each piece is integrated by the midpoint rule in
-// `bp.samples` points of
+// beam lie between their roots. Each piece is integrated in `bp.samples` steps of
 //   sigma_s phase(d . -w) Phi / (A(y) cos theta) exp(-sigma_t (l_light + s)) exp(-sigma_t t_eye),
+// the smooth factors at each step's midpoint times the exact integral of 1 / A over the step
+// (A is a quadratic in the ray parameter: near a focus the midpoint rule would sample its pole),
 // A(y) the cross-section's area (a quadratic in y), theta the angle between the interpolated
 // edge direction d and the base normal (Phi / A(y) is the irradiance of the cross-section's
 // plane; over cos theta, the fluence of the beam's light), l_light the in-medium length of the
@@ -56,6 +57,51 @@ fn add_roots(c: vec3f, len: f32, cuts: ptr<function, array<f32, 12>>, n: ptr<fun
     }
 }
 
+// The integral of 1 / |S(u)| over a step [u0, u0 + h] of length h, S a quadratic without a
+// root inside the step (the pieces are cut at its roots), given by its values at the start,
+// middle and end. S in Bernstein form over the step,
+// S(t) = Sa (1 - t)^2 + 2 P t (1 - t) + Sb t^2, and t = x / (1 + x) turn it into
+// h * integral over x in [0, inf) of dx / (Sa + 2 P x + Sb x^2) = h * I with D = Sa Sb - P^2:
+// I = atan2(sqrt(D), P) / sqrt(D) (D > 0), atanh(q / P) / q, q = sqrt(-D) (D < 0), and
+// (1 - D / (3 P^2)) / P near D = 0 (both series agree there). A root at an end (a ray through
+// a focus line) makes the integral diverge logarithmically: the ends are kept off zero.
+fn inv_quadratic_integral(s_a: f32, s_m: f32, s_b: f32, h: f32) -> f32 {
+    let sg = select(-1.0, 1.0, s_m >= 0.0);
+    let sm = sg * s_m;
+    if (sm <= 0.0) { return 0.0; }
+    let sa = max(sg * s_a, 1e-6 * sm);
+    let sb = max(sg * s_b, 1e-6 * sm);
+    let p = 2.0 * sm - 0.5 * (sa + sb);
+    let dd = sa * sb - p * p;
+    var i = 0.0;
+    if (p > 0.0 && abs(dd) < 1e-4 * p * p) {
+        i = (1.0 - dd / (3.0 * p * p)) / p;
+    } else if (dd > 0.0) {
+        let r = sqrt(dd);
+        i = atan2(r, p) / r;
+    } else {
+        // (p > 0 here: S has no root in the step)
+        let q = sqrt(-dd);
+        // atanh(q / p) / q, with p - q = Sa Sb / (p + q) (no cancellation).
+        i = 0.5 * log((p + q) * (p + q) / (sa * sb)) / q;
+    }
+    return h * i;
+}
+
+// The edge functions (twice the signed areas of the sub-triangles, opposite corners 0, 1, 2)
+// of point x in the beam's section at height y (corners v_i + y s_i).
+fn edge_fns(v: array<vec3f, 3>, s: array<vec3f, 3>, nrm: vec3f, x: vec3f, y: f32) -> vec3f {
+    let q0 = v[0] + y * s[0];
+    let q1 = v[1] + y * s[1];
+    let q2 = v[2] + y * s[2];
+    return vec3f(dot(nrm, cross(q2 - q1, x - q1)), dot(nrm, cross(q0 - q2, x - q2)), dot(nrm, cross(q1 - q0, x - q0)));
+}
+
+// All three of the same sign (and not all zero): inside the section.
+fn same_sign(e: vec3f) -> bool {
+    return (all(e >= vec3f(0.0)) || all(e <= vec3f(0.0))) && any(e != vec3f(0.0));
+}
+
 // The radiance the beam scatters toward the camera along o + u d, 0 <= u <= len; the camera's
 // box entry is at u = -eye_in (the transmittance toward the camera starts there).
 fn beam_radiance(b: BeamGpu, o: vec3f, d: vec3f, len: f32, eye_in: f32) -> vec3f {
@@ -90,7 +136,16 @@ fn beam_radiance(b: BeamGpu, o: vec3f, d: vec3f, len: f32, eye_in: f32) -> vec3f
     for (var k = 0; k < 3; k++) { add_roots(ek[k], len, &cuts, &n); }
     // Where the cross-section's area passes through zero (a focus) the barycentrics change
     // sign without any edge function doing so: a cut too.
-    add_roots(ek[0] + ek[1] + ek[2], len, &cuts, &n);
+    // Twice the signed section area at height y: S(y) = kq.x + y kq.y + y^2 kq.z (Ernst et al.
+    // 2005), from the base (well conditioned near a focus, unlike the sum of the edge
+    // functions' quadratics in the ray parameter, whose coefficients are those of the ray's
+    // whole length); along the ray, a quadratic in u.
+    let ka = v[1] - v[0];
+    let kb = s[1] - s[0];
+    let kc = v[2] - v[0];
+    let kd = s[2] - s[0];
+    let kq = vec3f(dot(nrm, cross(ka, kc)), dot(nrm, cross(ka, kd) + cross(kb, kc)), dot(nrm, cross(kb, kd)));
+    add_roots(vec3f(kq.x + y0 * (kq.y + y0 * kq.z), yr * (kq.y + 2.0 * kq.z * y0), kq.z * yr * yr), len, &cuts, &n);
     if (yr != 0.0) {
         let u = -y0 / yr;
         if (u > 0.0 && u < len) { cuts[n] = u; n++; }
@@ -112,29 +167,37 @@ fn beam_radiance(b: BeamGpu, o: vec3f, d: vec3f, len: f32, eye_in: f32) -> vec3f
         let ua = cuts[p];
         let ub = cuts[p + 1u];
         if (ub <= ua) { continue; }
-        // Inside at the piece's midpoint?
+        // Inside at the piece's midpoint? (The edge functions from the section's corners at
+        // the point's height: the polynomials' cancellation near a focus, where all three
+        // vanish, would open spurious slivers "inside" between their rounded roots.)
         let um = 0.5 * (ua + ub);
-        let em = vec3f(ek[0].x + um * (ek[0].y + um * ek[0].z), ek[1].x + um * (ek[1].y + um * ek[1].z), ek[2].x + um * (ek[2].y + um * ek[2].z));
-        let sm = em.x + em.y + em.z;
-        if (sm == 0.0 || any(em * sign(sm) < vec3f(0.0)) || y0 + um * yr < 0.0) { continue; }
+        let em = edge_fns(v, s, nrm, o + d * um, y0 + um * yr);
+        if (!same_sign(em) || y0 + um * yr < 0.0) { continue; }
         let du = (ub - ua) / f32(m);
         for (var q = 0u; q < m; q++) {
-            let u = ua + (f32(q) + 0.5) * du;
+            let u0 = ua + f32(q) * du;
+            let u = u0 + 0.5 * du;
             let y = y0 + u * yr;
-            let e = vec3f(ek[0].x + u * (ek[0].y + u * ek[0].z), ek[1].x + u * (ek[1].y + u * ek[1].z), ek[2].x + u * (ek[2].y + u * ek[2].z));
-            let sum = e.x + e.y + e.z;
-            if (sum == 0.0) { continue; }
-            let w = e / sum;
-            if (any(w < vec3f(0.0)) || y < 0.0 || y > dot(w, yend)) { continue; }
-            let area = 0.5 * abs(sum);
+            let x = o + d * u;
+            let e = edge_fns(v, s, nrm, x, y);
+            if (!same_sign(e)) { continue; }
+            let w = e / (e.x + e.y + e.z);
+            if (y < 0.0 || y > dot(w, yend)) { continue; }
             let dl = normalize(w.x * dir[0] + w.y * dir[1] + w.z * dir[2]);
             let cos_t = max(dot(nrm, dl), 1e-4);
-            let x = o + d * u;
             let base = w.x * v[0] + w.y * v[1] + w.z * v[2];
             let pre = w.x * b.v0.w + w.y * b.v1.w + w.z * b.v2.w;
             let sl = box_length(base, x, bp.lo.xyz, bp.hi.xyz);
             let tr = exp(-bp.sigma_t.rgb * (pre + sl + eye_in + u));
-            acc += phi / (area * cos_t) * bm_phase(dot(dl, -d), g) * tr * du;
+            // The smooth factors at the midpoint, times the exact integral of 1/A over the step
+            // (A = |S| / 2, S a quadratic in u): the pole of 1/A at a focus is integrated, not
+            // sampled.
+            let ya = y0 + u0 * yr;
+            let yb = ya + du * yr;
+            let sa = kq.x + ya * (kq.y + ya * kq.z);
+            let sm = kq.x + y * (kq.y + y * kq.z);
+            let sb = kq.x + yb * (kq.y + yb * kq.z);
+            acc += phi / cos_t * bm_phase(dot(dl, -d), g) * tr * (2.0 * inv_quadratic_integral(sa, sm, sb, du));
         }
     }
     return bp.sigma_s.rgb * acc;

@@ -15,7 +15,7 @@ var<workgroup> counts: array<u32, 256>;
 
 @compute @workgroup_size(256)
 fn main(@builtin(local_invocation_index) t: u32) {
-    let total = 2u * bp.slots;
+    let total = BEAM_BRANCHES * bp.slots;
     let run = (total + 255u) / 256u;
     let s0 = min(t * run, total);
     let s1 = min(s0 + run, total);

@@ -10,12 +10,13 @@
 //     (some meet the caster, some not), a different object, or their first-surface normals
 //     differ by more than the normal threshold or their distances from the light by more than
 //     the depth threshold (discontinuities); the edges took different paths or land on
-//     different objects; the beam's flux relative to the face's flux, times its convergence
+//     different objects (on any traced branch); the beam's flux relative to the face's flux, times its convergence
 //     (base area over its smallest cross-section before the receiver), exceeds the energy
 //     threshold; or the beam's width over its distance from the camera exceeds the camera
 //     threshold;
 //   - kept: one beam per traced branch whose three edges took the same path (the transmitted
-//     branch; with flags bit 0 also the branch reflected at the first dielectric surface),
+//     branch; with flags bit 0 also the branch reflected at the first dielectric surface and
+//     the branch reflected once inside it),
 //     appended to the beam buffer (overflow counted, never written out of bounds) and entered
 //     in its slot of the hierarchy (beam_order lists the slots in order, so the image does not
 //     depend on the order of the atomics). At the last level, triangles whose edges still
@@ -35,7 +36,7 @@
 @group(0) @binding(7) var<storage, read_write> work: array<BeamTri>;
 // Per level l: (workgroups x, 1, 1, triangles appended) at words 4l..4l+3.
 @group(0) @binding(8) var<storage, read_write> args: array<atomic<u32>>;
-// Per slot and branch: beam index + 1 (0: none).
+// Per slot and branch (BEAM_BRANCHES per slot): beam index + 1 (0: none).
 @group(0) @binding(9) var<storage, read_write> slots: array<u32>;
 @group(0) @binding(10) var<storage, read_write> beams: array<BeamGpu>;
 // Word 0: beams appended; BS_WORDS statistics words follow at 1.
@@ -70,9 +71,10 @@ fn light_dir(face: Face, ndc: vec2f) -> vec3f {
     return normalize(b4.xyz / b4.w - a4.xyz / a4.w);
 }
 
-// The edge ray of light-NDC point ndc of face f, on branch `branch` (0: transmitted at every
-// dielectric interface, total internal reflection reflecting; 1: reflected at the first
-// surface, then transmitted).
+// The edge ray of light-NDC point ndc of face f, on branch `branch`: a mask, bit k set: reflected
+// at the k-th interface (0: transmitted at every dielectric interface, total internal reflection
+// reflecting; 1: reflected at the first surface, then transmitted; 2: reflected at the second,
+// inside the first dielectric), as the photon tracer's branch masks.
 fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
     var e: Edge;
     e.caster = false;
@@ -109,7 +111,7 @@ fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
             e.first_t = h.t;
             if (mat.kind.x == KIND_DIFFUSE || mat.kind.y == 0u) { return e; }
             e.caster = true;
-            if (branch == 1u && mat.kind.x != KIND_DIELECTRIC) { return e; }
+            if ((branch & 1u) == 1u && mat.kind.x != KIND_DIELECTRIC) { return e; }
         }
         if (mat.kind.x == KIND_DIFFUSE) {
             e.ok = !inside;
@@ -124,29 +126,24 @@ fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
         let front = dot(dir, h.ng) < 0.0;
         let ng = select(-h.ng, h.ng, front);
         let ns = select(-h.ns, h.ns, front);
+        // The interface step (shared/raytrace.wgsl, as the photon tracer's: shared/trace.wgsl).
         var n = ns;
-        var new_dir = vec3f(0.0);
-        var reflected = true;
+        var reflect_it = true;
+        var eta = 1.0;
         if (mat.kind.x == KIND_MIRROR || mat.kind.x == KIND_CONDUCTOR) {
-            let cos_i = clamp(-dot(dir, ns), 0.0, 1.0);
-            if (mat.kind.x == KIND_MIRROR) { w *= mat.a.rgb; } else { w *= fresnel_conductor(cos_i, mat.a.rgb, mat.b.rgb); }
+            w *= rt_metal_weight(mat, dir, ns);
         } else {
-            let eta = select(mat.a.y / mat.a.x, mat.a.x / mat.a.y, front);
-            var cos_i = -dot(dir, n);
-            if (cos_i <= 0.0) { n = ng; cos_i = -dot(dir, n); }
-            let fr = fresnel_dielectric(cos_i, eta);
-            reflected = (branch == 1u && depth == 0u) || fr >= 1.0;
-            w *= select(1.0 - fr, select(fr, 1.0, fr >= 1.0), reflected);
-            if (!reflected) {
-                var t = refract_dir(dir, n, 1.0 / eta);
-                if (dot(t.xyz, ng) >= 0.0) { t = refract_dir(dir, ng, 1.0 / eta); n = ng; }
-                if (t.w < 0.5) { reflected = true; } else { new_dir = t.xyz; inside = front; }
-            }
+            let fz = rt_dielectric_fresnel(mat, dir, ns, ng, front);
+            n = fz.n;
+            eta = fz.eta;
+            let fr = fz.f;
+            reflect_it = (depth < 32u && ((branch >> depth) & 1u) == 1u) || fr >= 1.0;
+            w *= select(1.0 - fr, select(fr, 1.0, fr >= 1.0), reflect_it);
         }
-        if (reflected) {
-            new_dir = reflect(dir, n);
-            if (dot(new_dir, ng) <= 0.0) { n = ng; new_dir = reflect(dir, ng); }
-        }
+        let bz = rt_bounce(dir, n, ng, eta, reflect_it);
+        let reflected = bz.reflected;
+        let new_dir = bz.dir;
+        if (!reflected && mat.kind.x == KIND_DIELECTRIC) { inside = front; }
         e.sig = (e.sig * 31u + h.object * 8u + u32(reflected) * 2u + u32(front) + 1u) & 0xffffffu;
         dir = new_dir;
         seg_o = h.p;
@@ -158,6 +155,9 @@ fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
     return e;
 }
 
+// Beams whose edges meet their base at a cosine below this are rebased (make_beam).
+const REBASE_COS: f32 = 0.25;
+
 // Solid angle of the spherical triangle of unit directions a, b, c (Van Oosterom & Strackee).
 fn solid_angle(a: vec3f, b: vec3f, c: vec3f) -> f32 {
     let num = abs(dot(a, cross(b, c)));
@@ -166,21 +166,54 @@ fn solid_angle(a: vec3f, b: vec3f, c: vec3f) -> f32 {
 }
 
 // The beam over edges e0..e2 of a triangle of light directions l0..l2. Returns flux.w < 0 when
-// the base is degenerate or grazing.
-fn make_beam(e0: Edge, e1: Edge, e2: Edge, omega: f32, level: u32) -> BeamGpu {
+// the base is degenerate or its edges diverge too far to rebase.
+fn make_beam(e0_in: Edge, e1_in: Edge, e2_in: Edge, omega: f32, level: u32) -> BeamGpu {
+    var e0 = e0_in;
+    var e1 = e1_in;
+    var e2 = e2_in;
     var b: BeamGpu;
+    b.flux = vec4f(omega * (e0.weight + e1.weight + e2.weight) / 3.0, f32(level));
+    var nrm = cross(e1.o - e0.o, e2.o - e0.o);
+    var len = length(nrm);
+    if (len <= 0.0) { b.flux.w = -1.0; return b; }
+    nrm /= len;
+    if (dot(nrm, e0.d + e1.d + e2.d) < 0.0) { nrm = -nrm; }
+    if (min(min(dot(nrm, e0.d), dot(nrm, e1.d)), dot(nrm, e2.d)) < REBASE_COS) {
+        // An oblique base (light reflected or refracted near a silhouette, where Fresnel
+        // reflection is strongest): each edge's start moved along it to the plane across the
+        // mean direction through the most advanced start, so the beam's sections are not
+        // degenerate. The sliver between the surface and that plane is dropped (its light
+        // has not travelled yet: a short wedge at the surface).
+        let m = normalize(e0.d + e1.d + e2.d);
+        let c = max(max(dot(e0.o, m), dot(e1.o, m)), dot(e2.o, m));
+        let dm = vec3f(dot(e0.d, m), dot(e1.d, m), dot(e2.d, m));
+        if (min(min(dm.x, dm.y), dm.z) < 1e-3) { b.flux.w = -1.0; return b; }
+        let t = vec3f(c - dot(e0.o, m), c - dot(e1.o, m), c - dot(e2.o, m)) / dm;
+        if (any(t > vec3f(e0.t_end, e1.t_end, e2.t_end))) { b.flux.w = -1.0; return b; }
+        let p0 = e0.o + e0.d * t.x;
+        let p1 = e1.o + e1.d * t.y;
+        let p2 = e2.o + e2.d * t.z;
+        e0.pre += box_length(e0.o, p0, bp.lo.xyz, bp.hi.xyz);
+        e1.pre += box_length(e1.o, p1, bp.lo.xyz, bp.hi.xyz);
+        e2.pre += box_length(e2.o, p2, bp.lo.xyz, bp.hi.xyz);
+        e0.o = p0;
+        e1.o = p1;
+        e2.o = p2;
+        e0.t_end -= t.x;
+        e1.t_end -= t.y;
+        e2.t_end -= t.z;
+        nrm = cross(e1.o - e0.o, e2.o - e0.o);
+        len = length(nrm);
+        if (len <= 0.0) { b.flux.w = -1.0; return b; }
+        nrm /= len;
+        if (dot(nrm, m) < 0.0) { nrm = -nrm; }
+    }
     b.v0 = vec4f(e0.o, e0.pre);
     b.v1 = vec4f(e1.o, e1.pre);
     b.v2 = vec4f(e2.o, e2.pre);
     b.d0 = vec4f(e0.d, e0.t_end);
     b.d1 = vec4f(e1.d, e1.t_end);
     b.d2 = vec4f(e2.d, e2.t_end);
-    b.flux = vec4f(omega * (e0.weight + e1.weight + e2.weight) / 3.0, f32(level));
-    var nrm = cross(e1.o - e0.o, e2.o - e0.o);
-    let len = length(nrm);
-    if (len <= 0.0) { b.flux.w = -1.0; return b; }
-    nrm /= len;
-    if (dot(nrm, e0.d + e1.d + e2.d) < 0.0) { nrm = -nrm; }
     if (min(min(dot(nrm, e0.d), dot(nrm, e1.d)), dot(nrm, e2.d)) < 1e-3) { b.flux.w = -1.0; return b; }
     // Bounding sphere of the six corners (the beam between its base and its farthest end
     // height lies in their convex hull).
@@ -309,6 +342,20 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         let dist = max(length(co + cd * tc - bp.camera.xyz), 1e-6);
         split = split || sqrt(0.5 * ar.x) / dist > bp.camera_size;
     }
+    // The reflected branches (flags bit 0) split where their edges disagree too (their light
+    // would be lost otherwise: reflected edges that land on different objects, or leave the
+    // scene, near the silhouette).
+    var rb: array<Edge, 6>;
+    let branches = select(1u, BEAM_BRANCHES, (bp.flags & 1u) != 0u);
+    for (var br = 1u; br < branches; br++) {
+        rb[3u * (br - 1u)] = trace_edge(tri.face, tri.a, br);
+        rb[3u * (br - 1u) + 1u] = trace_edge(tri.face, tri.b, br);
+        rb[3u * (br - 1u) + 2u] = trace_edge(tri.face, tri.c, br);
+        let r0 = rb[3u * (br - 1u)];
+        let r1 = rb[3u * (br - 1u) + 1u];
+        let r2 = rb[3u * (br - 1u) + 2u];
+        split = split || ((r0.ok || r1.ok || r2.ok) && !consistent(r0, r1, r2));
+    }
     if (split && level < bp.levels) {
         let k = atomicAdd(&args[4u * (level + 1u) + 3u], 4u);
         atomicMax(&args[4u * (level + 1u)], (k + 4u + 63u) / 64u);
@@ -324,16 +371,18 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     }
     let slot = lv.offset + tri.id;
     if (consistent(e0, e1, e2)) {
-        emit(make_beam(e0, e1, e2, omega, level), 2u * slot);
+        emit(make_beam(e0, e1, e2, omega, level), BEAM_BRANCHES * slot);
     } else {
         atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
     }
-    if ((bp.flags & 1u) != 0u) {
-        let r0 = trace_edge(tri.face, tri.a, 1u);
-        let r1 = trace_edge(tri.face, tri.b, 1u);
-        let r2 = trace_edge(tri.face, tri.c, 1u);
+    // Branch 1: reflected at the first surface; branch 2: refracted in, reflected once inside,
+    // then refracted out (the light a sphere sends back toward the light's side).
+    for (var br = 1u; br < branches; br++) {
+        let r0 = rb[3u * (br - 1u)];
+        let r1 = rb[3u * (br - 1u) + 1u];
+        let r2 = rb[3u * (br - 1u) + 2u];
         if (consistent(r0, r1, r2)) {
-            emit(make_beam(r0, r1, r2, omega, level), 2u * slot + 1u);
+            emit(make_beam(r0, r1, r2, omega, level), BEAM_BRANCHES * slot + br);
         } else if (r0.ok || r1.ok || r2.ok) {
             atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
         }

@@ -152,7 +152,7 @@ fn record_light_beams(
     // The next level's dispatch size, copied out of `args` (a buffer a dispatch writes cannot be
     // its own indirect argument).
     let indirect = crate::gpu::storage(ctx, "beam_indirect", 16 * 8, wgpu::BufferUsages::INDIRECT);
-    let slot_buf = crate::gpu::storage(ctx, "beam_slots", 2 * slots * 4, storage);
+    let slot_buf = crate::gpu::storage(ctx, "beam_slots", BRANCHES * slots * 4, storage);
     let cap = u64::from(bp.capacity);
     let beams = crate::gpu::storage(ctx, "beams", cap * std::mem::size_of::<BeamGpu>() as u64, storage);
     let order = crate::gpu::storage(ctx, "beam_order", cap * 4, storage);
@@ -244,10 +244,10 @@ fn record_order_gather(
     }
     let gpl = ctx.compute_pipeline("beam_gather");
     // One dispatch per chunk of the ordered list (see beam_gather.wgsl): at most `capacity`
-    // beams, and at most two per slot of the hierarchy.
+    // beams, and at most BRANCHES per slot of the hierarchy.
     let rays = pixel_samples.max(1) * pixel_samples.max(1);
     let chunk = (GATHER_CHUNK / rays).max(1);
-    let most = u64::from(capacity).min(2 * u64::from(slots_total)).max(1) as u32;
+    let most = u64::from(capacity).min(BRANCHES * u64::from(slots_total)).max(1) as u32;
     for c in 0..most.div_ceil(chunk) {
         let cu = ctx.uniform(
             "beam_chunk",
@@ -278,6 +278,10 @@ fn record_order_gather(
         cp.dispatch_workgroups(size.0.div_ceil(8), size.1.div_ceil(8), 1);
     }
 }
+
+/// Beams per slot of the hierarchy (`BEAM_BRANCHES` in shaders/shared/beams.wgsl): transmitted,
+/// reflected at the first surface, reflected once inside.
+const BRANCHES: u64 = 3;
 
 /// Beams one `beam_gather` dispatch loops over per camera ray (beam_gather.wgsl says why).
 const GATHER_CHUNK: u32 = 256;
@@ -334,7 +338,8 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     } else {
         ctx.buffer_init("beams", bytemuck::cast_slice(&recs), usage)
     };
-    let slots: Vec<u32> = (0..2 * beams.len() as u32).map(|i| if i % 2 == 0 { i / 2 + 1 } else { 0 }).collect();
+    let b3 = BRANCHES as u32;
+    let slots: Vec<u32> = (0..b3 * beams.len() as u32).map(|i| if i % b3 == 0 { i / b3 + 1 } else { 0 }).collect();
     let slot_buf = ctx.buffer_init(
         "beam_slots",
         bytemuck::cast_slice(&slots.iter().copied().chain([0]).collect::<Vec<_>>()),

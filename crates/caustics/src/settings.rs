@@ -343,7 +343,8 @@ pub struct BeamSettings {
     /// Camera rays per pixel side (the box pixel filter: n² stratified rays per pixel), 1 to 8.
     /// Default 1 (the pixel centre; n rays cost n² times the gather).
     pub pixel_samples: u32,
-    /// Also the beams of light reflected at the first dielectric surface.
+    /// Also the beams of light reflected at the first dielectric surface, and of light
+    /// reflected once inside it (refracted in, reflected, refracted out).
     pub reflection: bool,
 }
 

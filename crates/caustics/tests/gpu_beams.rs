@@ -61,7 +61,7 @@ fn cpu_gather(sc: &Scene, beams: &[Beam], sigma_t: f32) -> Vec<f32> {
             let mut acc = 0.0f64;
             for b in beams {
                 let n = b.normal();
-                let steps = 4000;
+                let steps = 20000;
                 let (t0, t1) = (2.0f32, 4.0f32);
                 let dt = (t1 - t0) / steps as f32;
                 for i in 0..steps {
@@ -122,7 +122,8 @@ fn area_function_of_parallel_converging_and_diverging_beams() {
     // The GPU's gather (its own A(y), from the edge functions) against the CPU integration.
     let Some(ctx) = gpu() else { return };
     let sc = side_view(0.6, 24, 24, 12.0, SIGMA_S, 0.1);
-    for focus in [None, Some(1.5), Some(-0.8)] {
+    // (focus 0.5: through a focus inside the beam, where 1/A(y) has its pole)
+    for focus in [None, Some(1.5), Some(-0.8), Some(0.5)] {
         let b = [vertical_beam(0.1, focus, 1.0, 1.0)];
         let g = beams::gather(&ctx, &sc, &b, &settings()).unwrap();
         let c = cpu_gather(&sc, &b, SIGMA_S + 0.1);
@@ -134,10 +135,15 @@ fn area_function_of_parallel_converging_and_diverging_beams() {
             .filter(|(_, c)| **c > 0.05 * sc_ as f32 / 24.0)
             .map(|(g, c)| (g[0] / c - 1.0).abs())
             .fold(0.0f32, f32::max);
-        // Measured: sums within 0.3 %, pixels within 2 % (the CPU's steps).
+        // Measured: sums within 0.05 %, pixels within 0.4 % (the CPU's steps). Through the
+        // focus (0.5): the sum within 0.05 % (it was 12x before the gather's inside test was
+        // made robust at focal planes), one pixel near the focus differs by 9 % (not explained
+        // yet: the CPU's steps at 5x finer gave the same): only the sum is asserted there.
         println!("{focus:?}: GPU sum {sg:.5} CPU {sc_:.5}, worst pixel {worst:.4}");
         assert!((sg / sc_ - 1.0).abs() < 0.01, "{focus:?}");
-        assert!(worst < 0.05, "{focus:?}");
+        if focus != Some(0.5) {
+            assert!(worst < 0.02, "{focus:?}");
+        }
     }
 }
 
@@ -328,7 +334,7 @@ fn total_beam_flux_is_the_flux_onto_the_ball_times_fresnel() {
     let (i, d, r, n) = (20.0f64, 2.5f64, 0.5f64, 1.5f64);
     let amax = (r / d).asin();
     let steps = 200_000;
-    let (mut onto, mut trans, mut refl) = (0.0, 0.0, 0.0);
+    let (mut onto, mut trans, mut refl, mut trt) = (0.0, 0.0, 0.0, 0.0);
     for k in 0..steps {
         let a = (k as f64 + 0.5) / steps as f64 * amax;
         let dw = 2.0 * std::f64::consts::PI * a.sin() * amax / steps as f64;
@@ -337,6 +343,8 @@ fn total_beam_flux_is_the_flux_onto_the_ball_times_fresnel() {
         onto += i * dw;
         trans += i * (1.0 - f) * (1.0 - f) * dw;
         refl += i * f * dw;
+        // (inside a sphere every interface meets the ray at the refraction angle: F again)
+        trt += i * (1.0 - f) * f * (1.0 - f) * dw;
     }
     let total = |reflection: bool, b: BeamSettings| {
         let out = render(&ctx, &sc, &render_settings(BeamSettings { reflection, ..b })).unwrap();
@@ -348,52 +356,48 @@ fn total_beam_flux_is_the_flux_onto_the_ball_times_fresnel() {
         let t = total(false, b);
         let all = total(true, b);
         println!(
-            "{name}: onto the ball {onto:.4} W; transmitted beams {t:.4} W (want {trans:.4}, {:+.2} %), reflected {:.4} W (want {refl:.4}, {:+.2} %)",
+            "{name}: onto the ball {onto:.4} W; transmitted beams {t:.4} W (want {trans:.4}, {:+.2} %), reflected and internally reflected {:.4} W (want {:.4}, {:+.2} %)",
             (t / trans - 1.0) * 100.0,
             all - t,
-            ((all - t) / refl - 1.0) * 100.0
+            refl + trt,
+            ((all - t) / (refl + trt) - 1.0) * 100.0
         );
-        // Measured: transmitted -2.6 % (adaptive), the light of the silhouette ring of
-        // last-level triangles whose edges disagree (BeamStats::inconsistent); never more than
-        // the light onto the ball times Fresnel. Reflected: -47 % (adaptive): near the
-        // silhouette, where F is largest, reflected beams are grazing or disagree and are
-        // dropped; a known gap, asserted only as a bound.
+        // Measured: transmitted -2.4 % (adaptive), -1.9 % (regular 64²), the light of the
+        // silhouette ring of last-level triangles whose edges disagree
+        // (BeamStats::inconsistent); never more than the light onto the ball times Fresnel.
+        // Reflected and internally reflected: -2.1 % (adaptive: its reflected branches refine
+        // where their edges disagree, oblique beams are rebased), -18.5 % (regular 64²: near
+        // the silhouette, where F is largest, the coarse triangles' reflected edges disagree).
         assert!(t <= trans * 1.001 && t > trans * 0.97, "{name}: transmitted {t} vs {trans}");
-        assert!(all - t > 0.0 && all - t <= refl * 1.001, "{name}: reflected");
+        assert!(all - t > 0.0 && all - t <= (refl + trt) * 1.001, "{name}: reflected");
+        if b.levels > 0 {
+            assert!(all - t > (refl + trt) * 0.95, "{name}: reflected {} vs {}", all - t, refl + trt);
+        }
     }
 }
 
 // The target (mean HDR-FLIP 0.1, energy within 5 %) is not met yet: measured on this
-// scene (48 x 40, 2^22 reference photons, the ball masked) HDR-FLIP 0.55 and energy -23 % for the
-// adaptive grid; the whole image, regular 64²: 0.45 and -18 %
-// (docs/benchmarks.md, "Volume caustics from beams"). Ignored so that CI stays green; run it
-// with `--ignored` (it prints the figures; BEAM_DUMP=DIR writes the images).
+// scene (48 x 40, the ball masked) against the noise-free line integral of the reference's
+// light (`line_integral_reference`, which matches the 2^25-photon reference within its noise:
+// energy +0.04 %, HDR-FLIP 0.056; the reference against itself with another seed: 0.066),
+// adaptive 16² + 3 with 3 x 3 rays per pixel: HDR-FLIP 0.155, energy -6.7 %; regular 64²:
+// 0.315, -9.3 % (docs/benchmarks.md, "Beams: error decomposition"). Ignored so that CI stays
+// green; run it with `--ignored` (it prints the figures; BEAM_DUMP=DIR writes the images).
 #[test]
-#[ignore = "volume caustic against the reference: HDR-FLIP 0.55, energy -23 % (target 0.1, 5 %)"]
+#[ignore = "volume caustic against the reference: HDR-FLIP 0.155, energy -6.7 % (target 0.1, 5 %)"]
 fn gpu_beams_match_the_cpu_reference_in_fog() {
-    use caustics_reference::metrics::{Mask, energy, hdr_flip};
+    use caustics_reference::metrics::{energy, hdr_flip};
     use caustics_reference::reference::{self, ReferenceSettings};
     let Some(ctx) = gpu() else { return };
     let (w, h) = (48, 40);
     let sc = ball_in_fog(14.0, w, h);
     // Pixels that see the ball (dilated by a pixel's width): the reference does not render
     // a volume caustic seen through glass.
-    let cam = &sc.camera;
-    let mut mask = Mask::all(w, h);
-    for y in 0..h {
-        for x in 0..w {
-            let mut hit = false;
-            for (dx, dy) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (0.5, 0.5)] {
-                let d = cam.ray_dir(x as f32 + dx, y as f32 + dy);
-                let oc = cam.position - Vec3::new(0.0, 1.5, 0.0);
-                let b = oc.dot(d);
-                hit |= b * b - (oc.length_squared() - 0.25) > 0.0 && b < 0.0;
-            }
-            mask.include[(y * w + x) as usize] = !hit;
-        }
-    }
+    let mask = ball_mask(&sc);
+    // 2^25 photons: the reference against itself with another seed, HDR-FLIP 0.066, energy
+    // 0.2 % (the noise the comparison cannot go below).
     let rs = ReferenceSettings {
-        photons_per_light: 1 << 22,
+        photons_per_light: 1 << 25,
         camera_spp: 1,
         max_depth: 8,
         seed: 5,
@@ -403,7 +407,8 @@ fn gpu_beams_match_the_cpu_reference_in_fog() {
     let t = std::time::Instant::now();
     let r = reference::render(&sc, &rs).unwrap();
     println!("reference: {:.1} s", t.elapsed().as_secs_f64());
-    for (name, b) in [("adaptive 16+3", BeamSettings::default()), ("regular 64", BeamSettings::regular(64))] {
+    let px3 = |b: BeamSettings| BeamSettings { pixel_samples: 3, ..b };
+    for (name, b) in [("adaptive 16+3", px3(BeamSettings::default())), ("regular 64", px3(BeamSettings::regular(64)))] {
         let t = std::time::Instant::now();
         let g = render(&ctx, &sc, &render_settings(b)).unwrap();
         let ms = t.elapsed().as_secs_f64() * 1e3;
@@ -482,5 +487,269 @@ fn many_overlapping_beams_sum_like_one() {
         let f = beams::gather(&ctx, &sc, &first, &settings()).unwrap();
         println!("{n}: only the last lit {:.4}, only the first {:.4}", sum(&l) / sum(&p), sum(&f) / sum(&p));
         assert!((sum(&l) / sum(&p) - 1.0).abs() < 1e-4 && (sum(&f) / sum(&p) - 1.0).abs() < 1e-4);
+    }
+}
+
+/// Path classes of the light leaving the glass ball: reflected at the first surface (R),
+/// refracted in and out (TT), with one internal reflection (TRT), with more (T R..R T).
+const PATH_CLASSES: [&str; 4] = ["R", "TT", "TRT", "TR+RT"];
+
+/// The single-scattered volume caustic of [`ball_in_fog`], integrated on the CPU independently
+/// of the reference's random photons and of the beams: `rings` x `4 rings` stratified light
+/// rays onto the ball (equal solid angle), every branch of the exact Fresnel split followed
+/// (weights, not sampling) up to 6 interactions, and each ray leaving the ball integrated
+/// along its length (midpoint steps of 5 mm) into the pixel it projects to: σs Φ ds T phase /
+/// (d² A_pix cos³ θc), T the transmittance from the light along the path and to the camera,
+/// points hidden from the camera by the ball dropped. One image per path class.
+fn line_integral_reference(sc: &Scene, rings: usize) -> Vec<Vec<f64>> {
+    let cam = &sc.camera;
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    let (lp, centre, r, n) = (glam::DVec3::new(0.0, 4.0, 0.0), glam::DVec3::new(0.0, 1.5, 0.0), 0.5f64, 1.5f64);
+    let (ss, st, i0) = (0.3f64, 0.35f64, 20.0f64);
+    let (lo, hi) = (glam::DVec3::new(-4.0, -0.1, -4.0), glam::DVec3::new(4.0, 4.5, 4.0));
+    let tan_y = (f64::from(cam.fov_y_deg).to_radians() * 0.5).tan();
+    let tan_x = tan_y * f64::from(cam.aspect());
+    let pix_area = (2.0 * tan_x / w as f64) * (2.0 * tan_y / h as f64);
+    let (cp, fwd, right, up) =
+        (cam.position.as_dvec3(), cam.forward().as_dvec3(), cam.right().as_dvec3(), cam.true_up().as_dvec3());
+    let hit_sphere = |o: glam::DVec3, d: glam::DVec3| -> Option<(f64, f64)> {
+        let oc = o - centre;
+        let b = oc.dot(d);
+        let disc = b * b - (oc.length_squared() - r * r);
+        (disc > 0.0).then(|| (-b - disc.sqrt(), -b + disc.sqrt()))
+    };
+    let mut imgs = vec![vec![0.0f64; w * h]; PATH_CLASSES.len()];
+    let splat = |imgs: &mut Vec<Vec<f64>>, class: usize, o: glam::DVec3, d: glam::DVec3, pre: f64, flux: f64| {
+        // To the floor (y = 0) or the box's side.
+        let mut t_end = f64::INFINITY;
+        for k in 0..3 {
+            if d[k] != 0.0 {
+                t_end = t_end.min(((if d[k] > 0.0 { hi[k] } else { lo[k] }) - o[k]) / d[k]);
+            }
+        }
+        if d.y < 0.0 {
+            t_end = t_end.min(-o.y / d.y);
+        }
+        let ds = 0.005;
+        let steps = (t_end / ds).ceil() as usize;
+        let ds = t_end / steps as f64;
+        for s in 0..steps {
+            let t = (s as f64 + 0.5) * ds;
+            let x = o + d * t;
+            let to = cp - x;
+            let dist = to.length();
+            let dir = to / dist;
+            if let Some((a, b)) = hit_sphere(x, dir)
+                && b > 0.0
+                && a < dist
+            {
+                continue;
+            }
+            let v = -dir;
+            let z = v.dot(fwd);
+            if z <= 1e-9 {
+                continue;
+            }
+            let sx = v.dot(right) / z / tan_x;
+            let sy = v.dot(up) / z / tan_y;
+            let px = (sx + 1.0) * 0.5 * w as f64;
+            let py = (1.0 - sy) * 0.5 * h as f64;
+            if !(px >= 0.0 && py >= 0.0 && px < w as f64 && py < h as f64) {
+                continue;
+            }
+            let tr = (-st * (pre + t + dist)).exp();
+            let val = ss * flux * ds * tr * 0.25 / std::f64::consts::PI / (dist * dist * pix_area * z * z * z);
+            imgs[class][py as usize * w + px as usize] += val;
+        }
+    };
+    // The light's rays onto the ball: cos α uniform in [cos αmax, 1], φ uniform.
+    let amax = (r / (lp - centre).length()).asin();
+    let (na, nphi) = (rings, 4 * rings);
+    let domega = 2.0 * std::f64::consts::PI * (1.0 - amax.cos()) / (na * nphi) as f64;
+    for ia in 0..na {
+        let ca = 1.0 - (1.0 - amax.cos()) * (ia as f64 + 0.5) / na as f64;
+        let sa = (1.0 - ca * ca).sqrt();
+        for ip in 0..nphi {
+            let phi = (ip as f64 + 0.5) / nphi as f64 * std::f64::consts::TAU;
+            let d = glam::DVec3::new(sa * phi.cos(), -ca, sa * phi.sin());
+            let Some((t0, _)) = hit_sphere(lp, d) else { continue };
+            // Branches: (origin, direction, inside, weight, internal reflections, interactions).
+            let mut stack = vec![(lp + d * t0, d, false, i0 * domega, 0u32, 0u32)];
+            let pre = t0;
+            while let Some((p, d, inside, wgt, refl, depth)) = stack.pop() {
+                if depth >= 6 || wgt < 1e-12 {
+                    continue;
+                }
+                let nrm = (p - centre).normalize() * if inside { -1.0 } else { 1.0 };
+                let cos_i = -d.dot(nrm);
+                let eta = if inside { 1.0 / n } else { n };
+                let f = fresnel(cos_i, eta);
+                let rd = d + nrm * (2.0 * cos_i);
+                // Reflected.
+                if inside {
+                    let (_, t1) = hit_sphere(p, rd).unwrap_or((0.0, 0.0));
+                    stack.push((p + rd * t1, rd, true, wgt * f, refl + 1, depth + 1));
+                } else {
+                    splat(&mut imgs, 0, p, rd, pre, wgt * f);
+                }
+                // Transmitted.
+                if f < 1.0 {
+                    let k = 1.0 / eta;
+                    let ct = (1.0 - k * k * (1.0 - cos_i * cos_i)).sqrt();
+                    let td = (d * k + nrm * (k * cos_i - ct)).normalize();
+                    if inside {
+                        let class = match refl {
+                            0 => 1,
+                            1 => 2,
+                            _ => 3,
+                        };
+                        splat(&mut imgs, class, p, td, pre, wgt * (1.0 - f));
+                    } else {
+                        let (_, t1) = hit_sphere(p, td).unwrap_or((0.0, 0.0));
+                        stack.push((p + td * t1, td, true, wgt * (1.0 - f), refl, depth + 1));
+                    }
+                }
+            }
+        }
+    }
+    imgs
+}
+
+fn ball_mask(sc: &Scene) -> caustics_reference::metrics::Mask {
+    let cam = &sc.camera;
+    let (w, h) = (cam.width, cam.height);
+    let mut mask = caustics_reference::metrics::Mask::all(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let mut hit = false;
+            for (dx, dy) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (0.5, 0.5)] {
+                let d = cam.ray_dir(x as f32 + dx, y as f32 + dy);
+                let oc = cam.position - Vec3::new(0.0, 1.5, 0.0);
+                let b = oc.dot(d);
+                hit |= b * b - (oc.length_squared() - 0.25) > 0.0 && b < 0.0;
+            }
+            mask.include[(y * w + x) as usize] = !hit;
+        }
+    }
+    mask
+}
+
+fn to_image(px: &[f64], w: u32, h: u32) -> caustics::image_io::Image {
+    let mut img = caustics::image_io::Image::new(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let v = px[(y * w + x) as usize] as f32;
+            img.set(x, y, [v, v, v]);
+        }
+    }
+    img
+}
+
+/// Diagnostic (run with `--ignored --nocapture`): the volume caustic's error split by path
+/// class, by image row and by beam and pixel sampling.
+#[test]
+#[ignore = "diagnostic: prints the error decomposition"]
+fn beam_error_decomposition() {
+    use caustics_reference::metrics::{energy, hdr_flip};
+    use caustics_reference::reference::{self, ReferenceSettings};
+    let Some(ctx) = gpu() else { return };
+    let (w, h) = (48, 40);
+    let sc = ball_in_fog(14.0, w, h);
+    let mask = ball_mask(&sc);
+    let t = std::time::Instant::now();
+    let rings: usize = std::env::var("RINGS").ok().and_then(|v| v.parse().ok()).unwrap_or(100);
+    let lines = line_integral_reference(&sc, rings);
+    println!("line reference ({rings} rings): {:.1} s", t.elapsed().as_secs_f64());
+    let total: Vec<f64> = (0..(w * h) as usize).map(|i| lines.iter().map(|c| c[i]).sum()).collect();
+    let line_all = to_image(&total, w, h);
+    let el = energy(&line_all, Some(&mask));
+    for (c, name) in PATH_CLASSES.iter().enumerate() {
+        let e = energy(&to_image(&lines[c], w, h), Some(&mask));
+        println!("class {name}: energy {e:.5} ({:.2} % of all)", e / el * 100.0);
+    }
+    let tt = to_image(&lines[1], w, h);
+    let r_only: Vec<f64> = (0..(w * h) as usize).map(|i| lines[0][i] + lines[2][i] + lines[3][i]).collect();
+    let r_only = to_image(&r_only, w, h);
+    if std::env::var_os("NO_REF").is_none() {
+        let rs = ReferenceSettings {
+            photons_per_light: std::env::var("REF_PHOTONS").ok().and_then(|v| v.parse().ok()).unwrap_or(1 << 22),
+            camera_spp: 1,
+            max_depth: 8,
+            seed: 5,
+            caustic_map_size: 8,
+            medium_single_scattering_only: true,
+        };
+        let r = reference::render(&sc, &rs).unwrap();
+        let r2 = reference::render(&sc, &ReferenceSettings { seed: 6, ..rs }).unwrap();
+        let er = energy(&r.caustic, Some(&mask));
+        println!(
+            "reference vs line integral: energy {:+.2} %, HDR-FLIP {:.4}; reference seed 5 vs 6: HDR-FLIP {:.4}, energy {:+.2} %",
+            (er / el - 1.0) * 100.0,
+            hdr_flip(&r.caustic, &line_all, Some(&mask)).unwrap().mean,
+            hdr_flip(&r2.caustic, &r.caustic, Some(&mask)).unwrap().mean,
+            (energy(&r2.caustic, Some(&mask)) / er - 1.0) * 100.0
+        );
+        let row = |img: &caustics::image_io::Image, y: u32| -> f64 {
+            (0..w).filter(|&x| mask.include[(y * w + x) as usize]).map(|x| f64::from(img.get(x, y)[0])).sum()
+        };
+        let rows: Vec<String> = (0..h)
+            .filter(|&y| row(&line_all, y) > 0.0)
+            .map(|y| format!("{y}:{:.2}", row(&r.caustic, y) / row(&line_all, y)))
+            .collect();
+        println!("  rows (reference / line): {}", rows.join(" "));
+        if std::env::var_os("ONLY_REF").is_some() {
+            return;
+        }
+    }
+    // PIXEL_SAMPLES=n: only the regular 32² grid with n x n rays per pixel (the pixel
+    // footprint's convergence at a small cost).
+    let only_px: Option<u32> = std::env::var("PIXEL_SAMPLES").ok().and_then(|v| v.parse().ok());
+    let configs: Vec<(&str, BeamSettings)> = if let Some(n) = only_px {
+        vec![("regular 32, PIXEL_SAMPLES rays", BeamSettings { pixel_samples: n, ..BeamSettings::regular(32) })]
+    } else {
+        vec![
+            ("adaptive 16+3", BeamSettings::default()),
+            ("adaptive 16+3 px3", BeamSettings { pixel_samples: 3, ..Default::default() }),
+            ("regular 64 px3", BeamSettings { pixel_samples: 3, ..BeamSettings::regular(64) }),
+            ("regular 32 px3", BeamSettings { pixel_samples: 3, ..BeamSettings::regular(32) }),
+        ]
+    };
+    for (name, b) in configs {
+        let t = std::time::Instant::now();
+        let on = render(&ctx, &sc, &render_settings(b)).unwrap();
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        let off = render(&ctx, &sc, &render_settings(BeamSettings { reflection: false, ..b })).unwrap();
+        let mut refl = off.caustic.clone();
+        for (o, (a, t)) in refl.pixels.iter_mut().zip(on.caustic.pixels.iter().zip(&off.caustic.pixels)) {
+            *o = [a[0] - t[0], a[1] - t[1], a[2] - t[2]];
+        }
+        let e = |a: &caustics::image_io::Image, b: &caustics::image_io::Image| {
+            (energy(a, Some(&mask)) / energy(b, Some(&mask)) - 1.0) * 100.0
+        };
+        println!(
+            "{name}: {} beams, {ms:.0} ms; all vs line all: FLIP {:.4} energy {:+.2} %; TT beams vs TT: FLIP {:.4} energy {:+.2} %; reflected beams vs R + TRT + rest: energy {:+.2} %",
+            on.beams[0].0.beams,
+            hdr_flip(&on.caustic, &line_all, Some(&mask)).unwrap().mean,
+            e(&on.caustic, &line_all),
+            hdr_flip(&off.caustic, &tt, Some(&mask)).unwrap().mean,
+            e(&off.caustic, &tt),
+            e(&refl, &r_only),
+        );
+        // Per-row energy of the transmitted light (masked), beams / line integral.
+        let row = |img: &caustics::image_io::Image, y: u32| -> f64 {
+            (0..w).filter(|&x| mask.include[(y * w + x) as usize]).map(|x| f64::from(img.get(x, y)[0])).sum()
+        };
+        let rows: Vec<String> = (0..h)
+            .filter(|&y| row(&tt, y) > 0.0)
+            .map(|y| format!("{y}:{:.2}", row(&off.caustic, y) / row(&tt, y)))
+            .collect();
+        println!("  TT rows (beams / line): {}", rows.join(" "));
+        if let Some(dir) = std::env::var_os("BEAM_DUMP") {
+            let dir = std::path::PathBuf::from(dir);
+            let tag = name.replace(' ', "_");
+            caustics_reference::io::ImageIo::write(&off.caustic, &dir.join(format!("tt_{tag}.exr")), 1.0).unwrap();
+            caustics_reference::io::ImageIo::write(&tt, &dir.join("tt_line.exr"), 1.0).unwrap();
+            caustics_reference::io::ImageIo::write(&line_all, &dir.join("all_line.exr"), 1.0).unwrap();
+        }
     }
 }

@@ -32,11 +32,15 @@ struct BeamParams {
     samples: u32,
     width: u32,
     height: u32,
-    // bit 0: trace the branch reflected at the first dielectric surface too.
+    // bit 0: trace the branches reflected at the first dielectric surface and inside it too.
     flags: u32,
     // Camera rays per pixel side (beam_gather: the box pixel filter).
     pixel_samples: u32,
 }
+
+// Beams per slot of the hierarchy: transmitted, reflected at the first surface, reflected once
+// inside (beam_refine.wgsl).
+const BEAM_BRANCHES: u32 = 3u;
 
 // One refinement level's dispatch.
 struct BeamLevel {

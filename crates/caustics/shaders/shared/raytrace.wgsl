@@ -346,3 +346,63 @@ fn rt_mesh_dn(h: SceneHit, dp: vec3f) -> vec3f {
     let s = length(rt_apply(inst.to_world, vec3f(1.0, 0.0, 0.0), 0.0));
     return rt_apply(inst.to_world, du, 0.0) / s;
 }
+
+// One specular interface of a traced ray (shared by the photon tracer, shared/trace.wgsl, and
+// the beam edges, beam_refine.wgsl, so both follow light through the same interfaces). A
+// dielectric's Fresnel step: the normal used (the shading normal, or the geometric one where
+// the ray meets the shading normal from behind), eta = n_transmitted / n_incident and the
+// unpolarised Fresnel reflectance f (1: total internal reflection). `front`: the ray meets the
+// geometric normal's side; ns, ng are already turned to face the ray.
+struct RtFresnel {
+    n: vec3f,
+    eta: f32,
+    f: f32,
+}
+
+fn rt_dielectric_fresnel(mat: MaterialGpu, dir: vec3f, ns: vec3f, ng: vec3f, front: bool) -> RtFresnel {
+    let eta = select(mat.a.y / mat.a.x, mat.a.x / mat.a.y, front);
+    var n = ns;
+    var cos_i = -dot(dir, n);
+    if (cos_i <= 0.0) { n = ng; cos_i = -dot(dir, n); }
+    return RtFresnel(n, eta, fresnel_dielectric(cos_i, eta));
+}
+
+// The reflectance of a mirror or conductor for a ray along dir at shading normal ns.
+fn rt_metal_weight(mat: MaterialGpu, dir: vec3f, ns: vec3f) -> vec3f {
+    let cos_i = clamp(-dot(dir, ns), 0.0, 1.0);
+    if (mat.kind.x == KIND_MIRROR) { return mat.a.rgb; }
+    return fresnel_conductor(cos_i, mat.a.rgb, mat.b.rgb);
+}
+
+// The new direction at an interface: refracted (eta = n_t / n_i at normal n; about ng where
+// the shading normal would send it back; total internal reflection reflects) unless `reflect_it`,
+// else reflected (about ng where n would send it below the surface). `reflected` says which it
+// took, `n` the normal it used, `eta_rd` the ratio n_i / n_t of a refraction (1 otherwise).
+struct RtBounce {
+    dir: vec3f,
+    n: vec3f,
+    eta_rd: f32,
+    reflected: bool,
+}
+
+fn rt_bounce(dir: vec3f, n_in: vec3f, ng: vec3f, eta: f32, reflect_it: bool) -> RtBounce {
+    var n = n_in;
+    var new_dir = vec3f(0.0);
+    var reflected = reflect_it;
+    var eta_rd = 1.0;
+    if (!reflected) {
+        var t = refract_dir(dir, n, 1.0 / eta);
+        if (dot(t.xyz, ng) >= 0.0) { t = refract_dir(dir, ng, 1.0 / eta); n = ng; }
+        if (t.w < 0.5) {
+            reflected = true;
+        } else {
+            new_dir = t.xyz;
+            eta_rd = 1.0 / eta;
+        }
+    }
+    if (reflected) {
+        new_dir = reflect(dir, n);
+        if (dot(new_dir, ng) <= 0.0) { n = ng; new_dir = reflect(dir, ng); }
+    }
+    return RtBounce(new_dir, n, eta_rd, reflected);
+}

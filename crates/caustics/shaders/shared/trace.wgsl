@@ -1021,19 +1021,17 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
         let front = dot(dir, h.ng) < 0.0;
         let ng = select(-h.ng, h.ng, front);
         let ns = select(-h.ns, h.ns, front);
+        // The interface step (shared/raytrace.wgsl, as the beam edges': beam_refine.wgsl).
         var n = ns;
-        var new_dir = vec3f(0.0);
         var reflected = true;
-        var eta_rd = 1.0;
+        var eta = 1.0;
         if (mat.kind.x == KIND_MIRROR || mat.kind.x == KIND_CONDUCTOR) {
-            let cos_i = clamp(-dot(dir, ns), 0.0, 1.0);
-            if (mat.kind.x == KIND_MIRROR) { flux *= mat.a.rgb; } else { flux *= fresnel_conductor(cos_i, mat.a.rgb, mat.b.rgb); }
+            flux *= rt_metal_weight(mat, dir, ns);
         } else {
-            // Dielectric: eta = n_transmitted / n_incident.
-            let eta = select(mat.a.y / mat.a.x, mat.a.x / mat.a.y, front);
-            var cos_i = -dot(dir, n);
-            if (cos_i <= 0.0) { n = ng; cos_i = -dot(dir, n); }
-            let f = fresnel_dielectric(cos_i, eta);
+            let fz = rt_dielectric_fresnel(mat, dir, ns, ng, front);
+            n = fz.n;
+            eta = fz.eta;
+            let f = fz.f;
             // The branch of this interface: reflected where the branch mask says so (bit 0:
             // trace_reflect), transmitted otherwise; total internal reflection reflects all.
             let want = depth < 32u && ((branch >> depth) & 1u) == 1u;
@@ -1056,21 +1054,12 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
                 add_fixed(14u, (1.0 - kept) * (flux.r + flux.g + flux.b));
             }
             flux *= kept;
-            if (!reflected) {
-                var t = refract_dir(dir, n, 1.0 / eta);
-                if (dot(t.xyz, ng) >= 0.0) { t = refract_dir(dir, ng, 1.0 / eta); n = ng; }
-                if (t.w < 0.5) {
-                    reflected = true;
-                } else {
-                    new_dir = t.xyz;
-                    eta_rd = 1.0 / eta;
-                }
-            }
         }
-        if (reflected) {
-            new_dir = reflect(dir, n);
-            if (dot(new_dir, ng) <= 0.0) { n = ng; new_dir = reflect(dir, ng); }
-        }
+        let bz = rt_bounce(dir, n, ng, eta, reflected);
+        n = bz.n;
+        reflected = bz.reflected;
+        let new_dir = bz.dir;
+        let eta_rd = bz.eta_rd;
         rd_interface(mat, h.p, n, dir, new_dir, eta_rd, reflected);
         sig = (sig * 31u + h.object * 8u + u32(reflected) * 2u + u32(front) + 1u) & 0xffffffu;
         // The lens equations' exit: where the photon first leaves the first object.
