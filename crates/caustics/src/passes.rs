@@ -1254,7 +1254,8 @@ pub(crate) fn record_composite(
             },
             width: w,
             height: h,
-            _pad: [0; 2],
+            layer2: (0..dc.scene.objects.len()).any(|i| in_subset(dc.scene, i, Subset::SpecularMeshes)) as u32,
+            _pad: 0,
         }),
     );
     let v = [
@@ -1295,6 +1296,9 @@ pub(crate) fn record_composite(
             tv(8),
             tv(9),
             wgpu::BindingResource::TextureView(&env_view),
+            dc.geo.bvh_nodes.as_entire_binding(),
+            dc.geo.bvh_tris.as_entire_binding(),
+            dc.geo.bvh_instances.as_entire_binding(),
         ],
     );
     {
