@@ -93,7 +93,11 @@ fn a_mesh_behind_a_glass_sphere_is_seen_through_it() {
 /// Two glass balls stacked under the sky map (rotated 70°), the upper one cut by the frame's top
 /// edge, so that its back surface is partly off screen. `composite` used to find a glass
 /// object's exit in the camera's buffers only, and those pixels were black; a sphere is now
-/// entered and left exactly.
+/// entered and left exactly. Measured on lavapipe (96², 4 environment lights, 128² photons):
+/// no black pixel on the upper ball and a relative mean absolute difference of 0.13 to the CPU
+/// reference (2^18 photons per light, 64 samples per pixel; what remains is the floor seen
+/// through the glass, lit by 4 directional lights instead of the whole sky, and the
+/// reference's noise). The bound, 0.25, leaves room for other drivers' rounding.
 fn cut_ball_scene(w: u32) -> Scene {
     let json = format!(
         r#"{{
@@ -117,11 +121,11 @@ fn cut_ball_scene(w: u32) -> Scene {
 #[test]
 fn a_glass_ball_cut_by_the_frame_edge_is_not_black() {
     let Some(ctx) = gpu() else { return };
-    const N: u32 = 64;
+    const N: u32 = 96;
     let scene = cut_ball_scene(N);
     let s = RenderSettings { photons: 128, caustic_map_size: 256, shadow_map_size: 512, env_lights: 4, ..Default::default() };
     let gpu_out = render(&ctx, &scene, &s).unwrap();
-    let rs = ReferenceSettings { photons_per_light: 1 << 16, camera_spp: 16, ..Default::default() };
+    let rs = ReferenceSettings { photons_per_light: 1 << 18, camera_spp: 64, ..Default::default() };
     let cpu = caustics_reference::reference::render(&scene, &rs).unwrap();
     if let Ok(dir) = std::env::var("CAUSTICS_TEST_OUT") {
         let dir = Path::new(&dir);
