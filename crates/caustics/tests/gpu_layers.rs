@@ -123,7 +123,13 @@ fn a_glass_ball_cut_by_the_frame_edge_is_not_black() {
     let Some(ctx) = gpu() else { return };
     const N: u32 = 96;
     let scene = cut_ball_scene(N);
-    let s = RenderSettings { photons: 128, caustic_map_size: 256, shadow_map_size: 512, env_lights: 4, ..Default::default() };
+    let s = RenderSettings {
+        photons: 128,
+        caustic_map_size: 256,
+        shadow_map_size: 512,
+        env_lights: 4,
+        ..Default::default()
+    };
     let gpu_out = render(&ctx, &scene, &s).unwrap();
     let rs = ReferenceSettings { photons_per_light: 1 << 18, camera_spp: 64, ..Default::default() };
     let cpu = caustics_reference::reference::render(&scene, &rs).unwrap();
