@@ -483,6 +483,9 @@ fn run(cli: Cli) -> Result<()> {
                     if caustic_map.is_none() {
                         settings.caustic_map_size = RenderSettings::fitting_caustic_map_size(&ctx, &scene, 1024);
                     }
+                    if !caustic_spheres {
+                        progress::exit_on_ctrl_c();
+                    }
                     let t0 = std::time::Instant::now();
                     let out = match dump.as_deref() {
                         Some(_) if caustic_spheres => {
@@ -495,6 +498,7 @@ fn run(cli: Cli) -> Result<()> {
                         }
                         _ if caustic_spheres => {
                             let tables = spheres::build(&scene, &sphere_args)?;
+                            progress::exit_on_ctrl_c();
                             let t0 = std::time::Instant::now();
                             let mut r = caustics::renderer::Renderer::with_context(
                                 ctx.clone(),
@@ -516,6 +520,7 @@ fn run(cli: Cli) -> Result<()> {
                         }
                         Some(dir) => {
                             let (out, images) = caustics::render::render_dump(&ctx, &scene, &settings)?;
+                            progress::begin_outputs();
                             caustics_reference::dump::write(dir, &images)?;
                             out
                         }
@@ -523,6 +528,7 @@ fn run(cli: Cli) -> Result<()> {
                     };
                     let wall = t0.elapsed().as_secs_f64() * 1e3;
                     report_gpu(&out, wall);
+                    progress::begin_outputs();
                     out.image.write(&output, scene.exposure)?;
                     if let Some(c) = &caustic_output {
                         out.caustic.write(c, scene.exposure)?;

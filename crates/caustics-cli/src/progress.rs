@@ -4,7 +4,7 @@
 use caustics::Scene;
 use caustics_reference::reference::{Progress, ReferenceOutput, ReferenceSettings};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 /// Exit code of a run cancelled by Ctrl-C (128 + SIGINT, as shells report it).
@@ -64,4 +64,46 @@ pub fn with_bar<T: Send>(
     });
     bar.finish_and_clear();
     result
+}
+
+/// Held from the moment a GPU render starts writing its output files to the end of the process,
+/// so that Ctrl-C never cuts the outputs short.
+static WRITING: Mutex<()> = Mutex::new(());
+
+/// Ctrl-C during a GPU render: a render is one long submission that cannot be cancelled
+/// half-way, so the handler ends the process at once with exit code 130, before any output file
+/// exists. Once [`begin_outputs`] has been called the outputs are written in full (each
+/// atomically: a temporary file renamed into place) and Ctrl-C is ignored. Returns false when a
+/// handler was already installed in this process (the caustic-sphere precomputation installs
+/// its own, which only cancels the precomputation).
+pub fn exit_on_ctrl_c() -> bool {
+    ctrlc::set_handler(|| {
+        // Waits for ever once the outputs are being written: the render then ends normally.
+        let _writing = WRITING.lock().unwrap_or_else(|e| e.into_inner());
+        eprintln!("cancelled: nothing was written");
+        hard_exit(CANCELLED_EXIT);
+    })
+    .is_ok()
+}
+
+/// From here on Ctrl-C no longer ends the process (see [`exit_on_ctrl_c`]).
+/// Calling it again does nothing.
+pub fn begin_outputs() {
+    static BEGUN: std::sync::Once = std::sync::Once::new();
+    BEGUN.call_once(|| std::mem::forget(WRITING.lock().unwrap_or_else(|e| e.into_inner())));
+}
+
+/// End the process from the Ctrl-C handler's thread without running exit handlers (the main
+/// thread and the driver's threads are busy with the GPU render; `exit` would run destructors
+/// under them).
+#[cfg(unix)]
+#[expect(unsafe_code, reason = "libc::_exit: ends the process; no Rust invariant is involved")]
+fn hard_exit(code: u8) -> ! {
+    // SAFETY: `_exit` takes any status and never returns.
+    unsafe { libc::_exit(code as libc::c_int) }
+}
+
+#[cfg(not(unix))]
+fn hard_exit(code: u8) -> ! {
+    std::process::exit(code as i32)
 }

@@ -114,6 +114,46 @@ fn ctrl_c_cancels_the_cpu_reference_cleanly() {
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "a cancelled render left files behind");
 }
 
+/// Ctrl-C during a GPU render (a large photon grid, seconds on lavapipe): exit code 130 and no
+/// output file, temporary or final. The signal is sent once the render has started (the CLI
+/// has printed the scene line, after the device is open). Skips without a GPU adapter, except
+/// in CI.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_a_gpu_render_without_output() {
+    use std::io::BufRead as _;
+    let dir = tmp("cancel_gpu");
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("cancelled.exr");
+    let mut child = caustics()
+        .args(["render", "--backend", "gpu", "--photons", "4096", "--size", "320x240", "-o", out.to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    stdout.read_line(&mut line).unwrap();
+    if !line.starts_with("scene:") {
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "no GPU render in CI: {err}");
+        eprintln!("skipping: no GPU render ({err})");
+        return;
+    }
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let t0 = std::time::Instant::now();
+    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(status.success());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(err.contains("cancelled"), "{err}");
+    assert!(t0.elapsed().as_secs_f64() < 5.0, "stopping took {:?}", t0.elapsed());
+    assert!(!out.exists(), "a cancelled render left {}", out.display());
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "a cancelled render left files behind");
+}
+
 #[test]
 fn precompute_builds_then_reads_the_cache() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/glass_sphere_3dir.json");

@@ -12,6 +12,7 @@
 // (front and back, depth-peeled per object by `raster_peel`) and refracted through the same way.
 
 #import shapes
+#import raytrace
 #import environment
 
 struct CompositeParams {
@@ -21,8 +22,9 @@ struct CompositeParams {
     env_rotation: vec4f,
     width: u32,
     height: u32,
-    _pad0: u32,
-    _pad1: u32,
+    // 1 when the scene has specular meshes: else the second-layer buffers are empty.
+    layer2: u32,
+    _pad: u32,
 }
 
 @group(0) @binding(0) var<uniform> cp: CompositeParams;
@@ -42,6 +44,9 @@ struct CompositeParams {
 @group(0) @binding(14) var back2_pos: texture_2d<f32>;
 @group(0) @binding(15) var back2_nrm: texture_2d<f32>;
 @group(0) @binding(16) var env_map: texture_2d<f32>;
+@group(0) @binding(17) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(18) var<storage, read> bvh_tris: array<BvhTri>;
+@group(0) @binding(19) var<storage, read> bvh_instances: array<BvhInstance>;
 
 fn to_pixel(p: vec3f) -> vec3f {
     let c = cp.world_to_clip * vec4f(p, 1.0);
@@ -231,6 +236,7 @@ fn march_exit_in(o: vec3f, d: vec3f, spec_pos: texture_2d<f32>, spec_nrm: textur
 fn find_layer2(o: vec3f, d: vec3f, t_max: f32, leaving: u32) -> EyeHit {
     var none: EyeHit;
     none.ok = false;
+    if (cp.layer2 == 0u) { return none; }
     let ds = screen_step(o, d);
     let cam = cp.camera.xyz;
     var was_outside = false;
@@ -315,6 +321,42 @@ fn mesh_interaction(h: EyeHit, d: vec3f) -> MeshResult {
     return r;
 }
 
+// Where a ray travelling inside the glass object `obj` (at p, along d) leaves it. A sphere: its
+// far root, exactly (wherever the sphere's back lies: off screen, or hidden). A mesh: marched
+// through the camera's first-layer buffers (`march_exit_eye`); where that finds no exit (the
+// back surface off screen or hidden behind something else), the exact BVH tracer
+// (`shared/raytrace.wgsl`) from just inside the surface, kept when what it meets is this object.
+fn exit_from_inside(obj: u32, m: MaterialGpu, p: vec3f, d: vec3f) -> EyeHit {
+    var h: EyeHit;
+    h.ok = false;
+    h.object = obj;
+    if (m.kind.z == SHAPE_SPHERE) {
+        let c = m.s0.xyz;
+        let wv = p - c;
+        let b = dot(wv, d);
+        let cc = dot(wv, wv) - m.s0.w * m.s0.w;
+        let t = -b + sqrt(max(b * b - cc, 0.0));
+        if (!(t > 0.0)) { return h; }
+        h.p = p + t * d;
+        h.n = normalize(h.p - c);
+        h.ok = true;
+        return h;
+    }
+    let marched = march_exit_eye(p, d);
+    if (marched.ok) { return marched; }
+    rt_overflow = 0u;
+    let a = abs(p);
+    let o = p + d * (2e-5 * (1.0 + max(max(a.x, a.y), a.z)));
+    let sh = scene_hit(o, d, 1e30);
+    // A hit the tracer may have missed (its stack overflowed) or another object: no exit, as
+    // before (the pixel is black where the light is lost).
+    if (sh.object != obj || rt_overflow != 0u) { return h; }
+    h.p = sh.p;
+    h.n = sh.ns;
+    h.ok = true;
+    return h;
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (gid.x >= cp.width || gid.y >= cp.height) { return; }
@@ -338,42 +380,61 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         return;
     }
     out_caustic[idx] = vec4f(0.0);
-    let mat = materials[u32(s.w)];
-    let p = s.xyz;
+    let obj = u32(s.w);
+    let mat = materials[obj];
+    var p = s.xyz;
     let d = normalize(p - cam);
     var n = normalize(textureLoad(spec_nrm, px, 0).xyz);
+    // An analytic object is entered exactly: the pixel's ray (through the rasterized point) meets
+    // the shape itself, not its tessellation (a ray that misses it, at the tessellated silhouette,
+    // keeps the rasterized point).
+    if (mat.kind.z != SHAPE_MESH) {
+        let e = rt_shape(mat, cam, d, 1e30);
+        if (e.x > 0.0) {
+            p = cam + e.x * d;
+            n = e.yzw;
+        }
+    }
     if (dot(n, d) > 0.0) { n = -n; }
     let cos1 = -dot(d, n);
     let refl = reflect(d, n);
     var l = vec3f(0.0);
     if (mat.kind.x == KIND_MIRROR) {
-        l = mat.a.rgb * shade_ray(p, refl, u32(s.w));
+        l = mat.a.rgb * shade_ray(p, refl, obj);
     } else if (mat.kind.x == KIND_CONDUCTOR) {
-        l = fresnel_conductor(cos1, mat.a.rgb, mat.b.rgb) * shade_ray(p, refl, u32(s.w));
+        l = fresnel_conductor(cos1, mat.a.rgb, mat.b.rgb) * shade_ray(p, refl, obj);
     } else if (mat.kind.x == KIND_DIELECTRIC) {
         let ior = mat.a.x;
         let ext = mat.a.y;
         let f1 = fresnel_dielectric(cos1, ior / ext);
-        l = f1 * shade_ray(p, refl, u32(s.w));
+        l = f1 * shade_ray(p, refl, obj);
         let t1 = refract_dir(d, n, ext / ior);
-        // Inside: march to the exit; follow total internal reflection up to three times.
-        var p_in = p;
-        var t_in = t1.xyz;
-        var w = 1.0 - f1;
-        for (var k = 0u; k < 4u; k++) {
-            let exit = march_exit_eye(p_in, t_in);
-            if (!exit.ok) { break; }
-            var n2 = exit.n;
-            if (dot(n2, t_in) < 0.0) { n2 = -n2; }
-            let cos2 = dot(t_in, n2);
-            let t2 = refract_dir(t_in, -n2, ior / ext);
-            if (t2.w > 0.5) {
-                let f2 = fresnel_dielectric(cos2, ext / ior);
-                l += w * (1.0 - f2) * shade_ray(exit.p, t2.xyz, u32(s.w));
-                break;
+        if (mat.kind.z == SHAPE_CYLINDER || mat.kind.z == SHAPE_RECTANGLE) {
+            // Open cylinders and rectangles have no inside: a thin sheet, out the other side
+            // (as `shade_ray` treats them behind the first layer).
+            l += (1.0 - f1) * (1.0 - f1) * shade_ray(p, d, obj);
+        } else {
+            // Inside: to the exit (exactly for a sphere; marched through the camera's buffers
+            // for a mesh, with the exact BVH tracer where the march finds none); total internal
+            // reflection followed up to three times.
+            var p_in = p;
+            var t_in = t1.xyz;
+            var w = 1.0 - f1;
+            for (var k = 0u; k < 4u; k++) {
+                let exit = exit_from_inside(obj, mat, p_in, t_in);
+                if (!exit.ok) { break; }
+                var n2 = exit.n;
+                if (dot(n2, t_in) < 0.0) { n2 = -n2; }
+                let cos2 = dot(t_in, n2);
+                let t2 = refract_dir(t_in, -n2, ior / ext);
+                if (t2.w > 0.5) {
+                    let f2 = fresnel_dielectric(cos2, ext / ior);
+                    l += w * (1.0 - f2) * shade_ray(exit.p, t2.xyz, obj);
+                    break;
+                }
+                p_in = exit.p;
+                t_in = reflect(t_in, n2);
             }
-            p_in = exit.p;
-            t_in = reflect(t_in, n2);
         }
     }
     out_full[idx] = vec4f(l, 0.0);

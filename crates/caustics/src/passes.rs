@@ -85,6 +85,11 @@ fn in_subset(scene: &Scene, i: usize, s: Subset) -> bool {
     }
 }
 
+/// Whether the camera's second specular layer can hold anything (it holds specular meshes only).
+fn has_specular_meshes(scene: &Scene) -> bool {
+    (0..scene.objects.len()).any(|i| in_subset(scene, i, Subset::SpecularMeshes))
+}
+
 /// Upload the triangles of `scene` (the pose of its file) with identity transforms.
 pub(crate) fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation) -> Geometry {
     let mut vertices: Vec<Vertex> = Vec::new();
@@ -786,19 +791,22 @@ pub(crate) fn record_eye(
     ] {
         dc.pass(enc, timer, name, pl, Some((&gb.pos, &gb.nrm)), &gb.depth, 0, cam_clip, subset);
     }
-    // The second specular layer (meshes behind the first layer's object), front and back.
+    // The second specular layer (meshes behind the first layer's object), front and back; not
+    // drawn in scenes without specular meshes, where `composite` does not read it.
     let front2 = GBuffer::new(ctx, "eye_specular_front2", w, h, 1);
     let back2 = GBuffer::new(ctx, "eye_specular_back2", w, h, 1);
-    dc.peel(
-        enc,
-        timer,
-        raster,
-        &front,
-        0,
-        cam_clip,
-        Subset::SpecularMeshes,
-        [("eye_specular_front2", &front2), ("eye_specular_back2", &back2)],
-    );
+    if has_specular_meshes(scene) {
+        dc.peel(
+            enc,
+            timer,
+            raster,
+            &front,
+            0,
+            cam_clip,
+            Subset::SpecularMeshes,
+            [("eye_specular_front2", &front2), ("eye_specular_back2", &back2)],
+        );
+    }
     let img_bytes = (w as u64) * (h as u64) * 16;
     let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
     EyeFrame {
@@ -1261,7 +1269,8 @@ pub(crate) fn record_composite(
             },
             width: w,
             height: h,
-            _pad: [0; 2],
+            layer2: has_specular_meshes(dc.scene) as u32,
+            _pad: 0,
         }),
     );
     let v = [
@@ -1302,6 +1311,9 @@ pub(crate) fn record_composite(
             tv(8),
             tv(9),
             wgpu::BindingResource::TextureView(&env_view),
+            dc.geo.bvh_nodes.as_entire_binding(),
+            dc.geo.bvh_tris.as_entire_binding(),
+            dc.geo.bvh_instances.as_entire_binding(),
         ],
     );
     {

@@ -255,7 +255,10 @@ pub struct CompositeParams {
     pub env_rotation: [f32; 4],
     pub width: u32,
     pub height: u32,
-    pub _pad: [u32; 2],
+    /// 1 when the scene has specular meshes (the camera's second layer can hold something), 0:
+    /// `composite` then skips the march through the (empty) second-layer buffers.
+    pub layer2: u32,
+    pub _pad: u32,
 }
 
 /// Read by photon_splat from a storage buffer: the first three words are also the indirect
