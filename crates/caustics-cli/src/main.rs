@@ -178,16 +178,16 @@ enum Command {
         /// CPU backend: render a participating medium with single scattering only.
         #[arg(long)]
         single_scattering: bool,
-        /// Caustic spheres (Tandianus et al. 2010): the caustics of directional lights come
-        /// from precomputed caustic spheres (cached; built first if needed) in one eye-space
-        /// pass instead of photons; --technique still applies to spot and point lights.
+        /// The same as --technique caustic-spheres (kept as an alias): the caustics of
+        /// directional lights come from precomputed caustic spheres (cached; built first if
+        /// needed) in one eye-space pass; spot and point lights get basic caustic maps.
         #[arg(long)]
         caustic_spheres: bool,
         #[command(flatten)]
         sphere_args: spheres::SphereArgs,
     },
     /// Precompute the caustic spheres of a scene's caustic objects into the cache (what
-    /// `render --caustic-spheres` loads).
+    /// `render --technique caustic-spheres` loads).
     Precompute {
         /// Scene file (JSON); the built-in glass-ball scene if omitted.
         scene: Option<PathBuf>,
@@ -414,6 +414,9 @@ fn run(cli: Cli) -> Result<()> {
             sphere_args,
         } => {
             check_output(&output)?;
+            // `--caustic-spheres` is `--technique caustic-spheres`.
+            let technique = if caustic_spheres { caustics::render::Technique::CausticSpheres } else { technique };
+            let caustic_spheres = technique == caustics::render::Technique::CausticSpheres;
             if let Some(c) = &caustic_output {
                 check_output(c)?;
             }
@@ -453,7 +456,6 @@ fn run(cli: Cli) -> Result<()> {
                 beams: beams.settings(),
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),
-                caustic_spheres,
                 ..Default::default()
             };
             let ctx = match backend {
@@ -481,7 +483,7 @@ fn run(cli: Cli) -> Result<()> {
                             return Err(Error::input(
                                 "<command line>",
                                 "--dump",
-                                "not available with --caustic-spheres (no light-space caustic maps for directional lights)",
+                                "not available with caustic spheres (no light-space caustic maps for directional lights)",
                             )
                             .into());
                         }

@@ -157,7 +157,7 @@ pub struct Renderer {
     /// The environment's segmentation in the map's own frame, and the D it was made for.
     env_segments: Option<(SegmentKey, Arc<Vec<EnvironmentLight>>)>,
     /// Caustic spheres of the caustic objects (`set_caustic_spheres`), used when
-    /// `RenderSettings::caustic_spheres` is on.
+    /// the technique is `Technique::CausticSpheres`.
     spheres: Option<crate::caustic_spheres::gpu::GpuSpheres>,
     sphere_blend: crate::caustic_spheres::Blend,
     /// The environment regions' visibility per sphere object, and what it was computed for.
@@ -238,7 +238,7 @@ impl Renderer {
 
     /// The precomputed caustic spheres of caustic objects (object index, table in the object's
     /// scene-file pose), uploaded now (as half floats with `half`: half the memory); with
-    /// `RenderSettings::caustic_spheres` they give the caustics of every directional light
+    /// `Technique::CausticSpheres` they give the caustics of every directional light
     /// (`sphere_gather`), blended as `blend` says.
     pub fn set_caustic_spheres(
         &mut self,
@@ -527,10 +527,18 @@ impl Renderer {
     pub fn encode(&mut self, encoder: &mut wgpu::CommandEncoder, request: FrameRequest) -> Result<FrameOutputs<'_>> {
         let enc = encoder;
         let ctx = self.ctx.clone();
-        let s = self.settings.clone();
+        let mut s = self.settings.clone();
+        let spheres_on = s.technique == crate::settings::Technique::CausticSpheres;
         // The scene as drawn: its lights, then the environment's directional lights.
         let full = Scene { lights: self.lights_now(), ..self.scene.clone() };
-        let sphere_vis = if s.caustic_spheres { self.sphere_visibility()? } else { None };
+        if spheres_on && self.spheres.is_none() {
+            return Err(Error::input(
+                "<renderer>",
+                "technique",
+                "caustic-spheres needs the objects' tables first (Renderer::set_caustic_spheres)",
+            ));
+        }
+        let sphere_vis = if spheres_on { self.sphere_visibility()? } else { None };
         // Geometry: uploaded once (again when the tessellation changes); moved objects rewrite
         // their transforms and analytic shapes.
         if self.geometry.as_ref().is_none_or(|(t, _)| *t != s.tessellation) {
@@ -550,6 +558,9 @@ impl Renderer {
         }
         let scene = &full;
         let fc = FrameConsts::new(scene, &s);
+        // The lights' caustic maps (spot and point lights under caustic spheres) use the
+        // emission technique; `fc` keeps which directional lights skip their photons.
+        s.technique = s.technique.emission();
         let raster = crate::passes::raster_pipelines(&ctx);
         let dc = DrawCtx { ctx: &ctx, geo, scene };
 
@@ -612,7 +623,7 @@ impl Renderer {
             crate::passes::record_shade(&dc, &eye, lf, &s, enc, &mut timer);
             ctx.end_scope();
         }
-        if s.caustic_spheres
+        if spheres_on
             && let Some(sp) = &self.spheres
         {
             ctx.begin_scope("spheres", enc);
@@ -770,7 +781,8 @@ impl Renderer {
             for (p, pieces) in job.pendings {
                 let bytes: Vec<Vec<u8>> = pieces.iter().map(|&(off, size)| piece(off, size)).collect();
                 match p.finish(&bytes) {
-                    Ok(t) => stats.technique.merge(&t),
+                    // The lights report their emission technique; the frame's is the setting.
+                    Ok(t) => stats.technique.merge(&TechniqueStats { technique: self.settings.technique, ..t }),
                     Err(e) => {
                         let m = e.to_string();
                         self.last_error = Some(m.clone());

@@ -6,7 +6,8 @@ mod common;
 use caustics::Scene;
 use caustics::caustic_spheres::{Blend, CausticSpheres, DirectionLayout, SphereSettings};
 use caustics::image_io::Image;
-use caustics::render::RenderSettings;
+use caustics::render::{RenderSettings, Technique};
+use caustics::scene::Light;
 use caustics::renderer::Renderer;
 use caustics_reference::reference::Progress;
 use caustics_reference::reference::spheres;
@@ -67,7 +68,7 @@ fn render(
         photons: 64,
         caustic_map_size: 128,
         shadow_map_size: 256,
-        caustic_spheres: true,
+        technique: Technique::CausticSpheres,
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), scene.clone(), s).unwrap();
@@ -165,7 +166,7 @@ fn steady_frames_create_nothing() {
         photons: 64,
         caustic_map_size: 128,
         shadow_map_size: 256,
-        caustic_spheres: true,
+        technique: Technique::CausticSpheres,
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), scene(&[(l, [1.0; 3])]), s).unwrap();
@@ -233,7 +234,7 @@ fn half_float_table_matches_f32() {
         photons: 64,
         caustic_map_size: 128,
         shadow_map_size: 256,
-        caustic_spheres: true,
+        technique: Technique::CausticSpheres,
         ..Default::default()
     };
     let run = |half: bool| {
@@ -248,4 +249,54 @@ fn half_float_table_matches_f32() {
     eprintln!("half vs f32: relative L1 {e}");
     // f16 keeps 11 significant bits: 2^-11 relative per value, averaged over a lookup.
     assert!(e < 1e-3, "relative L1 {e}");
+}
+
+/// `Technique::CausticSpheres` (what `--caustic-spheres` was): directional lights through the
+/// spheres, a spot light through basic caustic maps, in one frame: its caustic image is the
+/// basic technique's caustic of the spot light alone plus the spheres' of the directional
+/// light alone.
+#[test]
+fn technique_adds_spheres_to_basic_caustic_maps_of_spot_lights() {
+    let Some(ctx) = gpu() else { return };
+    let dir = (Vec3::new(0.2, -1.0, 0.1).normalize(), [2.0, 1.5, 1.0]);
+    let spot = Light::Spot {
+        position: Vec3::new(0.4, 3.0, 0.3),
+        direction: Vec3::new(-0.4, -2.0, -0.3).normalize(),
+        cone_angle: 0.35,
+        falloff_start: 0.25,
+        intensity: Vec3::splat(20.0),
+    };
+    let mut both = scene(&[dir]);
+    both.lights.push(spot.clone());
+    let mut spot_only = scene(&[]);
+    spot_only.lights = vec![spot];
+    let out = render(&ctx, &both, None);
+    let s = RenderSettings { photons: 64, caustic_map_size: 128, shadow_map_size: 256, ..Default::default() };
+    let basic = caustics::render::render(&ctx, &spot_only, &s).unwrap();
+    let gather = render(&ctx, &scene(&[dir]), None).caustic;
+    // The spot light's photons are the basic technique's, the directional light's none.
+    assert_eq!(out.photons_traced, basic.photons_traced);
+    assert!(basic.photons_traced > 0);
+    assert_eq!(out.technique.technique, Technique::CausticSpheres);
+    let mut sum = basic.caustic.clone();
+    for (p, g) in sum.pixels.iter_mut().zip(&gather.pixels) {
+        for c in 0..3 {
+            p[c] += g[c];
+        }
+    }
+    let e = rel_l1(&out.caustic, &sum);
+    eprintln!("spheres + spot vs basic(spot) + spheres(directional): relative L1 {e}");
+    assert!(basic.caustic.sum() > 0.0 && gather.sum() > 0.0);
+    // Only the order of the f32 additions differs.
+    assert!(e < 1e-5, "relative L1 {e}");
+}
+
+/// The technique without tables is refused with a message saying what is missing.
+#[test]
+fn technique_without_tables_is_refused() {
+    let Some(ctx) = gpu() else { return };
+    let s = RenderSettings { photons: 64, technique: Technique::CausticSpheres, ..Default::default() };
+    let mut r = Renderer::with_context(ctx.clone(), scene(&[(Vec3::NEG_Y, [1.0; 3])]), s).unwrap();
+    let e = r.render_once().err().expect("no tables: an error");
+    assert!(e.to_string().contains("set_caustic_spheres"), "{e}");
 }
