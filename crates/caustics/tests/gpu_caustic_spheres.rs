@@ -268,7 +268,7 @@ fn technique_adds_spheres_to_basic_caustic_maps_of_spot_lights() {
     };
     let mut both = scene(&[dir]);
     both.lights.push(spot.clone());
-    let mut spot_only = scene(&[]);
+    let mut spot_only = scene(&[dir]);
     spot_only.lights = vec![spot];
     let out = render(&ctx, &both, None);
     let s = RenderSettings { photons: 64, caustic_map_size: 128, shadow_map_size: 256, ..Default::default() };
@@ -287,7 +287,8 @@ fn technique_adds_spheres_to_basic_caustic_maps_of_spot_lights() {
     let e = rel_l1(&out.caustic, &sum);
     eprintln!("spheres + spot vs basic(spot) + spheres(directional): relative L1 {e}");
     assert!(basic.caustic.sum() > 0.0 && gather.sum() > 0.0);
-    // Only the order of the f32 additions differs.
+    // The same passes add the same terms (measured: the same bits, relative L1 0); the bound
+    // leaves room for a different order of the f32 additions.
     assert!(e < 1e-5, "relative L1 {e}");
 }
 
