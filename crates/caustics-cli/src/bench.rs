@@ -152,10 +152,12 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 bar.inc(1);
                 let t0 = std::time::Instant::now();
                 let rendered = if t == Technique::CausticSpheres {
-                    caustics::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s.clone()).and_then(|mut r| {
-                        crate::spheres::attach(&mut r, &scene, &a.sphere_args, &mut sphere_tables)?;
-                        r.render_once()
-                    })
+                    caustics::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s.clone()).and_then(
+                        |mut r| {
+                            crate::spheres::attach(&mut r, &scene, &a.sphere_args, &mut sphere_tables)?;
+                            r.render_once()
+                        },
+                    )
                 } else {
                     caustics::render::render(&ctx, &scene, &s)
                 };

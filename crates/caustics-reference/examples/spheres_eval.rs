@@ -129,15 +129,25 @@ fn main() {
                 t
             };
             use caustics::caustic_spheres::Warp;
-            let warps = [("rotate", Warp::Rotate), ("shear", Warp::Exit(0)), ("exit1", Warp::Exit(1)), ("exit2", Warp::Exit(2))];
-            println!("| angle to nearest | noise (seed vs seed) | nearest rotate | {} |", warps.map(|w| w.0).join(" | "));
+            let warps = [
+                ("rotate", Warp::Rotate),
+                ("shear", Warp::Exit(0)),
+                ("exit1", Warp::Exit(1)),
+                ("exit2", Warp::Exit(2)),
+            ];
+            println!(
+                "| angle to nearest | noise (seed vs seed) | nearest rotate | {} |",
+                warps.map(|w| w.0).join(" | ")
+            );
             for f in [0.0f32, 0.15, 0.3, 0.5, 0.75, 1.0] {
                 let l = a0.lerp(centroid, f).normalize();
-                let ang = layout.dirs.iter().map(|d| d.dot(l).clamp(-1.0, 1.0).acos()).fold(9.0f32, f32::min).to_degrees();
+                let ang =
+                    layout.dirs.iter().map(|d| d.dot(l).clamp(-1.0, 1.0).acos()).fold(9.0f32, f32::min).to_degrees();
                 scene.lights = vec![Light::Directional { direction: l, irradiance: Vec3::splat(2.0) }];
                 let d1 = direct(&scene, l, 0x1234_5678);
                 let d2 = direct(&scene, l, 0x8765_4321);
-                let render = |f: &(dyn Fn(Vec3, Vec3, Vec3) -> Vec3 + Sync)| spheres::render_caustic_with(&scene, obj, f, 2);
+                let render =
+                    |f: &(dyn Fn(Vec3, Vec3, Vec3) -> Vec3 + Sync)| spheres::render_caustic_with(&scene, obj, f, 2);
                 let ref_img = render(&|p, n, l| d1.irradiance_of(0, p, n, l));
                 let noise = render(&|p, n, l| d2.irradiance_of(0, p, n, l));
                 let near = {

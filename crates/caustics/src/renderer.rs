@@ -623,9 +623,7 @@ impl Renderer {
             crate::passes::record_shade(&dc, &eye, lf, &s, enc, &mut timer);
             ctx.end_scope();
         }
-        if spheres_on
-            && let Some(sp) = &self.spheres
-        {
+        if spheres_on && let Some(sp) = &self.spheres {
             ctx.begin_scope("spheres", enc);
             let n_own = self.scene.lights.len();
             let vis = |li: usize, object: usize| -> f32 {

@@ -419,7 +419,15 @@ impl CausticSpheres {
     }
 
     /// [`Self::irradiance`] with the stored patterns carried onto `l` by `warp`.
-    pub fn irradiance_warped(&self, p: Vec3, n: Vec3, l: Vec3, layout: &DirectionLayout, blend: Blend, warp: Warp) -> Vec3 {
+    pub fn irradiance_warped(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        l: Vec3,
+        layout: &DirectionLayout,
+        blend: Blend,
+        warp: Warp,
+    ) -> Vec3 {
         let l = l.normalize();
         let mut e = Vec3::ZERO;
         for (k, w) in layout.weights(l, blend) {
