@@ -49,6 +49,8 @@ struct SphereRecord {
 @group(0) @binding(8) var<storage, read> bvh_nodes: array<BvhNode>;
 @group(0) @binding(9) var<storage, read> bvh_tris: array<BvhTri>;
 @group(0) @binding(10) var<storage, read> bvh_instances: array<BvhInstance>;
+// [0]: occlusion rays (one per pixel and caustic object) that overflowed the BVH stack.
+@group(0) @binding(11) var<storage, read_write> gather_stats: array<atomic<u32>>;
 
 // Whether anything but object `skip` lies along o + t d, 0 < t < tmax (scene_occluded with
 // one object left out).
@@ -174,7 +176,8 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
             rt_overflow = 0u;
             visible = dist > 0.0 && !occluded_except(c, to / dist, dist * (1.0 - 1e-4), object);
             // A ray that overflowed the BVH stack may have missed an occluder: no caustic
-            // (conservative; not yet counted in the frame's statistics).
+            // (conservative), and counted in the frame's statistics.
+            if (rt_overflow > 0u) { atomicAdd(&gather_stats[0], 1u); }
             visible = visible && rt_overflow == 0u;
         }
         if (visible) { e += record_irradiance(r, p, n); }

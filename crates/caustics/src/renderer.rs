@@ -99,6 +99,9 @@ pub struct FrameStats {
     pub lights_redone: Vec<bool>,
     /// An overflow the GPU detected (the frame's caustic map is incomplete), as a message.
     pub overflow: Option<String>,
+    /// Caustic spheres: occlusion rays of `sphere_gather` (one per pixel and caustic object)
+    /// that overflowed the BVH stack (their pixels got no caustic from that object).
+    pub sphere_stack_overflows: u64,
 }
 
 /// A light's kept products and what they were made from.
@@ -124,6 +127,8 @@ struct StatsJob {
     /// Per redone light: its technique's pending statistics and their (offset, size) pieces.
     pendings: Vec<(Pending, Vec<(u64, u64)>)>,
     lights_redone: Vec<bool>,
+    /// Offset of `sphere_gather`'s counters, when it ran.
+    sphere_stats: Option<u64>,
 }
 
 const STATS_SLOTS: usize = 3;
@@ -251,6 +256,23 @@ impl Renderer {
         }
         self.spheres = Some(crate::caustic_spheres::gpu::GpuSpheres::new(&self.ctx, objects, half)?);
         self.sphere_blend = blend;
+        Ok(())
+    }
+
+    /// Caustic spheres: lower the BVH stack of `sphere_gather`'s occlusion rays (1 to
+    /// `accel::BVH_STACK`), for tests that check overflows are counted
+    /// (`FrameStats::sphere_stack_overflows`). No effect before `set_caustic_spheres`.
+    pub fn set_caustic_sphere_stack_limit(&mut self, limit: u32) -> Result<()> {
+        if limit == 0 || limit as usize > crate::accel::BVH_STACK {
+            return Err(Error::input(
+                "<renderer>",
+                "stack_limit",
+                format!("must be 1 to {} (got {limit})", crate::accel::BVH_STACK),
+            ));
+        }
+        if let Some(sp) = self.spheres.as_mut() {
+            sp.stack_limit = limit;
+        }
         Ok(())
     }
 
@@ -623,6 +645,7 @@ impl Renderer {
             crate::passes::record_shade(&dc, &eye, lf, &s, enc, &mut timer);
             ctx.end_scope();
         }
+        let mut sphere_stats = None;
         if spheres_on && let Some(sp) = &self.spheres {
             ctx.begin_scope("spheres", enc);
             let n_own = self.scene.lights.len();
@@ -633,7 +656,7 @@ impl Renderer {
                 }
             };
             let records = sp.records(&scene.lights, &self.transforms, self.sphere_blend, vis);
-            crate::caustic_spheres::gpu::record_gather(&dc, &eye, sp, &records, enc, &mut timer);
+            sphere_stats = Some(crate::caustic_spheres::gpu::record_gather(&dc, &eye, sp, &records, enc, &mut timer));
             ctx.end_scope();
         }
         ctx.begin_scope("composite", enc);
@@ -659,6 +682,9 @@ impl Renderer {
             let piece_lists: Vec<Vec<(wgpu::Buffer, u64)>> = pendings.iter().map(|p| p.sources()).collect();
             for list in &piece_lists {
                 sources.extend(list.iter().cloned());
+            }
+            if let Some(b) = &sphere_stats {
+                sources.push((b.clone(), 8));
             }
             // Offsets in the staging buffer (copies are 4-byte aligned; every size is).
             let mut offsets = Vec::with_capacity(sources.len());
@@ -696,6 +722,7 @@ impl Renderer {
                     flux,
                     pendings: pend,
                     lights_redone: redone.clone(),
+                    sphere_stats: sphere_stats.as_ref().map(|_| offsets[k]),
                 });
                 self.ring[slot].state.store(1, Ordering::Release);
             }
@@ -787,6 +814,19 @@ impl Renderer {
                         stats.overflow = Some(m);
                     }
                 }
+            }
+            if let Some(off) = job.sphere_stats {
+                let c = piece(off, 4);
+                stats.sphere_stack_overflows = u64::from(u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+            }
+            if stats.sphere_stack_overflows > 0 {
+                let m = format!(
+                    "{} caustic-sphere occlusion rays overflowed the BVH traversal stack: those pixels got no caustic \
+                     from that object",
+                    stats.sphere_stack_overflows
+                );
+                self.last_error = Some(m.clone());
+                stats.overflow.get_or_insert(m);
             }
             let overflows: u64 = stats.flux.iter().map(|f| f.stack_overflows).sum();
             if overflows > 0 {

@@ -298,6 +298,36 @@ fn technique_without_tables_is_refused() {
     let Some(ctx) = gpu() else { return };
     let s = RenderSettings { photons: 64, technique: Technique::CausticSpheres, ..Default::default() };
     let mut r = Renderer::with_context(ctx.clone(), scene(&[(Vec3::NEG_Y, [1.0; 3])]), s).unwrap();
-    let e = r.render_once().err().expect("no tables: an error");
+    let Err(e) = r.render_once() else { panic!("no tables: an error expected") };
     assert!(e.to_string().contains("set_caustic_spheres"), "{e}");
+}
+
+/// An occlusion ray that overflows the BVH stack is counted and reported: with the stack
+/// lowered to one entry, rays past a tessellated (BVH) occluder overflow and the frame says so;
+/// with the full stack, none do.
+#[test]
+fn occlusion_stack_overflows_are_reported() {
+    let Some(ctx) = gpu() else { return };
+    let l = Vec3::new(0.2, -1.0, 0.1).normalize();
+    let extra = r#", { "type": "sphere", "center": [0.7, 0.3, 0.4], "radius": 0.25, "material": "floor" }"#;
+    let mut sc = scene_with(&[(l, [1.0; 3])], extra);
+    let k = sc.objects.len() - 1;
+    let tess = caustics::scene::Tessellation { sphere_segments: 64, cylinder_segments: 64 };
+    sc.objects[k].shape = caustics::scene::Shape::Mesh(Arc::new(sc.objects[k].shape.tessellate(&tess)));
+    let s = RenderSettings {
+        photons: 64,
+        caustic_map_size: 128,
+        shadow_map_size: 256,
+        technique: Technique::CausticSpheres,
+        ..Default::default()
+    };
+    let mut r = Renderer::with_context(ctx.clone(), sc, s).unwrap();
+    r.set_caustic_spheres(vec![(0, table())], Blend::Triangle, false).unwrap();
+    let full = r.render_once().expect("no overflow with the full stack");
+    assert!(full.caustic.sum() > 0.0);
+    r.set_caustic_sphere_stack_limit(1).unwrap();
+    r.invalidate();
+    let Err(e) = r.render_once() else { panic!("a one-entry stack overflows") };
+    assert!(e.to_string().contains("caustic-sphere occlusion rays overflowed"), "{e}");
+    assert!(r.set_caustic_sphere_stack_limit(0).is_err());
 }

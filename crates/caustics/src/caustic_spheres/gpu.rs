@@ -26,6 +26,9 @@ pub struct GpuSpheres {
     pub layouts: Vec<DirectionLayout>,
     pub table: wgpu::Buffer,
     pub bytes: u64,
+    /// BVH stack entries the occlusion ray may use (`bvh_stack_limit` of `sphere_gather`;
+    /// `crate::accel::BVH_STACK` unless a test lowers it to provoke overflows).
+    pub stack_limit: u32,
 }
 
 impl GpuSpheres {
@@ -76,7 +79,7 @@ impl GpuSpheres {
             ));
         }
         let table = ctx.buffer_init("sphere_table", bytemuck::cast_slice(&data), wgpu::BufferUsages::STORAGE);
-        Ok(GpuSpheres { objects: out, half, layouts, table, bytes })
+        Ok(GpuSpheres { objects: out, half, layouts, table, bytes, stack_limit: crate::accel::BVH_STACK as u32 })
     }
 
     /// The records of a frame: per directional light (world direction, irradiance), per object
@@ -133,7 +136,8 @@ impl GpuSpheres {
 }
 
 /// Records `sphere_gather`: adds the caustic radiance of `records` to the eye's diffuse
-/// radiance and caustic buffers.
+/// radiance and caustic buffers. Returns its statistics buffer (8 bytes; the first u32 counts
+/// the occlusion rays that overflowed the BVH stack) for the frame's statistics.
 pub(crate) fn record_gather(
     dc: &DrawCtx,
     eye: &EyeFrame,
@@ -141,11 +145,14 @@ pub(crate) fn record_gather(
     records: &[SphereRecord],
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
-) {
+) -> wgpu::Buffer {
     let ctx = dc.ctx;
     let cam = &dc.scene.camera;
     let (w, h) = (cam.width, cam.height);
-    let pl = ctx.compute_pipeline("sphere_gather");
+    let pl = ctx.compute_pipeline_with("sphere_gather", &[("bvh_stack_limit", f64::from(spheres.stack_limit))]);
+    // Rewritten (zeroed) every frame: a storage buffer from `buffer_init`.
+    let counters =
+        ctx.buffer_init("sphere_gather_stats", &[0u8; 8], wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
     let params = ctx.uniform(
         "sphere_gather_params",
         bytemuck::bytes_of(&SphereGatherParams {
@@ -176,6 +183,7 @@ pub(crate) fn record_gather(
             dc.geo.bvh_nodes.as_entire_binding(),
             dc.geo.bvh_tris.as_entire_binding(),
             dc.geo.bvh_instances.as_entire_binding(),
+            counters.as_entire_binding(),
         ],
     );
     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -185,6 +193,8 @@ pub(crate) fn record_gather(
     cp.set_pipeline(&pl);
     cp.set_bind_group(0, &bg, &[]);
     cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    drop(cp);
+    counters
 }
 
 impl SphereRecord {
