@@ -259,6 +259,16 @@ impl Renderer {
         Ok(())
     }
 
+    /// Caustic spheres: the compiled variant (section 6 of the paper: per frame, every light
+    /// summed into one table per object by `sphere_compile`, then one lookup per object in
+    /// `sphere_gather`) or the direct one (a lookup per light and blended direction; the
+    /// default). No effect before `set_caustic_spheres`.
+    pub fn set_caustic_spheres_compiled(&mut self, compiled: bool) {
+        if let Some(sp) = self.spheres.as_mut() {
+            sp.compiled = compiled;
+        }
+    }
+
     /// Caustic spheres: lower the BVH stack of `sphere_gather`'s occlusion rays (1 to
     /// `accel::BVH_STACK`), for tests that check overflows are counted
     /// (`FrameStats::sphere_stack_overflows`). No effect before `set_caustic_spheres`.
@@ -656,7 +666,20 @@ impl Renderer {
                 }
             };
             let records = sp.records(&scene.lights, &self.transforms, self.sphere_blend, vis);
-            sphere_stats = Some(crate::caustic_spheres::gpu::record_gather(&dc, &eye, sp, &records, enc, &mut timer));
+            use crate::caustic_spheres::gpu::{record_compile, record_gather};
+            sphere_stats = Some(if sp.compiled {
+                // Section 6: each object's records summed into its compiled table first (the
+                // records grouped by object, in the order of the tables).
+                let mut grouped = Vec::with_capacity(records.len());
+                for (oi, _, _) in &sp.objects {
+                    grouped.extend(records.iter().filter(|r| r.base[1] == *oi as u32).copied());
+                }
+                let objects = sp.compiled_records(&self.transforms);
+                let compiled = record_compile(&dc, sp, &grouped, &objects, enc, &mut timer);
+                record_gather(&dc, &eye, (sp, &compiled), &objects, enc, &mut timer)
+            } else {
+                record_gather(&dc, &eye, (sp, &sp.table), &records, enc, &mut timer)
+            });
             ctx.end_scope();
         }
         ctx.begin_scope("composite", enc);
