@@ -500,6 +500,7 @@ fn run(cli: Cli) -> Result<()> {
                                 caustics::caustic_spheres::Blend::Triangle,
                                 sphere_args.half,
                             )?;
+                            r.set_caustic_spheres_compiled(sphere_args.sphere_compiled);
                             let out = r.render_once()?;
                             println!(
                                 "caustic spheres on the GPU: {:.1} MiB; render {:.1} ms",

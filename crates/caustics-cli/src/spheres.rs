@@ -32,6 +32,10 @@ pub struct SphereArgs {
     /// Caustic spheres: the cache folder.
     #[arg(long, default_value = ".caustics-cache")]
     pub sphere_cache: PathBuf,
+    /// Caustic spheres: the compiled variant (every light summed into one table per object
+    /// each frame, then one lookup per object and pixel) instead of a lookup per light.
+    #[arg(long)]
+    pub sphere_compiled: bool,
 }
 
 impl Default for SphereArgs {
@@ -44,6 +48,7 @@ impl Default for SphereArgs {
             sphere_photons: 1 << 18,
             half: false,
             sphere_cache: PathBuf::from(".caustics-cache"),
+            sphere_compiled: false,
         }
     }
 }
@@ -125,5 +130,7 @@ pub fn attach(
         Some(t) => t.clone(),
         None => tables.insert(build(scene, args)?).clone(),
     };
-    r.set_caustic_spheres(t, caustics::caustic_spheres::Blend::Triangle, args.half)
+    r.set_caustic_spheres(t, caustics::caustic_spheres::Blend::Triangle, args.half)?;
+    r.set_caustic_spheres_compiled(args.sphere_compiled);
+    Ok(())
 }
