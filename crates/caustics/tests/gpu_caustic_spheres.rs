@@ -194,6 +194,12 @@ fn steady_frames_create_nothing() {
     assert_eq!(frame(&mut r), 0, "a turned light");
     r.set_object_transform(0, glam::Affine3A::from_translation(Vec3::new(0.3, 0.0, 0.0))).unwrap();
     assert_eq!(frame(&mut r), 0, "a moved object");
+    // The compiled variant: its table and records come from the pool too.
+    r.set_caustic_spheres_compiled(true);
+    assert!(frame(&mut r) > 0);
+    assert_eq!(frame(&mut r), 0, "a steady compiled frame");
+    r.set_light(0, caustics::scene::Light::Directional { direction: l, irradiance: Vec3::ONE }).unwrap();
+    assert_eq!(frame(&mut r), 0, "a turned light, compiled");
 }
 
 #[test]
