@@ -151,6 +151,10 @@ enum Command {
         /// the GPU (cube-map median cut; 1 to 256).
         #[arg(long, default_value_t = caustics::settings::DEFAULT_ENV_LIGHTS)]
         env_lights: u32,
+        /// Sub-directions each environment region's caustic is spread over (GPU; 0 to 32,
+        /// 0: one direction per region).
+        #[arg(long, default_value_t = caustics::settings::DEFAULT_ENV_TAPS)]
+        env_taps: u32,
         #[command(flatten)]
         beams: BeamArgs,
         /// Gaussian splat standard deviation (caustic-map texels).
@@ -332,6 +336,7 @@ fn flag_names(e: &mut anyhow::Error) {
         ("medium_steps", "--medium-steps"),
         ("medium_light_steps", "--medium-light-steps"),
         ("env_lights", "--env-lights"),
+        ("env_taps", "--env-taps"),
         ("beams.grid", "--beam-grid"),
         ("beams.levels", "--beam-levels"),
         ("beams.normal_threshold_deg", "--beam-normal-threshold"),
@@ -401,6 +406,7 @@ fn run(cli: Cli) -> Result<()> {
             medium_steps,
             medium_light_steps,
             env_lights,
+            env_taps,
             beams,
             splat_sigma,
             photon_memory,
@@ -453,6 +459,7 @@ fn run(cli: Cli) -> Result<()> {
                 medium_steps,
                 medium_light_steps,
                 env_lights,
+                env_taps,
                 beams: beams.settings(),
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),

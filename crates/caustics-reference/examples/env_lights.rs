@@ -3,7 +3,9 @@
 //! the caustic-only image, per D.
 //! `cargo run --release --example env_lights -- SCENE WxH GRID CPU_PHOTONS SPP D1,D2,.. [OUT_DIR]`
 //! (`CAUSTIC_MAP=M` in the environment: caustic map size, default 512; `SPLIT_RULES=both`: each
-//! D with the default split rule and the paper's)
+//! D with the default split rule and the paper's; `TAPS=0,16`: each D with each number of
+//! sub-directions per region, `RenderSettings::env_taps`; `FLUX=1`: where each light's flux went; `DECOMPOSE=1`: also the CPU
+//! reference lit by the D directional lights, against both; `PASS_MS=1`: GPU ms of the passes)
 use caustics_reference::ImageIo as _;
 use caustics_reference::metrics::{energy, hdr_flip};
 
@@ -44,9 +46,20 @@ fn main() {
         Ok(v) if v == "both" => vec![Default::default(), caustics::scene::environment_lights::SplitRule::Total],
         _ => vec![Default::default()],
     };
-    for (d, rule) in ds.iter().flat_map(|&d| rules.iter().map(move |&r| (d, r))) {
+    let taps: Vec<u32> = std::env::var("TAPS")
+        .map_or(vec![caustics::settings::DEFAULT_ENV_TAPS], |v| v.split(',').map(|x| x.parse().unwrap()).collect());
+    let mut runs = Vec::new();
+    for &d in &ds {
+        for &r in &rules {
+            for &t in &taps {
+                runs.push((d, r, t));
+            }
+        }
+    }
+    for &(d, rule, env_taps) in &runs {
         let s = caustics::render::RenderSettings {
             env_split: rule,
+            env_taps,
             photons: grid,
             caustic_map_size: std::env::var("CAUSTIC_MAP").map_or(512, |v| v.parse().unwrap()),
             shadow_map_size: 1024,
@@ -60,8 +73,68 @@ fn main() {
         let fc = hdr_flip(&g.caustic, &cpu.caustic, None).unwrap().mean;
         let ef = energy(&g.image, None) / energy(&cpu.image, None);
         let ec = energy(&g.caustic, None) / energy(&cpu.caustic, None);
-        let d = if rules.len() > 1 { format!("{d} ({rule:?})") } else { d.to_string() };
+        let mut d = if rules.len() > 1 { format!("{d} ({rule:?})") } else { d.to_string() };
+        if runs.len() > ds.len() * rules.len() {
+            d = format!("{d}, K = {env_taps}");
+        }
         println!("| {d} | {drawn} | {ff:.3} | {ef:.3} | {fc:.3} | {ec:.3} | {:.0} |", g.frame_wall_ms);
+        if std::env::var("PASS_MS").is_ok() {
+            // GPU time of the shading passes (all lights) and of the whole frame's passes.
+            let shade: f64 = g.timings.iter().filter(|(n, _)| n == "shade_receivers").map(|(_, t)| t).sum();
+            let all: f64 = g.timings.iter().map(|(_, t)| t).sum();
+            println!("pass ms {d}: shade_receivers {shade:.1}, all passes {all:.1}");
+        }
+        if std::env::var("DECOMPOSE").is_ok() {
+            // The CPU reference lit by the very directional lights the GPU draws (no map; the
+            // same photon total): against the reference under the map it is the error of the
+            // directional approximation alone; the GPU against it, the GPU's own error.
+            let mut sd = scene.clone();
+            sd.lights = r.lights();
+            sd.environment = None;
+            let rsd = caustics_reference::reference::ReferenceSettings {
+                photons_per_light: photons / drawn.max(1) as u64,
+                camera_spp: 1,
+                ..Default::default()
+            };
+            let cd = caustics_reference::reference::render(&sd, &rsd).unwrap();
+            let f_dir = hdr_flip(&cd.caustic, &cpu.caustic, None).unwrap().mean;
+            let e_dir = energy(&cd.caustic, None) / energy(&cpu.caustic, None);
+            let f_gpu = hdr_flip(&g.caustic, &cd.caustic, None).unwrap().mean;
+            let e_gpu = energy(&g.caustic, None) / energy(&cd.caustic, None);
+            println!(
+                "decompose {d}: CPU(D lights) vs CPU(map): caustic HDR-FLIP {f_dir:.3} energy {e_dir:.3}; GPU vs CPU(D lights): caustic HDR-FLIP {f_gpu:.3} energy {e_gpu:.3}"
+            );
+            if let Some(o) = &out {
+                cd.caustic.write(&o.join(format!("cpu_lights_d{d}_caustic.exr")), 1.0).unwrap();
+            }
+        }
+        if std::env::var("FLUX").is_ok() {
+            // Per light: elevation of the light's source direction, its irradiance (mean of
+            // the channels), the flux onto the casters over E·(the casters' cross-section if
+            // one sphere), and where the flux went, as fractions of it.
+            let area = scene.objects.iter().find_map(|o| match o.shape {
+                caustics::scene::Shape::Sphere { radius, .. } if o.caustic_caster => {
+                    Some(std::f64::consts::PI * (radius as f64).powi(2))
+                }
+                _ => None,
+            });
+            for (l, (light, f)) in r.lights().iter().zip(&g.flux).enumerate() {
+                let caustics::scene::Light::Directional { direction, irradiance } = light else { continue };
+                let e = irradiance.element_sum() as f64 / 3.0;
+                let elev = (-direction.y).asin().to_degrees();
+                let em = f.emitted.max(1e-30);
+                println!(
+                    "light {l:2} elev {elev:6.1} E {e:8.3} onto/(E·A) {:.3} landed {:.3} no_exit {:.3} tir {:.3} no_recv {:.3} outside {:.3} untraced {:.3}",
+                    area.map_or(0.0, |a| f.emitted / (e * a)),
+                    f.landed / em,
+                    f.lost_no_exit / em,
+                    f.lost_tir / em,
+                    f.lost_no_receiver / em,
+                    f.lost_outside / em,
+                    f.untraced_branches / em
+                );
+            }
+        }
         if let Some(o) = &out {
             g.image.write(&o.join(format!("gpu_d{d}.exr")), 1.0).unwrap();
             g.caustic.write(&o.join(format!("gpu_d{d}_caustic.exr")), 1.0).unwrap();

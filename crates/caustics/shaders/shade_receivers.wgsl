@@ -8,6 +8,8 @@
 // caustic along the straight line too): exp(-sigma_t d) in a homogeneous medium, the ray march
 // `grid_optical_depth` in `medium_grid.y` steps through the density grid in a heterogeneous
 // one. Run once per light; adds into `radiance` (full) and `caustic` (caustic light only).
+// An environment region's light spreads its caustic over the region's sub-directions
+// (`taps`, src/env_taps.rs); every other light has no taps.
 
 #import medium
 
@@ -37,6 +39,23 @@ struct ShadeParams {
 @group(0) @binding(9) var<storage, read_write> radiance: array<vec4f>;
 @group(0) @binding(10) var<storage, read_write> caustic: array<vec4f>;
 @group(0) @binding(11) var density: texture_3d<f32>;
+@group(0) @binding(12) var<uniform> taps: EnvTaps;
+
+// An environment region's sub-directions (src/env_taps.rs): rows of R_k^T (R_k turns the
+// light's direction to sub-direction k) and the sub-region's weight (rgb). Array size =
+// gpu::types::MAX_ENV_TAPS (the struct sizes are checked equal by tests/shaders.rs).
+struct EnvTap {
+    r0: vec4f,
+    r1: vec4f,
+    r2: vec4f,
+    weight: vec4f,
+}
+
+struct EnvTaps {
+    centre: vec4f,
+    info: vec4u,
+    taps: array<EnvTap, 32>,
+}
 
 fn face_of(p: vec3f, size: f32) -> vec4f {
     for (var f = 0u; f < light.info.x; f++) {
@@ -119,6 +138,39 @@ fn caustic_box(p: vec3f, px: vec2i, object: f32) -> vec3f {
     return acc / 9.0;
 }
 
+// The caustic of an environment region spread over its sub-directions (src/env_taps.rs): per
+// tap k, the point p (at the k-th point of an R2 sequence over the pixel's footprint) turned by
+// R_k^T about the casters' centre c, followed from c to the tangent plane at p (f = c + s q'),
+// the map read there, scaled by s^3 (a source at c: cos/r^2 on the plane, r_f = s r_p and
+// cos_p / cos_f = s) and by the weight.
+fn caustic_taps(p: vec3f, n: vec3f, px: vec2i, object: f32) -> vec3f {
+    let size = vec2i(i32(sp.width), i32(sp.height));
+    var dx = vec3f(0.0);
+    var dy = vec3f(0.0);
+    let r = textureLoad(eye_pos, clamp(px + vec2i(1, 0), vec2i(0), size - 1), 0);
+    let l = textureLoad(eye_pos, clamp(px - vec2i(1, 0), vec2i(0), size - 1), 0);
+    let d = textureLoad(eye_pos, clamp(px + vec2i(0, 1), vec2i(0), size - 1), 0);
+    let u = textureLoad(eye_pos, clamp(px - vec2i(0, 1), vec2i(0), size - 1), 0);
+    if (r.w == object && px.x + 1 < size.x) { dx = r.xyz - p; } else if (l.w == object && px.x > 0) { dx = p - l.xyz; }
+    if (d.w == object && px.y + 1 < size.y) { dy = d.xyz - p; } else if (u.w == object && px.y > 0) { dy = p - u.xyz; }
+    let c = taps.centre.xyz;
+    var acc = vec3f(0.0);
+    for (var k = 0u; k < min(taps.info.x, 32u); k++) {
+        let t = taps.taps[k];
+        let o = fract(vec2f(0.5) + f32(k) * vec2f(0.7548777, 0.5698403)) - 0.5;
+        let ps = p + o.x * dx + o.y * dy;
+        let q = ps - c;
+        let qr = vec3f(dot(t.r0.xyz, q), dot(t.r1.xyz, q), dot(t.r2.xyz, q));
+        let a = dot(n, q);
+        let b = dot(n, qr);
+        // The turned point must lie on the plane's side of c that p does.
+        if (a * b <= 0.0) { continue; }
+        let s = a / b;
+        acc += t.weight.rgb * caustic_at(c + s * qr) * (s * s * s);
+    }
+    return acc;
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (gid.x >= sp.width || gid.y >= sp.height) { return; }
@@ -140,7 +192,12 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     }
     var e = vec3f(0.0);
     if (any(e_direct > vec3f(0.0))) { e = e_direct * shadow(p, n); }
-    var ec = caustic_box(p, vec2i(gid.xy), pw.w);
+    var ec: vec3f;
+    if (taps.info.x > 0u) {
+        ec = caustic_taps(p, n, vec2i(gid.xy), pw.w);
+    } else {
+        ec = caustic_box(p, vec2i(gid.xy), pw.w);
+    }
     if (sp.medium_lo.w > 0.5) {
         var tr: vec3f;
         if (sp.medium_grid.x == 0u) {

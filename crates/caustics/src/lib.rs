@@ -12,6 +12,7 @@ pub mod accel;
 pub mod beams;
 pub mod budget;
 pub mod caustic_spheres;
+pub mod env_taps;
 pub mod error;
 pub mod gpu;
 pub mod image_io;

@@ -635,6 +635,10 @@ impl RenderSettings {
         if !(1..=256).contains(&self.env_lights) {
             return cl("env_lights", format!("must be 1 to 256 directional lights (got {})", self.env_lights));
         }
+        if self.env_taps as usize > crate::gpu::types::MAX_ENV_TAPS {
+            let max = crate::gpu::types::MAX_ENV_TAPS;
+            return cl("env_taps", format!("must be 0 to {max} sub-directions per region (got {})", self.env_taps));
+        }
         if let Err((field, msg)) = self.beams.validate() {
             return cl(field, msg);
         }
@@ -1018,6 +1022,7 @@ pub(crate) fn record_shade(
     eye: &EyeFrame,
     lf: &LightFrame,
     s: &RenderSettings,
+    taps: &crate::gpu::types::EnvTapsGpu,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -1043,6 +1048,7 @@ pub(crate) fn record_shade(
             },
         }),
     );
+    let tapb = ctx.uniform("env_taps", bytemuck::bytes_of(taps));
     let density = density_view(ctx, &dc.geo.density);
     let (erp, ern) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
     let (shv, rpv) = (array_view(ctx, &lf.shadow), array_view(ctx, &lf.recv.pos));
@@ -1063,6 +1069,7 @@ pub(crate) fn record_shade(
             eye.radiance.as_entire_binding(),
             eye.caustic.as_entire_binding(),
             wgpu::BindingResource::TextureView(&density),
+            tapb.as_entire_binding(),
         ],
     );
     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {

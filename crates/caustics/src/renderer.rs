@@ -135,6 +135,8 @@ const STATS_SLOTS: usize = 3;
 
 /// What an environment segmentation was made for: D and the split rule.
 type SegmentKey = (u32, environment_lights::SplitRule);
+/// The segmentation and the sub-directions per region (`RenderSettings::env_taps`).
+type TapsKey = (SegmentKey, u32);
 /// Per caustic-sphere object, the visibility of each drawn environment light.
 type SphereVisibility = std::collections::HashMap<usize, Vec<f32>>;
 
@@ -161,6 +163,8 @@ pub struct Renderer {
     last_error: Option<String>,
     /// The environment's segmentation in the map's own frame, and the D it was made for.
     env_segments: Option<(SegmentKey, Arc<Vec<EnvironmentLight>>)>,
+    /// Each region's sub-directions (`crate::env_taps`) and the (segmentation, K) they are for.
+    env_taps: Option<(TapsKey, Arc<Vec<crate::env_taps::RegionTaps>>)>,
     /// Caustic spheres of the caustic objects (`set_caustic_spheres`), used when
     /// the technique is `Technique::CausticSpheres`.
     spheres: Option<crate::caustic_spheres::gpu::GpuSpheres>,
@@ -203,6 +207,7 @@ impl Renderer {
             latest: None,
             last_error: None,
             env_segments: None,
+            env_taps: None,
             spheres: None,
             sphere_blend: crate::caustic_spheres::Blend::Triangle,
             sphere_vis: None,
@@ -349,6 +354,31 @@ impl Renderer {
         if self.env_segments.as_ref().is_none_or(|(k, _)| *k != key) {
             self.env_segments = Some((key, self.env_segments()));
         }
+        let tkey = (key, self.settings.env_taps);
+        if let Some(env) = &self.scene.environment
+            && self.env_taps.as_ref().is_none_or(|(k, _)| *k != tkey)
+        {
+            let taps = crate::env_taps::region_taps(env, &self.env_segments(), self.settings.env_taps as usize);
+            self.env_taps = Some((tkey, Arc::new(taps)));
+        }
+    }
+
+    /// Per light of [`Renderer::lights`], its `shade_receivers` taps record
+    /// (`crate::env_taps`): none for the scene's own lights, an environment region's
+    /// sub-directions turned into the world for the environment's.
+    fn shade_taps(&self, lights: usize) -> Vec<crate::gpu::types::EnvTapsGpu> {
+        let mut out = vec![crate::gpu::types::EnvTapsGpu::zeroed_record(); self.scene.lights.len()];
+        if let (Some(env), Some((_, taps))) = (&self.scene.environment, &self.env_taps) {
+            let r = environment_lights::rotation(env.rotate_y);
+            let pivot = self.scene.caster_bounds().map_or(glam::Vec3::ZERO, |(a, b)| 0.5 * (a + b));
+            for (region, t) in self.env_segments().iter().zip(taps.iter()) {
+                if region.facing.max_element() > 0.0 {
+                    out.push(crate::env_taps::record(t, region.centre, r, pivot));
+                }
+            }
+        }
+        out.resize(lights, crate::gpu::types::EnvTapsGpu::zeroed_record());
+        out
     }
 
     /// The environment's segmentation for the current `env_lights` setting, in the map's own
@@ -650,9 +680,10 @@ impl Renderer {
         }
         let light_frames: Vec<&LightFrame> = self.lights.iter().map(|l| &l.as_ref().unwrap().frame).collect();
 
+        let taps = self.shade_taps(light_frames.len());
         for (li, lf) in light_frames.iter().enumerate() {
             ctx.begin_scope(&format!("shade{li}"), enc);
-            crate::passes::record_shade(&dc, &eye, lf, &s, enc, &mut timer);
+            crate::passes::record_shade(&dc, &eye, lf, &s, &taps[li], enc, &mut timer);
             ctx.end_scope();
         }
         let mut sphere_stats = None;

@@ -325,6 +325,9 @@ pub struct RenderSettings {
     /// How the median cut picks the region to split (`SplitRule`, default: by flux-weighted
     /// angular radius; `Total` is the paper's rule), for comparisons.
     pub env_split: crate::scene::environment_lights::SplitRule,
+    /// Sub-directions each environment region's caustic is spread over (`crate::env_taps`),
+    /// 0 to 32; 0 or 1: none (each region's caustic from its one direction, as the paper).
+    pub env_taps: u32,
     /// Volume caustics by adaptive beam tracing in scenes with a medium (`crate::beams`).
     pub beams: BeamSettings,
 }
@@ -437,6 +440,10 @@ impl BeamSettings {
     }
 }
 
+/// The default of [`RenderSettings::env_taps`] (`docs/benchmarks.md`, "Environment caustics
+/// spread over their regions").
+pub const DEFAULT_ENV_TAPS: u32 = 16;
+
 /// The default of [`RenderSettings::env_lights`]: the paper's 24 (Tandianus et al. 2010).
 pub const DEFAULT_ENV_LIGHTS: u32 = 24;
 
@@ -467,6 +474,7 @@ impl Default for RenderSettings {
             medium_light_steps: 16,
             env_lights: DEFAULT_ENV_LIGHTS,
             env_split: Default::default(),
+            env_taps: DEFAULT_ENV_TAPS,
             beams: BeamSettings::default(),
         }
     }

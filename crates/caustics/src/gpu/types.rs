@@ -99,6 +99,31 @@ pub struct ShadeParams {
     pub medium_grid: [u32; 4],
 }
 
+/// Most sub-directions ([`EnvTapsGpu`]) one environment region's caustic is spread over.
+pub const MAX_ENV_TAPS: usize = 32;
+
+/// One sub-direction of an environment region (`shade_receivers`, `crate::env_taps`): the
+/// rows of Rᵀ, R the rotation taking the region's light direction to the sub-direction's; the
+/// weight (rgb) is the sub-region's share of the light's irradiance.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct EnvTap {
+    pub rows: [[f32; 4]; 3],
+    pub weight: [f32; 4],
+}
+
+/// `shade_receivers`: the sub-directions the caustic of one light is spread over (count 0:
+/// the light's own caustic map, unchanged; every light but a broad environment region).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct EnvTapsGpu {
+    /// Centre of rotation (the casters' bounding-box centre), w unused.
+    pub centre: [f32; 4],
+    /// x = tap count (0 to `MAX_ENV_TAPS`), rest unused.
+    pub info: [u32; 4],
+    pub taps: [EnvTap; MAX_ENV_TAPS],
+}
+
 /// `sphere_gather` (shaders/sphere_gather.wgsl).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
@@ -489,6 +514,8 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("CountParams", "ResolveParams", std::mem::size_of::<CountParams>()),
     ("TemporalParams", "TemporalParams", std::mem::size_of::<TemporalParams>()),
     ("ShadeParams", "ShadeParams", std::mem::size_of::<ShadeParams>()),
+    ("EnvTap", "EnvTap", std::mem::size_of::<EnvTap>()),
+    ("EnvTapsGpu", "EnvTaps", std::mem::size_of::<EnvTapsGpu>()),
     ("SphereGatherParams", "SphereGatherParams", std::mem::size_of::<SphereGatherParams>()),
     ("SphereRecord", "SphereRecord", std::mem::size_of::<SphereRecord>()),
     ("SphereCompileParams", "SphereCompileParams", std::mem::size_of::<SphereCompileParams>()),

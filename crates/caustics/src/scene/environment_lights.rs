@@ -177,23 +177,9 @@ pub fn segment_map(env: &Environment, d: usize) -> Vec<EnvironmentLight> {
 pub fn segment_map_with(env: &Environment, d: usize, rule: SplitRule) -> Vec<EnvironmentLight> {
     let d = d.max(1);
     let mut faces: Vec<Vec<Point>> = vec![Vec::new(); 6];
-    for y in 0..env.height {
-        let omega = env.texel_solid_angle(y);
-        for x in 0..env.width {
-            let uv = Vec2::new((x as f32 + 0.5) / env.width as f32, (y as f32 + 0.5) / env.height as f32);
-            let dir = map_direction(uv);
-            let index = y * env.width + x;
-            let value = env.texels[index as usize] * omega;
-            let (f, st) = cube_face(dir);
-            faces[f as usize].push(Point {
-                st,
-                dir,
-                value,
-                weight: (value.x as f64 + value.y as f64 + value.z as f64) / 3.0,
-                solid_angle: omega,
-                index,
-            });
-        }
+    for index in 0..env.width * env.height {
+        let (f, p) = point(env, index);
+        faces[f as usize].push(p);
     }
     let mut regions: Vec<Region> =
         faces.into_iter().enumerate().map(|(f, p)| Region::new(Some((f as u8, [-1.0, -1.0, 1.0, 1.0])), p)).collect();
@@ -215,6 +201,38 @@ pub fn segment_map_with(env: &Environment, d: usize, rule: SplitRule) -> Vec<Env
         keep.push(Region::new(None, merged));
         regions = keep;
     }
+    cut(&mut regions, d, rule);
+    regions.into_iter().map(to_light).collect()
+}
+
+/// Texel `index` (`y · width + x`) of `env` as a point of the cube, and its face.
+fn point(env: &Environment, index: u32) -> (u8, Point) {
+    let (x, y) = (index % env.width, index / env.width);
+    let omega = env.texel_solid_angle(y);
+    let uv = Vec2::new((x as f32 + 0.5) / env.width as f32, (y as f32 + 0.5) / env.height as f32);
+    let dir = map_direction(uv);
+    let value = env.texels[index as usize] * omega;
+    let (f, st) = cube_face(dir);
+    let weight = (value.x as f64 + value.y as f64 + value.z as f64) / 3.0;
+    (f, Point { st, dir, value, weight, solid_angle: omega, index })
+}
+
+/// Split `region` (one of [`segment_map`]'s, in the map's own frame) further into up to `k`
+/// sub-regions by the same median cut (rule [`SplitRule::Radius`]), the sub-regions as lights
+/// (their `centre`, `irradiance` and `facing` their own). A region that cannot be split (one
+/// texel, no spread, the merged region of `D < 6`) comes back alone.
+pub fn subdivide(env: &Environment, region: &EnvironmentLight, k: usize) -> Vec<EnvironmentLight> {
+    let Some(face) = region.face else {
+        return vec![region.clone()];
+    };
+    let points = region.members.iter().map(|&i| point(env, i).1).collect();
+    let mut regions = vec![Region::new(Some(face), points)];
+    cut(&mut regions, k.max(1), SplitRule::Radius);
+    regions.into_iter().filter(|r| r.total > 0.0).map(to_light).collect()
+}
+
+/// The median cut proper: split regions of `regions` until `d` remain.
+fn cut(regions: &mut Vec<Region>, d: usize, rule: SplitRule) {
     while regions.len() < d {
         let splittable = |i: &usize| regions[*i].points.len() >= 2 && regions[*i].face.is_some();
         // The region of largest spread (the first on ties); with no spread anywhere, the one
@@ -241,7 +259,6 @@ pub fn segment_map_with(env: &Environment, d: usize, rule: SplitRule) -> Vec<Env
         regions.insert(i, b);
         regions.insert(i, a);
     }
-    regions.into_iter().map(to_light).collect()
 }
 
 /// Split a face region across its longer side into two of (nearly) equal total.
@@ -414,6 +431,34 @@ mod tests {
             assert!(near[0].centre.dot(sun) > 1f32.to_radians().cos(), "D = {d}");
             assert!(near[0].members.contains(&(by * 512 + bx)));
         }
+    }
+
+    #[test]
+    fn subdivide_partitions_a_region() {
+        // A region cut again into K sub-regions: they partition its texels and its L·Ω, each
+        // centre lies within the region's extent; a region lit by one texel gives one lit
+        // sub-region (so `env_taps` gives it no taps).
+        let env = map(128, 64, |x, y| Vec3::new(0.5 + (x as f32 * 0.1).sin().abs(), 0.7, 1.0 + y as f32 * 0.01));
+        let lights = segment_map(&env, 24);
+        for l in &lights {
+            let subs = subdivide(&env, l, 16);
+            assert!(!subs.is_empty() && subs.len() <= 16);
+            let mut members: Vec<u32> = subs.iter().flat_map(|s| s.members.clone()).collect();
+            members.sort();
+            let mut want = l.members.clone();
+            want.sort();
+            assert_eq!(members, want);
+            let e = subs.iter().fold(Vec3::ZERO, |a, s| a + s.irradiance);
+            assert!(((e - l.irradiance) / l.irradiance).abs().max_element() < 1e-4, "{e} vs {}", l.irradiance);
+            let spread = l.members.iter().map(|&i| point(&env, i).1.dir.dot(l.centre)).fold(1.0f32, f32::min);
+            assert!(subs.iter().all(|s| s.centre.dot(l.centre) >= spread - 1e-4));
+        }
+        let one = map(64, 32, |x, y| if (x, y) == (10, 10) { Vec3::ONE } else { Vec3::ZERO });
+        let lit: Vec<_> = segment_map(&one, 6).into_iter().filter(|l| l.facing.max_element() > 0.0).collect();
+        let subs = subdivide(&one, &lit[0], 16);
+        assert_eq!(subs.len(), 1, "one lit sub-region (the black ones are dropped)");
+        assert!(subs[0].members.contains(&(10 * 64 + 10)));
+        assert_eq!(subs[0].irradiance, lit[0].irradiance);
     }
 
     #[test]
