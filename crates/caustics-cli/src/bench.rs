@@ -21,7 +21,8 @@ use std::path::PathBuf;
 pub struct BenchArgs {
     /// Scene file (JSON); the built-in glass-ball scene if omitted.
     scene: Option<PathBuf>,
-    /// Techniques to compare, comma-separated: basic, hierarchical, adaptive-level, adaptive-error.
+    /// Techniques to compare, comma-separated: basic, hierarchical, adaptive-level, adaptive-error,
+    /// caustic-spheres (the sphere options below).
     #[arg(long, default_value = "basic,hierarchical,adaptive-level,adaptive-error")]
     technique: String,
     /// Equivalent photon grids: a range of powers of two `LO..HI`, or a comma-separated list.
@@ -73,6 +74,9 @@ pub struct BenchArgs {
     /// first frame apart (frameloop_SCENE.md and .json).
     #[arg(long, default_value_t = 0)]
     frames: u32,
+    /// Caustic spheres (`--technique caustic-spheres`): the precomputed tables' settings.
+    #[command(flatten)]
+    sphere_args: crate::spheres::SphereArgs,
 }
 
 fn parse_grids(s: &str) -> Result<Vec<u32>> {
@@ -127,6 +131,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     println!("scene: {} ({}), adapter: {adapter}", scene.name, scene.source);
     let mut runs: Vec<Run> = Vec::new();
     let mut skipped: Vec<(Technique, u32, String)> = Vec::new();
+    let mut sphere_tables = None;
     let bar = crate::progress::steps((grids.len() * techniques.len()) as u64 * a.repeat.max(1) as u64, "bench");
     for &n in &grids {
         for &t in &techniques {
@@ -146,7 +151,17 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 bar.set_message(format!("{t} {n}^2"));
                 bar.inc(1);
                 let t0 = std::time::Instant::now();
-                let out = match caustics::render::render(&ctx, &scene, &s) {
+                let rendered = if t == Technique::CausticSpheres {
+                    caustics::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s.clone()).and_then(
+                        |mut r| {
+                            crate::spheres::attach(&mut r, &scene, &a.sphere_args, &mut sphere_tables)?;
+                            r.render_once()
+                        },
+                    )
+                } else {
+                    caustics::render::render(&ctx, &scene, &s)
+                };
+                let out = match rendered {
                     Ok(o) => o,
                     Err(e) if e.is_input() => {
                         skipped.push((t, n, e.to_string()));
@@ -648,6 +663,7 @@ pub fn frame_loop(a: &BenchArgs) -> Result<()> {
     };
     println!("scene: {} ({}), adapter: {adapter}, {} frames per phase", scene.name, scene.source, a.frames);
     let mut runs: Vec<(Technique, u32, Vec<Phase>)> = Vec::new();
+    let mut sphere_tables = None;
     // One renderer for everything (its context keeps the pipelines); the settings change
     // between runs.
     let mut renderer: Option<Renderer> = None;
@@ -663,6 +679,7 @@ pub fn frame_loop(a: &BenchArgs) -> Result<()> {
                 }
                 None => renderer.insert(Renderer::with_context(ctx.take().unwrap(), scene.clone(), s)?),
             };
+            crate::spheres::attach(r, &scene, &a.sphere_args, &mut sphere_tables)?;
             let mut phases = Vec::new();
             for name in PHASES {
                 // Every phase starts from the scene as loaded.

@@ -183,16 +183,16 @@ enum Command {
         /// CPU backend: render a participating medium with single scattering only.
         #[arg(long)]
         single_scattering: bool,
-        /// Caustic spheres (Tandianus et al. 2010): the caustics of directional lights come
-        /// from precomputed caustic spheres (cached; built first if needed) in one eye-space
-        /// pass instead of photons; --technique still applies to spot and point lights.
+        /// The same as --technique caustic-spheres (kept as an alias): the caustics of
+        /// directional lights come from precomputed caustic spheres (cached; built first if
+        /// needed) in one eye-space pass; spot and point lights get basic caustic maps.
         #[arg(long)]
         caustic_spheres: bool,
         #[command(flatten)]
         sphere_args: spheres::SphereArgs,
     },
     /// Precompute the caustic spheres of a scene's caustic objects into the cache (what
-    /// `render --caustic-spheres` loads).
+    /// `render --technique caustic-spheres` loads).
     Precompute {
         /// Scene file (JSON); the built-in glass-ball scene if omitted.
         scene: Option<PathBuf>,
@@ -421,6 +421,9 @@ fn run(cli: Cli) -> Result<()> {
             sphere_args,
         } => {
             check_output(&output)?;
+            // `--caustic-spheres` is `--technique caustic-spheres`.
+            let technique = if caustic_spheres { caustics::render::Technique::CausticSpheres } else { technique };
+            let caustic_spheres = technique == caustics::render::Technique::CausticSpheres;
             if let Some(c) = &caustic_output {
                 check_output(c)?;
             }
@@ -461,7 +464,6 @@ fn run(cli: Cli) -> Result<()> {
                 beams: beams.settings(),
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),
-                caustic_spheres,
                 ..Default::default()
             };
             let ctx = match backend {
@@ -492,7 +494,7 @@ fn run(cli: Cli) -> Result<()> {
                             return Err(Error::input(
                                 "<command line>",
                                 "--dump",
-                                "not available with --caustic-spheres (no light-space caustic maps for directional lights)",
+                                "not available with caustic spheres (no light-space caustic maps for directional lights)",
                             )
                             .into());
                         }
@@ -510,6 +512,7 @@ fn run(cli: Cli) -> Result<()> {
                                 caustics::caustic_spheres::Blend::Triangle,
                                 sphere_args.half,
                             )?;
+                            r.set_caustic_spheres_compiled(sphere_args.sphere_compiled);
                             let out = r.render_once()?;
                             println!(
                                 "caustic spheres on the GPU: {:.1} MiB; render {:.1} ms",

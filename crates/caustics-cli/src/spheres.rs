@@ -1,6 +1,6 @@
 //! Caustic spheres on the command line: `caustics precompute SCENE` builds the caches ahead of
-//! time, `caustics render --caustic-spheres` loads (or builds) them and renders directional
-//! lights' caustics from them. The precomputation shows a progress bar (indicatif) and
+//! time, `caustics render --technique caustic-spheres` (and `bench`, `view`) loads (or builds)
+//! them and renders directional lights' caustics from them. The precomputation shows a progress bar (indicatif) and
 //! Ctrl-C cancels it cleanly (no cache file written).
 
 use caustics::Scene;
@@ -32,6 +32,25 @@ pub struct SphereArgs {
     /// Caustic spheres: the cache folder.
     #[arg(long, default_value = ".caustics-cache")]
     pub sphere_cache: PathBuf,
+    /// Caustic spheres: the compiled variant (every light summed into one table per object
+    /// each frame, then one lookup per object and pixel) instead of a lookup per light.
+    #[arg(long)]
+    pub sphere_compiled: bool,
+}
+
+impl Default for SphereArgs {
+    /// The command line's defaults (the viewer's tests make sessions without one).
+    fn default() -> Self {
+        SphereArgs {
+            directions: 7,
+            spheres: 16,
+            sphere_size: (64, 48),
+            sphere_photons: 1 << 18,
+            half: false,
+            sphere_cache: PathBuf::from(".caustics-cache"),
+            sphere_compiled: false,
+        }
+    }
 }
 
 impl SphereArgs {
@@ -93,4 +112,25 @@ pub fn build(scene: &Scene, args: &SphereArgs) -> caustics::Result<Vec<(usize, A
         out.push((oi, Arc::new(sp)));
     }
     Ok(out)
+}
+
+/// With `Technique::CausticSpheres`, sets the caustic spheres of `scene`'s caustic objects on
+/// `r` (from `tables`, loaded or built on first use and kept for later calls); otherwise does
+/// nothing.
+pub fn attach(
+    r: &mut caustics::renderer::Renderer,
+    scene: &Scene,
+    args: &SphereArgs,
+    tables: &mut Option<Vec<(usize, Arc<CausticSpheres>)>>,
+) -> caustics::Result<()> {
+    if r.settings().technique != caustics::render::Technique::CausticSpheres {
+        return Ok(());
+    }
+    let t = match tables {
+        Some(t) => t.clone(),
+        None => tables.insert(build(scene, args)?).clone(),
+    };
+    r.set_caustic_spheres(t, caustics::caustic_spheres::Blend::Triangle, args.half)?;
+    r.set_caustic_spheres_compiled(args.sphere_compiled);
+    Ok(())
 }

@@ -4,6 +4,12 @@
 //! the object's spheres blended for an in-between light direction against spheres traced
 //! directly for that direction (triangle and quad blends), HDR-FLIP of the caustic images.
 //!
+//! `cargo run --release --example spheres_eval -- curve SCENE OUT [N S W H PHOTONS SIZE TRUTH_PHOTONS]`:
+//! the error of the blend (per warp: `Warp::Rotate`, the paper's, and `Warp::Exit`) against a
+//! direct trace of TRUTH_PHOTONS as a function of the angle to the nearest stored direction,
+//! with the direct trace's own noise (two seeds); only the three stored directions the path
+//! needs are traced.
+//!
 //! `cargo run --release --example spheres_eval -- lights SCENE OUT [N S W H PHOTONS SIZE REF_PHOTONS]`:
 //! three coloured directional lights through the spheres against the CPU reference's caustic.
 use caustics::caustic_spheres::{Blend, DirectionLayout, SphereSettings};
@@ -35,7 +41,22 @@ fn main() {
     let obj = scene.objects.iter().position(|o| scene.material_of(o).is_specular()).unwrap();
     let layout = DirectionLayout::new(s.directions);
     let t = Instant::now();
-    let sp = spheres::precompute(&scene, obj, &s, None, &Progress::new()).unwrap();
+    // `curve`: only the three directions of the measured triangle are traced (the blend reads
+    // no others), so the table can have many photons per direction.
+    let l0 = Vec3::new(0.28, -1.0, 0.17).normalize();
+    let sp = if mode == "curve" {
+        let g = caustics::caustic_spheres::SphereGeometry::for_shape(&scene.objects[obj].shape, &s);
+        let mut t = caustics::caustic_spheres::CausticSpheres::empty(s, g, layout.dirs.clone());
+        for (k, w) in layout.weights(l0, Blend::Triangle) {
+            if w > 0.0 {
+                let d = layout.dirs[k as usize];
+                t.deposit(k as usize, &spheres::escaping(&scene, obj, d, &s, k as u64 ^ 0x9e37_79b9));
+            }
+        }
+        t
+    } else {
+        spheres::precompute(&scene, obj, &s, None, &Progress::new()).unwrap()
+    };
     let pre = t.elapsed().as_secs_f64();
     println!(
         "precompute: {} directions x {} photons, {:.1} s; table {:.1} MiB (f32), {:.1} MiB (f16); radii {:.3}..{:.3}",
@@ -89,6 +110,63 @@ fn main() {
                 d.write(&out.join(format!("{tag}_direct.png")), 1.0).unwrap();
                 tri.write(&out.join(format!("{tag}_tri.png")), 1.0).unwrap();
                 quad.write(&out.join(format!("{tag}_quad.png")), 1.0).unwrap();
+            }
+        }
+        "curve" => {
+            // Error of the blend against a direct trace as a function of the angular distance
+            // to the nearest stored direction: along a path from a stored direction to the
+            // centroid of a triangle of the layout (the farthest point from all three).
+            let wts = layout.weights(l0, Blend::Triangle);
+            let tri: Vec<Vec3> = wts.iter().filter(|x| x.1 > 0.0).map(|x| layout.dirs[x.0 as usize]).collect();
+            let a0 = layout.dirs[wts.iter().max_by(|x, y| x.1.total_cmp(&y.1)).unwrap().0 as usize];
+            let centroid = (tri.iter().copied().sum::<Vec3>()).normalize();
+            // The direct trace ("truth") with its own photon count (default: the table's).
+            let st = SphereSettings { photons: num(10, s.photons), ..s };
+            let direct = |scene: &caustics::Scene, l: Vec3, seed: u64| {
+                let g = sp.geometry.clone();
+                let mut t = caustics::caustic_spheres::CausticSpheres::empty(st, g, vec![l]);
+                t.deposit(0, &spheres::escaping(scene, obj, l, &st, seed));
+                t
+            };
+            use caustics::caustic_spheres::Warp;
+            let warps = [
+                ("rotate", Warp::Rotate),
+                ("shear", Warp::Exit(0)),
+                ("exit1", Warp::Exit(1)),
+                ("exit2", Warp::Exit(2)),
+            ];
+            println!(
+                "| angle to nearest | noise (seed vs seed) | nearest rotate | {} |",
+                warps.map(|w| w.0).join(" | ")
+            );
+            for f in [0.0f32, 0.15, 0.3, 0.5, 0.75, 1.0] {
+                let l = a0.lerp(centroid, f).normalize();
+                let ang =
+                    layout.dirs.iter().map(|d| d.dot(l).clamp(-1.0, 1.0).acos()).fold(9.0f32, f32::min).to_degrees();
+                scene.lights = vec![Light::Directional { direction: l, irradiance: Vec3::splat(2.0) }];
+                let d1 = direct(&scene, l, 0x1234_5678);
+                let d2 = direct(&scene, l, 0x8765_4321);
+                let render =
+                    |f: &(dyn Fn(Vec3, Vec3, Vec3) -> Vec3 + Sync)| spheres::render_caustic_with(&scene, obj, f, 2);
+                let ref_img = render(&|p, n, l| d1.irradiance_of(0, p, n, l));
+                let noise = render(&|p, n, l| d2.irradiance_of(0, p, n, l));
+                let near = {
+                    let k = layout.dirs.iter().enumerate().max_by(|x, y| x.1.dot(l).total_cmp(&y.1.dot(l))).unwrap().0;
+                    render(&|p, n, l| sp.irradiance_of(k, p, n, l))
+                };
+                let mut row = format!("| {ang:.1}° | {:.4} | {:.4}", flip(&noise, &ref_img).0, flip(&near, &ref_img).0);
+                for (name, w) in warps {
+                    let img = render(&|p, n, l| sp.irradiance_warped(p, n, l, &layout, Blend::Triangle, w));
+                    let (fa, _, _) = flip(&img, &ref_img);
+                    row += &format!(" | {fa:.4} (E {:.3})", img.sum() / ref_img.sum());
+                    if f == 1.0 {
+                        img.write(&out.join(format!("{}_curve_{name}.png", scene.name)), 1.0).unwrap();
+                    }
+                }
+                if f == 1.0 {
+                    ref_img.write(&out.join(format!("{}_curve_direct.png", scene.name)), 1.0).unwrap();
+                }
+                println!("{row} |");
             }
         }
         "lights" => {

@@ -65,7 +65,7 @@ fn main() {
             (best, out.unwrap())
         };
         let (ma, oa) = run(base.clone());
-        let (ms, os) = run(RenderSettings { caustic_spheres: true, ..base });
+        let (ms, os) = run(RenderSettings { technique: caustics::render::Technique::CausticSpheres, ..base });
         let t = std::time::Instant::now();
         let r = reference::render(
             &scene,

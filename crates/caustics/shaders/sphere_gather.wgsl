@@ -10,6 +10,7 @@
 // BVH, shared/raytrace.wgsl, skipping the caustic object itself).
 
 #import raytrace
+#import sphere_table
 
 struct SphereGatherParams {
     width: u32,
@@ -19,24 +20,6 @@ struct SphereGatherParams {
     camera: vec4f,
 }
 
-struct SphereRecord {
-    // world -> the object's frame (the scene file's pose): rows of a 3x4 matrix.
-    to_obj: array<vec4f, 3>,
-    // The stored pattern's frame rotated onto the light: R a, R b, R w (w the stored direction).
-    axes: array<vec4f, 3>,
-    // Rows of R: a stored mean direction d appears as R d.
-    rot: array<vec4f, 3>,
-    // Sphere centre (xyz) and r_min (w).
-    center: vec4f,
-    // r_max, sphere count s, longitudes W, latitudes H.
-    shape: vec4f,
-    // Blend weight times the light's irradiance (W/m^2, rgb).
-    irradiance: vec4f,
-    // x: the table index of the stored direction's first cell; y: the caustic object's index;
-    // z: 1 for half floats (one vec4u per cell: C and d as f16 pairs), 0 for f32 (two vec4u of
-    // f32 bits per cell).
-    base: vec4u,
-}
 
 @group(0) @binding(0) var<uniform> gp: SphereGatherParams;
 @group(0) @binding(1) var eye_pos: texture_2d<f32>;
@@ -49,6 +32,8 @@ struct SphereRecord {
 @group(0) @binding(8) var<storage, read> bvh_nodes: array<BvhNode>;
 @group(0) @binding(9) var<storage, read> bvh_tris: array<BvhTri>;
 @group(0) @binding(10) var<storage, read> bvh_instances: array<BvhInstance>;
+// [0]: occlusion rays (one per pixel and caustic object) that overflowed the BVH stack.
+@group(0) @binding(11) var<storage, read_write> gather_stats: array<atomic<u32>>;
 
 // Whether anything but object `skip` lies along o + t d, 0 < t < tmax (scene_occluded with
 // one object left out).
@@ -81,74 +66,18 @@ fn world_center(r: SphereRecord) -> vec3f {
     return m * (r.center.xyz - t) / s2;
 }
 
-fn cell(base: u32, sphere: u32, row: u32, col: u32, w: u32, h: u32, stride: u32) -> u32 {
-    return base + ((sphere * h + row) * w + col) * stride;
-}
-
-// Irradiance of record `r` at world point p on a receiver of world normal n (W/m^2, rgb).
+// Irradiance of record `r` at world point p on a receiver of world normal n (W/m^2, rgb): a
+// blended stored direction (C, d), or with a compiled record (base.z == 2) the object's
+// compiled vectors V_c, E_c = max(0, -V_c . n) (section 6 of the paper).
 fn record_irradiance(r: SphereRecord, p: vec3f, n: vec3f) -> vec3f {
     let po = vec3f(dot(r.to_obj[0], vec4f(p, 1.0)), dot(r.to_obj[1], vec4f(p, 1.0)), dot(r.to_obj[2], vec4f(p, 1.0)));
     let no = normalize(vec3f(dot(r.to_obj[0].xyz, n), dot(r.to_obj[1].xyz, n), dot(r.to_obj[2].xyz, n)));
-    let q = po - r.center.xyz;
-    let rad = length(q);
-    if (rad <= 0.0) { return vec3f(0.0); }
-    let loc = vec3f(dot(r.axes[0].xyz, q), dot(r.axes[1].xyz, q), dot(r.axes[2].xyz, q)) / rad;
-    let s = u32(r.shape.y);
-    let w = u32(r.shape.z);
-    let h = u32(r.shape.w);
-    let r_min = r.center.w;
-    let r_max = r.shape.x;
-    // Outside the spheres: 1/r^2 from the nearest one.
-    var rr = rad;
-    var fall = 1.0;
-    if (rad < r_min) { rr = r_min; fall = (r_min / rad) * (r_min / rad); }
-    if (rad > r_max) { rr = r_max; fall = (r_max / rad) * (r_max / rad); }
-    // Equation (1) inverted: the sphere parameter.
-    let fs = sqrt(max((rr - r_min) / (r_max - r_min), 0.0)) * f32(s - 1u);
-    let s0 = min(u32(floor(fs)), s - 2u);
-    let ws = clamp(fs - f32(s0), 0.0, 1.0);
-    // Latitude (warped, theta = pi t^2) and longitude, cell centres at +0.5.
-    let th = atan2(length(loc.xy), loc.z);
-    let ft = sqrt(th / PI) * f32(h) - 0.5;
-    var ph = atan2(loc.y, loc.x);
-    if (ph < 0.0) { ph += 2.0 * PI; }
-    let fp = ph / (2.0 * PI) * f32(w) - 0.5;
-    let r0 = floor(ft);
-    let wr = ft - r0;
-    let c0 = floor(fp);
-    let wc = fp - c0;
-    let rows = vec2u(u32(clamp(i32(r0), 0, i32(h) - 1)), u32(clamp(i32(r0) + 1, 0, i32(h) - 1)));
-    let iw = i32(w);
-    let cols = vec2u(u32(((i32(c0) % iw) + iw) % iw), u32(((i32(c0) + 1) % iw + iw) % iw));
-    var c = vec3f(0.0);
-    var d = vec3f(0.0);
-    let half = r.base.z == 1u;
-    let stride = select(2u, 1u, half);
-    for (var k = 0u; k < 8u; k++) {
-        let si = k & 1u;
-        let ri = (k >> 1u) & 1u;
-        let ci = (k >> 2u) & 1u;
-        let wt = select(1.0 - ws, ws, si == 1u) * select(1.0 - wr, wr, ri == 1u) * select(1.0 - wc, wc, ci == 1u);
-        if (wt == 0.0) { continue; }
-        let at = cell(r.base.x, s0 + si, rows[ri], cols[ci], w, h, stride);
-        var ce: vec3f;
-        var de: vec3f;
-        if (half) {
-            let v = table[at];
-            ce = vec3f(unpack2x16float(v.x), unpack2x16float(v.y).x);
-            de = vec3f(unpack2x16float(v.z), unpack2x16float(v.w).x);
-        } else {
-            ce = bitcast<vec4f>(table[at]).rgb;
-            de = bitcast<vec4f>(table[at + 1u]).xyz;
-        }
-        c += ce * wt;
-        d += de * (wt * (ce.r + ce.g + ce.b));
+    let sm = sphere_lookup(r, po);
+    if (r.base.z == 2u) {
+        return r.irradiance.rgb
+            * vec3f(max(-dot(sm.v0, no), 0.0), max(-dot(sm.v1, no), 0.0), max(-dot(sm.v2, no), 0.0));
     }
-    if (dot(d, d) <= 0.0) { return vec3f(0.0); }
-    let dn = normalize(d);
-    let dw = vec3f(dot(r.rot[0].xyz, dn), dot(r.rot[1].xyz, dn), dot(r.rot[2].xyz, dn));
-    let cos_t = max(-dot(dw, no), 0.0);
-    return r.irradiance.rgb * c * (fall * cos_t);
+    return r.irradiance.rgb * sm.c * max(-dot(sm.d, no), 0.0);
 }
 
 @compute @workgroup_size(8, 8)
@@ -174,7 +103,8 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
             rt_overflow = 0u;
             visible = dist > 0.0 && !occluded_except(c, to / dist, dist * (1.0 - 1e-4), object);
             // A ray that overflowed the BVH stack may have missed an occluder: no caustic
-            // (conservative; not yet counted in the frame's statistics).
+            // (conservative), and counted in the frame's statistics.
+            if (rt_overflow > 0u) { atomicAdd(&gather_stats[0], 1u); }
             visible = visible && rt_overflow == 0u;
         }
         if (visible) { e += record_irradiance(r, p, n); }

@@ -160,6 +160,8 @@ impl Level {
 
 /// The levels the controller moves on for `technique`, worst quality first (module docs).
 pub fn ladder(technique: Technique, s: &BudgetSettings) -> Vec<Level> {
+    // Caustic spheres: the grid is the spot and point lights' basic caustic maps.
+    let technique = technique.emission();
     let lo_limit = if technique == Technique::Basic { 16 } else { 32 };
     let lo = s.min_photons.clamp(lo_limit, technique.max_photons());
     let hi = s.max_photons.clamp(lo, technique.max_photons());

@@ -674,11 +674,11 @@ impl RenderSettings {
         if self.photon_memory < 64 * 32 {
             return cl("photon_memory", "must be at least 2 KiB".into());
         }
-        if self.technique == Technique::Basic && self.photon_memory > max_bind {
+        if self.technique.emission() == Technique::Basic && self.photon_memory > max_bind {
             return cl("photon_memory", format!("must be between 2 KiB and {} MiB", max_bind >> 20));
         }
         match self.technique {
-            Technique::Basic => {}
+            Technique::Basic | Technique::CausticSpheres => {}
             Technique::Hierarchical => {
                 crate::techniques::hierarchical::HierarchicalPlan::new(self, max_bind)?;
             }
@@ -710,6 +710,9 @@ pub(crate) struct FrameConsts {
     pub internal_branch: bool,
     /// Trace the residual pass (exact tracer).
     pub residual_branch: bool,
+    /// The caustics of directional lights come from caustic spheres: their photon stages are
+    /// skipped (set by the renderer for `Technique::CausticSpheres`).
+    pub caustic_spheres: bool,
 }
 
 impl FrameConsts {
@@ -749,6 +752,7 @@ impl FrameConsts {
             residual_branch: s.residual_branches
                 && s.tracer == crate::settings::Tracer::Exact
                 && scene.objects.iter().any(|o| matches!(scene.material_of(o), Material::Dielectric { .. })),
+            caustic_spheres: s.technique == Technique::CausticSpheres,
         }
     }
 }
@@ -941,7 +945,7 @@ pub(crate) fn record_light(
         reflect_branch: fc.reflect_branch,
         internal_branch: fc.internal_branch,
         residual_branch: fc.residual_branch,
-        skip_photons: s.caustic_spheres && matches!(scene.lights[li], Light::Directional { .. }),
+        skip_photons: fc.caustic_spheres && matches!(scene.lights[li], Light::Directional { .. }),
     };
     let pending = crate::techniques::emit(&emit, enc, timer, nf)?;
     splat_targets.finish(ctx, &pipelines.splat, &light_buf, &accum, enc, timer);

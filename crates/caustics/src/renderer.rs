@@ -99,6 +99,9 @@ pub struct FrameStats {
     pub lights_redone: Vec<bool>,
     /// An overflow the GPU detected (the frame's caustic map is incomplete), as a message.
     pub overflow: Option<String>,
+    /// Caustic spheres: occlusion rays of `sphere_gather` (one per pixel and caustic object)
+    /// that overflowed the BVH stack (their pixels got no caustic from that object).
+    pub sphere_stack_overflows: u64,
 }
 
 /// A light's kept products and what they were made from.
@@ -124,6 +127,8 @@ struct StatsJob {
     /// Per redone light: its technique's pending statistics and their (offset, size) pieces.
     pendings: Vec<(Pending, Vec<(u64, u64)>)>,
     lights_redone: Vec<bool>,
+    /// Offset of `sphere_gather`'s counters, when it ran.
+    sphere_stats: Option<u64>,
 }
 
 const STATS_SLOTS: usize = 3;
@@ -161,7 +166,7 @@ pub struct Renderer {
     /// Each region's sub-directions (`crate::env_taps`) and the (segmentation, K) they are for.
     env_taps: Option<(TapsKey, Arc<Vec<crate::env_taps::RegionTaps>>)>,
     /// Caustic spheres of the caustic objects (`set_caustic_spheres`), used when
-    /// `RenderSettings::caustic_spheres` is on.
+    /// the technique is `Technique::CausticSpheres`.
     spheres: Option<crate::caustic_spheres::gpu::GpuSpheres>,
     sphere_blend: crate::caustic_spheres::Blend,
     /// The environment regions' visibility per sphere object, and what it was computed for.
@@ -243,7 +248,7 @@ impl Renderer {
 
     /// The precomputed caustic spheres of caustic objects (object index, table in the object's
     /// scene-file pose), uploaded now (as half floats with `half`: half the memory); with
-    /// `RenderSettings::caustic_spheres` they give the caustics of every directional light
+    /// `Technique::CausticSpheres` they give the caustics of every directional light
     /// (`sphere_gather`), blended as `blend` says.
     pub fn set_caustic_spheres(
         &mut self,
@@ -256,6 +261,33 @@ impl Renderer {
         }
         self.spheres = Some(crate::caustic_spheres::gpu::GpuSpheres::new(&self.ctx, objects, half)?);
         self.sphere_blend = blend;
+        Ok(())
+    }
+
+    /// Caustic spheres: the compiled variant (section 6 of the paper: per frame, every light
+    /// summed into one table per object by `sphere_compile`, then one lookup per object in
+    /// `sphere_gather`) or the direct one (a lookup per light and blended direction; the
+    /// default). No effect before `set_caustic_spheres`.
+    pub fn set_caustic_spheres_compiled(&mut self, compiled: bool) {
+        if let Some(sp) = self.spheres.as_mut() {
+            sp.compiled = compiled;
+        }
+    }
+
+    /// Caustic spheres: lower the BVH stack of `sphere_gather`'s occlusion rays (1 to
+    /// `accel::BVH_STACK`), for tests that check overflows are counted
+    /// (`FrameStats::sphere_stack_overflows`). No effect before `set_caustic_spheres`.
+    pub fn set_caustic_sphere_stack_limit(&mut self, limit: u32) -> Result<()> {
+        if limit == 0 || limit as usize > crate::accel::BVH_STACK {
+            return Err(Error::input(
+                "<renderer>",
+                "stack_limit",
+                format!("must be 1 to {} (got {limit})", crate::accel::BVH_STACK),
+            ));
+        }
+        if let Some(sp) = self.spheres.as_mut() {
+            sp.stack_limit = limit;
+        }
         Ok(())
     }
 
@@ -557,10 +589,18 @@ impl Renderer {
     pub fn encode(&mut self, encoder: &mut wgpu::CommandEncoder, request: FrameRequest) -> Result<FrameOutputs<'_>> {
         let enc = encoder;
         let ctx = self.ctx.clone();
-        let s = self.settings.clone();
+        let mut s = self.settings.clone();
+        let spheres_on = s.technique == crate::settings::Technique::CausticSpheres;
         // The scene as drawn: its lights, then the environment's directional lights.
         let full = Scene { lights: self.lights_now(), ..self.scene.clone() };
-        let sphere_vis = if s.caustic_spheres { self.sphere_visibility()? } else { None };
+        if spheres_on && self.spheres.is_none() {
+            return Err(Error::input(
+                "<renderer>",
+                "technique",
+                "caustic-spheres needs the objects' tables first (Renderer::set_caustic_spheres)",
+            ));
+        }
+        let sphere_vis = if spheres_on { self.sphere_visibility()? } else { None };
         // Geometry: uploaded once (again when the tessellation changes); moved objects rewrite
         // their transforms and analytic shapes.
         if self.geometry.as_ref().is_none_or(|(t, _)| *t != s.tessellation) {
@@ -580,6 +620,9 @@ impl Renderer {
         }
         let scene = &full;
         let fc = FrameConsts::new(scene, &s);
+        // The lights' caustic maps (spot and point lights under caustic spheres) use the
+        // emission technique; `fc` keeps which directional lights skip their photons.
+        s.technique = s.technique.emission();
         let raster = crate::passes::raster_pipelines(&ctx);
         let dc = DrawCtx { ctx: &ctx, geo, scene };
 
@@ -643,9 +686,8 @@ impl Renderer {
             crate::passes::record_shade(&dc, &eye, lf, &s, &taps[li], enc, &mut timer);
             ctx.end_scope();
         }
-        if s.caustic_spheres
-            && let Some(sp) = &self.spheres
-        {
+        let mut sphere_stats = None;
+        if spheres_on && let Some(sp) = &self.spheres {
             ctx.begin_scope("spheres", enc);
             let n_own = self.scene.lights.len();
             let vis = |li: usize, object: usize| -> f32 {
@@ -655,7 +697,20 @@ impl Renderer {
                 }
             };
             let records = sp.records(&scene.lights, &self.transforms, self.sphere_blend, vis);
-            crate::caustic_spheres::gpu::record_gather(&dc, &eye, sp, &records, enc, &mut timer);
+            use crate::caustic_spheres::gpu::{record_compile, record_gather};
+            sphere_stats = Some(if sp.compiled {
+                // Section 6: each object's records summed into its compiled table first (the
+                // records grouped by object, in the order of the tables).
+                let mut grouped = Vec::with_capacity(records.len());
+                for (oi, _, _) in &sp.objects {
+                    grouped.extend(records.iter().filter(|r| r.base[1] == *oi as u32).copied());
+                }
+                let objects = sp.compiled_records(&self.transforms);
+                let compiled = record_compile(&dc, sp, &grouped, &objects, enc, &mut timer);
+                record_gather(&dc, &eye, (sp, &compiled), &objects, enc, &mut timer)
+            } else {
+                record_gather(&dc, &eye, (sp, &sp.table), &records, enc, &mut timer)
+            });
             ctx.end_scope();
         }
         ctx.begin_scope("composite", enc);
@@ -681,6 +736,9 @@ impl Renderer {
             let piece_lists: Vec<Vec<(wgpu::Buffer, u64)>> = pendings.iter().map(|p| p.sources()).collect();
             for list in &piece_lists {
                 sources.extend(list.iter().cloned());
+            }
+            if let Some(b) = &sphere_stats {
+                sources.push((b.clone(), 8));
             }
             // Offsets in the staging buffer (copies are 4-byte aligned; every size is).
             let mut offsets = Vec::with_capacity(sources.len());
@@ -718,6 +776,7 @@ impl Renderer {
                     flux,
                     pendings: pend,
                     lights_redone: redone.clone(),
+                    sphere_stats: sphere_stats.as_ref().map(|_| offsets[k]),
                 });
                 self.ring[slot].state.store(1, Ordering::Release);
             }
@@ -801,13 +860,27 @@ impl Renderer {
             for (p, pieces) in job.pendings {
                 let bytes: Vec<Vec<u8>> = pieces.iter().map(|&(off, size)| piece(off, size)).collect();
                 match p.finish(&bytes) {
-                    Ok(t) => stats.technique.merge(&t),
+                    // The lights report their emission technique; the frame's is the setting.
+                    Ok(t) => stats.technique.merge(&TechniqueStats { technique: self.settings.technique, ..t }),
                     Err(e) => {
                         let m = e.to_string();
                         self.last_error = Some(m.clone());
                         stats.overflow = Some(m);
                     }
                 }
+            }
+            if let Some(off) = job.sphere_stats {
+                let c = piece(off, 4);
+                stats.sphere_stack_overflows = u64::from(u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+            }
+            if stats.sphere_stack_overflows > 0 {
+                let m = format!(
+                    "{} caustic-sphere occlusion rays overflowed the BVH traversal stack: those pixels got no caustic \
+                     from that object",
+                    stats.sphere_stack_overflows
+                );
+                self.last_error = Some(m.clone());
+                stats.overflow.get_or_insert(m);
             }
             let overflows: u64 = stats.flux.iter().map(|f| f.stack_overflows).sum();
             if overflows > 0 {

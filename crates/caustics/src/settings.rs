@@ -22,11 +22,32 @@ pub enum Technique {
     /// caustic-map texel (or within the tolerance) is emitted as one photon; the finest grid N
     /// caps the refinement.
     AdaptiveError,
+    /// Caustic spheres (Tandianus et al. 2010, `crate::caustic_spheres`): the caustics of
+    /// directional lights (the scene's and the environment's) come from tables precomputed per
+    /// caustic object (`Renderer::set_caustic_spheres`), looked up by one eye-space pass
+    /// (`sphere_gather`) for all of them; their light passes trace no photons. Spot and point
+    /// lights, which the tables do not describe, get basic caustic maps
+    /// ([`Technique::emission`]).
+    CausticSpheres,
 }
 
 impl Technique {
-    pub const ALL: [Technique; 4] =
-        [Technique::Basic, Technique::Hierarchical, Technique::AdaptiveLevel, Technique::AdaptiveError];
+    pub const ALL: [Technique; 5] = [
+        Technique::Basic,
+        Technique::Hierarchical,
+        Technique::AdaptiveLevel,
+        Technique::AdaptiveError,
+        Technique::CausticSpheres,
+    ];
+
+    /// The photon emission technique of the lights' caustic maps: itself, or for caustic
+    /// spheres the basic one (the spot and point lights' caustic maps).
+    pub fn emission(self) -> Technique {
+        match self {
+            Technique::CausticSpheres => Technique::Basic,
+            t => t,
+        }
+    }
 
     /// The command-line name.
     pub fn name(self) -> &'static str {
@@ -35,6 +56,7 @@ impl Technique {
             Technique::Hierarchical => "hierarchical",
             Technique::AdaptiveLevel => "adaptive-level",
             Technique::AdaptiveError => "adaptive-error",
+            Technique::CausticSpheres => "caustic-spheres",
         }
     }
 
@@ -49,6 +71,9 @@ impl Technique {
                 "Adaptive caustic maps, maximal traversal level (equivalent to a dense N x N grid)"
             }
             Technique::AdaptiveError => "Adaptive caustic maps, maximal caustic map error (finest grid N)",
+            Technique::CausticSpheres => {
+                "Caustic spheres: directional lights from precomputed tables, one eye-space pass (others: basic)"
+            }
         }
     }
 
@@ -303,12 +328,6 @@ pub struct RenderSettings {
     /// Sub-directions each environment region's caustic is spread over (`crate::env_taps`),
     /// 0 to 32; 0 or 1: none (each region's caustic from its one direction, as the paper).
     pub env_taps: u32,
-    /// Caustic spheres (`crate::caustic_spheres`, `--caustic-spheres`): the caustics
-    /// of directional lights come from the precomputed spheres set with
-    /// `Renderer::set_caustic_spheres` (one eye-space pass, `sphere_gather`, for all of them)
-    /// instead of photons: their light passes trace none. Spot and point lights keep the
-    /// technique's caustic maps.
-    pub caustic_spheres: bool,
     /// Volume caustics by adaptive beam tracing in scenes with a medium (`crate::beams`).
     pub beams: BeamSettings,
 }
@@ -457,7 +476,6 @@ impl Default for RenderSettings {
             env_lights: DEFAULT_ENV_LIGHTS,
             env_split: Default::default(),
             env_taps: DEFAULT_ENV_TAPS,
-            caustic_spheres: false,
             beams: BeamSettings::default(),
         }
     }

@@ -6,8 +6,9 @@ mod common;
 use caustics::Scene;
 use caustics::caustic_spheres::{Blend, CausticSpheres, DirectionLayout, SphereSettings};
 use caustics::image_io::Image;
-use caustics::render::RenderSettings;
+use caustics::render::{RenderSettings, Technique};
 use caustics::renderer::Renderer;
+use caustics::scene::Light;
 use caustics_reference::reference::Progress;
 use caustics_reference::reference::spheres;
 use common::gpu;
@@ -67,7 +68,7 @@ fn render(
         photons: 64,
         caustic_map_size: 128,
         shadow_map_size: 256,
-        caustic_spheres: true,
+        technique: Technique::CausticSpheres,
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), scene.clone(), s).unwrap();
@@ -165,7 +166,7 @@ fn steady_frames_create_nothing() {
         photons: 64,
         caustic_map_size: 128,
         shadow_map_size: 256,
-        caustic_spheres: true,
+        technique: Technique::CausticSpheres,
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), scene(&[(l, [1.0; 3])]), s).unwrap();
@@ -193,6 +194,12 @@ fn steady_frames_create_nothing() {
     assert_eq!(frame(&mut r), 0, "a turned light");
     r.set_object_transform(0, glam::Affine3A::from_translation(Vec3::new(0.3, 0.0, 0.0))).unwrap();
     assert_eq!(frame(&mut r), 0, "a moved object");
+    // The compiled variant: its table and records come from the pool too.
+    r.set_caustic_spheres_compiled(true);
+    assert!(frame(&mut r) > 0);
+    assert_eq!(frame(&mut r), 0, "a steady compiled frame");
+    r.set_light(0, caustics::scene::Light::Directional { direction: l, irradiance: Vec3::ONE }).unwrap();
+    assert_eq!(frame(&mut r), 0, "a turned light, compiled");
 }
 
 #[test]
@@ -233,7 +240,7 @@ fn half_float_table_matches_f32() {
         photons: 64,
         caustic_map_size: 128,
         shadow_map_size: 256,
-        caustic_spheres: true,
+        technique: Technique::CausticSpheres,
         ..Default::default()
     };
     let run = |half: bool| {
@@ -248,4 +255,127 @@ fn half_float_table_matches_f32() {
     eprintln!("half vs f32: relative L1 {e}");
     // f16 keeps 11 significant bits: 2^-11 relative per value, averaged over a lookup.
     assert!(e < 1e-3, "relative L1 {e}");
+}
+
+/// `Technique::CausticSpheres` (what `--caustic-spheres` was): directional lights through the
+/// spheres, a spot light through basic caustic maps, in one frame: its caustic image is the
+/// basic technique's caustic of the spot light alone plus the spheres' of the directional
+/// light alone.
+#[test]
+fn technique_adds_spheres_to_basic_caustic_maps_of_spot_lights() {
+    let Some(ctx) = gpu() else { return };
+    let dir = (Vec3::new(0.2, -1.0, 0.1).normalize(), [2.0, 1.5, 1.0]);
+    let spot = Light::Spot {
+        position: Vec3::new(0.4, 3.0, 0.3),
+        direction: Vec3::new(-0.4, -2.0, -0.3).normalize(),
+        cone_angle: 0.35,
+        falloff_start: 0.25,
+        intensity: Vec3::splat(20.0),
+    };
+    let mut both = scene(&[dir]);
+    both.lights.push(spot.clone());
+    let mut spot_only = scene(&[dir]);
+    spot_only.lights = vec![spot];
+    let out = render(&ctx, &both, None);
+    let s = RenderSettings { photons: 64, caustic_map_size: 128, shadow_map_size: 256, ..Default::default() };
+    let basic = caustics::render::render(&ctx, &spot_only, &s).unwrap();
+    let gather = render(&ctx, &scene(&[dir]), None).caustic;
+    // The spot light's photons are the basic technique's, the directional light's none.
+    assert_eq!(out.photons_traced, basic.photons_traced);
+    assert!(basic.photons_traced > 0);
+    assert_eq!(out.technique.technique, Technique::CausticSpheres);
+    let mut sum = basic.caustic.clone();
+    for (p, g) in sum.pixels.iter_mut().zip(&gather.pixels) {
+        for c in 0..3 {
+            p[c] += g[c];
+        }
+    }
+    let e = rel_l1(&out.caustic, &sum);
+    eprintln!("spheres + spot vs basic(spot) + spheres(directional): relative L1 {e}");
+    assert!(basic.caustic.sum() > 0.0 && gather.sum() > 0.0);
+    // The same passes add the same terms (measured: the same bits, relative L1 0); the bound
+    // leaves room for a different order of the f32 additions.
+    assert!(e < 1e-5, "relative L1 {e}");
+}
+
+/// The technique without tables is refused with a message saying what is missing.
+#[test]
+fn technique_without_tables_is_refused() {
+    let Some(ctx) = gpu() else { return };
+    let s = RenderSettings { photons: 64, technique: Technique::CausticSpheres, ..Default::default() };
+    let mut r = Renderer::with_context(ctx.clone(), scene(&[(Vec3::NEG_Y, [1.0; 3])]), s).unwrap();
+    let Err(e) = r.render_once() else { panic!("no tables: an error expected") };
+    assert!(e.to_string().contains("set_caustic_spheres"), "{e}");
+}
+
+/// An occlusion ray that overflows the BVH stack is counted and reported: with the stack
+/// lowered to one entry, rays past a tessellated (BVH) occluder overflow and the frame says so;
+/// with the full stack, none do.
+#[test]
+fn occlusion_stack_overflows_are_reported() {
+    let Some(ctx) = gpu() else { return };
+    let l = Vec3::new(0.2, -1.0, 0.1).normalize();
+    let extra = r#", { "type": "sphere", "center": [0.7, 0.3, 0.4], "radius": 0.25, "material": "floor" }"#;
+    let mut sc = scene_with(&[(l, [1.0; 3])], extra);
+    let k = sc.objects.len() - 1;
+    let tess = caustics::scene::Tessellation { sphere_segments: 64, cylinder_segments: 64 };
+    sc.objects[k].shape = caustics::scene::Shape::Mesh(Arc::new(sc.objects[k].shape.tessellate(&tess)));
+    let s = RenderSettings {
+        photons: 64,
+        caustic_map_size: 128,
+        shadow_map_size: 256,
+        technique: Technique::CausticSpheres,
+        ..Default::default()
+    };
+    let mut r = Renderer::with_context(ctx.clone(), sc, s).unwrap();
+    r.set_caustic_spheres(vec![(0, table())], Blend::Triangle, false).unwrap();
+    let full = r.render_once().expect("no overflow with the full stack");
+    assert!(full.caustic.sum() > 0.0);
+    r.set_caustic_sphere_stack_limit(1).unwrap();
+    r.invalidate();
+    let Err(e) = r.render_once() else { panic!("a one-entry stack overflows") };
+    assert!(e.to_string().contains("caustic-sphere occlusion rays overflowed"), "{e}");
+    assert!(r.set_caustic_sphere_stack_limit(0).is_err());
+}
+
+/// The compiled variant (section 6): every light summed into one table per object, one lookup
+/// per object, against the direct variant (a lookup per light and blended direction). Three
+/// coloured lights from above the ball: every light reaching the floor comes from its front,
+/// so the vector sum loses nothing and the difference is the compiled table's resampling of
+/// the blended caustic at its own cells.
+#[test]
+fn compiled_variant_matches_the_direct_one() {
+    let Some(ctx) = gpu() else { return };
+    let lights = [
+        (Vec3::new(0.3, -1.0, 0.2).normalize(), [2.0, 0.3, 0.3]),
+        (Vec3::new(-0.4, -1.0, 0.1).normalize(), [0.3, 2.0, 0.3]),
+        (Vec3::new(0.05, -1.0, -0.45).normalize(), [0.3, 0.3, 2.0]),
+    ];
+    let sc = scene(&lights);
+    let s = RenderSettings {
+        photons: 64,
+        caustic_map_size: 128,
+        shadow_map_size: 256,
+        technique: Technique::CausticSpheres,
+        ..Default::default()
+    };
+    let mut r = Renderer::with_context(ctx.clone(), sc, s).unwrap();
+    r.set_caustic_spheres(vec![(0, table())], Blend::Triangle, false).unwrap();
+    let direct = r.render_once().unwrap();
+    r.set_caustic_spheres_compiled(true);
+    let compiled = r.render_once().unwrap();
+    let ms = |o: &caustics::render::GpuRender, pass: &str| -> f64 {
+        o.timings.iter().filter(|(p, _)| p == pass).map(|(_, m)| m).sum()
+    };
+    let e = rel_l1(&compiled.caustic, &direct.caustic);
+    eprintln!(
+        "compiled vs direct: relative L1 {e}, energy {}; gather {:.3} ms direct, {:.3} ms compiled (+ compile {:.3} ms)",
+        compiled.caustic.sum() / direct.caustic.sum(),
+        ms(&direct, "sphere_gather"),
+        ms(&compiled, "sphere_gather"),
+        ms(&compiled, "sphere_compile")
+    );
+    assert!(direct.caustic.sum() > 0.0);
+    assert!((compiled.caustic.sum() / direct.caustic.sum() - 1.0).abs() < 0.05);
+    assert!(e < 0.1, "relative L1 {e}");
 }

@@ -52,6 +52,10 @@ pub struct ViewArgs {
     /// Folder for screenshots (F12).
     #[arg(long, default_value = ".")]
     pub screenshot_dir: PathBuf,
+    /// Caustic spheres (`--technique caustic-spheres`, or switched to in the panel): the
+    /// precomputed tables' settings.
+    #[command(flatten)]
+    pub sphere_args: crate::spheres::SphereArgs,
 }
 
 /// What the viewer starts with, checked before any window opens (bad input exits 2 without

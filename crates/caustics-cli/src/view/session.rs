@@ -223,6 +223,11 @@ pub struct Session {
     reference_version: u64,
     screenshot_dir: PathBuf,
     screenshots: u32,
+    /// `Technique::CausticSpheres`: the tables' settings (the command line's) and the tables
+    /// of the base scene's caustic objects, loaded or precomputed when first needed (a moved
+    /// object is looked up in its own frame, so moves keep them).
+    pub sphere_args: crate::spheres::SphereArgs,
+    sphere_tables: Option<Vec<(usize, Arc<caustics::caustic_spheres::CausticSpheres>)>>,
 }
 
 impl Session {
@@ -269,6 +274,8 @@ impl Session {
             reference_version: 0,
             screenshot_dir,
             screenshots: 0,
+            sphere_args: crate::spheres::SphereArgs::default(),
+            sphere_tables: None,
         })
     }
 
@@ -590,6 +597,8 @@ impl Session {
         let m = Material::Dielectric { ior, ext_ior };
         self.renderer.set_material(material, m)?;
         self.base.materials[material] = m;
+        // The caustic spheres were traced through the old material (their cache key has it).
+        self.sphere_tables = None;
         self.view_changed();
         Ok(())
     }
@@ -602,6 +611,15 @@ impl Session {
         }
         self.dirty = self.settle > 0;
         self.settle = self.settle.saturating_sub(1);
+        if self.settings().technique == Technique::CausticSpheres && self.sphere_tables.is_none() {
+            // Blocks while a table is precomputed (a progress bar on the terminal; cached).
+            if let Err(e) =
+                crate::spheres::attach(&mut self.renderer, &self.base, &self.sphere_args, &mut self.sphere_tables)
+            {
+                self.error = Some(e.to_string());
+                return Err(e);
+            }
+        }
         let t0 = Instant::now();
         let mut enc =
             self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("viewer frame") });

@@ -480,3 +480,36 @@ fn environment_rotation_turns_its_lights_live() {
     s.act(Action::SetEnvironmentRotation(90.0)).unwrap();
     assert!(!s.render().unwrap());
 }
+
+#[test]
+fn caustic_spheres_switch_loads_tables_and_follows_the_environment() {
+    // Switching to caustic spheres precomputes (here: tiny tables) before the first frame that
+    // needs them; the environment's directional lights then cast their caustics through the
+    // spheres, and turning the environment turns the caustic with no new table.
+    let Some(d) = device() else { return };
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/glass_sphere_sky.json");
+    let scene = Scene::load(&path).unwrap();
+    let settings = RenderSettings { env_lights: 6, ..small_settings() };
+    let mut s = Session::new(&d.0, &d.1, scene, settings, tmp("")).expect("a session on the sky scene");
+    s.sphere_args = crate::spheres::SphereArgs {
+        directions: 3,
+        spheres: 4,
+        sphere_size: (16, 12),
+        sphere_photons: 1 << 12,
+        half: false,
+        sphere_cache: tmp("sphere-cache"),
+        sphere_compiled: false,
+    };
+    s.act(Action::Resize { width: 48, height: 36 }).unwrap();
+    s.act(Action::SetTechnique(Technique::CausticSpheres)).unwrap();
+    frame(&mut s);
+    assert!(s.renderer().caustic_sphere_bytes() > 0, "tables set before the frame");
+    let before = s.renderer().read_caustic_image().unwrap();
+    assert!(before.sum() > 0.0, "the environment's caustic through the spheres");
+    let bytes = s.renderer().caustic_sphere_bytes();
+    s.act(Action::SetEnvironmentRotation(90.0)).unwrap();
+    frame(&mut s);
+    let after = s.renderer().read_caustic_image().unwrap();
+    assert_eq!(s.renderer().caustic_sphere_bytes(), bytes);
+    assert!(before.pixels != after.pixels, "the caustic turned with the environment");
+}

@@ -106,7 +106,8 @@ impl Running {
             settings.caustic_map_size =
                 caustics::render::RenderSettings::fitting_caustic_map_size(&ctx, &scene, settings.caustic_map_size);
         }
-        let session = Session::new(&device, &queue, scene, settings, args.screenshot_dir.clone())?;
+        let mut session = Session::new(&device, &queue, scene, settings, args.screenshot_dir.clone())?;
+        session.sphere_args = args.sphere_args.clone();
         let egui_ctx = egui::Context::default();
         let egui_state = egui_winit::State::new(
             egui_ctx.clone(),

@@ -191,6 +191,60 @@ pub fn render_caustic(
     render_caustic_moved(scene, spheres, &identity, layout, blend, ss)
 }
 
+/// The caustic radiance of caustic object `object` under the scene's directional lights with
+/// the object's caustic irradiance factor given by `factor(p, n, l)` (object frame = world,
+/// W/m² per W/m²): [`render_caustic`] for one unmoved object with any evaluation of the
+/// spheres (measurements of warps and blends).
+pub fn render_caustic_with(
+    scene: &Scene,
+    object: usize,
+    factor: &(dyn Fn(Vec3, Vec3, Vec3) -> Vec3 + Sync),
+    ss: u32,
+) -> caustics::image_io::Image {
+    let accel = Accel::new(scene);
+    let mut s = scene.clone();
+    s.objects.remove(object);
+    let occ = Accel::new(&s);
+    let (lo, hi) = scene.objects[object].shape.bounds();
+    let c = (lo + hi) * 0.5;
+    let cam = &scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let pixels: Vec<[f32; 3]> = (0..w * h)
+        .into_par_iter()
+        .map(|pix| {
+            let (px, py) = (pix % w, pix / w);
+            let mut sum = Vec3::ZERO;
+            for sy in 0..ss {
+                for sx in 0..ss {
+                    let x = px as f32 + (sx as f32 + 0.5) / ss as f32;
+                    let y = py as f32 + (sy as f32 + 0.5) / ss as f32;
+                    let d = cam.ray_dir(x, y);
+                    let Some(hit) = accel.intersect(cam.position, d, f32::INFINITY) else { continue };
+                    let Material::Diffuse { albedo } = scene.materials[scene.objects[hit.object as usize].material]
+                    else {
+                        continue;
+                    };
+                    let n = if d.dot(hit.ng) < 0.0 { hit.ns } else { -hit.ns };
+                    let to = hit.p - c;
+                    let dist = to.length();
+                    if dist <= 0.0 || occ.occluded(c, to / dist, dist * (1.0 - 1e-4)) {
+                        continue;
+                    }
+                    let mut e = Vec3::ZERO;
+                    for light in &scene.lights {
+                        if let caustics::scene::Light::Directional { direction, irradiance } = light {
+                            e += *irradiance * factor(hit.p, n, direction.normalize());
+                        }
+                    }
+                    sum += albedo * e / PI;
+                }
+            }
+            (sum / (ss * ss) as f32).to_array()
+        })
+        .collect();
+    caustics::image_io::Image { width: w, height: h, pixels }
+}
+
 /// [`render_caustic`] with the caustic objects moved: `scene` holds them where they are now,
 /// `moves[i]` is how `spheres[i]`'s object moved from the pose its table was made in (the
 /// lookup is in the object's frame, as the renderer's).

@@ -26,6 +26,12 @@ pub struct GpuSpheres {
     pub layouts: Vec<DirectionLayout>,
     pub table: wgpu::Buffer,
     pub bytes: u64,
+    /// The compiled variant (section 6): per frame `sphere_compile` sums every record of an
+    /// object into one compiled table, and `sphere_gather` looks up one record per object.
+    pub compiled: bool,
+    /// BVH stack entries the occlusion ray may use (`bvh_stack_limit` of `sphere_gather`;
+    /// `crate::accel::BVH_STACK` unless a test lowers it to provoke overflows).
+    pub stack_limit: u32,
 }
 
 impl GpuSpheres {
@@ -76,7 +82,15 @@ impl GpuSpheres {
             ));
         }
         let table = ctx.buffer_init("sphere_table", bytemuck::cast_slice(&data), wgpu::BufferUsages::STORAGE);
-        Ok(GpuSpheres { objects: out, half, layouts, table, bytes })
+        Ok(GpuSpheres {
+            objects: out,
+            half,
+            layouts,
+            table,
+            bytes,
+            compiled: false,
+            stack_limit: crate::accel::BVH_STACK as u32,
+        })
     }
 
     /// The records of a frame: per directional light (world direction, irradiance), per object
@@ -132,20 +146,114 @@ impl GpuSpheres {
     }
 }
 
+impl GpuSpheres {
+    /// Vec4s of one object's compiled table (three per cell).
+    fn compiled_len(sp: &CausticSpheres) -> u32 {
+        (sp.geometry.radii.len() * sp.geometry.cells() * 3) as u32
+    }
+
+    /// The compiled variant's records: per caustic object (moved by `transforms[object]`), one
+    /// record of its compiled table: its own spheres and cells in a fixed frame of the object
+    /// (pole straight down in the scene file's pose, where light from above goes), `base.x`
+    /// the table's first vec4 in the compiled buffer.
+    pub fn compiled_records(&self, transforms: &[Affine3A]) -> Vec<SphereRecord> {
+        let mut base = 0u32;
+        let mut out = Vec::new();
+        for (oi, sp, _) in &self.objects {
+            let inv = transforms[*oi].inverse();
+            let m = glam::Mat4::from(inv);
+            let g = &sp.geometry;
+            let s = g.radii.len();
+            let w = Vec3::NEG_Y;
+            let (a, b) = super::basis(w);
+            let row = |v: Vec3| v.extend(0.0).to_array();
+            out.push(SphereRecord {
+                to_obj: [m.row(0).to_array(), m.row(1).to_array(), m.row(2).to_array()],
+                axes: [row(a), row(b), row(w)],
+                rot: [row(Vec3::X), row(Vec3::Y), row(Vec3::Z)],
+                center: g.center.extend(g.radii[0]).to_array(),
+                shape: [g.radii[s - 1], s as f32, g.width as f32, g.height as f32],
+                irradiance: [1.0, 1.0, 1.0, 0.0],
+                base: [base, *oi as u32, 2, 0],
+            });
+            base += Self::compiled_len(sp);
+        }
+        out
+    }
+}
+
+/// Records `sphere_compile` (the compiled variant, section 6 of the paper): per caustic object
+/// one dispatch over its compiled table's cells summing `records` of that object (`records`
+/// holds each object's records contiguously, in the order of `objects`). Returns the compiled
+/// buffer that `sphere_gather` reads with the `objects` records.
+pub(crate) fn record_compile(
+    dc: &DrawCtx,
+    spheres: &GpuSpheres,
+    records: &[SphereRecord],
+    objects: &[SphereRecord],
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> wgpu::Buffer {
+    use crate::gpu::types::SphereCompileParams;
+    let ctx = dc.ctx;
+    let pl = ctx.compute_pipeline("sphere_compile");
+    let total: u64 = spheres.objects.iter().map(|(_, sp, _)| u64::from(GpuSpheres::compiled_len(sp))).sum();
+    let compiled = ctx.buffer("sphere_compiled", total.max(1) * 16, wgpu::BufferUsages::STORAGE);
+    let zero = [SphereRecord::zeroed_record()];
+    let recs = if records.is_empty() { &zero[..] } else { records };
+    let rb = ctx.buffer_init("sphere_compile_records", bytemuck::cast_slice(recs), wgpu::BufferUsages::STORAGE);
+    let mut first = 0u32;
+    for ((_, sp, _), obj) in spheres.objects.iter().zip(objects) {
+        let count = records[first as usize..].iter().take_while(|r| r.base[1] == obj.base[1]).count() as u32;
+        let cells = (sp.geometry.radii.len() * sp.geometry.cells()) as u32;
+        let params = ctx.uniform(
+            "sphere_compile_params",
+            bytemuck::bytes_of(&SphereCompileParams { first, count, cells, out_base: obj.base[0] }),
+        );
+        let ob = ctx.buffer_init("sphere_compile_object", bytemuck::bytes_of(obj), wgpu::BufferUsages::STORAGE);
+        let bg = crate::gpu::bind(
+            ctx,
+            &pl,
+            "sphere_compile",
+            &[
+                params.as_entire_binding(),
+                ob.as_entire_binding(),
+                rb.as_entire_binding(),
+                spheres.table.as_entire_binding(),
+                compiled.as_entire_binding(),
+            ],
+        );
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("sphere_compile"),
+            timestamp_writes: timer.compute("sphere_compile"),
+        });
+        cp.set_pipeline(&pl);
+        cp.set_bind_group(0, &bg, &[]);
+        cp.dispatch_workgroups(cells.div_ceil(64), 1, 1);
+        drop(cp);
+        first += count;
+    }
+    compiled
+}
+
 /// Records `sphere_gather`: adds the caustic radiance of `records` to the eye's diffuse
-/// radiance and caustic buffers.
+/// radiance and caustic buffers. Returns its statistics buffer (8 bytes; the first u32 counts
+/// the occlusion rays that overflowed the BVH stack) for the frame's statistics.
 pub(crate) fn record_gather(
     dc: &DrawCtx,
     eye: &EyeFrame,
-    spheres: &GpuSpheres,
+    (spheres, table): (&GpuSpheres, &wgpu::Buffer),
     records: &[SphereRecord],
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
-) {
+) -> wgpu::Buffer {
     let ctx = dc.ctx;
     let cam = &dc.scene.camera;
     let (w, h) = (cam.width, cam.height);
-    let pl = ctx.compute_pipeline("sphere_gather");
+    let pl = ctx.compute_pipeline_with("sphere_gather", &[("bvh_stack_limit", f64::from(spheres.stack_limit))]);
+    // Rewritten (zeroed) every frame: a storage buffer from `buffer_init`.
+    let counters =
+        ctx.buffer_init("sphere_gather_stats", &[0u8; 8], wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
     let params = ctx.uniform(
         "sphere_gather_params",
         bytemuck::bytes_of(&SphereGatherParams {
@@ -170,12 +278,13 @@ pub(crate) fn record_gather(
             wgpu::BindingResource::TextureView(&ern),
             dc.geo.materials.as_entire_binding(),
             rb.as_entire_binding(),
-            spheres.table.as_entire_binding(),
+            table.as_entire_binding(),
             eye.radiance.as_entire_binding(),
             eye.caustic.as_entire_binding(),
             dc.geo.bvh_nodes.as_entire_binding(),
             dc.geo.bvh_tris.as_entire_binding(),
             dc.geo.bvh_instances.as_entire_binding(),
+            counters.as_entire_binding(),
         ],
     );
     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -185,6 +294,8 @@ pub(crate) fn record_gather(
     cp.set_pipeline(&pl);
     cp.set_bind_group(0, &bg, &[]);
     cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    drop(cp);
+    counters
 }
 
 impl SphereRecord {

@@ -111,6 +111,21 @@ pub enum Blend {
     Quad,
 }
 
+/// How a stored pattern (precomputed for light direction ω_k) is carried onto another light
+/// direction l before the blend.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Warp {
+    /// The paper's: the whole pattern rotated about the spheres' centre by R (ω_k → l), which
+    /// is the caustic of the object rotated by R: exact for a rotationally symmetric object.
+    Rotate,
+    /// The object stays put: each caustic ray keeps where it leaves the object (its point of
+    /// closest approach to the centre) and its deviation, its direction turned by R about
+    /// there. The lookup point moves along the ray back to that point and out along the stored
+    /// direction: p_k = p + t (d − R d), t = (p − c)·R d, d the stored mean direction at p_k,
+    /// found by fixed-point iteration from d = ω_k (0 iterations: a shear along the light).
+    Exit(u32),
+}
+
 /// The layout of light directions: an N×N octahedral grid, deduplicated.
 #[derive(Debug, Clone)]
 pub struct DirectionLayout {
@@ -400,9 +415,60 @@ impl CausticSpheres {
 
     /// Stored direction `k` rotated onto light direction `l`, at point `p`, normal `n`.
     pub fn irradiance_of(&self, k: usize, p: Vec3, n: Vec3, l: Vec3) -> Vec3 {
-        let rot = Quat::from_rotation_arc(self.layout_dirs[k], l);
-        let q = rot.inverse() * (p - self.geometry.center) + self.geometry.center;
-        let (c, d) = self.sample(k, q);
+        self.irradiance_of_warped(k, p, n, l, Warp::Rotate)
+    }
+
+    /// [`Self::irradiance`] with the stored patterns carried onto `l` by `warp`.
+    pub fn irradiance_warped(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        l: Vec3,
+        layout: &DirectionLayout,
+        blend: Blend,
+        warp: Warp,
+    ) -> Vec3 {
+        let l = l.normalize();
+        let mut e = Vec3::ZERO;
+        for (k, w) in layout.weights(l, blend) {
+            if w > 0.0 {
+                e += self.irradiance_of_warped(k as usize, p, n, l, warp) * w;
+            }
+        }
+        e
+    }
+
+    /// Where stored pattern `k` is looked up for light direction `l` at object-frame point
+    /// `p` under `warp`, and the rotation R (ω_k → l) its mean directions are carried by.
+    pub fn warped_point(&self, k: usize, p: Vec3, l: Vec3, warp: Warp) -> (Vec3, Quat) {
+        let w = self.layout_dirs[k];
+        let rot = Quat::from_rotation_arc(w, l);
+        let c = self.geometry.center;
+        let q = p - c;
+        match warp {
+            Warp::Rotate => (rot.inverse() * q + c, rot),
+            Warp::Exit(iterations) => {
+                // The ray through p along D (its direction under l) passes closest to the
+                // centre at p − t·D, t = (p − c)·D; under ω_k it left there along R⁻¹D.
+                let t = q.dot(l);
+                let mut pk = p + (w - l) * t;
+                for _ in 0..iterations {
+                    let (_, d) = self.sample(k, pk);
+                    if d == Vec3::ZERO {
+                        break;
+                    }
+                    let dl = rot * d;
+                    pk = p + (d - dl) * q.dot(dl);
+                }
+                (pk, rot)
+            }
+        }
+    }
+
+    /// [`Self::irradiance_of`] with the pattern carried onto `l` by `warp`.
+    pub fn irradiance_of_warped(&self, k: usize, p: Vec3, n: Vec3, l: Vec3, warp: Warp) -> Vec3 {
+        let (pk, rot) = self.warped_point(k, p, l, warp);
+        let (c, d) = self.sample(k, pk);
         let cos = (-(rot * d).dot(n)).max(0.0);
         c * cos
     }

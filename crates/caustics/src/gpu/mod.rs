@@ -20,6 +20,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("temporal_filter", include_str!("../../shaders/temporal_filter.wgsl")),
     ("shade_receivers", include_str!("../../shaders/shade_receivers.wgsl")),
     ("sphere_gather", include_str!("../../shaders/sphere_gather.wgsl")),
+    ("sphere_compile", include_str!("../../shaders/sphere_compile.wgsl")),
     ("composite", include_str!("../../shaders/composite.wgsl")),
     ("medium_scatter", include_str!("../../shaders/medium_scatter.wgsl")),
     ("coverage_mip", include_str!("../../shaders/coverage_mip.wgsl")),
@@ -54,6 +55,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("environment", include_str!("../../shaders/shared/environment.wgsl")),
     ("medium", include_str!("../../shaders/shared/medium.wgsl")),
     ("beams", include_str!("../../shaders/shared/beams.wgsl")),
+    ("sphere_table", include_str!("../../shaders/shared/sphere_table.wgsl")),
 ];
 
 /// Full source of a stage: the shared code, then the stage with its `#import` lines replaced by

@@ -135,7 +135,20 @@ pub struct SphereGatherParams {
     pub camera: [f32; 4],
 }
 
-/// One (directional light, caustic object, blended stored direction) of `sphere_gather`.
+/// `sphere_compile` (shaders/sphere_compile.wgsl): one caustic object's dispatch.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct SphereCompileParams {
+    /// The object's records: `records[first .. first + count]`.
+    pub first: u32,
+    pub count: u32,
+    /// Cells of the compiled table and the index of its first vec4.
+    pub cells: u32,
+    pub out_base: u32,
+}
+
+/// One (directional light, caustic object, blended stored direction) of `sphere_gather`, or
+/// one caustic object's compiled table (`base.z` = 2).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct SphereRecord {
@@ -152,7 +165,8 @@ pub struct SphereRecord {
     /// Blend weight × the light's irradiance (W/m², rgb).
     pub irradiance: [f32; 4],
     /// x: table index (in vec4s) of the stored direction's first cell; y: the object's index;
-    /// z: 1 for a half-float table (one vec4 per cell), 0 for f32 (two).
+    /// z: 1 for a half-float table (one vec4 per cell), 0 for f32 (two), 2 for a compiled
+    /// table (three vec4 of f32: V_r, V_g, V_b).
     pub base: [u32; 4],
 }
 
@@ -507,6 +521,7 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("EnvTapsGpu", "EnvTaps", std::mem::size_of::<EnvTapsGpu>()),
     ("SphereGatherParams", "SphereGatherParams", std::mem::size_of::<SphereGatherParams>()),
     ("SphereRecord", "SphereRecord", std::mem::size_of::<SphereRecord>()),
+    ("SphereCompileParams", "SphereCompileParams", std::mem::size_of::<SphereCompileParams>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
     ("MediumParams", "MediumParams", std::mem::size_of::<MediumParams>()),
     ("BeamParams", "BeamParams", std::mem::size_of::<BeamParams>()),

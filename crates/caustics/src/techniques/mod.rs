@@ -494,6 +494,10 @@ fn emission(t: Technique, e: &Emit) -> Result<Box<dyn Emission>> {
         Technique::Basic => Box::new(basic::Basic::new(e)),
         Technique::Hierarchical => Box::new(hierarchical::Hierarchical::new(e)?),
         Technique::AdaptiveLevel | Technique::AdaptiveError => Box::new(adaptive::Adaptive::new(e)?),
+        // Caustic spheres: directional lights never get here (`Emit::skip_photons`; their
+        // caustics are `sphere_gather`'s, recorded by the renderer after the shading passes),
+        // spot and point lights get basic caustic maps (`Technique::emission`).
+        Technique::CausticSpheres => Box::new(basic::Basic::new(e)),
     })
 }
 
