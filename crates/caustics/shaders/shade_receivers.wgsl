@@ -113,11 +113,11 @@ fn caustic_at(p: vec3f) -> vec3f {
     return acc / wsum;
 }
 
-// The camera's box pixel filter over the caustic map: average 3 x 3 bilinear lookups spread over
-// the pixel's footprint on the receiver (from the neighbouring pixels' positions on the same
-// object). Without it, a caustic sharper than a pixel would be point-sampled at the pixel centre
-// and its peak overstated.
-fn caustic_box(p: vec3f, px: vec2i, object: f32) -> vec3f {
+// The pixel's footprint on the receiver: the steps to the neighbouring pixels' positions on the
+// same object (zero along an axis where neither neighbour lies on it).
+struct Footprint { dx: vec3f, dy: vec3f }
+
+fn pixel_footprint(p: vec3f, px: vec2i, object: f32) -> Footprint {
     let size = vec2i(i32(sp.width), i32(sp.height));
     var dx = vec3f(0.0);
     var dy = vec3f(0.0);
@@ -127,6 +127,17 @@ fn caustic_box(p: vec3f, px: vec2i, object: f32) -> vec3f {
     let u = textureLoad(eye_pos, clamp(px - vec2i(0, 1), vec2i(0), size - 1), 0);
     if (r.w == object && px.x + 1 < size.x) { dx = r.xyz - p; } else if (l.w == object && px.x > 0) { dx = p - l.xyz; }
     if (d.w == object && px.y + 1 < size.y) { dy = d.xyz - p; } else if (u.w == object && px.y > 0) { dy = p - u.xyz; }
+    return Footprint(dx, dy);
+}
+
+// The camera's box pixel filter over the caustic map: average 3 x 3 bilinear lookups spread over
+// the pixel's footprint on the receiver (from the neighbouring pixels' positions on the same
+// object). Without it, a caustic sharper than a pixel would be point-sampled at the pixel centre
+// and its peak overstated.
+fn caustic_box(p: vec3f, px: vec2i, object: f32) -> vec3f {
+    let fp = pixel_footprint(p, px, object);
+    let dx = fp.dx;
+    let dy = fp.dy;
     var acc = vec3f(0.0);
     for (var j = 0; j < 3; j++) {
         for (var i = 0; i < 3; i++) {
@@ -144,15 +155,9 @@ fn caustic_box(p: vec3f, px: vec2i, object: f32) -> vec3f {
 // the map read there, scaled by s^3 (a source at c: cos/r^2 on the plane, r_f = s r_p and
 // cos_p / cos_f = s) and by the weight.
 fn caustic_taps(p: vec3f, n: vec3f, px: vec2i, object: f32) -> vec3f {
-    let size = vec2i(i32(sp.width), i32(sp.height));
-    var dx = vec3f(0.0);
-    var dy = vec3f(0.0);
-    let r = textureLoad(eye_pos, clamp(px + vec2i(1, 0), vec2i(0), size - 1), 0);
-    let l = textureLoad(eye_pos, clamp(px - vec2i(1, 0), vec2i(0), size - 1), 0);
-    let d = textureLoad(eye_pos, clamp(px + vec2i(0, 1), vec2i(0), size - 1), 0);
-    let u = textureLoad(eye_pos, clamp(px - vec2i(0, 1), vec2i(0), size - 1), 0);
-    if (r.w == object && px.x + 1 < size.x) { dx = r.xyz - p; } else if (l.w == object && px.x > 0) { dx = p - l.xyz; }
-    if (d.w == object && px.y + 1 < size.y) { dy = d.xyz - p; } else if (u.w == object && px.y > 0) { dy = p - u.xyz; }
+    let fp = pixel_footprint(p, px, object);
+    let dx = fp.dx;
+    let dy = fp.dy;
     let c = taps.centre.xyz;
     var acc = vec3f(0.0);
     for (var k = 0u; k < min(taps.info.x, 32u); k++) {

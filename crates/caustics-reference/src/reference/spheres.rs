@@ -207,42 +207,20 @@ pub fn render_caustic_with(
     let occ = Accel::new(&s);
     let (lo, hi) = scene.objects[object].shape.bounds();
     let c = (lo + hi) * 0.5;
-    let cam = &scene.camera;
-    let (w, h) = (cam.width, cam.height);
-    let pixels: Vec<[f32; 3]> = (0..w * h)
-        .into_par_iter()
-        .map(|pix| {
-            let (px, py) = (pix % w, pix / w);
-            let mut sum = Vec3::ZERO;
-            for sy in 0..ss {
-                for sx in 0..ss {
-                    let x = px as f32 + (sx as f32 + 0.5) / ss as f32;
-                    let y = py as f32 + (sy as f32 + 0.5) / ss as f32;
-                    let d = cam.ray_dir(x, y);
-                    let Some(hit) = accel.intersect(cam.position, d, f32::INFINITY) else { continue };
-                    let Material::Diffuse { albedo } = scene.materials[scene.objects[hit.object as usize].material]
-                    else {
-                        continue;
-                    };
-                    let n = if d.dot(hit.ng) < 0.0 { hit.ns } else { -hit.ns };
-                    let to = hit.p - c;
-                    let dist = to.length();
-                    if dist <= 0.0 || occ.occluded(c, to / dist, dist * (1.0 - 1e-4)) {
-                        continue;
-                    }
-                    let mut e = Vec3::ZERO;
-                    for light in &scene.lights {
-                        if let caustics::scene::Light::Directional { direction, irradiance } = light {
-                            e += *irradiance * factor(hit.p, n, direction.normalize());
-                        }
-                    }
-                    sum += albedo * e / PI;
-                }
+    diffuse_image(scene, &accel, ss, |p, n| {
+        let to = p - c;
+        let dist = to.length();
+        if dist <= 0.0 || occ.occluded(c, to / dist, dist * (1.0 - 1e-4)) {
+            return Vec3::ZERO;
+        }
+        let mut e = Vec3::ZERO;
+        for light in &scene.lights {
+            if let caustics::scene::Light::Directional { direction, irradiance } = light {
+                e += *irradiance * factor(p, n, direction.normalize());
             }
-            (sum / (ss * ss) as f32).to_array()
-        })
-        .collect();
-    caustics::image_io::Image { width: w, height: h, pixels }
+        }
+        e
+    })
 }
 
 /// [`render_caustic`] with the caustic objects moved: `scene` holds them where they are now,
@@ -266,6 +244,44 @@ pub fn render_caustic_moved(
             Accel::new(&s)
         })
         .collect();
+    diffuse_image(scene, &accel, ss, |p, n| {
+        let mut e = Vec3::ZERO;
+        for (((_, sp), occ), mv) in spheres.iter().zip(&others).zip(moves) {
+            let inv = mv.inverse();
+            let rot = glam::Mat3::from(inv.matrix3);
+            let (p_obj, n_obj) = (inv.transform_point3(p), (rot * n).normalize());
+            let c = mv.transform_point3(sp.geometry.center);
+            let to = p - c;
+            let dist = to.length();
+            if dist <= 0.0 || occ.occluded(c, to / dist, dist * (1.0 - 1e-4)) {
+                continue;
+            }
+            for light in &scene.lights {
+                if let caustics::scene::Light::Directional { direction, irradiance } = light {
+                    let l = (rot * *direction).normalize();
+                    // A table of one direction is that direction rotated onto any light.
+                    let f = if sp.layout_dirs.len() == 1 {
+                        sp.irradiance_of(0, p_obj, n_obj, l)
+                    } else {
+                        sp.irradiance(p_obj, n_obj, l, layout, blend)
+                    };
+                    e += *irradiance * f;
+                }
+            }
+        }
+        e
+    })
+}
+
+/// The radiance `albedo/π · E` the camera of `scene` sees on diffuse surfaces, `E =
+/// irradiance(p, n)` at each first hit (`n` faces the camera): per pixel `ss × ss` camera rays,
+/// first hit by `accel`. The camera side shared by the CPU evaluations above.
+fn diffuse_image(
+    scene: &Scene,
+    accel: &Accel,
+    ss: u32,
+    irradiance: impl Fn(Vec3, Vec3) -> Vec3 + Sync,
+) -> caustics::image_io::Image {
     let cam = &scene.camera;
     let (w, h) = (cam.width, cam.height);
     let pixels: Vec<[f32; 3]> = (0..w * h)
@@ -284,30 +300,7 @@ pub fn render_caustic_moved(
                         continue;
                     };
                     let n = if d.dot(hit.ng) < 0.0 { hit.ns } else { -hit.ns };
-                    let mut e = Vec3::ZERO;
-                    for (((_, sp), occ), mv) in spheres.iter().zip(&others).zip(moves) {
-                        let inv = mv.inverse();
-                        let rot = glam::Mat3::from(inv.matrix3);
-                        let (p_obj, n_obj) = (inv.transform_point3(hit.p), (rot * n).normalize());
-                        let c = mv.transform_point3(sp.geometry.center);
-                        let to = hit.p - c;
-                        let dist = to.length();
-                        if dist <= 0.0 || occ.occluded(c, to / dist, dist * (1.0 - 1e-4)) {
-                            continue;
-                        }
-                        for light in &scene.lights {
-                            if let caustics::scene::Light::Directional { direction, irradiance } = light {
-                                let l = (rot * *direction).normalize();
-                                // A table of one direction is that direction rotated onto any light.
-                                let f = if sp.layout_dirs.len() == 1 {
-                                    sp.irradiance_of(0, p_obj, n_obj, l)
-                                } else {
-                                    sp.irradiance(p_obj, n_obj, l, layout, blend)
-                                };
-                                e += *irradiance * f;
-                            }
-                        }
-                    }
+                    let e = irradiance(hit.p, n);
                     sum += albedo * e / PI;
                 }
             }
