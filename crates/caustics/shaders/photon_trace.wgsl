@@ -7,6 +7,9 @@
 // Flux: I(w) * dw of the photon's cell (spot, point) or E * cell area (directional), times the
 // Fresnel transmittance at each interface (reflectance for mirrors and conductors).
 // Total internal reflection at the back surface ends the photon; its flux is counted as lost.
+// The grid spans light.crop in NDC: a directional light's view covers the whole scene, so the
+// basic technique spreads its grid over the casters' box only (passes::photon_crop); the other
+// techniques and lights use the whole face.
 // Output: one Photon per grid cell of the batch (face = INVALID when it carries no caustic).
 // A batch is a range of the row-major grid (tile = 0), or a tile x tile square whose top-left
 // cell has row-major index batch_offset (hierarchical caustic maps), stored row-major.
@@ -58,13 +61,17 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         i = tp.batch_offset % n_grid + gid.x % tp.tile;
         j = tp.batch_offset / n_grid + gid.x / tp.tile;
     }
-    let cell = 2.0 / f32(n_grid);
-    let ndc = vec2f(-1.0 + (f32(i) + 0.5) * cell, 1.0 - (f32(j) + 0.5) * cell);
+    // The grid spans light.crop (the whole face, or a directional light's casters under the
+    // basic technique); with the whole face this is exactly -1 + (i + 1/2) 2/N, 1 - (j + 1/2) 2/N.
+    let lo = light.crop.xy;
+    let hi = light.crop.zw;
+    let cell = (hi - lo) / f32(n_grid);
+    let ndc = vec2f(lo.x + (f32(i) + 0.5) * cell.x, hi.y - (f32(j) + 0.5) * cell.y);
     // The high bit of `face` selects the reflected branch at the first dielectric surface.
     trace_reflect = (tp.face >> 31u) == 1u;
     // Bit 30: the branch reflected once inside a dielectric (exact tracer).
     trace_internal_branch = ((tp.face >> 30u) & 1u) == 1u;
     // Bit 29: the residual pass (exact tracer).
     trace_residual = ((tp.face >> 29u) & 1u) == 1u;
-    photons[gid.x] = trace_photon(tp.face & 0x1fffffffu, ndc, vec2f(cell));
+    photons[gid.x] = trace_photon(tp.face & 0x1fffffffu, ndc, cell);
 }

@@ -481,6 +481,7 @@ fn light_gpu(
     caster_radius: f32,
     multi_bounce: f32,
     lens: f32,
+    crop: [f32; 4],
 ) -> LightGpu {
     let mut faces = [FaceGpu { world_to_clip: [[0.0; 4]; 4], clip_to_world: [[0.0; 4]; 4], origin: [0.0; 4] }; 6];
     for (f, face) in view.faces.iter().enumerate() {
@@ -507,6 +508,7 @@ fn light_gpu(
         params: [start, scale as f32, sigma, g as f32],
         extra: [caster_radius, view.scene_radius, view.tan_half_fov, multi_bounce],
         splat: [lens, 0.0, 0.0, 0.0],
+        crop,
     }
 }
 
@@ -527,6 +529,40 @@ fn flux_bound(view: &LightView, light: &Light) -> f64 {
         }
     }
     .max(1e-12)
+}
+
+/// The whole face in NDC (lo.x, lo.y, hi.x, hi.y): `LightGpu.crop` of an uncropped grid.
+const FULL_FACE: [f32; 4] = [-1.0, -1.0, 1.0, 1.0];
+
+/// The NDC rectangle (lo.x, lo.y, hi.x, hi.y) over which `photon_trace` spreads the N × N grid of
+/// an orthographic (directional-light) face: the casters' bounding box as the face sees it, plus
+/// one cell of the cropped grid and one caster-buffer texel (G) on each side, clamped to the
+/// face. The whole face when there are no casters or the box reaches behind the view. Each
+/// photon's flux is E × its (smaller) cell's area, so the total follows; the shadow, receiver and
+/// caustic maps stay on the whole face.
+fn photon_crop(scene: &Scene, face: &crate::lightspace::LightFace, n: u32, g: u32) -> [f32; 4] {
+    let Some((lo, hi)) = scene.caster_bounds() else { return FULL_FACE };
+    let (mut a, mut b) = (glam::Vec2::splat(f32::MAX), glam::Vec2::splat(f32::MIN));
+    for k in 0..8 {
+        let p = Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        let c = face.world_to_clip * p.extend(1.0);
+        if c.w <= 1e-6 {
+            return FULL_FACE;
+        }
+        let q = glam::Vec2::new(c.x / c.w, c.y / c.w);
+        a = a.min(q);
+        b = b.max(q);
+    }
+    let margin = (b - a) / n.saturating_sub(2).max(1) as f32 + glam::Vec2::splat(2.0 / g as f32);
+    let (a, b) = ((a - margin).max(glam::Vec2::splat(-1.0)), (b + margin).min(glam::Vec2::splat(1.0)));
+    if b.x <= a.x || b.y <= a.y {
+        return FULL_FACE;
+    }
+    [a.x, a.y, b.x, b.y]
 }
 
 /// An upper bound of the relevant photons (cells of the N × N grid whose caster-buffer texel
@@ -835,7 +871,20 @@ pub(crate) fn light_record(
     let view = LightView::new(scene, light);
     let scale = (1u64 << 52) as f64 / flux_bound(&view, light);
     let lens = s.splat.lens_flag(s.technique);
-    let lg = light_gpu(&view, light, fc.n, fc.m, fc.g, s.splat_sigma, scale, fc.caster_radius, fc.multi_bounce, lens);
+    // A directional light's view covers the whole scene: the basic technique's dense grid is
+    // spread over the casters only. The hierarchical technique keeps the whole face (its tiles
+    // follow a coverage mip of the full grid, and its statistics and batch plan count whole-face
+    // cells); the adaptive techniques and beams trace their own grids (not photon_trace).
+    // Spot and point lights keep the whole face (their views already frame the light's cone or
+    // cube).
+    let crop = match light {
+        Light::Directional { .. } if s.technique.emission() == Technique::Basic => {
+            photon_crop(scene, &view.faces[0], fc.n, fc.g)
+        }
+        _ => FULL_FACE,
+    };
+    let lg =
+        light_gpu(&view, light, fc.n, fc.m, fc.g, s.splat_sigma, scale, fc.caster_radius, fc.multi_bounce, lens, crop);
     (view, lg, scale)
 }
 

@@ -142,7 +142,9 @@ impl SplatTargets {
 }
 
 /// Longest triangle edge (caustic-map texels) that is not taken for a discontinuity: eight times
-/// the unrefracted photon spacing M / N, and at least 32 texels.
+/// the unrefracted photon spacing M / N, and at least 32 texels. Under a directional light's
+/// photon crop (`LightGpu.crop`) the true spacing is smaller; this whole-face bound is then the
+/// more lenient one (both are the 32-texel floor at the usual N ≥ M / 4).
 pub fn triangle_max_edge(n: u32, m: u32) -> f32 {
     (8.0 * m as f32 / n as f32).max(32.0)
 }
@@ -275,7 +277,9 @@ pub struct BeamSample {
 /// Stored splat diameters against the true beam size over a dense n × n photon grid (row-major,
 /// one photon per cell, e.g. `TechniqueStats::photons` of the basic technique's transmitted
 /// branch): every photon whose +x and +y neighbours landed on its face by its path (same path
-/// signature). For tests and tools that check the lens and ray-differential sizes.
+/// signature). For tests and tools that check the lens and ray-differential sizes. `ndc` is the
+/// cell's centre on the whole face: under a directional light's photon crop (`LightGpu.crop`)
+/// the grid spans the crop instead.
 pub fn beam_samples(photons: &[Photon], n: u32) -> Vec<BeamSample> {
     let at = |i: u32, j: u32| &photons[(j * n + i) as usize];
     let mut out = Vec::new();

@@ -375,11 +375,10 @@ fn spread(img: &caustics::image_io::Image) -> (f64, f64) {
 /// lies 1 m past the ball's centre, where the disc's 20° spread it by about
 /// 1.5 m · tan 20° = 0.55 m in radius. Against the CPU reference under the same map (exact,
 /// photons from the map's distribution), the caustic's width (the radius about its centroid
-/// that holds half its energy, in pixels) and energy: one direction per region (K = 0) is far
-/// too narrow (0.73 of the reference's width on lavapipe); with K = 16 sub-directions the width
-/// is within 15 % of the reference's (0.91) and the energy within 10 % (0.94; the GPU's caustic
-/// of a single directional light is itself up to 15 % off the reference's in energy,
-/// `docs/benchmarks.md`, so a tighter energy bound would test that, not this).
+/// that holds half its energy, in pixels) and energy: one direction per region (K = 0) is too
+/// narrow (0.82 of the reference's width on lavapipe; 0.73 before the directional light's photon
+/// grid was cropped to the casters); with K = 16 sub-directions the width is within 8 % of the
+/// reference's (0.984; 0.91 uncropped) and the energy within 5 % (0.995; 0.94 uncropped).
 #[test]
 fn a_broad_regions_caustic_spreads_like_the_reference() {
     let Some(ctx) = gpu() else { return };
@@ -419,9 +418,9 @@ fn a_broad_regions_caustic_spreads_like_the_reference() {
         );
         got.push((r50 / r_ref, e / e_ref));
     }
-    assert!(got[0].0 < 0.8, "one direction per region should be too narrow: {got:?}");
-    assert!((got[1].0 - 1.0).abs() < 0.15, "K = 16: width {} of the reference's", got[1].0);
-    assert!((got[1].1 - 1.0).abs() < 0.10, "K = 16: energy {} of the reference's", got[1].1);
+    assert!(got[0].0 < 0.88, "one direction per region should be too narrow: {got:?}");
+    assert!((got[1].0 - 1.0).abs() < 0.08, "K = 16: width {} of the reference's", got[1].0);
+    assert!((got[1].1 - 1.0).abs() < 0.05, "K = 16: energy {} of the reference's", got[1].1);
 }
 
 /// The environment as lights keeps its energy: with no occluders, the region lights'

@@ -28,6 +28,9 @@ struct LightGpu {
     // x = beam diameters from the lens equations for the splat (0 off, 1 thin lens, 2 thick
     // lens; src/splat.rs), yzw unused
     splat: vec4f,
+    // The NDC rectangle (lo.x, lo.y, hi.x, hi.y) photon_trace spreads its N x N grid over: the
+    // casters' box for a directional light under the basic technique, else (-1, -1, 1, 1).
+    crop: vec4f,
 }
 
 // A traced photon: where it lands in the caustic map (continuous texel coordinates, face) and

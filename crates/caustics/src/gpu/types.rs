@@ -28,6 +28,10 @@ pub struct LightGpu {
     pub extra: [f32; 4],
     /// beam diameters from the lens equations (0 off, 1 thin lens, 2 thick lens), unused × 3
     pub splat: [f32; 4],
+    /// The NDC rectangle (lo.x, lo.y, hi.x, hi.y) that `photon_trace` spreads its N × N grid
+    /// over: the casters' box for a directional light traced by the basic technique, else the
+    /// whole face (-1, -1, 1, 1).
+    pub crop: [f32; 4],
 }
 
 #[repr(C)]
