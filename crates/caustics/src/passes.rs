@@ -531,6 +531,35 @@ fn flux_bound(view: &LightView, light: &Light) -> f64 {
     .max(1e-12)
 }
 
+/// The casters' bounding box as a light face sees it.
+enum CasterBox {
+    NoCasters,
+    /// A corner of the box lies behind the face's view (no NDC box).
+    Behind,
+    /// The NDC rectangle (lo, hi) of the box's eight projected corners (not clamped).
+    Ndc(glam::Vec2, glam::Vec2),
+}
+
+fn caster_box(scene: &Scene, face: &crate::lightspace::LightFace) -> CasterBox {
+    let Some((lo, hi)) = scene.caster_bounds() else { return CasterBox::NoCasters };
+    let (mut a, mut b) = (glam::Vec2::splat(f32::MAX), glam::Vec2::splat(f32::MIN));
+    for k in 0..8 {
+        let p = Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        let c = face.world_to_clip * p.extend(1.0);
+        if c.w <= 1e-6 {
+            return CasterBox::Behind;
+        }
+        let q = glam::Vec2::new(c.x / c.w, c.y / c.w);
+        a = a.min(q);
+        b = b.max(q);
+    }
+    CasterBox::Ndc(a, b)
+}
+
 /// The whole face in NDC (lo.x, lo.y, hi.x, hi.y): `LightGpu.crop` of an uncropped grid.
 const FULL_FACE: [f32; 4] = [-1.0, -1.0, 1.0, 1.0];
 
@@ -541,22 +570,7 @@ const FULL_FACE: [f32; 4] = [-1.0, -1.0, 1.0, 1.0];
 /// photon's flux is E × its (smaller) cell's area, so the total follows; the shadow, receiver and
 /// caustic maps stay on the whole face.
 fn photon_crop(scene: &Scene, face: &crate::lightspace::LightFace, n: u32, g: u32) -> [f32; 4] {
-    let Some((lo, hi)) = scene.caster_bounds() else { return FULL_FACE };
-    let (mut a, mut b) = (glam::Vec2::splat(f32::MAX), glam::Vec2::splat(f32::MIN));
-    for k in 0..8 {
-        let p = Vec3::new(
-            if k & 1 == 0 { lo.x } else { hi.x },
-            if k & 2 == 0 { lo.y } else { hi.y },
-            if k & 4 == 0 { lo.z } else { hi.z },
-        );
-        let c = face.world_to_clip * p.extend(1.0);
-        if c.w <= 1e-6 {
-            return FULL_FACE;
-        }
-        let q = glam::Vec2::new(c.x / c.w, c.y / c.w);
-        a = a.min(q);
-        b = b.max(q);
-    }
+    let CasterBox::Ndc(a, b) = caster_box(scene, face) else { return FULL_FACE };
     let margin = (b - a) / n.saturating_sub(2).max(1) as f32 + glam::Vec2::splat(2.0 / g as f32);
     let (a, b) = ((a - margin).max(glam::Vec2::splat(-1.0)), (b + margin).min(glam::Vec2::splat(1.0)));
     if b.x <= a.x || b.y <= a.y {
@@ -570,22 +584,11 @@ fn photon_crop(scene: &Scene, face: &crate::lightspace::LightFace, n: u32, g: u3
 /// face sees it (the whole face when the box reaches behind the light).
 fn relevant_bound(scene: &Scene, face: &crate::lightspace::LightFace, n: u32, g: u32) -> u64 {
     let all = (n as u64).pow(2);
-    let Some((lo, hi)) = scene.caster_bounds() else { return 0 };
-    let (mut a, mut b) = (glam::Vec2::splat(f32::MAX), glam::Vec2::splat(f32::MIN));
-    for k in 0..8 {
-        let p = Vec3::new(
-            if k & 1 == 0 { lo.x } else { hi.x },
-            if k & 2 == 0 { lo.y } else { hi.y },
-            if k & 4 == 0 { lo.z } else { hi.z },
-        );
-        let c = face.world_to_clip * p.extend(1.0);
-        if c.w <= 1e-6 {
-            return all;
-        }
-        let q = glam::Vec2::new(c.x / c.w, c.y / c.w);
-        a = a.min(q);
-        b = b.max(q);
-    }
+    let (a, b) = match caster_box(scene, face) {
+        CasterBox::NoCasters => return 0,
+        CasterBox::Behind => return all,
+        CasterBox::Ndc(a, b) => (a, b),
+    };
     let margin = 2.0 * (n / g) as f64 + 2.0;
     let side = |lo: f32, hi: f32| {
         let (lo, hi) = (lo.clamp(-1.0, 1.0) as f64, hi.clamp(-1.0, 1.0) as f64);
