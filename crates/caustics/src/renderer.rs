@@ -526,6 +526,38 @@ impl Renderer {
         Ok(())
     }
 
+    /// Change the scene's participating medium's coefficients (σs, σa in 1/m, times the
+    /// density grid's values where it has one) and phase function; its box and grid stay. Bad
+    /// values (negative, not finite, |g| ≥ 1) or a scene without a medium are refused and change
+    /// nothing. Every light is redone when anything changed (beams and the light paths through
+    /// the medium depend on it).
+    pub fn set_medium(&mut self, sigma_s: glam::Vec3, sigma_a: glam::Vec3, phase: crate::scene::Phase) -> Result<()> {
+        let bad = |field: &str, m: &str| Error::input("<renderer>", format!("medium.{field}"), m);
+        let Some(m) = self.scene.medium.as_ref() else {
+            return Err(bad("sigma_s", "the scene has no medium"));
+        };
+        for (field, v) in [("sigma_s", sigma_s), ("sigma_a", sigma_a)] {
+            if !v.is_finite() || v.min_element() < 0.0 {
+                return Err(bad(field, "values must be finite and not negative"));
+            }
+        }
+        if let crate::scene::Phase::HenyeyGreenstein { g } = phase
+            && !(g.is_finite() && g.abs() < 1.0)
+        {
+            return Err(bad("phase.g", "must lie strictly between -1 and 1"));
+        }
+        if (m.sigma_s, m.sigma_a, m.phase) == (sigma_s, sigma_a, phase) {
+            return Ok(());
+        }
+        for sc in [&mut self.scene, &mut self.base] {
+            if let Some(m) = sc.medium.as_mut() {
+                (m.sigma_s, m.sigma_a, m.phase) = (sigma_s, sigma_a, phase);
+            }
+        }
+        self.invalidate();
+        Ok(())
+    }
+
     /// Change the settings; an error (named by setting) leaves the old ones in place. Every
     /// light is redone when anything changed.
     pub fn set_settings(&mut self, settings: RenderSettings) -> Result<()> {

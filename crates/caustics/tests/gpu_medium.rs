@@ -24,25 +24,29 @@ fn settings() -> RenderSettings {
     RenderSettings { photons: 64, caustic_map_size: 64, shadow_map_size: 512, ..Default::default() }
 }
 
-#[test]
-fn absorbing_medium_attenuates_by_the_camera_and_light_paths() {
-    let Some(ctx) = gpu() else { return };
-    // A point light beside the camera, a lit diffuse wall 4 m away, σs = 0: every pixel is the
-    // vacuum pixel times exp(−σa (d_camera + d_light)).
-    let json = |medium: &str| {
-        format!(
-            r#"{{ "schema_version": 1, "name": "absorb",
+/// A point light beside the camera and a lit diffuse wall 4 m away, with `medium` appended.
+fn absorb_json(medium: &str) -> String {
+    format!(
+        r#"{{ "schema_version": 1, "name": "absorb",
   "camera": {{ "position": [0, 0, 0], "look_at": [0, 0, -1], "fov_y_deg": 40, "width": 16, "height": 12 }},
   "lights": [ {{ "type": "point", "position": [0.5, 0.3, 0], "intensity": 5 }} ],
   "materials": {{ "wall": {{ "type": "diffuse", "albedo": 0.5 }} }},
   "objects": [ {{ "type": "rectangle", "center": [0, 0, -4], "normal": [0, 0, 1], "size": [20, 20], "material": "wall" }} ]
   {medium} }}"#
-        )
-    };
+    )
+}
+
+/// A purely absorbing medium (σs = 0) filling the view.
+const ABSORBING: &str = r#", "medium": { "sigma_s": 0, "sigma_a": [0.1, 0.2, 0.05], "bounds": { "min": [-5, -5, -10], "max": [5, 5, 1] } }"#;
+
+#[test]
+fn absorbing_medium_attenuates_by_the_camera_and_light_paths() {
+    let Some(ctx) = gpu() else { return };
+    // A point light beside the camera, a lit diffuse wall 4 m away, σs = 0: every pixel is the
+    // vacuum pixel times exp(−σa (d_camera + d_light)).
+    let json = absorb_json;
     let vacuum = scene(&json(""));
-    let fog = scene(&json(
-        r#", "medium": { "sigma_s": 0, "sigma_a": [0.1, 0.2, 0.05], "bounds": { "min": [-5, -5, -10], "max": [5, 5, 1] } }"#,
-    ));
+    let fog = scene(&json(ABSORBING));
     let a = render(&ctx, &vacuum, &settings()).unwrap();
     let b = render(&ctx, &fog, &settings()).unwrap();
     let sa = [0.1f32, 0.2, 0.05];
@@ -177,23 +181,9 @@ fn absorption_through_a_density_grid_matches_the_closed_form() {
     // the back, 1.7 at the front of the box z ∈ [−10, 1], trilinear between the voxel centres
     // z = −7.25 and −1.75): the optical depth of a straight segment is the trapezoid integral of
     // the piecewise linear density, exact; the GPU marches 256 steps per segment.
-    let json = |medium: &str| {
-        format!(
-            r#"{{ "schema_version": 1, "name": "absorb",
-  "camera": {{ "position": [0, 0, 0], "look_at": [0, 0, -1], "fov_y_deg": 40, "width": 16, "height": 12 }},
-  "lights": [ {{ "type": "point", "position": [0.5, 0.3, 0], "intensity": 5 }} ],
-  "materials": {{ "wall": {{ "type": "diffuse", "albedo": 0.5 }} }},
-  "objects": [ {{ "type": "rectangle", "center": [0, 0, -4], "normal": [0, 0, 1], "size": [20, 20], "material": "wall" }} ]
-  {medium} }}"#
-        )
-    };
+    let json = absorb_json;
     let vacuum = scene(&json(""));
-    let fog = with_grid(
-        scene(&json(
-            r#", "medium": { "sigma_s": 0, "sigma_a": [0.1, 0.2, 0.05], "bounds": { "min": [-5, -5, -10], "max": [5, 5, 1] } }"#,
-        )),
-        DensityGrid::new([1, 1, 2], vec![0.3, 1.7]).unwrap(),
-    );
+    let fog = with_grid(scene(&json(ABSORBING)), DensityGrid::new([1, 1, 2], vec![0.3, 1.7]).unwrap());
     let s = RenderSettings { medium_steps: 256, medium_light_steps: 256, ..settings() };
     let a = render(&ctx, &vacuum, &s).unwrap();
     let b = render(&ctx, &fog, &s).unwrap();

@@ -84,6 +84,13 @@ pub enum Action {
         material: usize,
         ior: f32,
     },
+    /// The participating medium's scattering and absorption coefficients (1/m) and phase
+    /// function; its box and density grid stay as loaded.
+    SetMedium {
+        sigma_s: glam::Vec3,
+        sigma_a: glam::Vec3,
+        phase: caustics::scene::Phase,
+    },
     /// Turn the environment light to this many degrees about +Y (its directional lights turn
     /// with it, no re-segmentation).
     SetEnvironmentRotation(f32),
@@ -289,6 +296,10 @@ impl Session {
     pub fn settings(&self) -> &RenderSettings {
         self.renderer.settings()
     }
+    /// The participating medium as loaded (the panel's density is relative to it).
+    pub fn loaded_medium(&self) -> Option<&caustics::scene::Medium> {
+        self.base.medium.as_ref()
+    }
     /// The time budget's controller, when the mode is on.
     pub fn budget(&self) -> Option<&caustics::budget::BudgetController> {
         self.budget.as_ref()
@@ -426,6 +437,15 @@ impl Session {
                 Ok(())
             }
             Action::SetIor { material, ior } => self.set_ior(material, ior),
+            Action::SetMedium { sigma_s, sigma_a, phase } => {
+                let now = self.scene().medium.as_ref().map(|m| (m.sigma_s, m.sigma_a, m.phase));
+                if now == Some((sigma_s, sigma_a, phase)) {
+                    return Ok(());
+                }
+                self.renderer.set_medium(sigma_s, sigma_a, phase)?;
+                self.view_changed();
+                Ok(())
+            }
             Action::Screenshot(path) => self.screenshot(&path),
             Action::ScreenshotPair => self.screenshot_pair().map(|_| ()),
             Action::SetViewMode(m) => {

@@ -387,7 +387,7 @@ fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
         s.technique == Technique::AdaptiveError,
         egui::Slider::new(&mut tol, 0.0..=8.0).text("max error tolerance (texels)"),
     );
-    if r.drag_stopped() || (r.changed() && !r.dragged()) {
+    if released(&r) {
         act(session, Action::SetTolerance(tol));
     }
     if let Some(rot) = session.renderer().environment_rotation() {
@@ -398,12 +398,13 @@ fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
         }
         let mut d = s.env_lights;
         let r = ui.add(egui::Slider::new(&mut d, 1..=96).text("environment lights"));
-        if r.drag_stopped() || (r.changed() && !r.dragged()) {
+        if released(&r) {
             let mut s2 = s.clone();
             s2.env_lights = d;
             act(session, Action::SetSettings(Box::new(s2)));
         }
     }
+    medium_and_beams(ui, session);
     let mut reflection = s.dielectric_reflection;
     if ui.checkbox(&mut reflection, "light reflected at glass").changed() {
         let mut s2 = s.clone();
@@ -419,7 +420,7 @@ fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
     ui.horizontal(|ui| {
         let c = ui.checkbox(&mut on, "time budget");
         let r = ui.add_enabled(on, egui::Slider::new(&mut target, 1.0..=20000.0).logarithmic(true).suffix(" ms"));
-        if c.changed() || r.drag_stopped() || (r.changed() && !r.dragged()) {
+        if c.changed() || released(&r) {
             act(session, Action::SetBudget(on.then_some(target)));
         }
     });
@@ -441,6 +442,74 @@ fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
     ui.checkbox(&mut state.overlays, "light markers, selection box");
     let cam = &session.scene().camera;
     ui.label(format!("image {}×{}", cam.width, cam.height));
+}
+
+/// The beam grids offered in the panel (cells per side of a light face).
+const BEAM_GRIDS: [u32; 5] = [4, 8, 16, 32, 64];
+
+/// Apply a slider's value when it is released, or at once when it changed without a drag
+/// (keys, clicks): a drag does not redo the frame's light work at every step.
+fn released(r: &egui::Response) -> bool {
+    r.drag_stopped() || (r.changed() && !r.dragged())
+}
+
+/// Scenes with a participating medium: its density (relative to the scene file) and phase
+/// function, and the volume caustic's beam settings (`caustics::beams`).
+fn medium_and_beams(ui: &mut egui::Ui, session: &mut Session) {
+    let (Some(m0), Some(m)) = (session.loaded_medium().cloned(), session.scene().medium.clone()) else {
+        return;
+    };
+    ui.separator();
+    ui.label("medium");
+    let k0 = (m0.sigma_s + m0.sigma_a).element_sum();
+    let mut density = if k0 > 0.0 { (m.sigma_s + m.sigma_a).element_sum() / k0 } else { 1.0 };
+    let r = ui
+        .add(egui::Slider::new(&mut density, 0.0..=4.0).text("density × scene"))
+        .on_hover_text("σs and σa times this (the scene file's values at 1)");
+    if released(&r) {
+        act(
+            session,
+            Action::SetMedium { sigma_s: m0.sigma_s * density, sigma_a: m0.sigma_a * density, phase: m.phase },
+        );
+    }
+    let mut g = match m.phase {
+        caustics::scene::Phase::Isotropic => 0.0,
+        caustics::scene::Phase::HenyeyGreenstein { g } => g,
+    };
+    let r = ui
+        .add(egui::Slider::new(&mut g, -0.95..=0.95).text("phase g"))
+        .on_hover_text("Henyey-Greenstein anisotropy (0: isotropic, > 0: forward scattering)");
+    if released(&r) {
+        let phase =
+            if g == 0.0 { caustics::scene::Phase::Isotropic } else { caustics::scene::Phase::HenyeyGreenstein { g } };
+        act(session, Action::SetMedium { sigma_s: m.sigma_s, sigma_a: m.sigma_a, phase });
+    }
+    let s = session.settings().clone();
+    let mut b = s.beams;
+    ui.checkbox(&mut b.enabled, "volume caustics (beams)");
+    let mut changed = b.enabled != s.beams.enabled;
+    ui.add_enabled_ui(b.enabled, |ui| {
+        egui::ComboBox::from_id_salt("beam_grid").selected_text(format!("beam grid {}²", b.grid)).show_ui(ui, |ui| {
+            for n in BEAM_GRIDS {
+                ui.selectable_value(&mut b.grid, n, format!("{n}²"));
+            }
+        });
+        changed |= b.grid != s.beams.grid;
+        let sliders = [
+            ui.add(egui::Slider::new(&mut b.levels, 0..=6).text("beam levels")),
+            ui.add(egui::Slider::new(&mut b.normal_threshold_deg, 1.0..=90.0).text("normal threshold °")),
+            ui.add(egui::Slider::new(&mut b.depth_threshold, 0.01..=1.0).logarithmic(true).text("depth threshold")),
+            ui.add(egui::Slider::new(&mut b.energy_threshold, 0.001..=1.0).logarithmic(true).text("energy threshold")),
+            ui.add(egui::Slider::new(&mut b.camera_threshold, 0.01..=1.0).logarithmic(true).text("camera threshold")),
+            ui.add(egui::Slider::new(&mut b.pixel_samples, 1..=4).text("rays per pixel side")),
+        ];
+        changed |= sliders.iter().any(released);
+    });
+    if changed && b != s.beams {
+        let mut s2 = s.clone();
+        s2.beams = b;
+        act(session, Action::SetSettings(Box::new(s2)));
+    }
 }
 
 fn selection(ui: &mut egui::Ui, session: &mut Session) {
@@ -554,7 +623,7 @@ fn object_panel(ui: &mut egui::Ui, session: &mut Session, i: usize) {
     if let Some((m, Material::Dielectric { ior, .. })) = session.material_of(i) {
         let mut v = ior;
         let r = ui.add(egui::Slider::new(&mut v, 1.0..=2.5).text("IOR"));
-        if (r.drag_stopped() || (r.changed() && !r.dragged())) && v != ior {
+        if released(&r) && v != ior {
             act(session, Action::SetIor { material: m, ior: v });
         }
     }
