@@ -87,8 +87,10 @@ enum Nodes {
 
 /// Up to four triangles of one wide leaf, structure-of-arrays (`p[vertex][axis][lane]`), so that
 /// the edge tests of the four run as vector operations; `id` is the caller's index per lane.
+///
+/// 160 bytes, aligned to 32 so that a packet always spans exactly three cache lines.
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(16))]
+#[repr(C, align(32))]
 struct Tri4 {
     p: [[[f32; 4]; 3]; 3],
     id: [u32; 4],
@@ -500,11 +502,13 @@ impl Bvh {
     }
 
     /// Software prefetch of a 4-wide child (see [`prefetch`]): an inner node's two cache lines,
-    /// a leaf's first packet (its first three lines: a packet is 160 bytes).
+    /// a leaf's first two packets (three lines each).
     #[inline(always)]
     fn prefetch_w4(&self, nodes: &[NodeW<4>], child: u32) {
         if child & LEAF != 0 {
-            if let Some(pk) = self.packets.get((child & ((1 << 27) - 1)) as usize) {
+            let start = (child & ((1 << 27) - 1)) as usize;
+            let np = if (child >> 27) & 15 == 0 { 1 } else { 2 };
+            for pk in self.packets.iter().skip(start).take(np) {
                 prefetch(&pk.p[0]);
                 prefetch(&pk.p[1][1]);
                 prefetch(&pk.p[2][2]);
@@ -854,6 +858,27 @@ fn prefetch<T>(x: &T) {
     let _ = x;
 }
 
+/// Lane by lane `if x > m { x } else { m }`: a NaN `x` keeps `m`. On x86 that is exactly
+/// SSE's `maxps(x, m)` (the second operand when either is NaN), which `glam`'s `max` is there
+/// (or, with `glam`'s `scalar-math`, `f32::max`, which also returns the operand that is not
+/// NaN; `m` never is). Elsewhere (NEON's max propagates NaN) the compare and select.
+#[inline(always)]
+fn max_keep(x: Vec4, m: Vec4) -> Vec4 {
+    #[cfg(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "sse"))]
+    return x.max(m);
+    #[cfg(not(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "sse")))]
+    return Vec4::select(x.cmpgt(m), x, m);
+}
+
+/// Lane by lane `if x < m { x } else { m }` (SSE's `minps(x, m)` on x86), see [`max_keep`].
+#[inline(always)]
+fn min_keep(x: Vec4, m: Vec4) -> Vec4 {
+    #[cfg(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "sse"))]
+    return x.min(m);
+    #[cfg(not(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "sse")))]
+    return Vec4::select(x.cmplt(m), x, m);
+}
+
 /// Per-ray constants of the 4-wide traversal, each splat across the four lanes.
 struct Ray4 {
     /// Origin and inverse direction for the box test.
@@ -902,8 +927,8 @@ fn box_hit_w4(n: &NodeW<4>, r: &Ray4, tmax: f32) -> (Vec4, u32) {
         let t_near = (Vec4::from_array(n.b[near][a]) - r.o[a]) * r.inv[a];
         let t_far = (Vec4::from_array(n.b[near ^ 1][a]) - r.o[a]) * r.inv[a];
         // `select(x > m, x, m)`: a NaN `x` keeps `m`.
-        tn = Vec4::select(t_near.cmpgt(tn), t_near, tn);
-        tf = Vec4::select(t_far.cmplt(tf), t_far, tf);
+        tn = max_keep(t_near, tn);
+        tf = min_keep(t_far, tf);
     }
     let tn = tn * Vec4::splat(0.999_999_6);
     let tf = tf * Vec4::splat(1.000_000_4);
@@ -1322,6 +1347,12 @@ mod tests {
             ("default", Bvh::build(tris.clone())),
             ("binary", Bvh::build_with(tris.clone(), Layout::Binary)),
             ("wide4", Bvh::build_with(tris.clone(), Layout::Wide4)),
+            ("wide4, deep-tree stack", {
+                let mut b = Bvh::build_with(tris.clone(), Layout::Wide4);
+                assert!(b.small_stack);
+                b.small_stack = false;
+                b
+            }),
             ("wide8", Bvh::build_with(tris.clone(), Layout::Wide8)),
             ("binned SAH", Bvh::build_binned_sah(tris.clone())),
         ];
