@@ -72,8 +72,8 @@ const _: () = assert!(std::mem::size_of::<NodeW<4>>() == 128 && std::mem::size_o
 const STACK2: usize = 128;
 const STACKW: usize = 256;
 /// The 4-wide traversal's stack for trees whose depth allows it (`Bvh::small_stack`): a
-/// safe array is zeroed on every ray, and 256 entries (2 KiB) cost as much as a tenth of a
-/// ray's traversal; 64 suffice for a 100k-triangle mesh (depth ~15).
+/// safe array is zeroed on every ray, and zeroing 256 entries (2 KiB) was ~5 % of a ray's
+/// instructions; 64 suffice up to depth 21 (the 100k dragon's tree has depth 11).
 const STACK_SMALL: usize = 64;
 
 enum Nodes {
@@ -105,6 +105,8 @@ pub struct Bvh {
     packets: Vec<Tri4>,
     /// Whether the 4-wide traversal's stack fits in `STACK_SMALL` entries.
     small_stack: bool,
+    /// Depth of the wide tree (levels of inner nodes below the root; 0 for the binary ones).
+    depth: usize,
 }
 
 /// A triangle hit: distance, barycentrics of vertices 1 and 2, caller's triangle index.
@@ -174,6 +176,7 @@ impl Bvh {
             start
         };
         let mut small_stack = false;
+        let mut wide_depth = 0;
         let nodes = match layout {
             Layout::Binary => {
                 let mut pairs = Vec::with_capacity(b2.nodes.len() / 2);
@@ -193,6 +196,7 @@ impl Bvh {
                     return Bvh::build_binned_sah(tris);
                 }
                 small_stack = 3 * depth < STACK_SMALL;
+                wide_depth = depth;
                 Nodes::Wide4(nodes)
             }
             Layout::Wide8 => {
@@ -202,11 +206,12 @@ impl Bvh {
                 if 7 * depth >= STACKW {
                     return Bvh::build_binned_sah(tris);
                 }
+                wide_depth = depth;
                 Nodes::Wide8(nodes)
             }
         };
         debug_assert_eq!(stored.len(), tris.len());
-        let mut bvh = Bvh { nodes, tris: stored, ids, packets: Vec::new(), small_stack };
+        let mut bvh = Bvh { nodes, tris: stored, ids, packets: Vec::new(), small_stack, depth: wide_depth };
         match &mut bvh.nodes {
             Nodes::Binary { .. } => {}
             Nodes::Wide4(nodes) => match packetize(nodes, &bvh.tris, &bvh.ids) {
@@ -223,6 +228,12 @@ impl Bvh {
             bvh.ids = Vec::new();
         }
         bvh
+    }
+
+    /// Depth of a wide tree (0 for the binary layouts), for the benchmark.
+    #[doc(hidden)]
+    pub fn wide_depth(&self) -> usize {
+        self.depth
     }
 
     pub fn node_count(&self) -> usize {
@@ -959,7 +970,14 @@ impl Bvh {
             Node { lo: Vec3::ZERO, hi: Vec3::ZERO, start: 0, count: 0 }
         };
         let stored = order.iter().map(|&i| tris[i as usize]).collect();
-        Bvh { nodes: Nodes::Binary { root, pairs }, tris: stored, ids: order, packets: Vec::new(), small_stack: false }
+        Bvh {
+            nodes: Nodes::Binary { root, pairs },
+            tris: stored,
+            ids: order,
+            packets: Vec::new(),
+            small_stack: false,
+            depth: 0,
+        }
     }
 }
 
