@@ -20,10 +20,14 @@
 //! reference's bits): the test `tree_does_not_depend_on_the_thread_count` checks that.
 //!
 //! Layout: a 4-wide BVH collapsed from the BVH2 (Wald et al. 2008), child boxes stored
-//! structure-of-arrays so the four box tests of a node compile to vector instructions; leaves
-//! of up to 8 triangles as 4-triangle structure-of-arrays packets, whose edge tests run as
-//! vector operations before the scalar watertight test decides the candidates. Traversal goes
-//! near to far over leaves and inner nodes alike. Measured against the BVH2 layout and an
+//! structure-of-arrays; leaves of up to 8 triangles as 4-triangle structure-of-arrays packets.
+//! Traversal goes near to far over leaves and inner nodes alike. The 4-wide traversal
+//! ([`Bvh::traverse_w4`]) runs a node's four box tests and a packet's four watertight tests as
+//! `glam::Vec4` lane operations (SSE2 on x86-64: a vector type of the algebra crate we use
+//! anyway, no unsafe code of ours), picks each axis's near plane by the sign of the direction,
+//! and prefetches every child it will visit (`safe_arch`'s safe `prefetch_t0`); it performs
+//! the scalar test's operations in the same order, so its results are bit for bit those of the
+//! scalar code (`traverse4`, which the 8-wide layout still uses). Measured against the BVH2 layout and an
 //! 8-wide one (equal to the 4-wide within noise) in `docs/benchmarks.md`, "CPU reference BVH";
 //! both stay selectable ([`Bvh::build_with`]) for the benchmark, as does the former
 //! hand-written binned-SAH builder ([`Bvh::build_binned_sah`]).
