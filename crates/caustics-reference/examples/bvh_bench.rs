@@ -145,10 +145,11 @@ fn main() {
         let occ = occluded.iter().filter(|&&o| o != 0).count();
         let mr = |s: f64| n as f64 / s * 1e-6;
         println!(
-            "{name:24} build {:6.1} ms ({:6.1} on-CPU)  nodes {:6}  closest {:5.3} Mrays/s ({:5.3} on-CPU)  occluded {:5.3} ({:5.3} on-CPU)  [hits {hits}, occluded {occ}]",
+            "{name:24} build {:6.1} ms ({:6.1} on-CPU)  nodes {:6} depth {:2}  closest {:5.3} Mrays/s ({:5.3} on-CPU)  occluded {:5.3} ({:5.3} on-CPU)  [hits {hits}, occluded {occ}]",
             build_s.0 * 1e3,
             build_s.1 * 1e3,
             bvh.node_count(),
+            bvh.wide_depth(),
             mr(cs.0),
             mr(cs.1),
             mr(os.0),

@@ -20,10 +20,14 @@
 //! reference's bits): the test `tree_does_not_depend_on_the_thread_count` checks that.
 //!
 //! Layout: a 4-wide BVH collapsed from the BVH2 (Wald et al. 2008), child boxes stored
-//! structure-of-arrays so the four box tests of a node compile to vector instructions; leaves
-//! of up to 8 triangles as 4-triangle structure-of-arrays packets, whose edge tests run as
-//! vector operations before the scalar watertight test decides the candidates. Traversal goes
-//! near to far over leaves and inner nodes alike. Measured against the BVH2 layout and an
+//! structure-of-arrays; leaves of up to 8 triangles as 4-triangle structure-of-arrays packets.
+//! Traversal goes near to far over leaves and inner nodes alike. The 4-wide traversal
+//! ([`Bvh::traverse_w4`]) runs a node's four box tests and a packet's four watertight tests as
+//! `glam::Vec4` lane operations (SSE2 on x86-64: a vector type of the algebra crate we use
+//! anyway, no unsafe code of ours), picks each axis's near plane by the sign of the direction,
+//! and prefetches every child it will visit (`safe_arch`'s safe `prefetch_t0`); it performs
+//! the scalar test's operations in the same order, so its results are bit for bit those of the
+//! scalar code (`traverse4`, which the 8-wide layout still uses). Measured against the BVH2 layout and an
 //! 8-wide one (equal to the 4-wide within noise) in `docs/benchmarks.md`, "CPU reference BVH";
 //! both stay selectable ([`Bvh::build_with`]) for the benchmark, as does the former
 //! hand-written binned-SAH builder ([`Bvh::build_binned_sah`]).
@@ -35,7 +39,7 @@
 //! a given mesh. (On 1M random rays at the dragon, and in reference renders of glass_bunny and
 //! glass_dragon, the results are bit for bit those of the former BVH.)
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 /// One node: a box, and either two children (`count == 0`: the pair `start`) or a leaf of
 /// `count` triangles from `start`.
@@ -52,14 +56,14 @@ struct Node {
 #[repr(C, align(64))]
 struct Pair([Node; 2]);
 
-/// `W` children of a wide node, boxes structure-of-arrays (`lo[axis][child]`). A child slot is
-/// empty (`child == EMPTY`, box at infinity), an inner node (`child` its index) or a leaf
-/// (`child` a packet reference with `LEAF` set, see `packetize`; `count` its triangles).
+/// `W` children of a wide node, boxes structure-of-arrays (`b[side][axis][child]`, side 0 the
+/// low bound, 1 the high one, so that a ray picks its near plane per axis by index). A child
+/// slot is empty (`child == EMPTY`, box at infinity), an inner node (`child` its index) or a
+/// leaf (`child` a packet reference with `LEAF` set, see `packetize`; `count` its triangles).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct NodeW<const W: usize> {
-    lo: [[f32; W]; 3],
-    hi: [[f32; W]; 3],
+    b: [[[f32; W]; 3]; 2],
     child: [u32; W],
     count: [u32; W],
 }
@@ -71,6 +75,10 @@ const _: () = assert!(std::mem::size_of::<NodeW<4>>() == 128 && std::mem::size_o
 /// Traversal stack sizes; a deeper `obvhs` tree falls back to the depth-bounded builder.
 const STACK2: usize = 128;
 const STACKW: usize = 256;
+/// The 4-wide traversal's stack for trees whose depth allows it (`Bvh::small_stack`): a
+/// safe array is zeroed on every ray, and zeroing 256 entries (2 KiB) was ~5 % of a ray's
+/// instructions; 64 suffice up to depth 21 (the 100k dragon's tree has depth 11).
+const STACK_SMALL: usize = 64;
 
 enum Nodes {
     /// Binary, depth-first pairs (the former layout).
@@ -83,8 +91,10 @@ enum Nodes {
 
 /// Up to four triangles of one wide leaf, structure-of-arrays (`p[vertex][axis][lane]`), so that
 /// the edge tests of the four run as vector operations; `id` is the caller's index per lane.
+///
+/// 160 bytes, aligned to 32 so that a packet always spans exactly three cache lines.
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(16))]
+#[repr(C, align(32))]
 struct Tri4 {
     p: [[[f32; 4]; 3]; 3],
     id: [u32; 4],
@@ -97,6 +107,10 @@ pub struct Bvh {
     tris: Vec<[Vec3; 3]>,
     ids: Vec<u32>,
     packets: Vec<Tri4>,
+    /// Whether the 4-wide traversal's stack fits in `STACK_SMALL` entries.
+    small_stack: bool,
+    /// Depth of the wide tree (levels of inner nodes below the root; 0 for the binary ones).
+    depth: usize,
 }
 
 /// A triangle hit: distance, barycentrics of vertices 1 and 2, caller's triangle index.
@@ -165,6 +179,8 @@ impl Bvh {
             }
             start
         };
+        let mut small_stack = false;
+        let mut wide_depth = 0;
         let nodes = match layout {
             Layout::Binary => {
                 let mut pairs = Vec::with_capacity(b2.nodes.len() / 2);
@@ -183,6 +199,8 @@ impl Bvh {
                 if 3 * depth >= STACKW {
                     return Bvh::build_binned_sah(tris);
                 }
+                small_stack = 3 * depth < STACK_SMALL;
+                wide_depth = depth;
                 Nodes::Wide4(nodes)
             }
             Layout::Wide8 => {
@@ -192,11 +210,12 @@ impl Bvh {
                 if 7 * depth >= STACKW {
                     return Bvh::build_binned_sah(tris);
                 }
+                wide_depth = depth;
                 Nodes::Wide8(nodes)
             }
         };
         debug_assert_eq!(stored.len(), tris.len());
-        let mut bvh = Bvh { nodes, tris: stored, ids, packets: Vec::new() };
+        let mut bvh = Bvh { nodes, tris: stored, ids, packets: Vec::new(), small_stack, depth: wide_depth };
         match &mut bvh.nodes {
             Nodes::Binary { .. } => {}
             Nodes::Wide4(nodes) => match packetize(nodes, &bvh.tris, &bvh.ids) {
@@ -215,6 +234,12 @@ impl Bvh {
         bvh
     }
 
+    /// Depth of a wide tree (0 for the binary layouts), for the benchmark.
+    #[doc(hidden)]
+    pub fn wide_depth(&self) -> usize {
+        self.depth
+    }
+
     pub fn node_count(&self) -> usize {
         match &self.nodes {
             Nodes::Binary { pairs, .. } => 1 + 2 * pairs.len(),
@@ -227,7 +252,7 @@ impl Bvh {
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<TriHit> {
         match &self.nodes {
             Nodes::Binary { root, pairs } => self.traverse2(root, pairs, o, d, tmax, false),
-            Nodes::Wide4(nodes) => self.wide(nodes, o, d, tmax, false),
+            Nodes::Wide4(nodes) => self.wide4(nodes, o, d, tmax, false),
             Nodes::Wide8(nodes) => self.wide(nodes, o, d, tmax, false),
         }
     }
@@ -236,7 +261,7 @@ impl Bvh {
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         match &self.nodes {
             Nodes::Binary { root, pairs } => self.traverse2(root, pairs, o, d, tmax, true).is_some(),
-            Nodes::Wide4(nodes) => self.wide(nodes, o, d, tmax, true).is_some(),
+            Nodes::Wide4(nodes) => self.wide4(nodes, o, d, tmax, true).is_some(),
             Nodes::Wide8(nodes) => self.wide(nodes, o, d, tmax, true).is_some(),
         }
     }
@@ -372,6 +397,223 @@ impl Bvh {
         }
     }
 
+    /// The 4-wide traversal (the default layout), written with `glam`'s four-lane `Vec4` (SSE2
+    /// on x86-64) so that the four box tests of a node and the four triangle tests of a packet
+    /// each run as one vector computation. It visits the same nodes in the same order and
+    /// computes the same values as [`Bvh::traverse4`] (the generic code the 8-wide layout still
+    /// uses), so the results are bit for bit the same; see [`box_hit_w4`] and
+    /// [`Bvh::leaf_w4`].
+    fn wide4(&self, nodes: &[NodeW<4>], o: Vec3, d: Vec3, tmax: f32, any: bool) -> Option<TriHit> {
+        if self.packets.is_empty() {
+            return None;
+        }
+        if self.small_stack {
+            self.wide4_stack::<STACK_SMALL>(nodes, o, d, tmax, any)
+        } else {
+            self.wide4_stack::<STACKW>(nodes, o, d, tmax, any)
+        }
+    }
+
+    fn wide4_stack<const S: usize>(
+        &self,
+        nodes: &[NodeW<4>],
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        any: bool,
+    ) -> Option<TriHit> {
+        let ray = WatertightRay::new(o, d);
+        match ray.k {
+            [1, 2, 0] => self.traverse_w4::<1, 2, 0, S>(nodes, &ray, d, tmax, any),
+            [2, 1, 0] => self.traverse_w4::<2, 1, 0, S>(nodes, &ray, d, tmax, any),
+            [2, 0, 1] => self.traverse_w4::<2, 0, 1, S>(nodes, &ray, d, tmax, any),
+            [0, 2, 1] => self.traverse_w4::<0, 2, 1, S>(nodes, &ray, d, tmax, any),
+            [0, 1, 2] => self.traverse_w4::<0, 1, 2, S>(nodes, &ray, d, tmax, any),
+            _ => self.traverse_w4::<1, 0, 2, S>(nodes, &ray, d, tmax, any),
+        }
+    }
+
+    fn traverse_w4<const KX: usize, const KY: usize, const KZ: usize, const S: usize>(
+        &self,
+        nodes: &[NodeW<4>],
+        ray: &WatertightRay,
+        d: Vec3,
+        mut tmax: f32,
+        any: bool,
+    ) -> Option<TriHit> {
+        let r = Ray4::new(ray, d);
+        let mut best: Option<TriHit> = None;
+        let mut stack = [(0u32, 0f32); S];
+        let mut sp = 0usize;
+        let mut cur = 0u32;
+        loop {
+            if cur & LEAF != 0 {
+                if self.leaf_w4::<KX, KY, KZ>(cur, &r, ray, &mut tmax, &mut best, any) {
+                    return best;
+                }
+            } else {
+                let nd = &nodes[cur as usize];
+                let (tn, hit) = box_hit_w4(nd, &r, tmax);
+                if hit != 0 {
+                    // Ask for every child hit now: the nearest is read next, the others (on
+                    // the stack) later, by when their lines have arrived.
+                    let mut m = hit;
+                    while m != 0 {
+                        let c = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        self.prefetch_w4(nodes, nd.child[c]);
+                    }
+                    let tn = tn.to_array();
+                    let c0 = hit.trailing_zeros() as usize;
+                    let rest = hit & (hit - 1);
+                    if rest == 0 {
+                        cur = nd.child[c0];
+                        continue;
+                    }
+                    let c1 = rest.trailing_zeros() as usize;
+                    if rest & (rest - 1) == 0 {
+                        // Two children: the nearer first; on a tie the later one (as the
+                        // general insertion below orders them).
+                        let (near, far) = if tn[c0] < tn[c1] { (c0, c1) } else { (c1, c0) };
+                        stack[sp] = (nd.child[far], tn[far]);
+                        sp += 1;
+                        cur = nd.child[near];
+                        continue;
+                    }
+                    // Three or four: far to near by insertion, ties keeping the later child
+                    // nearer the top; go on with the nearest, the others onto the stack.
+                    let mut kids = [(0u32, 0f32); 4];
+                    let mut nk = 0;
+                    let mut m = hit;
+                    while m != 0 {
+                        let c = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        let mut j = nk;
+                        while j > 0 && kids[j - 1].1 < tn[c] {
+                            kids[j] = kids[j - 1];
+                            j -= 1;
+                        }
+                        kids[j] = (nd.child[c], tn[c]);
+                        nk += 1;
+                    }
+                    stack[sp..sp + nk - 1].copy_from_slice(&kids[..nk - 1]);
+                    sp += nk - 1;
+                    cur = kids[nk - 1].0;
+                    continue;
+                }
+            }
+            loop {
+                if sp == 0 {
+                    return best;
+                }
+                sp -= 1;
+                let (c, tn) = stack[sp];
+                if tn < tmax {
+                    cur = c;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Software prefetch of a 4-wide child (see [`prefetch`]): an inner node's two cache lines,
+    /// a leaf's first two packets (three lines each).
+    #[inline(always)]
+    fn prefetch_w4(&self, nodes: &[NodeW<4>], child: u32) {
+        if child & LEAF != 0 {
+            let start = (child & ((1 << 27) - 1)) as usize;
+            let np = if (child >> 27) & 15 == 0 { 1 } else { 2 };
+            for pk in self.packets.iter().skip(start).take(np) {
+                prefetch(&pk.p[0]);
+                prefetch(&pk.p[1][1]);
+                prefetch(&pk.p[2][2]);
+            }
+        } else if let Some(nd) = nodes.get(child as usize) {
+            prefetch(&nd.b[0]);
+            prefetch(&nd.child);
+        }
+    }
+
+    /// The triangles of the wide leaf `leaf` (a reference made by `packetize`), four at a time:
+    /// the watertight test's single-precision arithmetic on the four lanes at once (the same
+    /// operations in the same order as [`WatertightRay::hit_k`], so the same values), then the
+    /// lanes that hit within the current `tmax` in lane order, each one checked again against
+    /// `tmax` as an earlier lane may have shortened it. Lanes with an edge function exactly 0
+    /// go to the scalar test (its double-precision fallback). The result is bit for bit that of
+    /// the scalar test over the leaf's triangles in order.
+    #[inline(always)]
+    fn leaf_w4<const KX: usize, const KY: usize, const KZ: usize>(
+        &self,
+        leaf: u32,
+        r: &Ray4,
+        ray: &WatertightRay,
+        tmax: &mut f32,
+        best: &mut Option<TriHit>,
+        any: bool,
+    ) -> bool {
+        let start = (leaf & ((1 << 27) - 1)) as usize;
+        let np = ((leaf >> 27) & 15) as usize + 1;
+        let zero = Vec4::ZERO;
+        for pk in &self.packets[start..start + np] {
+            let sheared = |i: usize| {
+                let z = Vec4::from_array(pk.p[i][KZ]) - r.ok[2];
+                (
+                    (Vec4::from_array(pk.p[i][KX]) - r.ok[0]) - r.s[0] * z,
+                    (Vec4::from_array(pk.p[i][KY]) - r.ok[1]) - r.s[1] * z,
+                    r.s[2] * z,
+                )
+            };
+            let (ax, ay, az) = sheared(0);
+            let (bx, by, bz) = sheared(1);
+            let (cx, cy, cz) = sheared(2);
+            let u = cx * by - cy * bx;
+            let v = ax * cy - ay * cx;
+            let w = bx * ay - by * ax;
+            let on_edge = (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).bitmask();
+            let out = ((u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero))
+                & (u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero)))
+            .bitmask();
+            let det = u + v + w;
+            let t = u * az + v * bz + w * cz;
+            let td = Vec4::splat(*tmax) * det;
+            let far = ((det.cmpgt(zero) & (t.cmple(zero) | t.cmpge(td)))
+                | (det.cmplt(zero) & (t.cmpge(zero) | t.cmple(td))))
+            .bitmask();
+            let valid = (det.cmpne(zero) & det.is_finite_mask()).bitmask();
+            let mut m = on_edge | (valid & !(out | far));
+            if m == 0 {
+                continue;
+            }
+            let (ta, da, va, wa) = (t.to_array(), det.to_array(), v.to_array(), w.to_array());
+            while m != 0 {
+                let l = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let hit = if on_edge & (1 << l) != 0 {
+                    let p = |i: usize| Vec3::new(pk.p[i][0][l], pk.p[i][1][l], pk.p[i][2][l]);
+                    ray.hit_k::<KX, KY, KZ>(&[p(0), p(1), p(2)], *tmax)
+                } else {
+                    // The distance test of `hit_k` again with the current `tmax`.
+                    let (t, det) = (ta[l], da[l]);
+                    let beyond = if det > 0.0 { t >= *tmax * det } else { t <= *tmax * det };
+                    if beyond {
+                        None
+                    } else {
+                        let inv = 1.0 / det;
+                        Some((t * inv, va[l] * inv, wa[l] * inv))
+                    }
+                };
+                if let Some((t, b1, b2)) = hit {
+                    *tmax = t;
+                    *best = Some(TriHit { t, b1, b2, id: pk.id[l] });
+                    if any {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+
     fn traverse2(&self, root: &Node, pairs: &[Pair], o: Vec3, d: Vec3, mut tmax: f32, any: bool) -> Option<TriHit> {
         if self.tris.is_empty() {
             return None;
@@ -497,8 +739,7 @@ fn to_wide<const W: usize>(
     nodes.push(NodeW {
         // An empty slot's box is the point (∞, ∞, ∞): on every axis both slab distances are
         // ±∞, so either the far distance is -∞ or the near one is +∞, never < tmax.
-        lo: [[f32::INFINITY; W]; 3],
-        hi: [[f32::INFINITY; W]; 3],
+        b: [[[f32::INFINITY; W]; 3]; 2],
         child: [EMPTY; W],
         count: [0; W],
     });
@@ -512,8 +753,8 @@ fn to_wide<const W: usize>(
         };
         let nd = &mut nodes[me];
         for a in 0..3 {
-            nd.lo[a][c] = lo[a];
-            nd.hi[a][c] = hi[a];
+            nd.b[0][a][c] = lo[a];
+            nd.b[1][a][c] = hi[a];
         }
         nd.child[c] = child;
         nd.count[c] = count;
@@ -608,7 +849,7 @@ fn box_hit4<const W: usize>(n: &NodeW<W>, o: [f32; 3], inv: [f32; 3], tmax: f32)
     let mut far = [[0f32; W]; 3];
     for a in 0..3 {
         for c in 0..W {
-            (near[a][c], far[a][c]) = slab(n.lo[a][c], n.hi[a][c], o[a], inv[a]);
+            (near[a][c], far[a][c]) = slab(n.b[0][a][c], n.b[1][a][c], o[a], inv[a]);
         }
     }
     let mut tn = [0f32; W];
@@ -619,6 +860,94 @@ fn box_hit4<const W: usize>(n: &NodeW<W>, o: [f32; 3], inv: [f32; 3], tmax: f32)
         mask |= (hit as u32) << c;
     }
     (tn, mask)
+}
+
+/// Asks the CPU to bring the cache line holding `x` into its caches ahead of use (SSE's
+/// `prefetcht0` through `safe_arch`; our crate forbids `unsafe`). A hint only: it changes no
+/// result. Elsewhere than x86 it does nothing.
+#[inline(always)]
+fn prefetch<T>(x: &T) {
+    #[cfg(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "sse"))]
+    safe_arch::prefetch_t0(x);
+    #[cfg(not(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "sse")))]
+    let _ = x;
+}
+
+/// Lane by lane `if x > m { x } else { m }`: a NaN `x` keeps `m`. On x86 that is exactly
+/// SSE's `maxps(x, m)` (the second operand when either is NaN), which `glam`'s `max` is there
+/// (or, with `glam`'s `scalar-math`, `f32::max`, which also returns the operand that is not
+/// NaN; `m` never is). Elsewhere (NEON's max propagates NaN) the compare and select.
+#[inline(always)]
+fn max_keep(x: Vec4, m: Vec4) -> Vec4 {
+    #[cfg(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "sse"))]
+    return x.max(m);
+    #[cfg(not(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "sse")))]
+    return Vec4::select(x.cmpgt(m), x, m);
+}
+
+/// Lane by lane `if x < m { x } else { m }` (SSE's `minps(x, m)` on x86), see [`max_keep`].
+#[inline(always)]
+fn min_keep(x: Vec4, m: Vec4) -> Vec4 {
+    #[cfg(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "sse"))]
+    return x.min(m);
+    #[cfg(not(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "sse")))]
+    return Vec4::select(x.cmplt(m), x, m);
+}
+
+/// Per-ray constants of the 4-wide traversal, each splat across the four lanes.
+struct Ray4 {
+    /// Origin and inverse direction for the box test.
+    o: [Vec4; 3],
+    inv: [Vec4; 3],
+    /// Per axis, the side (`NodeW::b`) of the near plane: 0 (low) unless the direction is
+    /// negative, and of the far one.
+    near: [usize; 3],
+    /// The watertight test's origin components in its axis order (`k`) and its shear.
+    ok: [Vec4; 3],
+    s: [Vec4; 3],
+}
+
+impl Ray4 {
+    fn new(ray: &WatertightRay, d: Vec3) -> Ray4 {
+        let inv = Vec3::ONE / d;
+        let o = ray.o;
+        let [kx, ky, kz] = ray.k;
+        Ray4 {
+            o: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
+            inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
+            near: [
+                inv.x.is_sign_negative() as usize,
+                inv.y.is_sign_negative() as usize,
+                inv.z.is_sign_negative() as usize,
+            ],
+            ok: [Vec4::splat(o[kx]), Vec4::splat(o[ky]), Vec4::splat(o[kz])],
+            s: [Vec4::splat(ray.s.x), Vec4::splat(ray.s.y), Vec4::splat(ray.s.z)],
+        }
+    }
+}
+
+/// [`box_hit4`] for a 4-wide node in `Vec4` lanes, the same values without its min/max
+/// selects: by the sign of the direction, the near plane's distance `(b - o) · inv` is the
+/// smaller of the two (a product with a positive, resp. negative, factor is monotone in `b`,
+/// rounding included). A NaN distance (a ray parallel to a slab, starting on its plane) leaves
+/// the running maximum (resp. minimum) as it is, which is [`slab`]'s "this axis does not
+/// constrain". Folding 0 into the entry maximum before the 2γ₃ widening gives the same entry
+/// distance as [`enter`]'s clamp after it (the widening is monotone and keeps 0 at 0).
+#[inline(always)]
+fn box_hit_w4(n: &NodeW<4>, r: &Ray4, tmax: f32) -> (Vec4, u32) {
+    let mut tn = Vec4::ZERO;
+    let mut tf = Vec4::INFINITY;
+    for a in 0..3 {
+        let near = r.near[a] & 1;
+        let t_near = (Vec4::from_array(n.b[near][a]) - r.o[a]) * r.inv[a];
+        let t_far = (Vec4::from_array(n.b[near ^ 1][a]) - r.o[a]) * r.inv[a];
+        // `select(x > m, x, m)`: a NaN `x` keeps `m`.
+        tn = max_keep(t_near, tn);
+        tf = min_keep(t_far, tf);
+    }
+    let tn = tn * Vec4::splat(0.999_999_6);
+    let tf = tf * Vec4::splat(1.000_000_4);
+    (tn, (tn.cmple(tf) & tn.cmplt(Vec4::splat(tmax))).bitmask())
 }
 
 impl Bvh {
@@ -645,7 +974,14 @@ impl Bvh {
             Node { lo: Vec3::ZERO, hi: Vec3::ZERO, start: 0, count: 0 }
         };
         let stored = order.iter().map(|&i| tris[i as usize]).collect();
-        Bvh { nodes: Nodes::Binary { root, pairs }, tris: stored, ids: order, packets: Vec::new() }
+        Bvh {
+            nodes: Nodes::Binary { root, pairs },
+            tris: stored,
+            ids: order,
+            packets: Vec::new(),
+            small_stack: false,
+            depth: 0,
+        }
     }
 }
 
@@ -1033,6 +1369,12 @@ mod tests {
             ("default", Bvh::build(tris.clone())),
             ("binary", Bvh::build_with(tris.clone(), Layout::Binary)),
             ("wide4", Bvh::build_with(tris.clone(), Layout::Wide4)),
+            ("wide4, deep-tree stack", {
+                let mut b = Bvh::build_with(tris.clone(), Layout::Wide4);
+                assert!(b.small_stack);
+                b.small_stack = false;
+                b
+            }),
             ("wide8", Bvh::build_with(tris.clone(), Layout::Wide8)),
             ("binned SAH", Bvh::build_binned_sah(tris.clone())),
         ];
@@ -1115,12 +1457,12 @@ mod tests {
             Nodes::Wide4(nodes) => {
                 for n in nodes {
                     let pad = |a: &[[f32; 4]; 3]| a.map(|r| [r[0], r[1], r[2], r[3], 0.0, 0.0, 0.0, 0.0]);
-                    wide(&pad(&n.lo), &pad(&n.hi), &n.child);
+                    wide(&pad(&n.b[0]), &pad(&n.b[1]), &n.child);
                 }
             }
             Nodes::Wide8(nodes) => {
                 for n in nodes {
-                    wide(&n.lo, &n.hi, &n.child);
+                    wide(&n.b[0], &n.b[1], &n.child);
                 }
             }
         }
