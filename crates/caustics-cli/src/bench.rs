@@ -77,6 +77,9 @@ pub struct BenchArgs {
     /// Caustic spheres (`--technique caustic-spheres`): the precomputed tables' settings.
     #[command(flatten)]
     sphere_args: crate::spheres::SphereArgs,
+    /// Where the caustic on diffuse surfaces of spot and point lights comes from.
+    #[arg(long, default_value = "photons", value_parser = crate::surface_caustics_parser())]
+    surface_caustics: caustics::render::SurfaceCaustics,
 }
 
 fn parse_grids(s: &str) -> Result<Vec<u32>> {
@@ -625,6 +628,7 @@ fn settings(a: &BenchArgs, t: Technique, n: u32, splat: caustics::splat::SplatMo
         photon_memory: a.photon_memory.saturating_mul(1 << 20),
         splat,
         tracer: a.tracer,
+        surface_caustics: a.surface_caustics,
         ..Default::default()
     }
 }

@@ -1,13 +1,13 @@
-//! The beams' part of `caustics bench` (scenes with a medium): per run, the beams kept per
-//! refinement level and the GPU milliseconds of each beam pass (`beam_refine` summed over its
-//! levels, `beam_order`, `beam_gather` summed over its chunks; timestamp queries, "-" where the
-//! adapter has none). Its own module so that the photon tables of `bench.rs` stay as they are.
+//! The beams' part of `caustics bench` (scenes with a medium, or `--surface-caustics beams`):
+//! per run, the beams kept per refinement level and the GPU milliseconds of each beam pass
+//! (`beam_refine` summed over its levels, `beam_order`, `beam_gather` and `beam_surface` summed
+//! over their chunks; timestamp queries, "-" where the adapter has none or the pass did not run). Its own module so that the photon tables of `bench.rs` stay as they are.
 
 use caustics::output::GpuRender;
 use std::fmt::Write;
 
 /// The beam passes, in the order they run.
-const PASSES: [&str; 3] = ["beam_refine", "beam_order", "beam_gather"];
+const PASSES: [&str; 4] = ["beam_refine", "beam_order", "beam_gather", "beam_surface"];
 
 /// GPU ms of a beam pass in a render (all its dispatches), if it was timed.
 fn pass_ms(out: &GpuRender, pass: &str) -> Option<f64> {
@@ -23,8 +23,8 @@ pub fn markdown<'a>(runs: impl Iterator<Item = (String, &'a GpuRender)>) -> Stri
             if s.is_empty() {
                 let _ = writeln!(
                     s,
-                    "\n## Volume caustics (beams)\n\nBeams kept per refinement level (all branches), beams rendered, and GPU ms per beam pass (timestamp queries; \"-\": not timed).\n\n| run | light | kept per level | beams | {} ms | {} ms | {} ms |\n| --- | ---: | --- | ---: | ---: | ---: | ---: |",
-                    PASSES[0], PASSES[1], PASSES[2]
+                    "\n## Volume caustics (beams)\n\nBeams kept per refinement level (all branches), beams rendered, and GPU ms per beam pass (timestamp queries; \"-\": not timed or not run).\n\n| run | light | kept per level | beams | {} ms | {} ms | {} ms | {} ms |\n| --- | ---: | --- | ---: | ---: | ---: | ---: | ---: |",
+                    PASSES[0], PASSES[1], PASSES[2], PASSES[3]
                 );
             }
             let levels: Vec<String> = stats.kept_per_level.iter().map(u32::to_string).collect();
@@ -32,12 +32,13 @@ pub fn markdown<'a>(runs: impl Iterator<Item = (String, &'a GpuRender)>) -> Stri
                 PASSES.iter().map(|p| pass_ms(out, p).map_or("-".into(), |v| format!("{v:.2}"))).collect();
             let _ = writeln!(
                 s,
-                "| {label} | {li} | {} | {} | {} | {} | {} |",
+                "| {label} | {li} | {} | {} | {} | {} | {} | {} |",
                 levels.join(" / "),
                 stats.beams,
                 ms[0],
                 ms[1],
-                ms[2]
+                ms[2],
+                ms[3]
             );
         }
     }

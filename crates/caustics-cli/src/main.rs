@@ -71,6 +71,17 @@ pub(crate) fn splat_parser() -> impl clap::builder::TypedValueParser<Value = cau
     .map(|s| S::parse(&s).expect("a listed splat mode"))
 }
 
+/// `--surface-caustics`: where the caustic on surfaces comes from, by name, with its help.
+pub(crate) fn surface_caustics_parser()
+-> impl clap::builder::TypedValueParser<Value = caustics::render::SurfaceCaustics> {
+    use caustics::render::SurfaceCaustics as S;
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(
+        S::ALL.map(|m| clap::builder::PossibleValue::new(m.name()).help(m.describe())),
+    )
+    .map(|s| S::parse(&s).expect("a listed source"))
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to PNG (tone-mapped) or EXR (linear radiance, W/(m^2 sr)).
@@ -158,6 +169,11 @@ enum Command {
         env_taps: u32,
         #[command(flatten)]
         beams: BeamArgs,
+        /// Where the caustic on diffuse surfaces of spot and point lights comes from: the photon
+        /// caustic maps, or the beams of adaptive beam tracing (GPU; scenes with a specular
+        /// caster, with or without a medium; their photon maps are then not traced).
+        #[arg(long, default_value = "photons", value_parser = surface_caustics_parser())]
+        surface_caustics: caustics::render::SurfaceCaustics,
         /// Gaussian splat standard deviation (caustic-map texels).
         #[arg(long, default_value_t = 1.0)]
         splat_sigma: f32,
@@ -273,7 +289,8 @@ fn main() -> ExitCode {
 /// the photon technique the caustic on surfaces, and both run in the same frame.
 #[derive(clap::Args, Debug, Clone)]
 pub struct BeamArgs {
-    /// Do not render volume caustics (beams).
+    /// Do not render volume caustics (beams; `--surface-caustics beams` still builds them for
+    /// the surfaces).
     #[arg(long)]
     no_beams: bool,
     /// Beams: cells per side of the coarse projected grid over each light face.
@@ -303,6 +320,10 @@ pub struct BeamArgs {
     /// Beams: camera rays per pixel side (box filter; n² per pixel).
     #[arg(long, default_value_t = 1)]
     beam_pixel_samples: u32,
+    /// Surface caustics from beams (`--surface-caustics beams`): points per pixel side on the
+    /// surface (box filter; n² per pixel), 1 to 8.
+    #[arg(long, default_value_t = 4)]
+    beam_surface_samples: u32,
 }
 
 impl BeamArgs {
@@ -318,6 +339,7 @@ impl BeamArgs {
             capacity: self.beam_capacity,
             samples: self.beam_samples,
             pixel_samples: self.beam_pixel_samples,
+            surface_samples: self.beam_surface_samples,
             reflection: true,
         }
     }
@@ -347,6 +369,7 @@ fn flag_names(e: &mut anyhow::Error) {
         ("beams.capacity", "--beam-capacity"),
         ("beams.samples", "--beam-samples"),
         ("beams.pixel_samples", "--beam-pixel-samples"),
+        ("beams.surface_samples", "--beam-surface-samples"),
         ("camera.size", "--size"),
         ("splat_sigma", "--splat-sigma"),
         ("max_depth", "--max-depth"),
@@ -409,6 +432,7 @@ fn run(cli: Cli) -> Result<()> {
             env_lights,
             env_taps,
             beams,
+            surface_caustics,
             splat_sigma,
             photon_memory,
             dump,
@@ -462,6 +486,7 @@ fn run(cli: Cli) -> Result<()> {
                 env_lights,
                 env_taps,
                 beams: beams.settings(),
+                surface_caustics,
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),
                 ..Default::default()
@@ -540,6 +565,11 @@ fn run(cli: Cli) -> Result<()> {
                 None => {
                     if caustic_spheres {
                         eprintln!("notice: the CPU reference renders the exact caustics, not the caustic spheres");
+                    }
+                    if surface_caustics != caustics::render::SurfaceCaustics::Photons {
+                        eprintln!(
+                            "notice: the CPU reference renders the exact caustics; --surface-caustics applies to the GPU"
+                        );
                     }
                     let rs = caustics_reference::reference::ReferenceSettings {
                         photons_per_light: (photons as u64).pow(2),

@@ -230,6 +230,8 @@ fn make_beam(e0_in: Edge, e1_in: Edge, e2_in: Edge, omega: f32, level: u32) -> B
     var r = 0.0;
     for (var k = 0; k < 6; k++) { r = max(r, length(p[k] - c)); }
     b.bound = vec4f(c, r * 1.0001 + 1e-6);
+    // (consistent edges: all three land on the same object)
+    b.info = vec4u(e0.land, 0u, 0u, 0u);
     return b;
 }
 

@@ -37,21 +37,38 @@ const STATS_WORDS: u64 = 33;
 
 pub use crate::output::{Beam, BeamStats};
 
-/// Whether the beam stages run for this scene: a medium that scatters, a specular caster, and
-/// the beams enabled.
-pub fn active(scene: &Scene, s: &RenderSettings) -> bool {
+/// Whether the volume caustic is gathered (`beam_gather`): a medium that scatters, a specular
+/// caster, and the beams enabled.
+pub fn volume_active(scene: &Scene, s: &RenderSettings) -> bool {
     s.beams.enabled
         && scene.medium.as_ref().is_some_and(|m| m.sigma_s.max_element() > 0.0)
         && scene.objects.iter().any(|o| scene.material_of(o).is_specular())
 }
 
-/// A light's beam buffers, kept for the statistics read-back.
+/// Whether the caustic on surfaces comes from the beams (`beam_surface`):
+/// [`SurfaceCaustics::Beams`](crate::settings::SurfaceCaustics) and a specular caster (with or
+/// without a medium; `BeamSettings::enabled` switches the volume caustic only).
+pub fn surface_active(scene: &Scene, s: &RenderSettings) -> bool {
+    s.surface_caustics == crate::settings::SurfaceCaustics::Beams
+        && scene.objects.iter().any(|o| scene.material_of(o).is_specular())
+}
+
+/// Whether the beam stages run for this scene (the volume caustic, the surface caustic or both).
+pub fn active(scene: &Scene, s: &RenderSettings) -> bool {
+    volume_active(scene, s) || surface_active(scene, s)
+}
+
+/// A light's beam buffers: kept for the gather after the composite and for the statistics
+/// read-back.
 pub(crate) struct BeamFrame {
+    params: wgpu::Buffer,
     stats: wgpu::Buffer,
     beams: wgpu::Buffer,
     order: wgpu::Buffer,
     capacity: u32,
     levels: u32,
+    slots: u32,
+    pixel_samples: u32,
 }
 
 fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, faces: u32, slots: u64) -> BeamParams {
@@ -63,6 +80,7 @@ fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, 
     let cam = &scene.camera;
     BeamParams {
         clip_to_world: clip_to_world.to_cols_array_2d(),
+        world_to_clip: clip_to_world.inverse().to_cols_array_2d(),
         camera: cam.position.extend(1.0).to_array(),
         lo: m.map_or([0.0; 4], |m| m.bounds_min.extend(0.0).to_array()),
         hi: m.map_or([0.0; 4], |m| m.bounds_max.extend(0.0).to_array()),
@@ -76,7 +94,7 @@ fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, 
         depth_rel: b.depth_threshold,
         energy: b.energy_threshold,
         camera_size: b.camera_threshold,
-        _pad0: 0.0,
+        surface_samples: b.surface_samples,
         capacity: b.capacity,
         slots: slots as u32,
         samples: b.samples,
@@ -87,14 +105,17 @@ fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, 
     }
 }
 
-/// The beam stages of every spot and point light (nothing is recorded or requested when
-/// [`active`] is false), adding the volume caustic to both images.
+/// The beams of every spot and point light (`beam_refine`, `beam_order`; nothing is recorded or
+/// requested when [`active`] is false), and with [`surface_active`] their surface caustic
+/// (`beam_surface`) added into the eye's radiance and caustic accumulators. Recorded after the
+/// shading passes and before `composite` (which then shows the surface caustic through glass and
+/// in mirrors as it does the photon maps'); the volume caustic follows the composite
+/// ([`record_gather`]).
 pub(crate) fn record_beams(
     dc: &DrawCtx,
     eye: &EyeFrame,
     lights: &[&LightFrame],
     s: &RenderSettings,
-    images: (&wgpu::Buffer, &wgpu::Buffer),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) -> Vec<BeamFrame> {
@@ -103,8 +124,9 @@ pub(crate) fn record_beams(
     }
     let ctx = dc.ctx;
     let b = &s.beams;
+    let surface = surface_active(dc.scene, s);
     let mut frames = Vec::new();
-    let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
+    let (rp, rn) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
     for (li, lf) in lights.iter().enumerate() {
         if matches!(dc.scene.lights[li], Light::Directional { .. }) {
             continue;
@@ -116,28 +138,57 @@ pub(crate) fn record_beams(
         let cam = &dc.scene.camera;
         let rays = (cam.view_to_clip(0.1, 100.0) * cam.world_to_view()).inverse();
         let bp = params(dc.scene, rays, b, s.max_depth, faces, slots);
-        frames.push(record_light_beams(
-            ctx,
-            dc,
-            &lf.light_buf,
-            &bp,
-            (&wgpu::BindingResource::TextureView(&rv), &wgpu::BindingResource::TextureView(&sv)),
-            images,
-            enc,
-            timer,
-        ));
+        let frame = record_light_beams(ctx, dc, &lf.light_buf, &bp, enc, timer);
+        if surface {
+            let views = (&wgpu::BindingResource::TextureView(&rp), &wgpu::BindingResource::TextureView(&rn));
+            let points = b.surface_samples.clamp(1, 8).pow(2);
+            record_surface(ctx, dc, (&frame, points), views, (&eye.radiance, &eye.caustic), enc, timer);
+        }
+        frames.push(frame);
     }
     frames
 }
 
-#[expect(clippy::too_many_arguments, reason = "a light's beam stages are described by all of these")]
+/// The volume caustic of the beams [`record_beams`] made (`beam_gather`, with
+/// [`volume_active`]), added to both composited images.
+pub(crate) fn record_gather(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    frames: &[BeamFrame],
+    s: &RenderSettings,
+    images: (&wgpu::Buffer, &wgpu::Buffer),
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    if !volume_active(dc.scene, s) {
+        return;
+    }
+    let ctx = dc.ctx;
+    let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
+    let size = (dc.scene.camera.width, dc.scene.camera.height);
+    for f in frames {
+        record_gather_chunks(
+            ctx,
+            &f.params,
+            &f.beams,
+            &f.order,
+            &f.stats,
+            (&wgpu::BindingResource::TextureView(&rv), &wgpu::BindingResource::TextureView(&sv)),
+            images,
+            size,
+            (f.capacity, f.slots, f.pixel_samples),
+            enc,
+            timer,
+        );
+    }
+}
+
+/// `beam_refine` (every level) and `beam_order` for one light.
 fn record_light_beams(
     ctx: &GpuContext,
     dc: &DrawCtx,
     light_buf: &wgpu::Buffer,
     bp: &BeamParams,
-    eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
-    images: (&wgpu::Buffer, &wgpu::Buffer),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) -> BeamFrame {
@@ -205,24 +256,26 @@ fn record_light_beams(
             enc.copy_buffer_to_buffer(&args, at, &indirect, at, 16);
         }
     }
-    let size = (dc.scene.camera.width, dc.scene.camera.height);
-    let limits = (bp.capacity, bp.slots, bp.pixel_samples);
-    record_order_gather(ctx, &params, &slot_buf, &beams, &order, &stats, eye_views, images, size, limits, enc, timer);
-    BeamFrame { stats, beams, order, capacity: bp.capacity, levels }
+    record_order(ctx, &params, &slot_buf, &order, &stats, enc, timer);
+    BeamFrame {
+        params,
+        stats,
+        beams,
+        order,
+        capacity: bp.capacity,
+        levels,
+        slots: bp.slots,
+        pixel_samples: bp.pixel_samples,
+    }
 }
 
-#[expect(clippy::too_many_arguments, reason = "the ordering and gathering stages' resources")]
-fn record_order_gather(
+/// `beam_order`: the kept beams listed in hierarchy order.
+fn record_order(
     ctx: &GpuContext,
     params: &wgpu::Buffer,
     slots: &wgpu::Buffer,
-    beams: &wgpu::Buffer,
     order: &wgpu::Buffer,
     stats: &wgpu::Buffer,
-    eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
-    images: (&wgpu::Buffer, &wgpu::Buffer),
-    size: (u32, u32),
-    (capacity, slots_total, pixel_samples): (u32, u32, u32),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -233,22 +286,88 @@ fn record_order_gather(
         "beam_order",
         &[params.as_entire_binding(), slots.as_entire_binding(), order.as_entire_binding(), stats.as_entire_binding()],
     );
-    {
+    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("beam_order"),
+        timestamp_writes: timer.compute("beam_order"),
+    });
+    cp.set_pipeline(&opl);
+    cp.set_bind_group(0, &obg, &[]);
+    cp.dispatch_workgroups(1, 1, 1);
+}
+
+/// The most beams a light's ordered list can hold: `capacity`, and at most BRANCHES per slot of
+/// the hierarchy.
+fn most_beams(capacity: u32, slots: u32) -> u32 {
+    u64::from(capacity).min(BRANCHES * u64::from(slots)).max(1) as u32
+}
+
+/// `beam_surface`: the surface caustic of one light's beams, one dispatch per chunk of the
+/// ordered list (as the gather: a fixed order, and short loops), added into the eye's diffuse
+/// radiance and caustic accumulators.
+fn record_surface(
+    ctx: &GpuContext,
+    dc: &DrawCtx,
+    (f, points): (&BeamFrame, u32),
+    eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
+    accum: (&wgpu::Buffer, &wgpu::Buffer),
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let pl = ctx.compute_pipeline("beam_surface");
+    let (w, h) = (dc.scene.camera.width, dc.scene.camera.height);
+    // (a small beam's exact clip is some 40 loop iterations: counted as 16 points at least)
+    let chunk = (SURFACE_CHUNK / points.max(16)).max(1);
+    for c in 0..most_beams(f.capacity, f.slots).div_ceil(chunk) {
+        let cu = ctx.uniform(
+            "beam_chunk",
+            bytemuck::bytes_of(&BeamLevel { level: c, offset: c * chunk, next_offset: 0, base_count: chunk }),
+        );
+        let bg = bind(
+            ctx,
+            &pl,
+            "beam_surface",
+            &[
+                f.params.as_entire_binding(),
+                eye_views.0.clone(),
+                eye_views.1.clone(),
+                f.beams.as_entire_binding(),
+                f.order.as_entire_binding(),
+                f.stats.as_entire_binding(),
+                dc.geo.materials.as_entire_binding(),
+                accum.0.as_entire_binding(),
+                accum.1.as_entire_binding(),
+                cu.as_entire_binding(),
+            ],
+        );
         let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("beam_order"),
-            timestamp_writes: timer.compute("beam_order"),
+            label: Some("beam_surface"),
+            timestamp_writes: timer.compute("beam_surface"),
         });
-        cp.set_pipeline(&opl);
-        cp.set_bind_group(0, &obg, &[]);
-        cp.dispatch_workgroups(1, 1, 1);
+        cp.set_pipeline(&pl);
+        cp.set_bind_group(0, &bg, &[]);
+        cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
+}
+
+#[expect(clippy::too_many_arguments, reason = "the gathering stage's resources")]
+fn record_gather_chunks(
+    ctx: &GpuContext,
+    params: &wgpu::Buffer,
+    beams: &wgpu::Buffer,
+    order: &wgpu::Buffer,
+    stats: &wgpu::Buffer,
+    eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
+    images: (&wgpu::Buffer, &wgpu::Buffer),
+    size: (u32, u32),
+    (capacity, slots_total, pixel_samples): (u32, u32, u32),
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
     let gpl = ctx.compute_pipeline("beam_gather");
-    // One dispatch per chunk of the ordered list (see beam_gather.wgsl): at most `capacity`
-    // beams, and at most BRANCHES per slot of the hierarchy.
+    // One dispatch per chunk of the ordered list (see beam_gather.wgsl).
     let rays = pixel_samples.max(1) * pixel_samples.max(1);
     let chunk = (GATHER_CHUNK / rays).max(1);
-    let most = u64::from(capacity).min(BRANCHES * u64::from(slots_total)).max(1) as u32;
-    for c in 0..most.div_ceil(chunk) {
+    for c in 0..most_beams(capacity, slots_total).div_ceil(chunk) {
         let cu = ctx.uniform(
             "beam_chunk",
             bytemuck::bytes_of(&BeamLevel { level: c, offset: c * chunk, next_offset: 0, base_count: chunk }),
@@ -285,6 +404,12 @@ const BRANCHES: u64 = 3;
 
 /// Beams one `beam_gather` dispatch loops over per camera ray (beam_gather.wgsl says why).
 const GATHER_CHUNK: u32 = 256;
+
+/// Beam × surface point tests one `beam_surface` dispatch makes per pixel at most (a chunk is
+/// this over the points per pixel): a point test is a few dozen operations, so chunks are
+/// larger than the gather's, and a pixel's loops stay far below lavapipe's limit of about
+/// 65536 iterations per invocation.
+const SURFACE_CHUNK: u32 = 4096;
 
 /// Read a light's beams (in rendering order) and statistics back (blocking).
 pub(crate) fn read_frame(ctx: &GpuContext, f: &BeamFrame) -> Result<(BeamStats, Vec<Beam>)> {
@@ -367,10 +492,10 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     let nv = ctx.view(&none, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
     let tv = wgpu::BindingResource::TextureView(&nv);
     let mut timer = PassTimer::disabled();
-    record_order_gather(
+    record_order(&ctx, &params, &slot_buf, &order, &stats, &mut enc, &mut timer);
+    record_gather_chunks(
         &ctx,
         &params,
-        &slot_buf,
         &beam_buf,
         &order,
         &stats,

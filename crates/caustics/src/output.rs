@@ -80,6 +80,9 @@ pub struct Beam {
     pub flux: Vec3,
     /// Refinement level it was kept at.
     pub level: u32,
+    /// The object its edges land on (`u32::MAX`: they leave the scene); surface caustics from
+    /// beams light only that object's points.
+    pub land: u32,
 }
 
 impl Beam {
@@ -132,6 +135,7 @@ impl Beam {
             ends: p.map(|q| q.3),
             flux: self.flux * 0.25,
             level: self.level + 1,
+            land: self.land,
         };
         let (ab, bc, ca) = (mid(0, 1), mid(1, 2), mid(2, 0));
         [make([corner(0), ab, ca]), make([ab, corner(1), bc]), make([ca, bc, corner(2)]), make([bc, ca, ab])]
@@ -152,6 +156,7 @@ impl Beam {
             d: [0, 1, 2].map(|i| self.dirs[i].extend(self.ends[i]).to_array()),
             flux: self.flux.extend(self.level as f32).to_array(),
             bound: c.extend(r * 1.0001 + 1e-6).to_array(),
+            info: [self.land, 0, 0, 0],
         }
     }
 
@@ -164,6 +169,7 @@ impl Beam {
             ends: b.d.map(|a| a[3]),
             flux: v3(b.flux),
             level: b.flux[3] as u32,
+            land: b.info[0],
         }
     }
 }

@@ -997,7 +997,11 @@ pub(crate) fn record_light(
         reflect_branch: fc.reflect_branch,
         internal_branch: fc.internal_branch,
         residual_branch: fc.residual_branch,
-        skip_photons: fc.caustic_spheres && matches!(scene.lights[li], Light::Directional { .. }),
+        // Caustic spheres' directional lights, and spot and point lights whose surface caustic
+        // comes from their beams (`SurfaceCaustics::Beams`): their maps stay zero, so the
+        // shading adds no photon caustic for them.
+        skip_photons: (fc.caustic_spheres && matches!(scene.lights[li], Light::Directional { .. }))
+            || s.surface_caustics_from_beams(&scene.lights[li]),
     };
     let pending = crate::techniques::emit(&emit, enc, timer, nf)?;
     splat_targets.finish(ctx, &pipelines.splat, &light_buf, &accum, enc, timer);

@@ -745,9 +745,14 @@ impl Renderer {
             });
             ctx.end_scope();
         }
+        // The beams (volume caustics, and with `SurfaceCaustics::Beams` the surface caustic,
+        // added to the eye's accumulators before the composite shows them through glass).
+        ctx.begin_scope("beams", enc);
+        let beams = crate::beams::record_beams(&dc, &eye, &light_frames, &s, enc, &mut timer);
+        ctx.end_scope();
         ctx.begin_scope("composite", enc);
         let (full, caustic) = crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
-        let beams = crate::beams::record_beams(&dc, &eye, &light_frames, &s, (&full, &caustic), enc, &mut timer);
+        crate::beams::record_gather(&dc, &eye, &beams, &s, (&full, &caustic), enc, &mut timer);
         let display = crate::passes::record_display(&dc, &full, enc, &mut timer);
         self.outputs = Some((full, caustic, display));
         self.beam_frames = beams;

@@ -330,6 +330,63 @@ pub struct RenderSettings {
     pub env_taps: u32,
     /// Volume caustics by adaptive beam tracing in scenes with a medium (`crate::beams`).
     pub beams: BeamSettings,
+    /// Where the caustic on diffuse surfaces of spot and point lights comes from: the photon
+    /// caustic maps (default) or the beams (`crate::beams`, `beam_surface`; the lights' photon
+    /// stages are then skipped, so neither is counted twice). Directional lights always use
+    /// their caustic maps (beams are built for spot and point lights only).
+    pub surface_caustics: SurfaceCaustics,
+}
+
+/// The source of the caustic on diffuse surfaces ([`RenderSettings::surface_caustics`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum SurfaceCaustics {
+    /// The lights' photon caustic maps (`shade_receivers`).
+    #[default]
+    Photons,
+    /// The beams of adaptive beam tracing (Liktor & Dachsbacher 2011, section 5.3): per
+    /// camera pixel, the irradiance of the beams that end on its surface point
+    /// (`beam_surface`), for spot and point lights, with or without a medium.
+    Beams,
+}
+
+impl SurfaceCaustics {
+    pub const ALL: [SurfaceCaustics; 2] = [SurfaceCaustics::Photons, SurfaceCaustics::Beams];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SurfaceCaustics::Photons => "photons",
+            SurfaceCaustics::Beams => "beams",
+        }
+    }
+
+    /// One line on what it does (the command line's help).
+    pub fn describe(self) -> &'static str {
+        match self {
+            SurfaceCaustics::Photons => "The lights' photon caustic maps (the default)",
+            SurfaceCaustics::Beams => {
+                "Spot and point lights: the beams of adaptive beam tracing, gathered per pixel (no photon maps)"
+            }
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<SurfaceCaustics> {
+        SurfaceCaustics::ALL.into_iter().find(|m| m.name() == s.trim())
+    }
+}
+
+impl std::fmt::Display for SurfaceCaustics {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl RenderSettings {
+    /// Whether `light`'s caustic on surfaces comes from its beams (and its photon stage is
+    /// skipped): [`SurfaceCaustics::Beams`] and a spot or point light.
+    pub fn surface_caustics_from_beams(&self, light: &crate::scene::Light) -> bool {
+        self.surface_caustics == SurfaceCaustics::Beams && !matches!(light, crate::scene::Light::Directional { .. })
+    }
 }
 
 /// Volume caustics by adaptive beam tracing (Liktor & Dachsbacher 2011; `crate::beams`,
@@ -362,6 +419,11 @@ pub struct BeamSettings {
     /// Camera rays per pixel side (the box pixel filter: n² stratified rays per pixel), 1 to 8.
     /// Default 1 (the pixel centre; n rays cost n² times the gather).
     pub pixel_samples: u32,
+    /// Surface caustics from beams ([`SurfaceCaustics::Beams`]): points per pixel side on the
+    /// surface's tangent plane (the box pixel filter: n² stratified points, each tested in the
+    /// beams), 1 to 8. Default 4 (a point test is cheap; the caustic's focal lines are thinner
+    /// than a pixel).
+    pub surface_samples: u32,
     /// Also the beams of light reflected at the first dielectric surface, and of light
     /// reflected once inside it (refracted in, reflected, refracted out).
     pub reflection: bool,
@@ -380,6 +442,7 @@ impl Default for BeamSettings {
             capacity: 1 << 17,
             samples: 4,
             pixel_samples: 1,
+            surface_samples: 4,
             reflection: true,
         }
     }
@@ -429,6 +492,9 @@ impl BeamSettings {
         if !(1..=8).contains(&b.pixel_samples) {
             return Err(("beams.pixel_samples", format!("must be 1 to 8 (got {})", b.pixel_samples)));
         }
+        if !(1..=8).contains(&b.surface_samples) {
+            return Err(("beams.surface_samples", format!("must be 1 to 8 (got {})", b.surface_samples)));
+        }
         if !(1..=64).contains(&b.samples) {
             return Err(("beams.samples", format!("must be 1 to 64 (got {})", b.samples)));
         }
@@ -477,6 +543,7 @@ impl Default for RenderSettings {
             env_split: Default::default(),
             env_taps: DEFAULT_ENV_TAPS,
             beams: BeamSettings::default(),
+            surface_caustics: SurfaceCaustics::default(),
         }
     }
 }

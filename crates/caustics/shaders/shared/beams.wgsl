@@ -24,7 +24,8 @@ struct BeamParams {
     depth_rel: f32,
     energy: f32,
     camera_size: f32,
-    _pad0: f32,
+    // Points per pixel side on the surface's tangent plane (beam_surface: the box pixel filter).
+    surface_samples: u32,
     // Beam records the beam buffer holds; slots of the hierarchy (all levels, one branch).
     capacity: u32,
     slots: u32,
@@ -36,6 +37,8 @@ struct BeamParams {
     flags: u32,
     // Camera rays per pixel side (beam_gather: the box pixel filter).
     pixel_samples: u32,
+    // The inverse of clip_to_world (beam_surface: a beam's end in the image).
+    world_to_clip: mat4x4f,
 }
 
 // Beams per slot of the hierarchy: transmitted, reflected at the first surface, reflected once
@@ -65,7 +68,9 @@ struct BeamTri {
 
 // A beam: base vertices v_i (w: the in-medium length of the light's path before v_i), unit
 // edge directions d_i (w: distance from v_i to the edge's end on a surface), flux (W, rgb;
-// w: the hierarchy level) and a bounding sphere of the beam (centre, radius).
+// w: the hierarchy level), a bounding sphere of the beam (centre, radius), and info.x the
+// object its three edges land on (INVALID: they leave the scene; beam_surface lights only
+// that object's points).
 struct BeamGpu {
     v0: vec4f,
     v1: vec4f,
@@ -75,6 +80,7 @@ struct BeamGpu {
     d2: vec4f,
     flux: vec4f,
     bound: vec4f,
+    info: vec4u,
 }
 
 // Statistics words (u32): 0..7 beams kept per level, 8..15 triangles visited per level,

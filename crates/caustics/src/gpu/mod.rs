@@ -39,6 +39,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("beam_refine", include_str!("../../shaders/beam_refine.wgsl")),
     ("beam_order", include_str!("../../shaders/beam_order.wgsl")),
     ("beam_gather", include_str!("../../shaders/beam_gather.wgsl")),
+    ("beam_surface", include_str!("../../shaders/beam_surface.wgsl")),
 ];
 pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 

@@ -218,7 +218,8 @@ pub struct BeamParams {
     pub depth_rel: f32,
     pub energy: f32,
     pub camera_size: f32,
-    pub _pad0: f32,
+    /// Points per pixel side on the surface's tangent plane in `beam_surface`.
+    pub surface_samples: u32,
     pub capacity: u32,
     pub slots: u32,
     pub samples: u32,
@@ -228,6 +229,8 @@ pub struct BeamParams {
     pub flags: u32,
     /// Camera rays per pixel side in `beam_gather`.
     pub pixel_samples: u32,
+    /// Inverse of `clip_to_world`: where `beam_surface` finds a beam's end in the image.
+    pub world_to_clip: [[f32; 4]; 4],
 }
 
 /// One level of `beam_refine` (WGSL `BeamLevel`).
@@ -252,7 +255,8 @@ pub struct BeamTri {
 }
 
 /// A beam (WGSL `BeamGpu`): base vertices (w: in-medium light path before them), unit edge
-/// directions (w: length to the edge's end), flux (W; w: level), bounding sphere.
+/// directions (w: length to the edge's end), flux (W; w: level), bounding sphere, and
+/// `info.x` the object its edges land on (`u32::MAX`: they leave the scene).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct BeamGpu {
@@ -260,6 +264,7 @@ pub struct BeamGpu {
     pub d: [[f32; 4]; 3],
     pub flux: [f32; 4],
     pub bound: [f32; 4],
+    pub info: [u32; 4],
 }
 
 #[repr(C)]
