@@ -373,6 +373,19 @@ fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
     if tracer != s.tracer {
         act(session, Action::SetTracer(tracer));
     }
+    let mut surface = s.surface_caustics;
+    egui::ComboBox::from_id_salt("surface_caustics")
+        .selected_text(format!("surface caustics: {}", surface.name()))
+        .show_ui(ui, |ui| {
+            for c in caustics::settings::SurfaceCaustics::ALL {
+                ui.selectable_value(&mut surface, c, c.name()).on_hover_text(c.describe());
+            }
+        });
+    if surface != s.surface_caustics {
+        let mut s2 = s.clone();
+        s2.surface_caustics = surface;
+        act(session, Action::SetSettings(Box::new(s2)));
+    }
     let mut photons = s.photons;
     egui::ComboBox::from_id_salt("photons").selected_text(format!("{photons}² photons")).show_ui(ui, |ui| {
         for n in PHOTON_GRIDS {
@@ -453,13 +466,27 @@ fn released(r: &egui::Response) -> bool {
     r.drag_stopped() || (r.changed() && !r.dragged())
 }
 
-/// Scenes with a participating medium: its density (relative to the scene file) and phase
-/// function, and the volume caustic's beam settings (`caustics::beams`).
+/// Scenes with a participating medium: its density and phase function; with a medium or surface
+/// caustics from beams: the beam settings (`caustics::beams`).
 fn medium_and_beams(ui: &mut egui::Ui, session: &mut Session) {
-    let (Some(m0), Some(m)) = (session.loaded_medium().cloned(), session.scene().medium.clone()) else {
+    let medium = session.loaded_medium().cloned().zip(session.scene().medium.clone());
+    if medium.is_none() && session.settings().surface_caustics != caustics::settings::SurfaceCaustics::Beams {
         return;
-    };
+    }
     ui.separator();
+    if let Some((m0, m)) = medium {
+        medium_controls(ui, session, &m0, &m);
+    }
+    beam_controls(ui, session);
+}
+
+/// The medium's density (relative to the scene file, `m0`) and phase function.
+fn medium_controls(
+    ui: &mut egui::Ui,
+    session: &mut Session,
+    m0: &caustics::scene::Medium,
+    m: &caustics::scene::Medium,
+) {
     ui.label("medium");
     let k0 = (m0.sigma_s + m0.sigma_a).element_sum();
     let mut density = if k0 > 0.0 { (m.sigma_s + m.sigma_a).element_sum() / k0 } else { 1.0 };
@@ -484,11 +511,19 @@ fn medium_and_beams(ui: &mut egui::Ui, session: &mut Session) {
             if g == 0.0 { caustics::scene::Phase::Isotropic } else { caustics::scene::Phase::HenyeyGreenstein { g } };
         act(session, Action::SetMedium { sigma_s: m.sigma_s, sigma_a: m.sigma_a, phase });
     }
+}
+
+/// The beams' settings: the volume caustic (scenes with a medium) and the beam grid, also used
+/// by surface caustics from beams.
+fn beam_controls(ui: &mut egui::Ui, session: &mut Session) {
     let s = session.settings().clone();
     let mut b = s.beams;
-    ui.checkbox(&mut b.enabled, "volume caustics (beams)");
+    if session.scene().medium.is_some() {
+        ui.checkbox(&mut b.enabled, "volume caustics (beams)");
+    }
     let mut changed = b.enabled != s.beams.enabled;
-    ui.add_enabled_ui(b.enabled, |ui| {
+    let used = b.enabled || s.surface_caustics == caustics::settings::SurfaceCaustics::Beams;
+    ui.add_enabled_ui(used, |ui| {
         egui::ComboBox::from_id_salt("beam_grid").selected_text(format!("beam grid {}²", b.grid)).show_ui(ui, |ui| {
             for n in BEAM_GRIDS {
                 ui.selectable_value(&mut b.grid, n, format!("{n}²"));
@@ -502,6 +537,7 @@ fn medium_and_beams(ui: &mut egui::Ui, session: &mut Session) {
             ui.add(egui::Slider::new(&mut b.energy_threshold, 0.001..=1.0).logarithmic(true).text("energy threshold")),
             ui.add(egui::Slider::new(&mut b.camera_threshold, 0.01..=1.0).logarithmic(true).text("camera threshold")),
             ui.add(egui::Slider::new(&mut b.pixel_samples, 1..=4).text("rays per pixel side")),
+            ui.add(egui::Slider::new(&mut b.surface_samples, 1..=8).text("surface points per pixel side")),
         ];
         changed |= sliders.iter().any(released);
     });
