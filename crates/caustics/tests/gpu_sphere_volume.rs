@@ -121,6 +121,16 @@ fn volume_caustic_of_a_glass_ball_matches_the_reference() {
             "sphere volume caustic, {name}: energy GPU {eg:.5} reference {er:.5} ({:+.2} %), HDR-FLIP {flip:.4}",
             (eg / er - 1.0) * 100.0
         );
+        if std::env::var("VOLUME_NOISE").is_ok() {
+            // The reference's own noise: another seed against it.
+            let r2 = reference::render(&sc, &ReferenceSettings { seed: 6, ..rs }).unwrap();
+            let f2 = hdr_flip(&r2.caustic, &r.caustic, Some(&mask)).unwrap().mean;
+            let e2 = energy(&r2.caustic, Some(&mask)) / er;
+            let ms: f64 = g.timings.iter().filter(|(p, _)| p == "sphere_volume").map(|(_, t)| t).sum();
+            eprintln!(
+                "  reference seed 6 vs 5: HDR-FLIP {f2:.4}, energy {e2:.4}; sphere_volume {ms:.1} ms (timestamp)"
+            );
+        }
         if let Ok(dir) = std::env::var("VOLUME_DUMP") {
             use caustics_reference::ImageIo as _;
             let d = Path::new(&dir);

@@ -174,10 +174,8 @@ fn check_scene(scene: &Scene) -> Result<()> {
     // with a medium is rendered here (its light enters the box from the vacuum outside it; the
     // GPU's volume caustics from caustic spheres are compared with it), though the loader
     // refuses it for the GPU's direct light in media.
-    if scene.medium.is_some() {
-        if scene.environment.is_some() {
-            return Err(Error::input(&scene.source, "medium", "a medium cannot be combined with an environment light"));
-        }
+    if scene.medium.is_some() && scene.environment.is_some() {
+        return Err(Error::input(&scene.source, "medium", "a medium cannot be combined with an environment light"));
     }
     Ok(())
 }
