@@ -5,7 +5,10 @@
 //! (`CAUSTIC_MAP=M` in the environment: caustic map size, default 512; `SPLIT_RULES=both`: each
 //! D with the default split rule and the paper's; `TAPS=0,16`: each D with each number of
 //! sub-directions per region, `RenderSettings::env_taps`; `FLUX=1`: where each light's flux went; `DECOMPOSE=1`: also the CPU
-//! reference lit by the D directional lights, against both; `PASS_MS=1`: GPU ms of the passes)
+//! reference lit by the D directional lights, against both; `PASS_MS=1`: GPU ms of the passes;
+//! `SPHERES=1`: the technique `caustic-spheres` instead of basic maps, the caustic objects'
+//! tables (N = 7, s = 16, 64 × 48, `SPHERE_PHOTONS` per direction, default 2^18) read from or
+//! built into `SPHERE_CACHE` (default `.caustics-cache`); `SPHERES=both`: each D with both)
 use caustics_reference::ImageIo as _;
 use caustics_reference::metrics::{energy, hdr_flip};
 
@@ -38,6 +41,41 @@ fn main() {
         cpu.caustic.write(&o.join("cpu_caustic.png"), scene.exposure).unwrap();
     }
     let ctx = caustics::gpu::GpuContext::new(None).unwrap();
+    // Caustic spheres (the paper's method for the D region lights): per caustic object its table.
+    let sphere_modes: Vec<bool> = match std::env::var("SPHERES").as_deref() {
+        Ok("both") => vec![false, true],
+        Ok(_) => vec![true],
+        Err(_) => vec![false],
+    };
+    let tables: Vec<(usize, std::sync::Arc<caustics::caustic_spheres::CausticSpheres>)> =
+        if sphere_modes.contains(&true) {
+            let ss = caustics::caustic_spheres::SphereSettings {
+                photons: std::env::var("SPHERE_PHOTONS").map_or(1 << 18, |v| v.parse().unwrap()),
+                ..Default::default()
+            };
+            let dir = std::path::PathBuf::from(std::env::var("SPHERE_CACHE").unwrap_or(".caustics-cache".into()));
+            let t = std::time::Instant::now();
+            let v: Vec<_> = (0..scene.objects.len())
+                .filter(|&o| scene.objects[o].caustic_caster && scene.material_of(&scene.objects[o]).is_specular())
+                .map(|o| {
+                    let (sp, origin) = caustics_reference::reference::spheres::load_or_precompute(
+                        &scene,
+                        o,
+                        &ss,
+                        caustics::caustic_spheres::cache::Storage::F32,
+                        &dir,
+                        &caustics_reference::reference::Progress::new(),
+                    )
+                    .unwrap();
+                    eprintln!("caustic spheres of object {o}: {origin:?}");
+                    (o, std::sync::Arc::new(sp))
+                })
+                .collect();
+            eprintln!("caustic spheres: {:.1} s", t.elapsed().as_secs_f64());
+            v
+        } else {
+            Vec::new()
+        };
     println!(
         "| D | lights drawn | full HDR-FLIP | full energy GPU/CPU | caustic HDR-FLIP | caustic energy GPU/CPU | frame ms |"
     );
@@ -52,12 +90,17 @@ fn main() {
     for &d in &ds {
         for &r in &rules {
             for &t in &taps {
-                runs.push((d, r, t));
+                for &sph in &sphere_modes {
+                    runs.push((d, r, t, sph));
+                }
             }
         }
     }
-    for &(d, rule, env_taps) in &runs {
+    let mut decomposed = std::collections::HashMap::new();
+    for &(d, rule, env_taps, sph) in &runs {
+        let d_num = d;
         let s = caustics::render::RenderSettings {
+            technique: if sph { caustics::render::Technique::CausticSpheres } else { Default::default() },
             env_split: rule,
             env_taps,
             photons: grid,
@@ -67,6 +110,9 @@ fn main() {
             ..Default::default()
         };
         let mut r = caustics::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s).unwrap();
+        if sph {
+            r.set_caustic_spheres(tables.clone(), caustics::caustic_spheres::Blend::Triangle, false).unwrap();
+        }
         let drawn = r.lights().len();
         let g = r.render_once().unwrap();
         let ff = hdr_flip(&g.image, &cpu.image, None).unwrap().mean;
@@ -74,8 +120,12 @@ fn main() {
         let ef = energy(&g.image, None) / energy(&cpu.image, None);
         let ec = energy(&g.caustic, None) / energy(&cpu.caustic, None);
         let mut d = if rules.len() > 1 { format!("{d} ({rule:?})") } else { d.to_string() };
-        if runs.len() > ds.len() * rules.len() {
+        if taps.len() > 1 {
             d = format!("{d}, K = {env_taps}");
+        }
+        let tag = format!("{}{}", d.replace([' ', ',', '(', ')', '='], ""), if sph { "_spheres" } else { "" });
+        if sph {
+            d = format!("{d}, spheres");
         }
         println!("| {d} | {drawn} | {ff:.3} | {ef:.3} | {fc:.3} | {ec:.3} | {:.0} |", g.frame_wall_ms);
         if std::env::var("PASS_MS").is_ok() {
@@ -96,7 +146,10 @@ fn main() {
                 camera_spp: 1,
                 ..Default::default()
             };
-            let cd = caustics_reference::reference::render(&sd, &rsd).unwrap();
+            // The same D lights for every technique and K: rendered once per (D, rule).
+            let cd = decomposed
+                .entry((d_num, rule as u32))
+                .or_insert_with(|| caustics_reference::reference::render(&sd, &rsd).unwrap());
             let f_dir = hdr_flip(&cd.caustic, &cpu.caustic, None).unwrap().mean;
             let e_dir = energy(&cd.caustic, None) / energy(&cpu.caustic, None);
             let f_gpu = hdr_flip(&g.caustic, &cd.caustic, None).unwrap().mean;
@@ -105,7 +158,7 @@ fn main() {
                 "decompose {d}: CPU(D lights) vs CPU(map): caustic HDR-FLIP {f_dir:.3} energy {e_dir:.3}; GPU vs CPU(D lights): caustic HDR-FLIP {f_gpu:.3} energy {e_gpu:.3}"
             );
             if let Some(o) = &out {
-                cd.caustic.write(&o.join(format!("cpu_lights_d{d}_caustic.exr")), 1.0).unwrap();
+                cd.caustic.write(&o.join(format!("cpu_lights_d{tag}_caustic.exr")), 1.0).unwrap();
             }
         }
         if std::env::var("FLUX").is_ok() {
@@ -136,10 +189,10 @@ fn main() {
             }
         }
         if let Some(o) = &out {
-            g.image.write(&o.join(format!("gpu_d{d}.exr")), 1.0).unwrap();
-            g.caustic.write(&o.join(format!("gpu_d{d}_caustic.exr")), 1.0).unwrap();
-            g.image.write(&o.join(format!("gpu_d{d}.png")), scene.exposure).unwrap();
-            g.caustic.write(&o.join(format!("gpu_d{d}_caustic.png")), scene.exposure).unwrap();
+            g.image.write(&o.join(format!("gpu_d{tag}.exr")), 1.0).unwrap();
+            g.caustic.write(&o.join(format!("gpu_d{tag}_caustic.exr")), 1.0).unwrap();
+            g.image.write(&o.join(format!("gpu_d{tag}.png")), scene.exposure).unwrap();
+            g.caustic.write(&o.join(format!("gpu_d{tag}_caustic.png")), scene.exposure).unwrap();
         }
     }
 }

@@ -1252,7 +1252,11 @@ fn record_medium(
     let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
     let density = density_view(ctx, &dc.geo.density);
     for (li, lf) in lights.iter().enumerate() {
-        let flags = u32::from(li == 0) | (u32::from(scatters) << 1);
+        // A directional light's direct in-scattering is not modelled (the scene format refuses
+        // it with a medium; a scene built in code may have one for the caustic spheres' volume
+        // caustics, `caustic_spheres::gpu::record_volume`): its dispatch only attenuates.
+        let directional = matches!(dc.scene.lights.get(li), Some(crate::scene::Light::Directional { .. }));
+        let flags = u32::from(li == 0) | (u32::from(scatters && !directional) << 1);
         let params = ctx.uniform(
             "medium_params",
             bytemuck::bytes_of(&MediumParams {

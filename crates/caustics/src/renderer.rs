@@ -434,7 +434,12 @@ impl Renderer {
             return Ok(None);
         };
         let objects: Vec<usize> = sp.objects.iter().map(|o| o.0).collect();
-        let mut key: Vec<u32> = vec![env.rotate_y.to_bits(), self.settings.env_lights, self.settings.env_split as u32];
+        let mut key: Vec<u32> = vec![
+            env.rotate_y.to_bits(),
+            self.settings.env_lights,
+            self.settings.env_split as u32,
+            self.settings.env_taps,
+        ];
         for t in &self.transforms {
             key.extend(t.to_cols_array().iter().map(|v| v.to_bits()));
         }
@@ -444,14 +449,34 @@ impl Renderer {
         {
             return Ok(Some(v.clone()));
         }
-        let regions = self.environment_lights();
+        // The drawn (non-black) regions in the order of the light list, each cut into its
+        // sub-regions where it has taps (the order of `spread_lights`' lights): a sub-region
+        // below a floor is hidden even where its region is partly seen.
+        let taps = self.env_taps.as_ref().map(|(_, t)| t.clone()).filter(|_| self.settings.env_taps >= 2);
+        let k = (self.settings.env_taps as usize).min(crate::gpu::types::MAX_ENV_TAPS);
+        let mut parts = Vec::new();
+        for (i, region) in self.env_segments().iter().enumerate() {
+            if region.facing.max_element() <= 0.0 {
+                continue;
+            }
+            match taps.as_ref().and_then(|t| t.get(i)).filter(|t| !t.is_empty()) {
+                Some(_) => parts.extend(environment_lights::subdivide(env, region, k)),
+                None => parts.push(region.clone()),
+            }
+        }
+        let env = env.clone();
         let mut map = std::collections::HashMap::new();
         for &o in &objects {
-            let all = self.region_visibility(o)?;
-            // Only the drawn (non-black) regions, in the order of the light list.
-            let drawn: Vec<f32> =
-                regions.iter().zip(&all).filter(|(l, _)| l.facing.max_element() > 0.0).map(|(_, v)| *v).collect();
-            map.insert(o, drawn);
+            let v = crate::raycast::region_visibility(
+                &self.ctx,
+                &self.base,
+                &self.transforms,
+                &env,
+                &parts,
+                o,
+                env.rotate_y,
+            )?;
+            map.insert(o, v);
         }
         let v = Arc::new(map);
         self.sphere_vis = Some((key, v.clone()));
@@ -719,6 +744,8 @@ impl Renderer {
             ctx.end_scope();
         }
         let mut sphere_stats = None;
+        // The direct sphere records, kept for `sphere_volume` in a scene with a medium.
+        let mut volume_records = Vec::new();
         if spheres_on && let Some(sp) = &self.spheres {
             ctx.begin_scope("spheres", enc);
             let n_own = self.scene.lights.len();
@@ -728,7 +755,20 @@ impl Renderer {
                     _ => 1.0,
                 }
             };
-            let records = sp.records(&scene.lights, &self.transforms, self.sphere_blend, vis);
+            // The environment's regions spread over their sub-directions (`env_taps`).
+            // (`sphere_visibility` has one value per such light.)
+            let sphere_lights = match (&self.scene.environment, &self.env_taps) {
+                (Some(env), Some((_, taps))) if s.env_taps >= 2 => {
+                    let drawn: Vec<bool> = self.env_segments().iter().map(|l| l.facing.max_element() > 0.0).collect();
+                    let rot = environment_lights::rotation(env.rotate_y);
+                    crate::caustic_spheres::gpu::spread_lights(&scene.lights, n_own, taps, &drawn, rot)
+                }
+                _ => scene.lights.clone(),
+            };
+            let records = sp.records(&sphere_lights, &self.transforms, self.sphere_blend, vis);
+            if scene.medium.is_some() {
+                volume_records.clone_from(&records);
+            }
             use crate::caustic_spheres::gpu::{record_compile, record_gather};
             sphere_stats = Some(if sp.compiled {
                 // Section 6: each object's records summed into its compiled table first (the
@@ -753,6 +793,18 @@ impl Renderer {
         ctx.begin_scope("composite", enc);
         let (full, caustic) = crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
         crate::beams::record_gather(&dc, &eye, &beams, &s, (&full, &caustic), enc, &mut timer);
+        if let Some(sp) = self.spheres.as_ref().filter(|_| !volume_records.is_empty()) {
+            let vol = (&sp.table, &volume_records[..]);
+            crate::caustic_spheres::gpu::record_volume(
+                &dc,
+                &eye,
+                vol,
+                s.medium_steps,
+                (&full, &caustic),
+                enc,
+                &mut timer,
+            );
+        }
         let display = crate::passes::record_display(&dc, &full, enc, &mut timer);
         self.outputs = Some((full, caustic, display));
         self.beam_frames = beams;

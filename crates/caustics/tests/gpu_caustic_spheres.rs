@@ -379,3 +379,125 @@ fn compiled_variant_matches_the_direct_one() {
     assert!((compiled.caustic.sum() / direct.caustic.sum() - 1.0).abs() < 0.05);
     assert!(e < 0.1, "relative L1 {e}");
 }
+
+/// The scene of `scene_with` lit by an environment map black but for `bright` texels
+/// (x, y, radiance) of a 64 × 32 map, and the directional light standing for texel `k` of
+/// `bright` (its direction, L·Ω).
+fn env_scene(bright: &[(u32, u32, Vec3)], extra: &str) -> (Scene, Vec<Light>) {
+    let (w, h) = (64u32, 32u32);
+    let mut t = vec![Vec3::ZERO; (w * h) as usize];
+    for &(x, y, v) in bright {
+        t[(y * w + x) as usize] = v;
+    }
+    let env = caustics::scene::Environment::from_texels(w, h, t, 0.0).unwrap();
+    let mut sc = scene_with(&[(Vec3::NEG_Y, [1.0; 3])], extra);
+    sc.lights.clear();
+    sc.environment = Some(Arc::new(env.clone()));
+    let lights = bright
+        .iter()
+        .map(|&(x, y, v)| {
+            let dir = env.direction(glam::Vec2::new((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32));
+            Light::Directional { direction: -dir, irradiance: v * env.texel_solid_angle(y) }
+        })
+        .collect();
+    (sc, lights)
+}
+
+/// The texel of the 64 × 32 map whose direction is nearest `want`.
+fn texel_toward(want: Vec3) -> (u32, u32) {
+    let env = caustics::scene::Environment::from_texels(64, 32, vec![Vec3::ZERO; 64 * 32], 0.0).unwrap();
+    let mut best = (0, 0, -2.0f32);
+    for y in 0..32 {
+        for x in 0..64 {
+            let d = env.direction(glam::Vec2::new((x as f32 + 0.5) / 64.0, (y as f32 + 0.5) / 32.0));
+            if d.dot(want.normalize()) > best.2 {
+                best = (x, y, d.dot(want.normalize()));
+            }
+        }
+    }
+    (best.0, best.1)
+}
+
+fn assert_same_caustic(a: &Image, b: &Image, what: &str) {
+    let sum = |i: &Image| i.pixels.iter().map(|p| Vec3::from_array(*p)).sum::<Vec3>();
+    let (sa, sb) = (sum(a), sum(b));
+    let mut worst = 0.0f32;
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        worst = worst.max((Vec3::from_array(*p) - Vec3::from_array(*q)).abs().max_element());
+    }
+    let peak = b.pixels.iter().map(|p| p[0].max(p[1]).max(p[2])).fold(0.0f32, f32::max);
+    eprintln!("{what}: caustic sums {sa} vs {sb}, worst pixel difference {worst} (peak {peak})");
+    assert!(sb.min_element() > 0.0, "{what}: the directional light casts a caustic");
+    // The region light of a one-texel region is the texel's direction and L·Ω, up to the f32
+    // rounding of its segmentation (facing = L Ω (ω·ĉ)): a few ulps of each record.
+    assert!(((sa / sb) - Vec3::ONE).abs().max_element() < 1e-4, "{what}: {sa} vs {sb}");
+    assert!(worst <= 1e-4 * peak, "{what}: {worst} vs peak {peak}");
+}
+
+/// The environment through caustic spheres (the paper's method for its D region lights): a map
+/// black but for one texel casts, through the spheres, the caustic of the directional light of
+/// that texel's direction and L·Ω through the spheres.
+#[test]
+fn environment_texel_through_spheres_is_its_directional_light() {
+    let Some(ctx) = gpu() else { return };
+    let (x, y) = texel_toward(Vec3::new(0.4, 1.0, 0.25));
+    let (env, lights) = env_scene(&[(x, y, Vec3::new(3000.0, 2000.0, 1000.0))], "");
+    let r = render(&ctx, &env, None);
+    assert_eq!(r.photons_traced, 0, "the region light's caustic comes from the spheres");
+    let mut dir = env.clone();
+    dir.environment = None;
+    dir.lights = lights;
+    let d = render(&ctx, &dir, None);
+    assert_same_caustic(&r.caustic, &d.caustic, "one texel");
+}
+
+/// The region lights' visibility from the object (`Renderer::region_visibility`, the paper's
+/// 32 × 32 render of each region with the occluders black) scales each region's caustic through
+/// the spheres: two bright texels, one straight above the ball behind a diffuse plate (seen
+/// from the ball's centre), one at 45° in the open; the caustic is the open texel's directional
+/// light's alone, the plate in both scenes.
+#[test]
+fn region_visibility_scales_each_regions_caustic_through_spheres() {
+    let Some(ctx) = gpu() else { return };
+    let above = texel_toward(Vec3::Y);
+    let open = texel_toward(Vec3::new(0.5, 0.7, 0.3));
+    // A 0.6 m plate 1.5 m above the ball's centre: it hides the texel above (within 11° of
+    // the zenith) from the centre, not the one at 45°, nor the floor from the centre or camera.
+    let plate = r#", { "type": "rectangle", "center": [0, 2.5, 0], "normal": [0, -1, 0], "size": [0.6, 0.6], "material": "floor" }"#;
+    let bright = [(above.0, above.1, Vec3::splat(2500.0)), (open.0, open.1, Vec3::new(1000.0, 3000.0, 2000.0))];
+    let (env, lights) = env_scene(&bright, plate);
+    let s = RenderSettings {
+        photons: 64,
+        caustic_map_size: 128,
+        shadow_map_size: 256,
+        technique: Technique::CausticSpheres,
+        ..Default::default()
+    };
+    let mut r = Renderer::with_context(ctx.clone(), env.clone(), s).unwrap();
+    r.set_caustic_spheres(vec![(0, table())], Blend::Triangle, false).unwrap();
+    // The two texels are two region lights, one hidden from the ball, one seen.
+    let regions = r.environment_lights();
+    let vis = r.region_visibility(0).unwrap();
+    let seen: Vec<(Vec3, f32)> =
+        regions.iter().zip(&vis).filter(|(l, _)| l.facing.max_element() > 0.0).map(|(l, v)| (l.centre, *v)).collect();
+    assert_eq!(seen.len(), 2, "{seen:?}");
+    for (c, v) in &seen {
+        let want = if c.y > 0.95 { 0.0 } else { 1.0 };
+        assert_eq!(*v, want, "region toward {c}: visibility {v}");
+    }
+    let both = r.render_once().unwrap().caustic;
+    let mut only = env.clone();
+    only.environment = None;
+    only.lights = vec![lights[1].clone()];
+    let d = render(&ctx, &only, None);
+    assert_same_caustic(&both, &d.caustic, "the open texel");
+    // Without the plate both regions are seen: the caustic is both directional lights'.
+    let (free, _) = env_scene(&bright, "");
+    let unoccluded = render(&ctx, &free, None).caustic;
+    let mut two = free.clone();
+    two.environment = None;
+    two.lights = lights;
+    let d2 = render(&ctx, &two, None);
+    assert_same_caustic(&unoccluded, &d2.caustic, "both texels, no plate");
+    assert!(unoccluded.sum() > both.sum() * 1.05, "{} vs {}", unoccluded.sum(), both.sum());
+}

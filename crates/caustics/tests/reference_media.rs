@@ -289,3 +289,34 @@ fn media_are_deterministic_and_an_empty_medium_changes_nothing() {
     assert_eq!(a.caustic_maps, b.caustic_maps);
     assert_ne!(a.image.pixels, plain.image.pixels);
 }
+
+#[test]
+fn directional_light_single_scattering_matches_the_closed_form() {
+    // A directional light straight down (E = 3 W/m²) into a box of fog from the vacuum above
+    // it, a camera inside looking along −z with a 2° field (no surface in view): per pixel
+    // L = σs E/(4π) e^{−σt h} (1 − e^{−σt ℓ})/σt, h = 5 m the light's path down to the ray,
+    // ℓ = 10 m the ray's length in the box. The scene format refuses a directional light with
+    // a medium (for the GPU's direct light); the reference renders it (scene built in code).
+    let mut sc = scene(
+        r#"{ "schema_version": 1, "name": "dir_fog",
+  "camera": { "position": [0, 0, 0], "look_at": [0, 0, -1], "fov_y_deg": 2, "width": 4, "height": 4 },
+  "lights": [ { "type": "point", "position": [0, 0, 0], "intensity": 1 } ],
+  "materials": { "black": { "type": "diffuse", "albedo": 0 } },
+  "objects": [ { "type": "rectangle", "center": [0, 0, 3], "normal": [0, 0, -1], "size": [1, 1], "material": "black" } ],
+  "medium": { "sigma_s": [0.1, 0.05, 0.2], "sigma_a": 0.03, "bounds": { "min": [-5, -5, -10], "max": [5, 5, 1] } } }"#,
+    );
+    sc.lights = vec![caustics::scene::Light::Directional { direction: Vec3::NEG_Y, irradiance: Vec3::splat(3.0) }];
+    let r = reference::render(&sc, &settings(1, 1024, true)).unwrap();
+    let n = (r.image.width * r.image.height) as f64;
+    for c in 0..3 {
+        let ss = [0.1, 0.05, 0.2][c];
+        let st = ss + 0.03;
+        let want = ss * 3.0 / (4.0 * PI) * (-st * 5.0f64).exp() * (1.0 - (-st * 10.0f64).exp()) / st;
+        let got: f64 = r.image.pixels.iter().map(|p| p[c] as f64).sum::<f64>() / n;
+        eprintln!("channel {c}: {got} vs closed form {want}");
+        // 16 384 camera paths; the pixels' rays (within 0.75° of −z) see the light's path
+        // change by ±0.13 m at the far end, which their mean cancels to first order.
+        // Measured: within 0.15 %.
+        assert!((got / want - 1.0).abs() < 0.01, "channel {c}: {got} vs {want}");
+    }
+}

@@ -170,14 +170,12 @@ const CHUNK: u64 = 8192;
 const WAVE: u64 = 64;
 
 fn check_scene(scene: &Scene) -> Result<()> {
-    // The loader refuses these; scenes built in code are checked here.
-    if scene.medium.is_some() {
-        if scene.lights.iter().any(|l| l.position().is_none()) {
-            return Err(Error::input(&scene.source, "medium", "a medium cannot be combined with a directional light"));
-        }
-        if scene.environment.is_some() {
-            return Err(Error::input(&scene.source, "medium", "a medium cannot be combined with an environment light"));
-        }
+    // The loader refuses these; scenes built in code are checked here. A directional light
+    // with a medium is rendered here (its light enters the box from the vacuum outside it; the
+    // GPU's volume caustics from caustic spheres are compared with it), though the loader
+    // refuses it for the GPU's direct light in media.
+    if scene.medium.is_some() && scene.environment.is_some() {
+        return Err(Error::input(&scene.source, "medium", "a medium cannot be combined with an environment light"));
     }
     Ok(())
 }

@@ -323,20 +323,25 @@ impl<'a> Tracer<'a> {
         let mut l = Vec3::ZERO;
         let mut rays = 0;
         for light in &self.scene.lights {
-            let Some(pos) = light.position() else { continue }; // no directional light in media
-            let to = pos - x;
-            let d2 = to.length_squared();
-            let dist = d2.sqrt();
-            if dist <= 0.0 {
-                continue;
-            }
-            let dir = to / dist;
-            let incident = light.intensity_toward(-dir) / d2;
+            let (dir, dist, incident) = match light {
+                Light::Spot { position, .. } | Light::Point { position, .. } => {
+                    let to = *position - x;
+                    let d2 = to.length_squared();
+                    let dist = d2.sqrt();
+                    if dist <= 0.0 {
+                        continue;
+                    }
+                    let dir = to / dist;
+                    (dir, dist, light.intensity_toward(-dir) / d2)
+                }
+                // From outside the box (vacuum there): the medium attenuates the part inside.
+                Light::Directional { direction, irradiance } => (-*direction, f32::INFINITY, *irradiance),
+            };
             if incident.max_element() <= 0.0 {
                 continue;
             }
             rays += 1;
-            if self.accel.occluded(x, dir, dist * (1.0 - 1e-5)) {
+            if self.accel.occluded(x, dir, if dist.is_finite() { dist * (1.0 - 1e-5) } else { dist }) {
                 continue;
             }
             l += incident * m.transmittance(x, dir, dist, rng) * m.phase(wi, dir);

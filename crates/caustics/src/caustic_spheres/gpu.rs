@@ -146,6 +146,40 @@ impl GpuSpheres {
     }
 }
 
+/// The directional lights whose caustics the spheres draw, spread over the environment
+/// regions' sub-directions (`crate::env_taps`): `lights` is the frame's light list (the scene's
+/// `own` lights, then one per non-black region), `taps` the sub-directions of every region
+/// (map frame, black regions included, in the order of the segmentation), `rotation` the
+/// environment's. A region with taps becomes one directional light per sub-direction k, from
+/// its direction with the region light's irradiance times its weight (the sub-region's total
+/// `Σ L Ω`: what a ball intercepts of it, whatever the spread); a region without taps stays one
+/// light. The renderer's visibility of the environment (`Renderer::sphere_visibility`) has
+/// one value per light returned, each sub-region's own. The records are cheap where the basic technique's taps are lookups
+/// of one turned map: a sub-direction is three more table lookups per pixel, exact for any
+/// caster (the table has every direction), not only for casters symmetric about their centre.
+pub fn spread_lights(
+    lights: &[Light],
+    own: usize,
+    taps: &[crate::env_taps::RegionTaps],
+    drawn: &[bool],
+    rotation: glam::Mat3,
+) -> Vec<Light> {
+    let mut out: Vec<Light> = lights[..own.min(lights.len())].to_vec();
+    let regions = taps.iter().zip(drawn).filter(|(_, d)| **d).map(|(t, _)| t);
+    for (light, t) in lights.iter().skip(own).zip(regions) {
+        match light {
+            Light::Directional { irradiance, .. } if !t.is_empty() => {
+                for (dir, w) in t {
+                    let direction = -(rotation * *dir).normalize();
+                    out.push(Light::Directional { direction, irradiance: *irradiance * *w });
+                }
+            }
+            _ => out.push(light.clone()),
+        }
+    }
+    out
+}
+
 impl GpuSpheres {
     /// Vec4s of one object's compiled table (three per cell).
     fn compiled_len(sp: &CausticSpheres) -> u32 {
@@ -296,6 +330,75 @@ pub(crate) fn record_gather(
     cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     drop(cp);
     counters
+}
+
+/// Records `sphere_volume` (volumetric caustics from the spheres, `shaders/sphere_volume.wgsl`)
+/// for a scene with a homogeneous medium: the single scattering of the caustic light of
+/// `records` (the direct records, one per light, object and blended direction: the compiled
+/// table's summed vectors lose the fluence where light crosses from several sides) along each
+/// pixel's camera ray, added into the composited images `images` (full, caustic-only) after
+/// `medium_scatter` attenuated them. Nothing without a medium, with a density grid (not
+/// modelled) or without records.
+pub(crate) fn record_volume(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    (table, records): (&wgpu::Buffer, &[SphereRecord]),
+    steps: u32,
+    images: (&wgpu::Buffer, &wgpu::Buffer),
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    use crate::gpu::types::SphereVolumeParams;
+    let Some(m) = &dc.scene.medium else { return };
+    if m.density.is_some() || records.is_empty() || m.sigma_s.max_element() <= 0.0 {
+        return;
+    }
+    let ctx = dc.ctx;
+    let cam = &dc.scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let g = match m.phase {
+        crate::scene::Phase::Isotropic => 0.0,
+        crate::scene::Phase::HenyeyGreenstein { g } => g,
+    };
+    let pl = ctx.compute_pipeline("sphere_volume");
+    let params = ctx.uniform(
+        "sphere_volume_params",
+        bytemuck::bytes_of(&SphereVolumeParams {
+            clip_to_world: eye.cam_clip.inverse().to_cols_array_2d(),
+            camera: cam.position.extend(1.0).to_array(),
+            lo: m.bounds_min.extend(0.0).to_array(),
+            hi: m.bounds_max.extend(0.0).to_array(),
+            sigma_s: m.sigma_s.extend(g).to_array(),
+            sigma_t: (m.sigma_s + m.sigma_a).extend(0.0).to_array(),
+            width: w,
+            height: h,
+            steps: steps.max(1),
+            records: records.len() as u32,
+        }),
+    );
+    let rb = ctx.buffer_init("sphere_volume_records", bytemuck::cast_slice(records), wgpu::BufferUsages::STORAGE);
+    let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
+    let bg = crate::gpu::bind(
+        ctx,
+        &pl,
+        "sphere_volume",
+        &[
+            params.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&rv),
+            wgpu::BindingResource::TextureView(&sv),
+            rb.as_entire_binding(),
+            table.as_entire_binding(),
+            images.0.as_entire_binding(),
+            images.1.as_entire_binding(),
+        ],
+    );
+    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("sphere_volume"),
+        timestamp_writes: timer.compute("sphere_volume"),
+    });
+    cp.set_pipeline(&pl);
+    cp.set_bind_group(0, &bg, &[]);
+    cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
 }
 
 impl SphereRecord {

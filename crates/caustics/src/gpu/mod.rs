@@ -21,6 +21,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("shade_receivers", include_str!("../../shaders/shade_receivers.wgsl")),
     ("sphere_gather", include_str!("../../shaders/sphere_gather.wgsl")),
     ("sphere_compile", include_str!("../../shaders/sphere_compile.wgsl")),
+    ("sphere_volume", include_str!("../../shaders/sphere_volume.wgsl")),
     ("composite", include_str!("../../shaders/composite.wgsl")),
     ("medium_scatter", include_str!("../../shaders/medium_scatter.wgsl")),
     ("coverage_mip", include_str!("../../shaders/coverage_mip.wgsl")),

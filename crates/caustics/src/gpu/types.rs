@@ -139,6 +139,26 @@ pub struct SphereGatherParams {
     pub camera: [f32; 4],
 }
 
+/// `sphere_volume` (shaders/sphere_volume.wgsl): volumetric caustics from the spheres.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct SphereVolumeParams {
+    pub clip_to_world: [[f32; 4]; 4],
+    pub camera: [f32; 4],
+    /// The medium's box.
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+    /// rgb = σs (1/m), w = Henyey–Greenstein g (0: isotropic).
+    pub sigma_s: [f32; 4],
+    /// rgb = σt (1/m).
+    pub sigma_t: [f32; 4],
+    pub width: u32,
+    pub height: u32,
+    /// Midpoint-rule steps along the camera ray.
+    pub steps: u32,
+    pub records: u32,
+}
+
 /// `sphere_compile` (shaders/sphere_compile.wgsl): one caustic object's dispatch.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
@@ -531,6 +551,7 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("SphereGatherParams", "SphereGatherParams", std::mem::size_of::<SphereGatherParams>()),
     ("SphereRecord", "SphereRecord", std::mem::size_of::<SphereRecord>()),
     ("SphereCompileParams", "SphereCompileParams", std::mem::size_of::<SphereCompileParams>()),
+    ("SphereVolumeParams", "SphereVolumeParams", std::mem::size_of::<SphereVolumeParams>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
     ("MediumParams", "MediumParams", std::mem::size_of::<MediumParams>()),
     ("BeamParams", "BeamParams", std::mem::size_of::<BeamParams>()),
