@@ -330,6 +330,11 @@ pub struct RenderSettings {
     pub env_taps: u32,
     /// Volume caustics by adaptive beam tracing in scenes with a medium (`crate::beams`).
     pub beams: BeamSettings,
+    /// `shade_receivers` skips the caustic lookups where the light's caustic map is zero and
+    /// the shadow lookups where its shadow map is all in front or all behind, as per-tile
+    /// summaries made with the light's maps say (`caustic_mask`, `shadow_tiles`). The image is
+    /// the same bit for bit; off only to check that (tests) or to time the difference.
+    pub shading_tiles: bool,
 }
 
 /// Volume caustics by adaptive beam tracing (Liktor & Dachsbacher 2011; `crate::beams`,
@@ -477,6 +482,7 @@ impl Default for RenderSettings {
             env_split: Default::default(),
             env_taps: DEFAULT_ENV_TAPS,
             beams: BeamSettings::default(),
+            shading_tiles: true,
         }
     }
 }

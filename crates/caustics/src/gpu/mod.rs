@@ -19,6 +19,8 @@ pub const STAGES: &[(&str, &str)] = &[
     ("caustic_resolve", include_str!("../../shaders/caustic_resolve.wgsl")),
     ("temporal_filter", include_str!("../../shaders/temporal_filter.wgsl")),
     ("shade_receivers", include_str!("../../shaders/shade_receivers.wgsl")),
+    ("caustic_mask", include_str!("../../shaders/caustic_mask.wgsl")),
+    ("shadow_tiles", include_str!("../../shaders/shadow_tiles.wgsl")),
     ("sphere_gather", include_str!("../../shaders/sphere_gather.wgsl")),
     ("sphere_compile", include_str!("../../shaders/sphere_compile.wgsl")),
     ("composite", include_str!("../../shaders/composite.wgsl")),
@@ -535,9 +537,11 @@ impl GpuContext {
         )
     }
 
-    /// A uniform buffer with `contents`.
+    /// A parameter buffer with `contents`, bound as a uniform or as a read-only storage
+    /// buffer. The compute stages read their parameters from storage (`shaders/shared/common.wgsl`
+    /// says why); the raster, beam and caustic-sphere stages as uniforms.
     pub fn uniform(&self, label: &str, contents: &[u8]) -> wgpu::Buffer {
-        self.buffer_init(label, contents, wgpu::BufferUsages::UNIFORM)
+        self.buffer_init(label, contents, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE)
     }
 
     /// A texture (one mip level, one sample).
