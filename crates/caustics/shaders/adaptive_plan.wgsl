@@ -7,7 +7,7 @@
 #import hierarchy
 #import coverage
 
-@group(0) @binding(0) var<storage, read> lp: LevelParams;
+@group(0) @binding(0) var<uniform> lp: LevelParams;
 @group(0) @binding(1) var<storage, read> cover: array<u32>;
 @group(0) @binding(2) var<storage, read_write> plan: array<u32>;
 @group(0) @binding(3) var<storage, read_write> ctrl: array<atomic<u32>>;

@@ -36,8 +36,8 @@
 #import raytrace
 #import trace
 
-@group(0) @binding(0) var<storage, read> light: LightGpu;
-@group(0) @binding(1) var<storage, read> lp: LevelParams;
+@group(0) @binding(0) var<uniform> light: LightGpu;
+@group(0) @binding(1) var<uniform> lp: LevelParams;
 @group(0) @binding(2) var front_pos: texture_2d_array<f32>;
 @group(0) @binding(3) var front_nrm: texture_2d_array<f32>;
 @group(0) @binding(4) var back_pos: texture_2d_array<f32>;

@@ -9,7 +9,7 @@
 
 #import hierarchy
 
-@group(0) @binding(0) var<storage, read> lp: LevelParams;
+@group(0) @binding(0) var<uniform> lp: LevelParams;
 @group(0) @binding(1) var<storage, read_write> ctrl: array<atomic<u32>>;
 @group(0) @binding(2) var<storage, read_write> args: array<u32>;
 

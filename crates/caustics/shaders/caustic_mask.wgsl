@@ -14,7 +14,7 @@ struct MaskParams {
     _pad: u32,
 }
 
-@group(0) @binding(0) var<storage, read> mp: MaskParams;
+@group(0) @binding(0) var<uniform> mp: MaskParams;
 @group(0) @binding(1) var<storage, read> irradiance: array<vec4f>;
 @group(0) @binding(2) var<storage, read_write> mask: array<u32>;
 

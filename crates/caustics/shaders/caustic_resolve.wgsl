@@ -9,8 +9,8 @@ struct ResolveParams {
     _pad2: u32,
 }
 
-@group(0) @binding(0) var<storage, read> light: LightGpu;
-@group(0) @binding(1) var<storage, read> rp: ResolveParams;
+@group(0) @binding(0) var<uniform> light: LightGpu;
+@group(0) @binding(1) var<uniform> rp: ResolveParams;
 @group(0) @binding(2) var<storage, read> accum: array<u32>;
 @group(0) @binding(3) var recv_pos: texture_2d_array<f32>;
 @group(0) @binding(4) var recv_nrm: texture_2d_array<f32>;

@@ -37,8 +37,8 @@ struct TriParams {
     _pad: u32,
 }
 
-@group(0) @binding(0) var<storage, read> light: LightGpu;
-@group(0) @binding(1) var<storage, read> tp: TriParams;
+@group(0) @binding(0) var<uniform> light: LightGpu;
+@group(0) @binding(1) var<uniform> tp: TriParams;
 @group(0) @binding(2) var<storage, read> photons: array<Photon>;
 @group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
 

@@ -27,7 +27,7 @@ struct CompositeParams {
     _pad: u32,
 }
 
-@group(0) @binding(0) var<storage, read> cp: CompositeParams;
+@group(0) @binding(0) var<uniform> cp: CompositeParams;
 @group(0) @binding(1) var recv_pos: texture_2d<f32>;
 @group(0) @binding(2) var recv_nrm: texture_2d<f32>;
 @group(0) @binding(3) var spec_pos: texture_2d<f32>;

@@ -14,7 +14,7 @@ struct CoverParams {
     _pad1: u32,
 }
 
-@group(0) @binding(0) var<storage, read> cp: CoverParams;
+@group(0) @binding(0) var<uniform> cp: CoverParams;
 @group(0) @binding(1) var front_pos: texture_2d_array<f32>;
 @group(0) @binding(2) var<storage, read> tile: array<Photon>;
 @group(0) @binding(3) var<storage, read_write> cover: array<u32>;

@@ -10,7 +10,7 @@ struct DisplayParams {
     _pad: u32,
 }
 
-@group(0) @binding(0) var<storage, read> dp: DisplayParams;
+@group(0) @binding(0) var<uniform> dp: DisplayParams;
 @group(0) @binding(1) var<storage, read> radiance: array<vec4f>;
 @group(0) @binding(2) var display: texture_storage_2d<rgba8unorm, write>;
 

@@ -17,14 +17,14 @@
 #import hierarchy
 #import coverage
 
-@group(0) @binding(0) var<storage, read> lp: LevelParams;
+@group(0) @binding(0) var<uniform> lp: LevelParams;
 @group(0) @binding(1) var<storage, read> cover: array<u32>;
 @group(0) @binding(2) var<storage, read_write> cells: array<u32>;
 @group(0) @binding(3) var<storage, read> tile: array<Photon>;
 @group(0) @binding(4) var<storage, read_write> photons: array<Photon>;
 @group(0) @binding(5) var<storage, read_write> ctrl: array<atomic<u32>>;
 @group(0) @binding(6) var<storage, read_write> corners: array<vec4f>;
-@group(0) @binding(7) var<storage, read> light: LightGpu;
+@group(0) @binding(7) var<uniform> light: LightGpu;
 
 // The photon at (x, y) of the tile, or an invalid one outside it.
 fn at(x: i32, y: i32) -> Photon {

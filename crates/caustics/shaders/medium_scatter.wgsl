@@ -39,8 +39,8 @@ struct MediumParams {
     _pad0: u32,
 }
 
-@group(0) @binding(0) var<storage, read> light: LightGpu;
-@group(0) @binding(1) var<storage, read> mp: MediumParams;
+@group(0) @binding(0) var<uniform> light: LightGpu;
+@group(0) @binding(1) var<uniform> mp: MediumParams;
 @group(0) @binding(2) var recv_pos: texture_2d<f32>;
 @group(0) @binding(3) var spec_pos: texture_2d<f32>;
 @group(0) @binding(4) var shadow_map: texture_depth_2d_array;

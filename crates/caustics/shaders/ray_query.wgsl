@@ -33,7 +33,7 @@ struct QueryParams {
 @group(0) @binding(3) var<storage, read> bvh_instances: array<BvhInstance>;
 @group(0) @binding(4) var<storage, read> rays: array<RayQuery>;
 @group(0) @binding(5) var<storage, read_write> results: array<RayResult>;
-@group(0) @binding(6) var<storage, read> qp: QueryParams;
+@group(0) @binding(6) var<uniform> qp: QueryParams;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3u) {

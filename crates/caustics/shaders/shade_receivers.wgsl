@@ -34,8 +34,8 @@ struct ShadeParams {
     medium_grid: vec4u,
 }
 
-@group(0) @binding(0) var<storage, read> light: LightGpu;
-@group(0) @binding(1) var<storage, read> sp: ShadeParams;
+@group(0) @binding(0) var<uniform> light: LightGpu;
+@group(0) @binding(1) var<uniform> sp: ShadeParams;
 @group(0) @binding(2) var eye_pos: texture_2d<f32>;
 @group(0) @binding(3) var eye_nrm: texture_2d<f32>;
 @group(0) @binding(4) var shadow_map: texture_depth_2d_array;
@@ -46,7 +46,7 @@ struct ShadeParams {
 @group(0) @binding(9) var<storage, read_write> radiance: array<vec4f>;
 @group(0) @binding(10) var<storage, read_write> caustic: array<vec4f>;
 @group(0) @binding(11) var density: texture_3d<f32>;
-@group(0) @binding(12) var<storage, read> taps: EnvTaps;
+@group(0) @binding(12) var<uniform> taps: EnvTaps;
 @group(0) @binding(13) var<storage, read> caustic_mask: array<u32>;
 @group(0) @binding(14) var<storage, read> shadow_tiles: array<vec2f>;
 

@@ -14,7 +14,7 @@ struct TileParams {
     _pad: u32,
 }
 
-@group(0) @binding(0) var<storage, read> tp: TileParams;
+@group(0) @binding(0) var<uniform> tp: TileParams;
 @group(0) @binding(1) var shadow_map: texture_depth_2d_array;
 @group(0) @binding(2) var<storage, read_write> tiles: array<vec2f>;
 

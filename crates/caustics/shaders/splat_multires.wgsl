@@ -9,7 +9,7 @@
 
 #import splat
 
-@group(0) @binding(0) var<storage, read> light: LightGpu;
+@group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<storage, read> sp: SplatParams;
 @group(0) @binding(2) var<storage, read> photons: array<Photon>;
 @group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;

@@ -14,8 +14,8 @@ struct BlendParams {
     _pad1: u32,
 }
 
-@group(0) @binding(0) var<storage, read> light: LightGpu;
-@group(0) @binding(1) var<storage, read> bp: BlendParams;
+@group(0) @binding(0) var<uniform> light: LightGpu;
+@group(0) @binding(1) var<uniform> bp: BlendParams;
 @group(0) @binding(2) var<storage, read_write> accum: array<u32>;
 @group(0) @binding(3) var<storage, read> flux0: array<u32>;
 @group(0) @binding(4) var<storage, read> flux1: array<u32>;

@@ -31,7 +31,7 @@ struct TemporalParams {
     _pad: u32,
 }
 
-@group(0) @binding(0) var<storage, read> tp: TemporalParams;
+@group(0) @binding(0) var<uniform> tp: TemporalParams;
 @group(0) @binding(1) var<storage, read> current: array<vec4f>;
 @group(0) @binding(2) var<storage, read> previous: array<vec4f>;
 @group(0) @binding(3) var<storage, read_write> history: array<vec4f>;

@@ -1,13 +1,6 @@
 // Shared WGSL: structs the host writes (mirrored in src/gpu/types.rs, checked by a test),
 // optics (Fresnel, refraction), light-space projection and fixed-point helpers.
 // Prepended to every stage by src/gpu/shaders.rs.
-//
-// Compute stages read their parameter records (`ctx.uniform` buffers) as `var<storage, read>`,
-// not `var<uniform>`: lavapipe (Mesa's software Vulkan) inlines the values of uniforms that
-// decide branches or loops into the shader and compiles it again with LLVM whenever a dispatch
-// binds new values, so a camera-only frame recompiled `composite` and `shade_receivers` (seconds
-// each); storage buffers are never inlined. The raster stages keep a uniform (their view matrix
-// decides no branch), as do the beam and caustic-sphere stages (not converted yet).
 
 // One face of a light view (see src/lightspace.rs).
 struct Face {
@@ -108,10 +101,10 @@ const SHAPE_MESH: u32 = 0u;
 const SHAPE_SPHERE: u32 = 1u;
 const SHAPE_CYLINDER: u32 = 2u;
 const SHAPE_RECTANGLE: u32 = 3u;
-// LightGpu.info.y: the light's kind.
 // Side of the tiles (texels) of `caustic_mask` and `shadow_tiles`, read by `shade_receivers`.
 const SHADE_TILE: u32 = 8u;
 
+// LightGpu.info.y: the light's kind.
 const LIGHT_SPOT: u32 = 0u;
 const LIGHT_POINT: u32 = 1u;
 const LIGHT_DIRECTIONAL: u32 = 2u;

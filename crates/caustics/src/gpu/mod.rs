@@ -537,11 +537,9 @@ impl GpuContext {
         )
     }
 
-    /// A parameter buffer with `contents`, bound as a uniform or as a read-only storage
-    /// buffer. The compute stages read their parameters from storage (`shaders/shared/common.wgsl`
-    /// says why); the raster, beam and caustic-sphere stages as uniforms.
+    /// A uniform buffer with `contents`.
     pub fn uniform(&self, label: &str, contents: &[u8]) -> wgpu::Buffer {
-        self.buffer_init(label, contents, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE)
+        self.buffer_init(label, contents, wgpu::BufferUsages::UNIFORM)
     }
 
     /// A texture (one mip level, one sample).
