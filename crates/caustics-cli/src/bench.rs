@@ -555,10 +555,28 @@ struct FrameSample {
     frame_ms: f64,
     /// Host clock: submission to completion (the work encode() left in the caller's encoder).
     submit_ms: f64,
+    /// CPU time of the whole process (every thread: on lavapipe the "GPU" too) from encode() to
+    /// completion, NaN where the system does not say (`process_cpu_ns`).
+    cpu_ms: f64,
     timings: Vec<(String, f64)>,
     created: u64,
     photons_traced: u64,
     lights_redone: usize,
+}
+
+/// CPU time the process's threads have run so far (Linux: the first field of each
+/// `/proc/self/task/*/schedstat`, nanoseconds). On a software device (lavapipe) the "GPU" is the
+/// process's own threads, so a frame's CPU time measures its work on a loaded machine better than
+/// its wall time, which also counts the time other processes held the cores.
+fn process_cpu_ns() -> Option<u64> {
+    let mut total = 0u64;
+    for t in std::fs::read_dir("/proc/self/task").ok()? {
+        let path = t.ok()?.path().join("schedstat");
+        // A thread that ended since the listing has no file any more: skip it.
+        let Ok(text) = std::fs::read_to_string(path) else { continue };
+        total += text.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(total)
 }
 
 fn percentile(v: &[f64], p: f64) -> f64 {
@@ -574,6 +592,7 @@ fn percentile(v: &[f64], p: f64) -> f64 {
 fn frame(r: &mut caustics::renderer::Renderer) -> Result<FrameSample> {
     use caustics::renderer::FrameRequest;
     let before = r.created().total();
+    let c0 = process_cpu_ns();
     let t0 = std::time::Instant::now();
     let mut enc = r.context().device.create_command_encoder(&Default::default());
     r.encode(&mut enc, FrameRequest { stats: true })?;
@@ -584,10 +603,15 @@ fn frame(r: &mut caustics::renderer::Renderer) -> Result<FrameSample> {
         .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
         .map_err(|e| anyhow::anyhow!("waiting for the frame: {e}"))?;
     let t2 = std::time::Instant::now();
+    let cpu_ms = match (c0, process_cpu_ns()) {
+        (Some(a), Some(b)) => b.saturating_sub(a) as f64 * 1e-6,
+        _ => f64::NAN,
+    };
     let stats = r.wait_stats()?.unwrap_or_default();
     Ok(FrameSample {
         frame_ms: (t2 - t0).as_secs_f64() * 1e3,
         submit_ms: (t2 - t1).as_secs_f64() * 1e3,
+        cpu_ms,
         timings: stats.timings,
         created: r.created().total() - before,
         photons_traced: stats.technique.photons_traced,
@@ -706,10 +730,11 @@ pub fn frame_loop(a: &BenchArgs) -> Result<()> {
                 let ms = p.frame_ms();
                 bar.suspend(|| {
                     println!(
-                        "{t} {n}^2 {name:<7} first {:>9.1} ms, then median {:>9.1} ms, p95 {:>9.1} ms ({} frames)",
+                        "{t} {n}^2 {name:<7} first {:>9.1} ms, then median {:>9.1} ms, p95 {:>9.1} ms, CPU median {:>9.1} ms ({} frames)",
                         p.first.frame_ms,
                         percentile(&ms, 0.5),
                         percentile(&ms, 0.95),
+                        percentile(&p.rest.iter().map(|f| f.cpu_ms).collect::<Vec<_>>(), 0.5),
                         ms.len()
                     )
                 });
@@ -748,29 +773,31 @@ fn frame_markdown(scene: &str, adapter: &str, a: &BenchArgs, runs: &[(Technique,
     );
     let _ = writeln!(
         s,
-        "Frame ms: host clock from `encode()` to the GPU's completion of the submitted encoder (median and p95 of the frames after the first); submit ms: submission to completion alone. Created: GPU objects the renderer created per frame after the first (`Renderer::created`). Photons traced and lights redone: median per frame.\n"
+        "Frame ms: host clock from `encode()` to the GPU's completion of the submitted encoder (median and p95 of the frames after the first); submit ms: submission to completion alone; CPU ms: the CPU time of all the process's threads over the same span (median; on a software device such as lavapipe this is the frame's work, less sensitive to load than the host clock). Created: GPU objects the renderer created per frame after the first (`Renderer::created`). Photons traced and lights redone: median per frame.\n"
     );
     let _ = writeln!(
         s,
-        "| technique | photon grid | phase | first frame ms | frame ms median | frame ms p95 | submit ms median | GPU ms median (sum of passes) | created per frame (median / max) | photons traced | lights redone |"
+        "| technique | photon grid | phase | first frame ms | frame ms median | frame ms p95 | submit ms median | CPU ms median | GPU ms median (sum of passes) | created per frame (median / max) | photons traced | lights redone |"
     );
-    let _ = writeln!(s, "| --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: |");
+    let _ = writeln!(s, "| --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: |");
     for (t, n, phases) in runs {
         for p in phases {
             let ms = p.frame_ms();
             let sub: Vec<f64> = p.rest.iter().map(|f| f.submit_ms).collect();
+            let cpu: Vec<f64> = p.rest.iter().map(|f| f.cpu_ms).collect();
             let gpu: Vec<f64> = p.rest.iter().map(|f| f.timings.iter().map(|(_, ms)| ms).sum()).collect();
             let created: Vec<f64> = p.rest.iter().map(|f| f.created as f64).collect();
             let traced: Vec<f64> = p.rest.iter().map(|f| f.photons_traced as f64).collect();
             let redone: Vec<f64> = p.rest.iter().map(|f| f.lights_redone as f64).collect();
             let _ = writeln!(
                 s,
-                "| {t} | {n}² | {} | {} | {} | {} | {} | {} | {} / {} | {} | {} |",
+                "| {t} | {n}² | {} | {} | {} | {} | {} | {} | {} | {} / {} | {} | {} |",
                 p.name,
                 fmt_ms(p.first.frame_ms),
                 fmt_ms(percentile(&ms, 0.5)),
                 fmt_ms(percentile(&ms, 0.95)),
                 fmt_ms(percentile(&sub, 0.5)),
+                fmt_ms(percentile(&cpu, 0.5)),
                 fmt_ms(percentile(&gpu, 0.5)),
                 fmt_ms(percentile(&created, 0.5)).trim_end_matches(".0"),
                 created.iter().copied().fold(0.0, f64::max),
@@ -808,6 +835,7 @@ fn frame_json(scene: &str, adapter: &str, a: &BenchArgs, runs: &[(Technique, u32
         json!({
             "frame_ms": f.frame_ms,
             "submit_ms": f.submit_ms,
+            "cpu_ms": if f.cpu_ms.is_finite() { json!(f.cpu_ms) } else { Value::Null },
             "gpu_ms": f.timings.iter().map(|(_, ms)| ms).sum::<f64>(),
             "created": f.created,
             "photons_traced": f.photons_traced,
@@ -840,6 +868,7 @@ fn frame_json(scene: &str, adapter: &str, a: &BenchArgs, runs: &[(Technique, u32
                             "frame_ms_median": percentile(&ms, 0.5),
                             "frame_ms_p95": percentile(&ms, 0.95),
                             "submit_ms_median": percentile(&p.rest.iter().map(|f| f.submit_ms).collect::<Vec<_>>(), 0.5),
+                            "cpu_ms_median": percentile(&p.rest.iter().map(|f| f.cpu_ms).collect::<Vec<_>>(), 0.5),
                             "pass_ms_median": pass_ms,
                             "created_per_frame": created,
                             "frames_after_first": p.rest.iter().map(sample).collect::<Vec<_>>(),

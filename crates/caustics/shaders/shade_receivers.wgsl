@@ -10,6 +10,12 @@
 // one. Run once per light; adds into `radiance` (full) and `caustic` (caustic light only).
 // An environment region's light spreads its caustic over the region's sub-directions
 // (`taps`, src/env_taps.rs); every other light has no taps.
+// Tiles (`sp.tiles`, RenderSettings::shading_tiles): per tile of SHADE_TILE^2 texels, whether the
+// caustic map has light there (`caustic_mask`) and the shadow map's depth range (`shadow_tiles`),
+// made once with the light's maps: a caustic lookup whose texels are all zero returns 0 without
+// reading them, and a PCF whose texels all pass or all fail returns 1 or 0 without sampling.
+// Where they skip, the result is what the full lookup gives (0 exactly; a PCF of nine
+// comparisons that all pass is 9/9 = 1), so the image is the same.
 
 #import medium
 
@@ -17,7 +23,8 @@ struct ShadeParams {
     width: u32,
     height: u32,
     shadow_size: u32,
-    _pad: u32,
+    // 1: skip work by the light's tiles (caustic_mask, shadow_tiles); 0: always do it.
+    tiles: u32,
     camera: vec4f,
     // The medium's box (w = 1 if the scene has a medium, else 0) and sigma_t (1/m).
     medium_lo: vec4f,
@@ -40,6 +47,8 @@ struct ShadeParams {
 @group(0) @binding(10) var<storage, read_write> caustic: array<vec4f>;
 @group(0) @binding(11) var density: texture_3d<f32>;
 @group(0) @binding(12) var<uniform> taps: EnvTaps;
+@group(0) @binding(13) var<storage, read> caustic_mask: array<u32>;
+@group(0) @binding(14) var<storage, read> shadow_tiles: array<vec2f>;
 
 // An environment region's sub-directions (src/env_taps.rs): rows of R_k^T (R_k turns the
 // light's direction to sub-direction k) and the sub-region's weight (rgb). Array size =
@@ -75,6 +84,15 @@ fn shadow(p: vec3f, n: vec3f) -> f32 {
     let po = p + n * (1.5 * texel) + l.xyz * (1.0 * texel);
     let q = project_face(light.faces[f], po, s);
     if (q.w < 0.5) { return 1.0; }
+    if (sp.tiles != 0u) {
+        // Every texel the 3x3 PCF reads lies within two texels of floor(q.xy), in the widened
+        // tile of shadow_tiles. project_face keeps q.z in [0, 1].
+        let n_t = (sp.shadow_size + SHADE_TILE - 1u) / SHADE_TILE;
+        let c = min(vec2u(q.xy), vec2u(sp.shadow_size - 1u)) / SHADE_TILE;
+        let r = shadow_tiles[(f * n_t + c.y) * n_t + c.x];
+        if (q.z <= r.x) { return 1.0; }
+        if (q.z > r.y) { return 0.0; }
+    }
     var vis = 0.0;
     for (var y = -1; y <= 1; y++) {
         for (var x = -1; x <= 1; x++) {
@@ -94,6 +112,13 @@ fn caustic_at(p: vec3f) -> vec3f {
     let texel = sqrt(texel_area(light.faces[f], p, l.xyz, f32(m)));
     let g = q.xy - 0.5;
     let base = vec2i(floor(g));
+    if (sp.tiles != 0u) {
+        // The lookup reads texels base and base + 1 (base >= -1), all in the tile of
+        // max(base, 0) widened by a texel: none lit there, the result is 0.
+        let n_t = (m + SHADE_TILE - 1u) / SHADE_TILE;
+        let c = vec2u(max(base, vec2i(0))) / SHADE_TILE;
+        if (caustic_mask[(f * n_t + c.y) * n_t + c.x] == 0u) { return vec3f(0.0); }
+    }
     let fr = g - floor(g);
     var acc = vec3f(0.0);
     var wsum = 0.0;

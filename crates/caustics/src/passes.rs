@@ -9,7 +9,8 @@
 //!    second caster layer `light_caster_front2`, `light_caster_back2` (`raster_peel`: per texel
 //!    the nearest caster of another object behind the first); then `coverage_mip` and the
 //!    technique's photon stage ([`crate::techniques`]), `caustic_resolve` (flux per texel to
-//!    irradiance) and the temporal filter;
+//!    irradiance), the temporal filter, and the shading tiles (`caustic_mask`, `shadow_tiles`:
+//!    per-tile summaries of the caustic and shadow maps that `shade_receivers` skips work by);
 //! 3. `shade_receivers` per light ([`record_shade`]), then `composite` (image-space refraction
 //!    and reflection), in scenes with a medium `medium_scatter` per light (attenuation and
 //!    single scattering along the camera rays), and `display` ([`record_composite`]).
@@ -908,6 +909,10 @@ pub(crate) struct LightFrame {
     pub stats: wgpu::Buffer,
     /// The irradiance as an M × M × faces Rgba32Float texture (the renderer's output).
     pub irradiance_tex: wgpu::Texture,
+    /// Per tile of the caustic map, whether it holds light (`caustic_mask`), and per tile of
+    /// the shadow map its depth range (`shadow_tiles`), for `shade_receivers`.
+    pub caustic_mask: wgpu::Buffer,
+    pub shadow_tiles: wgpu::Buffer,
 }
 
 /// Everything one light does in a frame: the light-space buffers of every face, the technique's
@@ -1032,6 +1037,7 @@ pub(crate) fn record_light(
     if let Some(t) = temporal {
         t.record(ctx, enc, Some(timer), li, &irradiance, m, nf);
     }
+    let (caustic_mask, shadow_tiles) = record_tiles(ctx, (m, s.shadow_map_size, nf), &irradiance, &shadow, enc, timer);
     let irradiance_tex = ctx.texture(
         "caustic_irradiance",
         wgpu::Extent3d { width: m, height: m, depth_or_array_layers: nf },
@@ -1058,8 +1064,56 @@ pub(crate) fn record_light(
         irradiance,
         stats,
         irradiance_tex,
+        caustic_mask,
+        shadow_tiles,
     };
     Ok((frame, pending))
+}
+
+/// `caustic_mask` and `shadow_tiles`: per tile of a light's finished caustic map, whether any
+/// texel holds light, and per tile of its shadow map the depth range, so that `shade_receivers`
+/// skips the lookups whose result they decide (made once per light's maps: a camera-only frame
+/// does not redo them). `(m, shadow, faces)`: the two map sizes per face and the faces.
+fn record_tiles(
+    ctx: &GpuContext,
+    (m, shadow_size, nf): (u32, u32, u32),
+    irradiance: &wgpu::Buffer,
+    shadow: &wgpu::Texture,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> (wgpu::Buffer, wgpu::Buffer) {
+    let ct = m.div_ceil(SHADE_TILE);
+    let st = shadow_size.div_ceil(SHADE_TILE);
+    let mask = ctx.buffer("caustic_mask", (ct * ct * nf) as u64 * 4, wgpu::BufferUsages::STORAGE);
+    let tiles = ctx.buffer("shadow_tiles", (st * st * nf) as u64 * 8, wgpu::BufferUsages::STORAGE);
+    let mp = ctx.uniform("mask_params", bytemuck::bytes_of(&TileParams { size: m, tiles: ct, faces: nf, _pad: 0 }));
+    let tp = ctx
+        .uniform("tile_params", bytemuck::bytes_of(&TileParams { size: shadow_size, tiles: st, faces: nf, _pad: 0 }));
+    let shv = array_view(ctx, shadow);
+    let mask_pl = ctx.compute_pipeline("caustic_mask");
+    let tiles_pl = ctx.compute_pipeline("shadow_tiles");
+    let mbg = crate::gpu::bind(
+        ctx,
+        &mask_pl,
+        "caustic_mask",
+        &[mp.as_entire_binding(), irradiance.as_entire_binding(), mask.as_entire_binding()],
+    );
+    let tbg = crate::gpu::bind(
+        ctx,
+        &tiles_pl,
+        "shadow_tiles",
+        &[tp.as_entire_binding(), wgpu::BindingResource::TextureView(&shv), tiles.as_entire_binding()],
+    );
+    for (name, pl, bg, n) in [("caustic_mask", &mask_pl, &mbg, ct), ("shadow_tiles", &tiles_pl, &tbg, st)] {
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(name),
+            timestamp_writes: timer.compute(name),
+        });
+        cp.set_pipeline(pl);
+        cp.set_bind_group(0, bg, &[]);
+        cp.dispatch_workgroups(n.div_ceil(8), n.div_ceil(8), nf);
+    }
+    (mask, tiles)
 }
 
 /// The shadow maps' comparison sampler (bilinear percentage-closer lookups), shared by the
@@ -1101,7 +1155,7 @@ pub(crate) fn record_shade(
             width: w,
             height: h,
             shadow_size: s.shadow_map_size,
-            _pad: 0,
+            tiles: s.shading_tiles as u32,
             camera: cam.position.extend(1.0).to_array(),
             medium_lo: dc.scene.medium.as_ref().map_or([0.0; 4], |m| m.bounds_min.extend(1.0).to_array()),
             medium_hi: dc.scene.medium.as_ref().map_or([0.0; 4], |m| m.bounds_max.extend(1.0).to_array()),
@@ -1134,6 +1188,8 @@ pub(crate) fn record_shade(
             eye.caustic.as_entire_binding(),
             wgpu::BindingResource::TextureView(&density),
             tapb.as_entire_binding(),
+            lf.caustic_mask.as_entire_binding(),
+            lf.shadow_tiles.as_entire_binding(),
         ],
     );
     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {

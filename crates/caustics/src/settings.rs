@@ -335,6 +335,11 @@ pub struct RenderSettings {
     /// stages are then skipped, so neither is counted twice). Directional lights always use
     /// their caustic maps (beams are built for spot and point lights only).
     pub surface_caustics: SurfaceCaustics,
+    /// `shade_receivers` skips the caustic lookups where the light's caustic map is zero and
+    /// the shadow lookups where its shadow map is all in front or all behind, as per-tile
+    /// summaries made with the light's maps say (`caustic_mask`, `shadow_tiles`). The image is
+    /// the same bit for bit; off only to check that (tests) or to time the difference.
+    pub shading_tiles: bool,
 }
 
 /// The source of the caustic on diffuse surfaces ([`RenderSettings::surface_caustics`]).
@@ -544,6 +549,7 @@ impl Default for RenderSettings {
             env_taps: DEFAULT_ENV_TAPS,
             beams: BeamSettings::default(),
             surface_caustics: SurfaceCaustics::default(),
+            shading_tiles: true,
         }
     }
 }

@@ -85,6 +85,10 @@ fn steady_state_creates_nothing_and_redoes_only_what_changed() {
     assert_eq!(camera.lights_redone, [false, false]);
     assert_eq!(camera.technique.photons_traced, 0);
     assert!(camera.timings.iter().all(|(name, _)| !name.starts_with("light_") && !name.starts_with("photon_")));
+    // The shading tiles are the light's work: made with its maps, not in camera frames.
+    let tiles = |s: &FrameStats| s.timings.iter().any(|(name, _)| name == "caustic_mask" || name == "shadow_tiles");
+    assert!(!tiles(&camera));
+    assert!(full.timings.is_empty() || tiles(&full));
     // The flux bookkeeping of kept maps is still reported.
     assert_eq!(camera.flux, full.flux);
     // A moved light redoes that light alone.
@@ -319,4 +323,54 @@ fn a_transformed_mesh_renders_as_the_baked_scene() {
         Vec3::new(0.1, 0.05, -0.15),
     );
     transform_matches_baked(scene, bunny, t);
+}
+
+/// `RenderSettings::shading_tiles` (`shade_receivers` skips the caustic lookups where the
+/// light's caustic map is zero and the PCF where its shadow map decides, by the tiles made with
+/// the light's maps) changes no bit of the image or of the caustic image: a glass ball with a
+/// caustic under a spot light and a point light (six faces), a shadow map size that is not a
+/// multiple of the tile, from three camera positions (camera-only frames of the same renderers).
+#[test]
+fn shading_tiles_change_no_bit() {
+    let Some(ctx) = gpu() else { return };
+    let mut scene = catalogue("glass_sphere");
+    scene.lights.push(Light::Point { position: Vec3::new(0.9, 2.4, 0.7), intensity: Vec3::splat(15.0) });
+    // Only the light refracted through the ball, so that the caustic is concentrated and most
+    // tiles of the map are unlit (with the reflected branches the spot's whole cone gets some
+    // light, and every tile of this small map is lit).
+    let s = RenderSettings {
+        caustic_map_size: 80,
+        shadow_map_size: 250,
+        dielectric_reflection: false,
+        internal_reflection: false,
+        residual_branches: false,
+        ..settings()
+    };
+    assert!(s.shading_tiles, "on by default");
+    let mut on = Renderer::with_context(ctx.clone(), scene.clone(), s.clone()).unwrap();
+    let mut off = Renderer::with_context(ctx, scene.clone(), RenderSettings { shading_tiles: false, ..s }).unwrap();
+    let img_bits = |i: caustics::image_io::Image| i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
+    for k in 0..3 {
+        let mut cam = scene.camera.clone();
+        cam.position += k as f32 * Vec3::new(0.5, -0.4, -0.6);
+        on.set_camera(cam.clone()).unwrap();
+        off.set_camera(cam).unwrap();
+        let (stats, _) = frame(&mut on);
+        assert_eq!(stats.lights_redone, [k == 0, k == 0]);
+        frame(&mut off);
+        assert!(img_bits(on.read_image().unwrap()) == img_bits(off.read_image().unwrap()), "image differs, camera {k}");
+        let (c_on, c_off) = (on.read_caustic_image().unwrap(), off.read_caustic_image().unwrap());
+        assert!(c_on.pixels.iter().any(|p| p[0] > 0.0), "no caustic in view, camera {k}");
+        assert!(img_bits(c_on) == img_bits(c_off), "caustic image differs, camera {k}");
+    }
+    // Both answers of the caustic tiles occur: the spot light's map has tiles of 8 x 8 texels
+    // with light and tiles without.
+    let map = &on.read_caustic_maps(0).unwrap()[0];
+    let m = 80usize;
+    let lit = |tx: usize, ty: usize| {
+        (ty * 8..(ty * 8 + 8).min(m)).any(|y| (tx * 8..(tx * 8 + 8).min(m)).any(|x| map.pixels[y * m + x][0] != 0.0))
+    };
+    let tiles: Vec<bool> =
+        (0..m.div_ceil(8)).flat_map(|ty| (0..m.div_ceil(8)).map(move |tx| (tx, ty))).map(|(x, y)| lit(x, y)).collect();
+    assert!(tiles.iter().any(|&t| t) && tiles.iter().any(|&t| !t));
 }

@@ -101,6 +101,9 @@ const SHAPE_MESH: u32 = 0u;
 const SHAPE_SPHERE: u32 = 1u;
 const SHAPE_CYLINDER: u32 = 2u;
 const SHAPE_RECTANGLE: u32 = 3u;
+// Side of the tiles (texels) of `caustic_mask` and `shadow_tiles`, read by `shade_receivers`.
+const SHADE_TILE: u32 = 8u;
+
 // LightGpu.info.y: the light's kind.
 const LIGHT_SPOT: u32 = 0u;
 const LIGHT_POINT: u32 = 1u;

@@ -19,6 +19,8 @@ pub const STAGES: &[(&str, &str)] = &[
     ("caustic_resolve", include_str!("../../shaders/caustic_resolve.wgsl")),
     ("temporal_filter", include_str!("../../shaders/temporal_filter.wgsl")),
     ("shade_receivers", include_str!("../../shaders/shade_receivers.wgsl")),
+    ("caustic_mask", include_str!("../../shaders/caustic_mask.wgsl")),
+    ("shadow_tiles", include_str!("../../shaders/shadow_tiles.wgsl")),
     ("sphere_gather", include_str!("../../shaders/sphere_gather.wgsl")),
     ("sphere_compile", include_str!("../../shaders/sphere_compile.wgsl")),
     ("sphere_volume", include_str!("../../shaders/sphere_volume.wgsl")),

@@ -93,7 +93,8 @@ pub struct ShadeParams {
     pub width: u32,
     pub height: u32,
     pub shadow_size: u32,
-    pub _pad: u32,
+    /// 1: skip lookups by the light's tiles (`caustic_mask`, `shadow_tiles`); 0: never.
+    pub tiles: u32,
     pub camera: [f32; 4],
     /// The medium's box (w = 1 with a medium, else all 0) and its extinction sigma_t (1/m).
     pub medium_lo: [f32; 4],
@@ -493,6 +494,8 @@ pub const SHAPE_RECTANGLE: u32 = 3;
 pub const LIGHT_SPOT: u32 = 0;
 pub const LIGHT_POINT: u32 = 1;
 pub const LIGHT_DIRECTIONAL: u32 = 2;
+/// Side (texels) of the tiles of `caustic_mask` and `shadow_tiles`, which `shade_receivers` reads.
+pub const SHADE_TILE: u32 = 8;
 
 /// (name, value) of the constants the WGSL declares under the same name, for the layout test.
 pub const CONSTANTS: &[(&str, u32)] = &[
@@ -507,6 +510,7 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("LIGHT_SPOT", LIGHT_SPOT),
     ("LIGHT_POINT", LIGHT_POINT),
     ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
+    ("SHADE_TILE", SHADE_TILE),
 ];
 
 /// Parameters of `caustic_triangles` (mirrors the WGSL `TriParams`).
@@ -532,6 +536,17 @@ pub struct BlendParams {
     pub _pad: [u32; 2],
 }
 
+/// Parameters of `caustic_mask` and `shadow_tiles` (mirror the WGSL `MaskParams` and
+/// `TileParams`): map size per face, tiles per side, faces.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct TileParams {
+    pub size: u32,
+    pub tiles: u32,
+    pub faces: u32,
+    pub _pad: u32,
+}
+
 /// (Rust type name, WGSL struct name, size) for the layout test.
 pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("FaceGpu", "Face", std::mem::size_of::<FaceGpu>()),
@@ -546,6 +561,8 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("CountParams", "ResolveParams", std::mem::size_of::<CountParams>()),
     ("TemporalParams", "TemporalParams", std::mem::size_of::<TemporalParams>()),
     ("ShadeParams", "ShadeParams", std::mem::size_of::<ShadeParams>()),
+    ("TileParams", "MaskParams", std::mem::size_of::<TileParams>()),
+    ("TileParams", "TileParams", std::mem::size_of::<TileParams>()),
     ("EnvTap", "EnvTap", std::mem::size_of::<EnvTap>()),
     ("EnvTapsGpu", "EnvTaps", std::mem::size_of::<EnvTapsGpu>()),
     ("SphereGatherParams", "SphereGatherParams", std::mem::size_of::<SphereGatherParams>()),
