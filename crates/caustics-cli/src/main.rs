@@ -144,8 +144,8 @@ enum Command {
         no_error_skip: bool,
         #[arg(long, value_enum, default_value = "auto")]
         backend: Backend,
-        /// Caustic map size per light-view face (texels); default 1024, or the largest that
-        /// fits the adapter (point lights need six faces).
+        /// Caustic map size per light-view face (texels, a multiple of 16); default 1024, or the
+        /// largest that fits the adapter (point lights need six faces).
         #[arg(long)]
         caustic_map: Option<u32>,
         /// Shadow map size per light-view face (texels).

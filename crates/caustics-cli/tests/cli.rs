@@ -64,6 +64,9 @@ fn bad_output_and_settings_exit_2() {
     let e = run_err(&["render", "--env-lights", "0", "-o", out.to_str().unwrap()]);
     assert!(e.contains("--env-lights") && e.contains("1 to 256"), "{e}");
     assert!(!out.exists());
+    let e = run_err(&["render", "--caustic-map", "100", "-o", out.to_str().unwrap()]);
+    assert!(e.contains("--caustic-map") && e.contains("multiple of 16"), "{e}");
+    assert!(!out.exists());
 }
 
 #[test]

@@ -649,10 +649,19 @@ impl RenderSettings {
             return cl("max_error_tolerance", format!("must be 0 or more texels (got {})", self.max_error_tolerance));
         }
         let max_tex = ctx.device.limits().max_texture_dimension_2d;
-        if !(16..=2048).contains(&self.caustic_map_size) || self.caustic_map_size > max_tex {
+        // A multiple of 16: the map is copied into its texture row by row, and a copy's rows
+        // must be a multiple of 256 bytes (16 RGBA32F texels).
+        if !(16..=2048).contains(&self.caustic_map_size)
+            || self.caustic_map_size > max_tex
+            || !self.caustic_map_size.is_multiple_of(16)
+        {
             return cl(
                 "caustic_map_size",
-                format!("must be 16 to {} texels (got {})", max_tex.min(2048), self.caustic_map_size),
+                format!(
+                    "must be a multiple of 16 from 16 to {} texels (got {})",
+                    max_tex.min(2048),
+                    self.caustic_map_size
+                ),
             );
         }
         if !(16..=max_tex).contains(&self.shadow_map_size) {
