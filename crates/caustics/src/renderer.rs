@@ -744,8 +744,8 @@ impl Renderer {
             ctx.end_scope();
         }
         let mut sphere_stats = None;
-        // The direct sphere records, kept for `sphere_volume` in a scene with a medium.
-        let mut volume_records = Vec::new();
+        // The direct sphere records, also read by `sphere_volume` in a scene with a medium.
+        let mut records = Vec::new();
         if spheres_on && let Some(sp) = &self.spheres {
             ctx.begin_scope("spheres", enc);
             let n_own = self.scene.lights.len();
@@ -765,10 +765,7 @@ impl Renderer {
                 }
                 _ => scene.lights.clone(),
             };
-            let records = sp.records(&sphere_lights, &self.transforms, self.sphere_blend, vis);
-            if scene.medium.is_some() {
-                volume_records.clone_from(&records);
-            }
+            records = sp.records(&sphere_lights, &self.transforms, self.sphere_blend, vis);
             use crate::caustic_spheres::gpu::{record_compile, record_gather};
             sphere_stats = Some(if sp.compiled {
                 // Section 6: each object's records summed into its compiled table first (the
@@ -793,8 +790,8 @@ impl Renderer {
         ctx.begin_scope("composite", enc);
         let (full, caustic) = crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
         crate::beams::record_gather(&dc, &eye, &beams, &s, (&full, &caustic), enc, &mut timer);
-        if let Some(sp) = self.spheres.as_ref().filter(|_| !volume_records.is_empty()) {
-            let vol = (&sp.table, &volume_records[..]);
+        if let Some(sp) = self.spheres.as_ref().filter(|_| scene.medium.is_some() && !records.is_empty()) {
+            let vol = (&sp.table, &records[..]);
             crate::caustic_spheres::gpu::record_volume(
                 &dc,
                 &eye,
