@@ -199,6 +199,12 @@ enum Command {
         /// CPU backend: render a participating medium with single scattering only.
         #[arg(long)]
         single_scattering: bool,
+        /// CPU backend: which caustic paths the caustic light (--caustic-output, and the image)
+        /// holds: all; first-diffuse (light, specular chain, the first diffuse surface, camera:
+        /// what the GPU renders); rest (the others: diffuse interreflection of caustic light,
+        /// volume caustics).
+        #[arg(long, default_value = "all", value_parser = ["all", "first-diffuse", "rest"])]
+        caustic_paths: String,
         /// The same as --technique caustic-spheres (kept as an alias): the caustics of
         /// directional lights come from precomputed caustic spheres (cached; built first if
         /// needed) in one eye-space pass; spot and point lights get basic caustic maps.
@@ -441,6 +447,7 @@ fn run(cli: Cli) -> Result<()> {
             spp,
             seed,
             single_scattering,
+            caustic_paths,
             caustic_spheres,
             sphere_args,
         } => {
@@ -576,6 +583,8 @@ fn run(cli: Cli) -> Result<()> {
                         camera_spp: spp,
                         seed,
                         medium_single_scattering_only: single_scattering,
+                        caustic_paths: caustics_reference::reference::CausticPaths::parse(&caustic_paths)
+                            .expect("a listed class"),
                         ..Default::default()
                     };
                     let t0 = std::time::Instant::now();

@@ -22,6 +22,7 @@ fn main() {
         seed: args.get(5).map_or(1, |s| s.parse().expect("SEED")),
         caustic_map_size: 8,
         medium_single_scattering_only: false,
+        ..Default::default()
     };
     let o = reference::render(&scene, &s).unwrap_or_else(|e| panic!("{e}"));
     let sum = |img: &caustics::image_io::Image| img.pixels.iter().flatten().map(|&v| v as f64).sum::<f64>();

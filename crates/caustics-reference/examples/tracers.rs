@@ -5,15 +5,24 @@
 //! GPU ms of the photon pass and photons per ms.
 //!
 //! `cargo run --release -p caustics-reference --example tracers -- [--grid N] [--map M]
-//!  [--cpu-photons P] [--technique T] [--out DIR] SCENE...`
+//!  [--cpu-photons P] [--technique T] [--out DIR] [--caustic-paths all|first-diffuse]
+//!  [--only-exact] [--cpu-noise] SCENE...`
 //!
 //! The caustic region: pixels where the reference's or the GPU's caustic exceeds 2 % of the
 //! reference's 99.5th-percentile luminance (a misplaced caustic counts against the GPU).
+//!
+//! `--caustic-paths first-diffuse` restricts the reference's caustic image to the paths the GPU
+//! renders (light → specular chain → first diffuse surface → camera; `CausticPaths`); the
+//! default `all` is the reference's full caustic light. `--cpu-noise` also renders the
+//! reference with a second seed and prints its region FLIP and energy against the first (the
+//! reference's own noise in those figures, the region taken the same way), and the region
+//! energy of the paths the restriction leaves out (`CausticPaths::Rest`, same seed) over the
+//! restricted image's. `--only-exact` runs the exact tracer alone.
 use caustics::image_io::Image;
 use caustics::render::{RenderSettings, Technique, Tracer};
 use caustics_reference::ImageIo as _;
 use caustics_reference::metrics::{self, Mask};
-use caustics_reference::reference::{self, ReferenceSettings};
+use caustics_reference::reference::{self, CausticPaths, ReferenceSettings};
 
 fn region(cpu: &Image, gpu: &Image) -> Mask {
     let mut l: Vec<f32> = cpu.luminance().into_iter().filter(|&x| x > 0.0).collect();
@@ -32,6 +41,7 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let (mut grid, mut map, mut cpu_photons, mut technique, mut out) =
         (512u32, 256u32, 8_000_000u64, Technique::Basic, None::<std::path::PathBuf>);
+    let (mut paths, mut only_exact, mut cpu_noise) = (CausticPaths::All, false, false);
     let mut scenes = Vec::new();
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -40,6 +50,9 @@ fn main() {
             "--cpu-photons" => cpu_photons = args.next().unwrap().parse().unwrap(),
             "--technique" => technique = Technique::parse(&args.next().unwrap()).expect("a technique"),
             "--out" => out = Some(args.next().unwrap().into()),
+            "--caustic-paths" => paths = CausticPaths::parse(&args.next().unwrap()).expect("all|first-diffuse|rest"),
+            "--only-exact" => only_exact = true,
+            "--cpu-noise" => cpu_noise = true,
             _ => scenes.push(a),
         }
     }
@@ -59,9 +72,49 @@ fn main() {
             caustic_map_size: map,
             camera_spp: 1,
             seed,
+            caustic_paths: paths,
             ..Default::default()
         };
+        let t0 = std::time::Instant::now();
         let cpu = reference::render(&scene, &rs(cpu_photons, 0)).expect("reference");
+        println!("{name}: CPU reference ({paths:?}) {:.1} s", t0.elapsed().as_secs_f64());
+        if cpu_noise {
+            // The reference's own noise: seed 1 against seed 0, the region taken the same way.
+            let cpu1 = reference::render(&scene, &rs(cpu_photons, 1)).expect("reference");
+            let mask = region(&cpu.caustic, &cpu1.caustic);
+            let flip = metrics::hdr_flip(&cpu1.caustic, &cpu.caustic, Some(&mask)).expect("flip");
+            let e = metrics::energy_ratio(&cpu1.caustic, &cpu.caustic, Some(&mask)).expect("energy");
+            println!(
+                "{name}: CPU reference noise ({paths:?}, {cpu_photons} photons, seed 1 vs 0): region FLIP {:.3}, region energy {e:.4}",
+                flip.mean
+            );
+            // All = first-diffuse + rest, photon by photon (`CausticPaths`).
+            let class = |c: CausticPaths| {
+                if c == paths {
+                    cpu.caustic.clone()
+                } else {
+                    reference::render(&scene, &ReferenceSettings { caustic_paths: c, ..rs(cpu_photons, 0) })
+                        .expect("reference")
+                        .caustic
+                }
+            };
+            let first = class(CausticPaths::FirstDiffuse);
+            let rest = class(CausticPaths::Rest);
+            let mut all = first.clone();
+            for (a, r) in all.pixels.iter_mut().zip(&rest.pixels) {
+                for k in 0..3 {
+                    a[k] += r[k];
+                }
+            }
+            let mask = region(&all, &all);
+            let er = metrics::energy_ratio(&rest, &first, Some(&mask)).expect("energy");
+            let ea = metrics::energy_ratio(&all, &first, Some(&mask)).expect("energy");
+            let fl = metrics::hdr_flip(&first, &all, Some(&mask)).expect("flip");
+            println!(
+                "{name}: in the full caustic's region: rest / first-diffuse energy {er:.4}, all / first-diffuse {ea:.4}, FLIP first-diffuse vs all {:.3}",
+                fl.mean
+            );
+        }
         let mut rows = Vec::new();
         let variants = [
             ("exact", Tracer::Exact, false),
@@ -69,6 +122,9 @@ fn main() {
             ("image-space", Tracer::ImageSpace, false),
         ];
         for (label, tracer, first_hit_from_buffer) in variants {
+            if only_exact && (tracer != Tracer::Exact || first_hit_from_buffer) {
+                continue;
+            }
             let s = RenderSettings {
                 photons: grid,
                 caustic_map_size: map,

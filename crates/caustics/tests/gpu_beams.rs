@@ -405,6 +405,7 @@ fn gpu_beams_match_the_cpu_reference_in_fog() {
         seed: 5,
         caustic_map_size: 8,
         medium_single_scattering_only: true,
+        ..Default::default()
     };
     let t = std::time::Instant::now();
     let r = reference::render(&sc, &rs).unwrap();
@@ -680,6 +681,7 @@ fn beam_error_decomposition() {
             seed: 5,
             caustic_map_size: 8,
             medium_single_scattering_only: true,
+            ..Default::default()
         };
         let r = reference::render(&sc, &rs).unwrap();
         let r2 = reference::render(&sc, &ReferenceSettings { seed: 6, ..rs }).unwrap();

@@ -2,7 +2,8 @@
 //! hits against brute force (watertight at shared edges and vertices, degenerate triangles),
 //! stack overflow detection, a mesh sphere against the analytic sphere, total internal
 //! reflection in a mesh prism with its flux in closed form, light through two meshes in a row
-//! against the CPU reference.
+//! against the CPU reference, and the camera's caustic image of two stacked balls against the
+//! CPU reference restricted to the GPU's path classes.
 
 mod common;
 
@@ -347,6 +348,56 @@ fn light_through_two_meshes_in_a_row_matches_the_cpu_reference() {
             assert!(mi.rel_rmse > 3.0 * m.rel_rmse, "image-space {mi} vs exact {m}");
         }
     }
+}
+
+/// The caustic region of a camera image: pixels where the reference's or the GPU's caustic
+/// exceeds 2 % of the reference's 99.5th-percentile luminance (as `examples/tracers.rs`).
+fn caustic_region(cpu: &caustics::image_io::Image, gpu: &caustics::image_io::Image) -> caustics_reference::metrics::Mask {
+    let mut l: Vec<f32> = cpu.luminance().into_iter().filter(|&x| x > 0.0).collect();
+    l.sort_by(f32::total_cmp);
+    let t = 0.02 * l.get((l.len() as f64 * 0.995) as usize).copied().unwrap_or(0.0);
+    let mut img = caustics::image_io::Image::new(cpu.width, cpu.height);
+    for ((px, a), b) in img.pixels.iter_mut().zip(cpu.luminance()).zip(gpu.luminance()) {
+        *px = if a > t || b > t { [1.0; 3] } else { [0.0; 3] };
+    }
+    caustics_reference::metrics::Mask::from_image(&img, false)
+}
+
+/// The camera's caustic image of two glass balls stacked along the spot light (the upper one
+/// focusing into the lower one, `scenes/stacked_balls.json` at 64 × 64) with the exact tracer
+/// against the CPU reference restricted to the paths the GPU renders (light → specular chain →
+/// first diffuse surface → camera, `CausticPaths::FirstDiffuse`): the target for
+/// stacked refractors, caustic-region HDR-FLIP within 0.1 and energy within 3 %.
+#[test]
+fn stacked_balls_camera_caustic_matches_the_restricted_cpu_reference() {
+    use caustics_reference::reference::{self, CausticPaths, ReferenceSettings};
+    let Some(ctx) = gpu() else { return };
+    let mut sc = Scene::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/stacked_balls.json")))
+        .unwrap();
+    sc.camera.width = 64;
+    sc.camera.height = 64;
+    let rs = |seed: u64| ReferenceSettings {
+        photons_per_light: 4_000_000,
+        camera_spp: 1,
+        caustic_map_size: 128,
+        seed,
+        caustic_paths: CausticPaths::FirstDiffuse,
+        ..Default::default()
+    };
+    let cpu = reference::render(&sc, &rs(0)).unwrap();
+    let gpu_out = caustics::render::render(&ctx, &sc, &RenderSettings { photons: 512, ..settings(Tracer::Exact) }).unwrap();
+    let mask = caustic_region(&cpu.caustic, &gpu_out.caustic);
+    let flip = caustics_reference::metrics::hdr_flip(&gpu_out.caustic, &cpu.caustic, Some(&mask)).unwrap().mean;
+    let energy = caustics_reference::metrics::energy_ratio(&gpu_out.caustic, &cpu.caustic, Some(&mask)).unwrap();
+    // The reference's own noise in the same figures (another seed against it).
+    let cpu1 = reference::render(&sc, &rs(1)).unwrap();
+    let m1 = caustic_region(&cpu.caustic, &cpu1.caustic);
+    let noise = caustics_reference::metrics::hdr_flip(&cpu1.caustic, &cpu.caustic, Some(&m1)).unwrap().mean;
+    let noise_e = caustics_reference::metrics::energy_ratio(&cpu1.caustic, &cpu.caustic, Some(&m1)).unwrap();
+    eprintln!("stacked balls, camera caustic, exact tracer vs restricted CPU reference: region HDR-FLIP {flip:.3}, energy {energy:.4}; reference seed 1 vs 0: {noise:.3}, {noise_e:.4}");
+    assert!(flip <= 0.1, "region HDR-FLIP {flip}");
+    assert!((energy - 1.0).abs() <= 0.03, "region energy {energy}");
+    assert!(noise < 0.5 * flip.max(0.05), "the reference's noise {noise} is not well below the figure");
 }
 
 /// The adaptive hierarchy at its maximal level traces the dense grid's photons with the exact

@@ -103,6 +103,7 @@ fn single_scattering_from_a_spot_matches_the_reference() {
             seed: 3,
             caustic_map_size: 8,
             medium_single_scattering_only: true,
+            ..Default::default()
         };
         let r = reference::render(&sc, &rs).unwrap();
         let mut worst = 0.0f32;
@@ -250,6 +251,7 @@ fn single_scattering_in_a_smoke_puff_matches_the_reference() {
         seed: 3,
         caustic_map_size: 8,
         medium_single_scattering_only: true,
+        ..Default::default()
     };
     let r = reference::render(&sc, &rs).unwrap();
     // Pixels in the beam away from its edge (rows 3..9 of the centre columns), through the puff

@@ -112,6 +112,7 @@ fn volume_caustic_of_a_glass_ball_matches_the_reference() {
             seed: 5,
             caustic_map_size: 8,
             medium_single_scattering_only: true,
+            ..Default::default()
         };
         let r = reference::render(&sc, &rs).unwrap();
         let mask = ball_mask(&sc);

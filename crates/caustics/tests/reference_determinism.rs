@@ -30,6 +30,7 @@ fn same_seed_same_image_whatever_the_thread_count() {
         seed: 3,
         caustic_map_size: 32,
         medium_single_scattering_only: false,
+        ..Default::default()
     };
     let a = render_with_threads(&scene, &s, 1);
     let b = render_with_threads(&scene, &s, 3);
@@ -59,6 +60,7 @@ fn more_photons_less_noise_and_the_variance_estimate_is_calibrated() {
         seed: 0,
         caustic_map_size: 32,
         medium_single_scattering_only: false,
+        ..Default::default()
     };
     let truth =
         reference::render(&scene, &ReferenceSettings { photons_per_light: 12_800_000, ..base.clone() }).unwrap();

@@ -43,6 +43,7 @@ fn a_floor_under_a_uniform_sky_reflects_albedo_times_its_radiance() {
         seed: 3,
         caustic_map_size: 8,
         medium_single_scattering_only: false,
+        ..Default::default()
     };
     let o = reference::render(&s, &rs).unwrap();
     let (mut sky, mut floor) = (0, 0);
@@ -113,6 +114,7 @@ fn a_sun_of_one_texel_renders_as_the_directional_light_it_stands_for() {
         seed: 5,
         caustic_map_size: 8,
         medium_single_scattering_only: false,
+        ..Default::default()
     };
     let ra = reference::render(&a, &rs).unwrap();
     let rb = reference::render(&b, &rs).unwrap();

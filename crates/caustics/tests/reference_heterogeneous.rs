@@ -25,6 +25,7 @@ fn settings(spp: u32, single: bool) -> ReferenceSettings {
         seed: 11,
         caustic_map_size: 8,
         medium_single_scattering_only: single,
+        ..Default::default()
     }
 }
 

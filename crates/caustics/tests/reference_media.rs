@@ -20,6 +20,7 @@ fn settings(photons: u64, spp: u32, single: bool) -> ReferenceSettings {
         seed: 7,
         caustic_map_size: 8,
         medium_single_scattering_only: single,
+        ..Default::default()
     }
 }
 

@@ -75,6 +75,7 @@ fn settings(photons: u64) -> ReferenceSettings {
         seed: 1,
         caustic_map_size: 64,
         medium_single_scattering_only: false,
+        ..Default::default()
     }
 }
 

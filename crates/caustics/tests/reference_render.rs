@@ -22,6 +22,7 @@ fn outputs_have_the_right_shapes_and_add_up() {
         seed: 1,
         caustic_map_size: 16,
         medium_single_scattering_only: false,
+        ..Default::default()
     };
     let o = reference::render(&scene, &s).unwrap();
     for img in [&o.image, &o.caustic, &o.nocaustic, &o.caustic_variance, &o.nocaustic_variance] {
@@ -54,6 +55,7 @@ fn caustic_map_irradiance_integrates_to_the_deposited_flux() {
         seed: 2,
         caustic_map_size: size,
         medium_single_scattering_only: false,
+        ..Default::default()
     };
     let maps = reference::caustic_maps(&scene, &s).unwrap();
     let view = LightView::new(&scene, &scene.lights[0]);

@@ -43,6 +43,7 @@ fn check(name: &str) {
         seed: 7,
         caustic_map_size: 64,
         medium_single_scattering_only: false,
+        ..Default::default()
     };
     let out = reference::render(&scene, &settings).unwrap();
     println!("{name}: {}", out.stats);

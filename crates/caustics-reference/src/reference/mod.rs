@@ -35,7 +35,7 @@ use rayon::prelude::*;
 use sampling::{PathRng, hash, sobol_2d};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
-pub use trace::Deposit;
+pub use trace::{CausticPaths, Deposit};
 use trace::{PhotonOut, PhotonTargets, Tracer};
 
 /// The most photons per light the reference accepts (2^40).
@@ -57,6 +57,11 @@ pub struct ReferenceSettings {
     /// Participating medium: single scattering only (every path from a light to the camera
     /// scatters in the medium at most once) instead of multiple scattering.
     pub medium_single_scattering_only: bool,
+    /// Which caustic paths the camera image `caustic` (and so `image`) holds: all of them
+    /// (the default), or only light → specular chain → the first diffuse surface → camera,
+    /// the part the GPU's caustic maps render, or the rest (for measurements). The caustic
+    /// maps and the `nocaustic` image do not depend on it. See [`CausticPaths`].
+    pub caustic_paths: CausticPaths,
 }
 
 impl Default for ReferenceSettings {
@@ -68,6 +73,7 @@ impl Default for ReferenceSettings {
             seed: 0,
             caustic_map_size: 512,
             medium_single_scattering_only: false,
+            caustic_paths: CausticPaths::All,
         }
     }
 }
@@ -183,6 +189,7 @@ fn check_scene(scene: &Scene) -> Result<()> {
 fn tracer<'a>(scene: &'a Scene, accel: &'a Accel, settings: &ReferenceSettings) -> Tracer<'a> {
     let mut t = Tracer::new(scene, accel, settings.max_depth);
     t.single_scattering = settings.medium_single_scattering_only;
+    t.caustic_paths = settings.caustic_paths;
     t
 }
 

@@ -98,6 +98,55 @@ pub struct Deposit {
     pub object: u32,
 }
 
+/// Which light-traced (caustic) paths reach the camera image: the classes of paths a caustic
+/// photon (first surface specular) makes before it is connected to the camera.
+///
+/// The GPU renders caustic light as its caustic maps hold it: the irradiance at each photon's
+/// first diffuse hit, shaded where the camera sees that surface directly (`shade_receivers`);
+/// its caustic-only image is zero where the camera sees a specular surface first
+/// (`composite.wgsl`), as this reference's is (a camera connection stops at glass). So
+/// [`CausticPaths::FirstDiffuse`] is its like-for-like class, L S+ D E. The rest, which no GPU
+/// technique renders: light that leaves the first diffuse surface again (diffuse
+/// interreflection, floor → glass → floor, ...: L S+ D (S|D)* D E) and, in a medium, light
+/// scattered in the medium after the specular chain (volume caustics, and surfaces lit by
+/// them). `All` = `FirstDiffuse` + `Rest`, photon by photon: the photons take the same random
+/// choices in every mode (a connection outside the class is made and dropped).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CausticPaths {
+    /// Every caustic path (the default): a photon is connected to the camera at every
+    /// diffuse hit and every medium scattering point after its first specular interaction.
+    #[default]
+    All,
+    /// Only L S+ D E: the connection at the photon's first diffuse hit, reached through
+    /// specular interactions alone (no medium scattering before it); the photon stops there.
+    FirstDiffuse,
+    /// Every connection that `FirstDiffuse` leaves out.
+    Rest,
+}
+
+impl CausticPaths {
+    /// Parse `all`, `first-diffuse` or `rest`.
+    pub fn parse(s: &str) -> Option<CausticPaths> {
+        match s {
+            "all" => Some(CausticPaths::All),
+            "first-diffuse" => Some(CausticPaths::FirstDiffuse),
+            "rest" => Some(CausticPaths::Rest),
+            _ => None,
+        }
+    }
+
+    /// Whether a connection to the camera belongs to the class; `first` says whether it is
+    /// the one at the photon's first diffuse hit through a purely specular chain.
+    #[inline]
+    fn keeps(self, first: bool) -> bool {
+        match self {
+            CausticPaths::All => true,
+            CausticPaths::FirstDiffuse => first,
+            CausticPaths::Rest => !first,
+        }
+    }
+}
+
 /// What tracing a batch of photons produces.
 #[derive(Default)]
 pub struct PhotonOut {
@@ -126,6 +175,8 @@ pub struct Tracer<'a> {
     pub media: Option<Media>,
     /// Every path (light to camera) scatters in the medium at most once.
     pub single_scattering: bool,
+    /// Which caustic paths are connected to the camera.
+    pub caustic_paths: CausticPaths,
 }
 
 impl<'a> Tracer<'a> {
@@ -139,6 +190,7 @@ impl<'a> Tracer<'a> {
             cam: CamProj::new(&scene.camera),
             media: scene.medium.as_ref().map(Media::new),
             single_scattering: false,
+            caustic_paths: CausticPaths::All,
         }
     }
 
@@ -169,6 +221,9 @@ impl<'a> Tracer<'a> {
         let (mut o, mut d, mut flux) = (o, d, flux);
         let mut spec = 0u32;
         let mut diffuse_seen = 0u32;
+        // Whether the photon has scattered in the medium (its path is not L S+ D then).
+        let mut scattered = false;
+        let paths = self.caustic_paths;
         for depth in 0..self.max_depth {
             out.rays += 1;
             let hit = self.accel.intersect(o, d, f32::INFINITY);
@@ -187,8 +242,13 @@ impl<'a> Tracer<'a> {
                             flux *= weight;
                             let x = o + d * ts;
                             if t.camera {
+                                let n0 = out.cam.len();
                                 self.connect_camera_medium(m, x, d, flux, rng, out);
+                                if !paths.keeps(false) {
+                                    out.cam.truncate(n0);
+                                }
                             }
+                            scattered = true;
                             if self.single_scattering || depth + 1 >= self.max_depth {
                                 break;
                             }
@@ -233,11 +293,23 @@ impl<'a> Tracer<'a> {
                             }
                         }
                     }
+                    let first = diffuse_seen == 0 && !scattered;
                     if t.camera {
+                        // Made and, outside the class, dropped: the photon's random numbers
+                        // are the same in every mode.
+                        let n0 = out.cam.len();
                         self.connect_camera(h.p, ng, ns, albedo, flux, rng, out);
+                        if !paths.keeps(first) {
+                            out.cam.truncate(n0);
+                        }
                     }
                     diffuse_seen += 1;
                     if depth + 1 >= self.max_depth {
+                        break;
+                    }
+                    if paths == CausticPaths::FirstDiffuse {
+                        // Nothing later is kept (the maps and deposits take the first diffuse
+                        // hit only).
                         break;
                     }
                     let q = albedo.max_element().min(1.0);
