@@ -154,6 +154,13 @@ fn main() {
             let flip = metrics::hdr_flip(&gpu.caustic, &cpu.caustic, Some(&mask)).expect("flip");
             let e = metrics::energy_ratio(&gpu.caustic, &cpu.caustic, Some(&mask)).expect("energy");
             let per_ms = if *photon_ms > 0.0 { gpu.photons_traced as f64 / photon_ms } else { f64::NAN };
+            let f = &gpu.flux[0];
+            eprintln!(
+                "{name} {tracer}: flux landed {:.4} of emitted, outside the light's view {:.4}, no receiver {:.4}",
+                f.landed / f.emitted,
+                f.lost_outside / f.emitted,
+                f.lost_no_receiver / f.emitted
+            );
             println!(
                 "| {name} | {tracer} | {:.4} | {:.4} | {noise:.4} | {:.2} | {:.3} | {e:.4} | {photon_ms:.1} | {per_ms:.0} |",
                 m.energy_ratio,

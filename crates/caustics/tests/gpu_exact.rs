@@ -352,7 +352,10 @@ fn light_through_two_meshes_in_a_row_matches_the_cpu_reference() {
 
 /// The caustic region of a camera image: pixels where the reference's or the GPU's caustic
 /// exceeds 2 % of the reference's 99.5th-percentile luminance (as `examples/tracers.rs`).
-fn caustic_region(cpu: &caustics::image_io::Image, gpu: &caustics::image_io::Image) -> caustics_reference::metrics::Mask {
+fn caustic_region(
+    cpu: &caustics::image_io::Image,
+    gpu: &caustics::image_io::Image,
+) -> caustics_reference::metrics::Mask {
     let mut l: Vec<f32> = cpu.luminance().into_iter().filter(|&x| x > 0.0).collect();
     l.sort_by(f32::total_cmp);
     let t = 0.02 * l.get((l.len() as f64 * 0.995) as usize).copied().unwrap_or(0.0);
@@ -372,12 +375,13 @@ fn caustic_region(cpu: &caustics::image_io::Image, gpu: &caustics::image_io::Ima
 fn stacked_balls_camera_caustic_matches_the_restricted_cpu_reference() {
     use caustics_reference::reference::{self, CausticPaths, ReferenceSettings};
     let Some(ctx) = gpu() else { return };
-    let mut sc = Scene::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/stacked_balls.json")))
-        .unwrap();
+    let mut sc =
+        Scene::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/stacked_balls.json")))
+            .unwrap();
     sc.camera.width = 64;
     sc.camera.height = 64;
     let rs = |seed: u64| ReferenceSettings {
-        photons_per_light: 4_000_000,
+        photons_per_light: 2_000_000,
         camera_spp: 1,
         caustic_map_size: 128,
         seed,
@@ -385,7 +389,8 @@ fn stacked_balls_camera_caustic_matches_the_restricted_cpu_reference() {
         ..Default::default()
     };
     let cpu = reference::render(&sc, &rs(0)).unwrap();
-    let gpu_out = caustics::render::render(&ctx, &sc, &RenderSettings { photons: 512, ..settings(Tracer::Exact) }).unwrap();
+    let s = RenderSettings { photons: 512, caustic_map_size: 256, ..settings(Tracer::Exact) };
+    let gpu_out = caustics::render::render(&ctx, &sc, &s).unwrap();
     let mask = caustic_region(&cpu.caustic, &gpu_out.caustic);
     let flip = caustics_reference::metrics::hdr_flip(&gpu_out.caustic, &cpu.caustic, Some(&mask)).unwrap().mean;
     let energy = caustics_reference::metrics::energy_ratio(&gpu_out.caustic, &cpu.caustic, Some(&mask)).unwrap();
@@ -394,7 +399,9 @@ fn stacked_balls_camera_caustic_matches_the_restricted_cpu_reference() {
     let m1 = caustic_region(&cpu.caustic, &cpu1.caustic);
     let noise = caustics_reference::metrics::hdr_flip(&cpu1.caustic, &cpu.caustic, Some(&m1)).unwrap().mean;
     let noise_e = caustics_reference::metrics::energy_ratio(&cpu1.caustic, &cpu.caustic, Some(&m1)).unwrap();
-    eprintln!("stacked balls, camera caustic, exact tracer vs restricted CPU reference: region HDR-FLIP {flip:.3}, energy {energy:.4}; reference seed 1 vs 0: {noise:.3}, {noise_e:.4}");
+    eprintln!(
+        "stacked balls, camera caustic, exact tracer vs restricted CPU reference: region HDR-FLIP {flip:.3}, energy {energy:.4}; reference seed 1 vs 0: {noise:.3}, {noise_e:.4}"
+    );
     assert!(flip <= 0.1, "region HDR-FLIP {flip}");
     assert!((energy - 1.0).abs() <= 0.03, "region energy {energy}");
     assert!(noise < 0.5 * flip.max(0.05), "the reference's noise {noise} is not well below the figure");

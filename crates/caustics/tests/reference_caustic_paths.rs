@@ -59,7 +59,11 @@ fn first_diffuse_and_rest_split_the_caustic_image_exactly() {
     // The rest (caustic light off the floor, through or off the ball and back onto the floor)
     // is there, and small.
     let (sa, sr) = (sum(&all.caustic), sum(&rest.caustic));
-    eprintln!("caustic image: all {sa:.4}, first diffuse {:.4}, rest {sr:.4} ({:.2} %)", sum(&first.caustic), 100.0 * sr / sa);
+    eprintln!(
+        "caustic image: all {sa:.4}, first diffuse {:.4}, rest {sr:.4} ({:.2} %)",
+        sum(&first.caustic),
+        100.0 * sr / sa
+    );
     assert!(sr > 0.0 && sr < 0.2 * sa, "rest {sr} of {sa}");
 }
 
@@ -106,7 +110,11 @@ fn first_diffuse_is_the_splat_of_the_first_diffuse_hits() {
             total += b[k];
         }
     }
-    eprintln!("{} first diffuse hits; restricted image {:.5}, rebuilt {total:.5}, L1 difference {diff:.2e}", deposits.len(), sum(&first.caustic));
+    eprintln!(
+        "{} first diffuse hits; restricted image {:.5}, rebuilt {total:.5}, L1 difference {diff:.2e}",
+        deposits.len(),
+        sum(&first.caustic)
+    );
     assert!(total > 0.0);
     assert!(diff <= 1e-5 * total, "L1 difference {diff} of {total}");
 }

@@ -152,9 +152,11 @@ impl std::fmt::Display for ReferenceStats {
 /// A complete reference rendering.
 #[derive(Debug, Clone)]
 pub struct ReferenceOutput {
-    /// `caustic + nocaustic`, radiance W/(m² sr).
+    /// `caustic + nocaustic`, radiance W/(m² sr) (the whole rendering with the default
+    /// [`CausticPaths::All`]).
     pub image: Image,
-    /// Caustic light only (light tracing), W/(m² sr).
+    /// Caustic light only (light tracing), W/(m² sr): the path classes of
+    /// [`ReferenceSettings::caustic_paths`] (all of them by default).
     pub caustic: Image,
     /// Everything else (camera paths), W/(m² sr).
     pub nocaustic: Image,

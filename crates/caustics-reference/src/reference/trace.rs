@@ -8,6 +8,8 @@
 //! two parts never overlap and together are the whole image, except caustics seen through a
 //! specular chain from the camera (specular → diffuse → specular → camera), which neither
 //! renders (the references lack them too: the specular mask marks those pixels).
+//! [`CausticPaths`] restricts the photons' camera connections to one class of paths (the
+//! GPU's: the first diffuse hit only) or to the rest.
 //!
 //! The environment light follows the same split: photons from it (`emit`) whose first surface
 //! is specular are caustic light; the camera paths see it directly or through specular
