@@ -3,13 +3,13 @@
 //! against a saved reference caustic (`caustics compare`).
 //!
 //! `cargo run --release -p caustics-reference --example gpu_caustic -- SCENE GRID MAP
-//!  residual|no-residual OUT.exr`
+//!  residual|no-residual OUT.exr [SPLAT]`
 use caustics::render::{RenderSettings, Technique, Tracer};
 use caustics_reference::ImageIo as _;
 
 fn main() {
     let a: Vec<String> = std::env::args().skip(1).collect();
-    assert_eq!(a.len(), 5, "usage: gpu_caustic SCENE GRID MAP residual|no-residual OUT.exr");
+    assert!(a.len() == 5 || a.len() == 6, "usage: gpu_caustic SCENE GRID MAP residual|no-residual OUT.exr [SPLAT]");
     let mut scene = caustics::Scene::load(std::path::Path::new(&a[0])).expect("scene");
     scene.camera.width = scene.camera.width.min(320);
     scene.camera.height = scene.camera.height.min(320);
@@ -22,6 +22,10 @@ fn main() {
         tracer: Tracer::Exact,
         residual_branches: a[3] == "residual",
         ..Default::default()
+    };
+    let s = match a.get(5) {
+        Some(m) => RenderSettings { splat: caustics::splat::SplatMode::parse(m).expect("a splat mode"), ..s },
+        None => s,
     };
     let out = caustics::render::render(&ctx, &scene, &s).expect("gpu render");
     let f = &out.flux[0];
