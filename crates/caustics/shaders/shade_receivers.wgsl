@@ -49,15 +49,6 @@ struct ShadeParams {
 @group(0) @binding(12) var<uniform> taps: EnvTaps;
 @group(0) @binding(13) var<storage, read> caustic_mask: array<u32>;
 @group(0) @binding(14) var<storage, read> shadow_tiles: array<vec2f>;
-// The pixels whose caustic lookups the tiles cannot decide (or all lit diffuse pixels without
-// tiles or with environment taps), listed by the first pass (`shade_pass` 0, which shades the
-// others with a caustic of exactly 0) and shaded by the second (`shade_pass` 1, dispatched
-// indirectly over the list): on a device that runs a SIMD group's lanes through both sides of a
-// branch (llvmpipe), only the listed pixels pay for the 3x3 box-filtered lookups.
-// `shade_count`: x workgroups of 64 for the indirect dispatch, 1, 1, and the number listed.
-@group(0) @binding(15) var<storage, read_write> shade_list: array<u32>;
-@group(0) @binding(16) var<storage, read_write> shade_count: array<atomic<u32>, 4>;
-override shade_pass: u32 = 0u;
 
 // An environment region's sub-directions (src/env_taps.rs): rows of R_k^T (R_k turns the
 // light's direction to sub-direction k) and the sub-region's weight (rgb). Array size =
@@ -183,30 +174,6 @@ fn caustic_box(p: vec3f, px: vec2i, object: f32) -> vec3f {
     return acc / 9.0;
 }
 
-// Whether any of caustic_box's lookups reads a tile of the caustic map with light (caustic_at's
-// tile test at the same points): if none does, caustic_box returns 0 exactly.
-fn caustic_box_lit(p: vec3f, px: vec2i, object: f32) -> bool {
-    let fp = pixel_footprint(p, px, object);
-    let dx = fp.dx;
-    let dy = fp.dy;
-    let m = light.info.w;
-    let n_t = (m + SHADE_TILE - 1u) / SHADE_TILE;
-    var lit = false;
-    for (var j = 0; j < 3; j++) {
-        for (var i = 0; i < 3; i++) {
-            let o = (f32(i) + 0.5) / 3.0 - 0.5;
-            let q = (f32(j) + 0.5) / 3.0 - 0.5;
-            let qf = face_of(p + o * dx + q * dy, f32(m));
-            if (qf.w >= 0.0) {
-                let base = vec2i(floor(qf.xy - 0.5));
-                let c = vec2u(max(base, vec2i(0))) / SHADE_TILE;
-                lit = lit || caustic_mask[(u32(qf.w) * n_t + c.y) * n_t + c.x] != 0u;
-            }
-        }
-    }
-    return lit;
-}
-
 // The caustic of an environment region spread over its sub-directions (src/env_taps.rs): per
 // tap k, the point p (at the k-th point of an R2 sequence over the pixel's footprint) turned by
 // R_k^T about the casters' centre c, followed from c to the tangent plane at p (f = c + s q'),
@@ -235,21 +202,8 @@ fn caustic_taps(p: vec3f, n: vec3f, px: vec2i, object: f32) -> vec3f {
 }
 
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(workgroup_id) wg: vec3u, @builtin(local_invocation_index) li: u32) {
-    if (shade_pass == 1u) {
-        let i = wg.x * 64u + li;
-        if (i >= atomicLoad(&shade_count[3])) { return; }
-        let idx = shade_list[i];
-        shade(vec2u(idx % sp.width, idx / sp.width), true);
-        return;
-    }
+fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (gid.x >= sp.width || gid.y >= sp.height) { return; }
-    shade(gid.xy, false);
-}
-
-// One pixel; `listed`: in the second pass (with its caustic), else in the first (listed instead
-// where its caustic may not be 0).
-fn shade(gid: vec2u, listed: bool) {
     let pw = textureLoad(eye_pos, vec2i(gid.xy), 0);
     if (pw.w < 0.0) { return; }
     let mat = materials[u32(pw.w)];
@@ -266,26 +220,14 @@ fn shade(gid: vec2u, listed: bool) {
     } else {
         e_direct = intensity_toward(light, -l.xyz) * cos_t / (l.w * l.w);
     }
-    let idx = gid.y * sp.width + gid.x;
-    var ec = vec3f(0.0);
-    if (listed) {
-        if (taps.info.x > 0u) {
-            ec = caustic_taps(p, n, vec2i(gid.xy), pw.w);
-        } else {
-            ec = caustic_box(p, vec2i(gid.xy), pw.w);
-        }
-    } else if (taps.info.x > 0u || sp.tiles == 0u || caustic_box_lit(p, vec2i(gid.xy), pw.w)) {
-        let k = atomicAdd(&shade_count[3], 1u);
-        if (k % 64u == 0u) { atomicAdd(&shade_count[0], 1u); }
-        if (k == 0u) {
-            atomicStore(&shade_count[1], 1u);
-            atomicStore(&shade_count[2], 1u);
-        }
-        shade_list[k] = idx;
-        return;
-    }
     var e = vec3f(0.0);
     if (any(e_direct > vec3f(0.0))) { e = e_direct * shadow(p, n); }
+    var ec: vec3f;
+    if (taps.info.x > 0u) {
+        ec = caustic_taps(p, n, vec2i(gid.xy), pw.w);
+    } else {
+        ec = caustic_box(p, vec2i(gid.xy), pw.w);
+    }
     if (sp.medium_lo.w > 0.5) {
         var tr: vec3f;
         if (sp.medium_grid.x == 0u) {
@@ -299,6 +241,7 @@ fn shade(gid: vec2u, listed: bool) {
         ec *= tr;
     }
     let albedo = mat.a.rgb / PI;
+    let idx = gid.y * sp.width + gid.x;
     radiance[idx] += vec4f(albedo * (e + ec), 0.0);
     caustic[idx] += vec4f(albedo * ec, 0.0);
 }

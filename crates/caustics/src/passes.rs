@@ -1156,13 +1156,7 @@ pub(crate) fn record_shade(
     let ctx = dc.ctx;
     let cam = &dc.scene.camera;
     let (w, h) = (cam.width, cam.height);
-    let shade_pl = ctx.compute_pipeline_with("shade_receivers", &[("shade_pass", 0.0)]);
-    let listed_pl = ctx.compute_pipeline_with("shade_receivers", &[("shade_pass", 1.0)]);
-    // The pixels the first pass lists for the second, and the second's indirect dispatch (from a
-    // copy of the count: the pass binds the count too).
-    let list = ctx.buffer("shade_list", (w as u64) * (h as u64) * 4, wgpu::BufferUsages::STORAGE);
-    let count = ctx.buffer("shade_count", 16, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
-    let args = ctx.buffer("shade_args", 16, wgpu::BufferUsages::INDIRECT);
+    let shade_pl = ctx.compute_pipeline("shade_receivers");
     let shadow_sampler = shadow_sampler(ctx);
     let shp = ctx.uniform(
         "shade_params",
@@ -1205,27 +1199,15 @@ pub(crate) fn record_shade(
             tapb.as_entire_binding(),
             lf.caustic_mask.as_entire_binding(),
             lf.shadow_tiles.as_entire_binding(),
-            list.as_entire_binding(),
-            count.as_entire_binding(),
         ],
     );
-    {
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("shade_receivers"),
-            timestamp_writes: timer.compute("shade_receivers"),
-        });
-        cp.set_pipeline(&shade_pl);
-        cp.set_bind_group(0, &shbg, &[]);
-        cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-    }
-    enc.copy_buffer_to_buffer(&count, 0, &args, 0, 16);
     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("shade_listed"),
-        timestamp_writes: timer.compute("shade_listed"),
+        label: Some("shade_receivers"),
+        timestamp_writes: timer.compute("shade_receivers"),
     });
-    cp.set_pipeline(&listed_pl);
+    cp.set_pipeline(&shade_pl);
     cp.set_bind_group(0, &shbg, &[]);
-    cp.dispatch_workgroups_indirect(&args, 0);
+    cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
 }
 
 /// The scene's environment map as an Rgba32Float texture (read with `textureLoad`, so no
