@@ -74,6 +74,10 @@ pub struct BenchArgs {
     /// first frame apart (frameloop_SCENE.md and .json).
     #[arg(long, default_value_t = 0)]
     frames: u32,
+    /// Frame-loop benchmark: the phases to run, comma-separated, in the order of `full`,
+    /// `camera`, `light`, `object` (all four if omitted).
+    #[arg(long, default_value = "full,camera,light,object")]
+    phases: String,
     /// Caustic spheres (`--technique caustic-spheres`): the precomputed tables' settings.
     #[command(flatten)]
     sphere_args: crate::spheres::SphereArgs,
@@ -491,6 +495,30 @@ fn cpu_bench(a: &BenchArgs) -> Result<()> {
 /// The phases of the frame-loop benchmark, in order.
 const PHASES: [&str; 4] = ["full", "camera", "light", "object"];
 
+/// `--phases`: the phases named, each known and once, in the order of [`PHASES`].
+fn parse_phases(s: &str) -> Result<Vec<&'static str>> {
+    let names: Vec<&str> = s.split(',').map(str::trim).filter(|p| !p.is_empty()).collect();
+    for p in &names {
+        if !PHASES.contains(p) {
+            let known = PHASES.join(", ");
+            return Err(caustics::Error::input(
+                "<command line>",
+                "--phases",
+                format!("unknown phase \"{p}\" (known: {known})"),
+            )
+            .into());
+        }
+    }
+    let phases: Vec<&'static str> = PHASES.iter().copied().filter(|p| names.contains(p)).collect();
+    if phases.is_empty() {
+        let known = PHASES.join(", ");
+        return Err(
+            caustics::Error::input("<command line>", "--phases", format!("no phase given (known: {known})")).into()
+        );
+    }
+    Ok(phases)
+}
+
 /// What changes in each phase's frame `i` (of `n`), applied to the renderer before the frame.
 /// `full` changes all three at once (camera, every light, the first caster), so that every pass
 /// of the frame has to be redone while the renderer (its resources, pipelines) stays the same.
@@ -684,6 +712,7 @@ fn setup(a: &BenchArgs) -> Result<(Vec<Technique>, Vec<u32>, caustics::splat::Sp
 pub fn frame_loop(a: &BenchArgs) -> Result<()> {
     use caustics::renderer::Renderer;
     let (techniques, grids, splat, scene) = setup(a)?;
+    let phase_names = parse_phases(&a.phases)?;
     let mut ctx = Some(caustics::gpu::GpuContext::new(a.adapter.as_deref())?);
     let adapter = {
         let c = ctx.as_ref().unwrap();
@@ -695,7 +724,7 @@ pub fn frame_loop(a: &BenchArgs) -> Result<()> {
     // One renderer for everything (its context keeps the pipelines); the settings change
     // between runs.
     let mut renderer: Option<Renderer> = None;
-    let total = (techniques.len() * grids.len() * PHASES.len()) as u64 * a.frames as u64;
+    let total = (techniques.len() * grids.len() * phase_names.len()) as u64 * a.frames as u64;
     let bar = crate::progress::steps(total, "frames");
     for &t in &techniques {
         for &n in &grids {
@@ -709,7 +738,7 @@ pub fn frame_loop(a: &BenchArgs) -> Result<()> {
             };
             crate::spheres::attach(r, &scene, &a.sphere_args, &mut sphere_tables)?;
             let mut phases = Vec::new();
-            for name in PHASES {
+            for &name in &phase_names {
                 // Every phase starts from the scene as loaded.
                 r.set_camera(scene.camera.clone())?;
                 for (k, l) in scene.lights.iter().enumerate() {
@@ -819,8 +848,9 @@ fn frame_markdown(scene: &str, adapter: &str, a: &BenchArgs, runs: &[(Technique,
             }
         }
         let _ = writeln!(s, "{t}, {n}² photons:\n");
-        let _ = writeln!(s, "| pass | {} |", PHASES.join(" | "));
-        let _ = writeln!(s, "| --- |{}", " ---: |".repeat(PHASES.len()));
+        let names: Vec<&str> = phases.iter().map(|p| p.name).collect();
+        let _ = writeln!(s, "| pass | {} |", names.join(" | "));
+        let _ = writeln!(s, "| --- |{}", " ---: |".repeat(names.len()));
         for q in &passes {
             let cells: Vec<String> = phases.iter().map(|p| p.pass_median(q).map_or("-".into(), fmt_ms)).collect();
             let _ = writeln!(s, "| {q} | {} |", cells.join(" | "));

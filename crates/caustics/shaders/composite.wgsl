@@ -27,7 +27,26 @@ struct CompositeParams {
     _pad: u32,
 }
 
-@group(0) @binding(0) var<uniform> cp: CompositeParams;
+// The parameters are read from a storage buffer into a private copy: lavapipe (Mesa 22.3)
+// inlines the uniforms that decide branches and recompiles the stage with LLVM at binds where
+// that shrinks it (seconds of CPU per camera frame, camera-dependent and so not steady); it
+// never inlines storage buffers. What inlining removed is removed by the constants below.
+@group(0) @binding(0) var<storage, read> cp_in: CompositeParams;
+var<private> cp: CompositeParams;
+// The pixels whose nearest surface is specular, listed by the first pass (`composite_pass` 0:
+// diffuse pixels and the environment done, specular ones listed) and shaded by the second
+// (`composite_pass` 1, dispatched indirectly over the list): on a device that runs the lanes of
+// a SIMD group through both sides of a branch (llvmpipe), only the listed pixels pay for the
+// image-space refraction. `spec_count`: x workgroups of 64 for the indirect dispatch, 1, 1, and
+// the number of pixels listed.
+@group(0) @binding(20) var<storage, read_write> spec_list: array<u32>;
+@group(0) @binding(21) var<storage, read_write> spec_count: array<atomic<u32>, 4>;
+override composite_pass: u32 = 0u;
+// Whether the scene has specular meshes (CompositeParams::layer2: else the second-layer buffers
+// are empty and their march is compiled out) and an environment (else env_rotation.z = 0 and
+// the environment's lookups are compiled out).
+override composite_layer2: bool = true;
+override composite_env: bool = true;
 @group(0) @binding(1) var recv_pos: texture_2d<f32>;
 @group(0) @binding(2) var recv_nrm: texture_2d<f32>;
 @group(0) @binding(3) var spec_pos: texture_2d<f32>;
@@ -236,7 +255,7 @@ fn march_exit_in(o: vec3f, d: vec3f, spec_pos: texture_2d<f32>, spec_nrm: textur
 fn find_layer2(o: vec3f, d: vec3f, t_max: f32, leaving: u32) -> EyeHit {
     var none: EyeHit;
     none.ok = false;
-    if (cp.layer2 == 0u) { return none; }
+    if (!composite_layer2 || cp.layer2 == 0u) { return none; }
     let ds = screen_step(o, d);
     let cam = cp.camera.xyz;
     var was_outside = false;
@@ -357,8 +376,21 @@ fn exit_from_inside(obj: u32, m: MaterialGpu, p: vec3f, d: vec3f) -> EyeHit {
     return h;
 }
 
+fn load_params() {
+    cp = cp_in;
+    if (!composite_env) { cp.env_rotation.z = 0.0; }
+}
+
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) gid: vec3u) {
+fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(workgroup_id) wg: vec3u, @builtin(local_invocation_index) li: u32) {
+    load_params();
+    if (composite_pass == 1u) {
+        let i = wg.x * 64u + li;
+        if (i >= atomicLoad(&spec_count[3])) { return; }
+        let idx = spec_list[i];
+        specular_pixel(vec2i(vec2u(idx % cp.width, idx / cp.width)), idx);
+        return;
+    }
     if (gid.x >= cp.width || gid.y >= cp.height) { return; }
     let idx = gid.y * cp.width + gid.x;
     let px = vec2i(gid.xy);
@@ -380,6 +412,19 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         return;
     }
     out_caustic[idx] = vec4f(0.0);
+    let k = atomicAdd(&spec_count[3], 1u);
+    if (k % 64u == 0u) { atomicAdd(&spec_count[0], 1u); }
+    if (k == 0u) {
+        atomicStore(&spec_count[1], 1u);
+        atomicStore(&spec_count[2], 1u);
+    }
+    spec_list[k] = idx;
+}
+
+// A pixel whose nearest surface is specular (listed by the first pass).
+fn specular_pixel(px: vec2i, idx: u32) {
+    let s = textureLoad(spec_pos, px, 0);
+    let cam = cp.camera.xyz;
     let obj = u32(s.w);
     let mat = materials[obj];
     var p = s.xyz;

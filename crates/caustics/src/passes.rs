@@ -1386,7 +1386,9 @@ pub(crate) fn record_composite(
     let img_bytes = (w as u64) * (h as u64) * 16;
     let out_full = ctx.buffer("image", img_bytes, usage);
     let out_caustic = ctx.buffer("caustic_image", img_bytes, usage);
-    let cpar = ctx.uniform(
+    // In a storage buffer, not a uniform: see `shaders/composite.wgsl` (lavapipe's inlining).
+    let layer2 = has_specular_meshes(dc.scene);
+    let cpar = ctx.buffer_init(
         "composite_params",
         bytemuck::bytes_of(&CompositeParams {
             world_to_clip: eye.cam_clip.to_cols_array_2d(),
@@ -1398,10 +1400,16 @@ pub(crate) fn record_composite(
             },
             width: w,
             height: h,
-            layer2: has_specular_meshes(dc.scene) as u32,
+            layer2: layer2 as u32,
             _pad: 0,
         }),
+        wgpu::BufferUsages::STORAGE,
     );
+    // The specular pixels listed by the first pass and the indirect dispatch of the second.
+    let spec_list = ctx.buffer("composite_list", (w as u64) * (h as u64) * 4, wgpu::BufferUsages::STORAGE);
+    let spec_count = ctx.buffer("composite_count", 16, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
+    // The second pass binds the count too, so it is dispatched from a copy.
+    let spec_args = ctx.buffer("composite_args", 16, wgpu::BufferUsages::INDIRECT);
     let v = [
         &eye.recv.pos,
         &eye.recv.nrm,
@@ -1417,7 +1425,16 @@ pub(crate) fn record_composite(
     .map(|t| layer_view(ctx, t, 0));
     let env_view = ctx.view(&dc.geo.environment, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
     let tv = |i: usize| wgpu::BindingResource::TextureView(&v[i]);
-    let composite_pl = ctx.compute_pipeline("composite");
+    let env = dc.scene.environment.is_some();
+    let consts = |pass: u32| {
+        [
+            ("composite_pass", f64::from(pass)),
+            ("composite_layer2", f64::from(u8::from(layer2))),
+            ("composite_env", f64::from(u8::from(env))),
+        ]
+    };
+    let composite_pl = ctx.compute_pipeline_with("composite", &consts(0));
+    let specular_pl = ctx.compute_pipeline_with("composite", &consts(1));
     let cbg = crate::gpu::bind(
         ctx,
         &composite_pl,
@@ -1443,6 +1460,8 @@ pub(crate) fn record_composite(
             dc.geo.bvh_nodes.as_entire_binding(),
             dc.geo.bvh_tris.as_entire_binding(),
             dc.geo.bvh_instances.as_entire_binding(),
+            spec_list.as_entire_binding(),
+            spec_count.as_entire_binding(),
         ],
     );
     {
@@ -1453,6 +1472,16 @@ pub(crate) fn record_composite(
         cp.set_pipeline(&composite_pl);
         cp.set_bind_group(0, &cbg, &[]);
         cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    }
+    enc.copy_buffer_to_buffer(&spec_count, 0, &spec_args, 0, 16);
+    {
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("composite_specular"),
+            timestamp_writes: timer.compute("composite_specular"),
+        });
+        cp.set_pipeline(&specular_pl);
+        cp.set_bind_group(0, &cbg, &[]);
+        cp.dispatch_workgroups_indirect(&spec_args, 0);
     }
     record_medium(dc, eye, lights, s, (&out_full, &out_caustic), enc, timer);
     (out_full, out_caustic)

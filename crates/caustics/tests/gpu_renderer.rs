@@ -374,3 +374,26 @@ fn shading_tiles_change_no_bit() {
         (0..m.div_ceil(8)).flat_map(|ty| (0..m.div_ceil(8)).map(move |tx| (tx, ty))).map(|(x, y)| lit(x, y)).collect();
     assert!(tiles.iter().any(|&t| t) && tiles.iter().any(|&t| !t));
 }
+
+/// `composite` lists the pixels whose nearest surface is specular and shades them in a second,
+/// indirect dispatch over workgroups of 64. With the glass ball filling the frame, every pixel
+/// is listed (37 × 29 = 16 × 64 + 49: the last workgroup is partial), and every one of them must
+/// be shaded: through the ball each sees the lit floor or the sky, never the black a pixel the
+/// second dispatch missed would keep.
+#[test]
+fn every_listed_specular_pixel_is_shaded() {
+    let Some(ctx) = gpu() else { return };
+    let mut scene = catalogue("glass_sphere_sky");
+    scene.camera.width = 37;
+    scene.camera.height = 29;
+    scene.camera.position = Vec3::new(0.0, 0.5, 0.9);
+    scene.camera.look_at = Vec3::new(0.0, 0.5, 0.0);
+    let mut r = Renderer::with_context(ctx, scene, settings()).unwrap();
+    frame(&mut r);
+    let img = r.read_image().unwrap();
+    assert_eq!(img.pixels.len(), 37 * 29);
+    let dark: Vec<usize> = (0..img.pixels.len())
+        .filter(|&i| !img.pixels[i].iter().all(|c| c.is_finite()) || img.pixels[i].iter().sum::<f32>() <= 0.0)
+        .collect();
+    assert!(dark.is_empty(), "{} pixels unshaded or not finite, first {:?}", dark.len(), &dark[..dark.len().min(8)]);
+}
