@@ -205,23 +205,18 @@ fn sun_in_fog_renders_through_caustic_spheres() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/glass_sphere_fog_sun.json");
     let cache = tmp("sphere-cache-fog-sun");
     let _ = std::fs::remove_dir_all(&cache);
-    let (full, caustic, png) = (tmp("fog_sun.exr"), tmp("fog_sun_caustic.exr"), tmp("fog_sun.png"));
-    let mut args = vec!["render", scene, "--backend", "gpu", "--size", "40x40", "--technique", "caustic-spheres"];
+    let (full, caustic) = (tmp("fog_sun.exr"), tmp("fog_sun_caustic.exr"));
+    let mut args = vec!["render", scene, "--backend", "gpu", "--size", "32x32", "--technique", "caustic-spheres"];
     args.extend_from_slice(&["--directions", "3", "--spheres", "4", "--sphere-size", "16x8"]);
     args.extend_from_slice(&["--sphere-photons", "4096", "--sphere-cache", cache.to_str().unwrap()]);
-    let mut exr = args.clone();
-    exr.extend_from_slice(&["-o", full.to_str().unwrap(), "--caustic-output", caustic.to_str().unwrap()]);
-    let out = caustics().args(&exr).output().unwrap();
+    args.extend_from_slice(&["-o", full.to_str().unwrap(), "--caustic-output", caustic.to_str().unwrap()]);
+    let out = caustics().args(&args).output().unwrap();
     if !out.status.success() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains("adapter") && std::env::var("CI").is_err(), "{err}");
         eprintln!("skipping: {err}");
         return;
     }
-    args.extend_from_slice(&["-o", png.to_str().unwrap()]);
-    let out = caustics().args(&args).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(std::fs::metadata(&png).unwrap().len() > 0);
     // The caustic-only image against the full one: both lit, the caustic a part of the whole.
     let cmp = caustics().args(["compare", caustic.to_str().unwrap(), full.to_str().unwrap()]).output().unwrap();
     assert!(cmp.status.success(), "{}", String::from_utf8_lossy(&cmp.stderr));

@@ -9,7 +9,8 @@
 // from the object's centre; here it is one exact ray per pixel and object through the scene's
 // BVH, shared/raytrace.wgsl, skipping the caustic object itself).
 // Pixel footprint: the tables are looked up at gp.samples^2 points spread over the pixel (a box
-// filter, as the reference's photon splats), on the receiver's tangent plane, the footprint
+// filter, as the reference's photon splats; with many records the points are dealt out over
+// them in turn, so that they cost no more lookups), on the receiver's tangent plane, the footprint
 // taken from the neighbouring pixels' receiver points on the same object (one side, the other,
 // or none at an edge: then the centre only along that axis); one occlusion ray per pixel and
 // object, from its centre. A focus narrower than a pixel is then not missed or overstated by
@@ -31,7 +32,8 @@ struct SphereGatherParams {
     // Points per pixel side of the box filter (1: the pixel's centre only).
     samples: u32,
     camera: vec4f,
-    // A homogeneous medium's box (medium_lo.w = 1; 0: none) and sigma_t (rgb, 1/m).
+    // A homogeneous medium's box (medium_lo.w = 1; 0: none) and sigma_t (rgb, 1/m); sigma_t.w:
+    // the irradiance luminance from which a record gets every point of the box filter.
     medium_lo: vec4f,
     medium_hi: vec4f,
     sigma_t: vec4f,
@@ -117,6 +119,9 @@ fn light_transmittance(r: SphereRecord, p: vec3f) -> vec3f {
     return exp(-gp.sigma_t.rgb * (into + out));
 }
 
+// Lookups per pixel up to which every record is looked up at every point of the box filter.
+const FULL_FILTER: u32 = 256u;
+
 // The receiver's step to the neighbouring pixel along `axis` (one pixel), on the surface of
 // object `obj` near the tangent plane (p, n): the forward neighbour, else the backward one
 // negated, else zero.
@@ -151,6 +156,14 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let dy = footprint_step(px, vec2i(0, 1), p, n, pw.w);
     let ns = max(gp.samples, 1u);
     let inv = 1.0 / f32(ns);
+    // Every record at all ns^2 points while that is at most FULL_FILTER lookups per pixel;
+    // beyond, the records that carry at least gp.sigma_t.w of irradiance luminance (a 32nd of
+    // all records', set by the CPU: at most 32 of them, a sun's) at all points, the others one
+    // point each, dealt out in turn (record i at point i mod ns^2): the records of one light
+    // (its three blended directions, an environment region's sub-directions) lie together and
+    // cover the pixel between them.
+    let nss = ns * ns;
+    let all_full = gp.records * nss <= FULL_FILTER;
     var e = vec3f(0.0);
     var object = INVALID;
     var visible = false;
@@ -171,13 +184,17 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         if (!visible) { continue; }
         var tr = vec3f(1.0);
         if (gp.medium_lo.w > 0.5 && r.base.z != 2u) { tr = light_transmittance(r, p); }
+        let lum = r.irradiance.r + r.irradiance.g + r.irradiance.b;
+        let full = all_full || lum >= gp.sigma_t.w;
+        let per = select(1u, nss, full);
         var er = vec3f(0.0);
-        for (var k = 0u; k < ns * ns; k++) {
+        for (var j = 0u; j < per; j++) {
+            let k = select(i % nss, j, full);
             let u = (f32(k % ns) + 0.5) * inv - 0.5;
             let v = (f32(k / ns) + 0.5) * inv - 0.5;
             er += record_irradiance(r, p + dx * u + dy * v, n);
         }
-        e += er * (inv * inv) * tr;
+        e += er * (1.0 / f32(per)) * tr;
     }
     let lo = mat.a.rgb / PI * e;
     let idx = gid.y * gp.width + gid.x;

@@ -60,7 +60,20 @@ fn equation_1_radii() {
     let cube = caustics::scene::Shape::Mesh(std::sync::Arc::new(caustics::scene::TriMesh {
         positions: (0..8).map(|i| Vec3::new([-1., 1.][i & 1], [-1., 1.][(i >> 1) & 1], [-1., 1.][i >> 2])).collect(),
         normals: vec![],
-        indices: vec![[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]],
+        indices: vec![
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 6, 7],
+            [4, 7, 5],
+            [0, 4, 5],
+            [0, 5, 1],
+            [2, 3, 7],
+            [2, 7, 6],
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3],
+        ],
     }));
     let near = caustics::caustic_spheres::nearest_surface(&cube, Vec3::ZERO);
     assert!((near - 1.0).abs() < 1e-6, "cube: {near}");

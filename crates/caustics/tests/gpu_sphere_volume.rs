@@ -1,9 +1,9 @@
 //! Volumetric caustics from caustic spheres (`sphere_volume`, issue 15 item 5): a glass ball in
 //! a homogeneous fog under a directional light, the in-medium caustic against the CPU
 //! reference (single scattering, light tracing), and nothing from the pass without a medium.
-//! The scene format refuses a directional light with a medium (the GPU's direct light in a
-//! medium handles spot and point lights only), so the scene is built in code. Small sizes for
-//! lavapipe.
+//! The scene is built in code (its spot light replaced by a directional one; the scene format
+//! accepts a directional light with a medium since the GPU's direct light in media handles
+//! them). Small sizes for lavapipe.
 
 mod common;
 use caustics::Scene;
@@ -33,8 +33,8 @@ fn ball_in_fog(dir: Vec3, phase: &str, w: u32, h: u32) -> Scene {
               "bounds": {{ "min": [-4, -0.1, -4], "max": [4, 4.5, 4] }} }} }}"#
     );
     let mut s = Scene::from_json(&json, "sphere_volume.json", Path::new(".")).unwrap();
-    // In code: a directional light with the medium (the format's check is for the GPU's direct
-    // light in media, which this test does not look at).
+    // The directional light replaces the spot (the caustic-only image compared here holds no
+    // direct light).
     s.lights = vec![Light::Directional { direction: dir.normalize(), irradiance: Vec3::splat(4.0) }];
     s
 }

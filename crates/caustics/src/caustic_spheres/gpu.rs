@@ -298,6 +298,10 @@ pub(crate) fn record_gather(
     // A homogeneous medium attenuates the light's path to the receiver (a density grid: not
     // modelled here, as in `sphere_volume`).
     let medium = dc.scene.medium.as_ref().filter(|m| m.density.is_none());
+    // The records that get every point of the box filter however many there are: those with at
+    // least a 32nd of all records' irradiance (luminance r + g + b).
+    let lum = |r: &SphereRecord| r.irradiance[0] + r.irradiance[1] + r.irradiance[2];
+    let heavy = records.iter().map(lum).sum::<f32>() / 32.0;
     let pl = ctx.compute_pipeline_with("sphere_gather", &[("bvh_stack_limit", f64::from(spheres.stack_limit))]);
     // Rewritten (zeroed) every frame: a storage buffer from `buffer_init`.
     let counters =
@@ -312,7 +316,7 @@ pub(crate) fn record_gather(
             camera: cam.position.extend(1.0).to_array(),
             medium_lo: medium.map_or([0.0; 4], |m| m.bounds_min.extend(1.0).to_array()),
             medium_hi: medium.map_or([0.0; 4], |m| m.bounds_max.extend(0.0).to_array()),
-            sigma_t: medium.map_or([0.0; 4], |m| (m.sigma_s + m.sigma_a).extend(0.0).to_array()),
+            sigma_t: medium.map_or(Vec3::ZERO, |m| m.sigma_s + m.sigma_a).extend(heavy).to_array(),
         }),
     );
     let zero = [SphereRecord::zeroed_record()];

@@ -336,7 +336,11 @@ impl CausticSpheres {
             // light crosses a cell from a wide cone: the normalized mean overstated it by
             // 1/|d|, 5–25 % on the floor under a resting ball).
             let lum = a[0] + a[1] + a[2];
-            let d = if lum > 0.0 { Vec3::new((a[3] / lum) as f32, (a[4] / lum) as f32, (a[5] / lum) as f32) } else { Vec3::ZERO };
+            let d = if lum > 0.0 {
+                Vec3::new((a[3] / lum) as f32, (a[4] / lum) as f32, (a[5] / lum) as f32)
+            } else {
+                Vec3::ZERO
+            };
             self.data[base + k] = [a[0] as f32, a[1] as f32, a[2] as f32, 0.0, d.x, d.y, d.z, 0.0];
         }
     }

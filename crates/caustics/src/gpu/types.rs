@@ -142,7 +142,8 @@ pub struct SphereGatherParams {
     /// A homogeneous medium's box (w = 1; 0: none, or a density grid: not attenuated).
     pub medium_lo: [f32; 4],
     pub medium_hi: [f32; 4],
-    /// rgb = σt (1/m).
+    /// rgb = σt (1/m); w = the irradiance luminance from which a record gets every point of
+    /// the box filter.
     pub sigma_t: [f32; 4],
 }
 
@@ -157,7 +158,8 @@ pub struct SphereVolumeParams {
     pub hi: [f32; 4],
     /// rgb = σs (1/m), w = Henyey–Greenstein g (0: isotropic).
     pub sigma_s: [f32; 4],
-    /// rgb = σt (1/m).
+    /// rgb = σt (1/m); w = the irradiance luminance from which a record gets every point of
+    /// the box filter.
     pub sigma_t: [f32; 4],
     pub width: u32,
     pub height: u32,
