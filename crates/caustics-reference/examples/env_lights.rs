@@ -8,7 +8,8 @@
 //! reference lit by the D directional lights, against both; `PASS_MS=1`: GPU ms of the passes;
 //! `SPHERES=1`: the technique `caustic-spheres` instead of basic maps, the caustic objects'
 //! tables (N = 7, s = 16, 64 × 48, `SPHERE_PHOTONS` per direction, default 2^18) read from or
-//! built into `SPHERE_CACHE` (default `.caustics-cache`); `SPHERES=both`: each D with both)
+//! built into `SPHERE_CACHE` (default `.caustics-cache`); `SPHERES=both`: each D with both;
+//! `SPHERE_SAMPLES=n`: n × n points per pixel of `sphere_gather`'s box filter)
 use caustics_reference::ImageIo as _;
 use caustics_reference::metrics::{energy, hdr_flip};
 
@@ -112,6 +113,9 @@ fn main() {
         let mut r = caustics::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s).unwrap();
         if sph {
             r.set_caustic_spheres(tables.clone(), caustics::caustic_spheres::Blend::Triangle, false).unwrap();
+            if let Ok(n) = std::env::var("SPHERE_SAMPLES") {
+                r.set_caustic_sphere_samples(n.parse().unwrap()).unwrap();
+            }
         }
         let drawn = r.lights().len();
         let g = r.render_once().unwrap();

@@ -1,5 +1,5 @@
 // Stage: medium_scatter. Direct light in a homogeneous participating medium (scene `medium`),
-// seen by the camera, for one light (spot or point). Per pixel, the camera ray from the camera
+// seen by the camera, for one light (spot, point or directional). Per pixel, the camera ray from the camera
 // to the first surface it sees (the nearer of the eye's diffuse and specular buffers; the far
 // side of the medium's box when it sees nothing), clipped to the box:
 //   - with `mp.flags & 1` (the first light's dispatch), the composited image (full and
@@ -7,7 +7,12 @@
 //   - the single-scattered light of this light is added to the full image: a midpoint rule in
 //     `mp.steps` equal steps of
 //       sigma_s phase(cos) I(w)/r^2 exp(-sigma_t (r_in_box + s_in_box)) V,
-//     V from the light's shadow map (one bilinear comparison, one texel toward the light).
+//     V from the light's shadow map (one bilinear comparison, one texel toward the light);
+//     for a directional light of irradiance E (W/m^2) travelling along L, E in place of
+//     I(w)/r^2, the scattering angle's cosine L . (-d), and r_in_box the part inside the box of
+//     the line from x back toward the light (its light enters the box from the vacuum outside;
+//     the orthographic shadow map covers the scene's bounding sphere, and a point outside its
+//     footprint sees the light past every object).
 // Segments beyond the first surface (through glass, in mirrors) are not attenuated.
 // Heterogeneous media (`mp.grid == 1`, a density grid in `density`): sigma(x) = rho(x) sigma;
 // the same midpoint rule gives the camera ray's optical depth (the attenuation) and, per step,
@@ -76,6 +81,32 @@ fn visibility(x: vec3f, to_l: vec3f) -> f32 {
     return 1.0;
 }
 
+// The light arriving at x, before the medium's attenuation: its travel direction `wl`, its
+// irradiance `e` on a plane facing it (W/m^2: a directional light's irradiance, a spot's or
+// point light's I(w)/r^2) and its visibility `vis` (0: none arrives).
+struct Incident {
+    wl: vec3f,
+    e: vec3f,
+    vis: f32,
+}
+
+fn incident(x: vec3f) -> Incident {
+    var wl: vec3f;
+    var e: vec3f;
+    if (light.info.y == LIGHT_DIRECTIONAL) {
+        wl = normalize(light.axis.xyz);
+        e = light.power.rgb;
+    } else {
+        let v = light.faces[0].origin.xyz - x;
+        let rl = length(v);
+        if (rl <= 1e-6) { return Incident(vec3f(0.0), vec3f(0.0), 0.0); }
+        wl = -v / rl;
+        e = intensity_toward(light, wl) / (rl * rl);
+    }
+    if (all(e <= vec3f(0.0))) { return Incident(wl, e, 0.0); }
+    return Incident(wl, e, visibility(x, -wl));
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (gid.x >= mp.width || gid.y >= mp.height) { return; }
@@ -103,23 +134,17 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         out_caustic[idx] = vec4f(out_caustic[idx].rgb * tr, out_caustic[idx].a);
     }
     if ((mp.flags & 2u) == 0u) { return; }
-    let lp = light.faces[0].origin.xyz;
     let n = max(mp.steps, 1u);
     let dt = (seg.y - seg.x) / f32(n);
     var acc = vec3f(0.0);
     for (var i = 0u; i < n; i++) {
         let t = seg.x + (f32(i) + 0.5) * dt;
         let x = cam + d * t;
-        let v = lp - x;
-        let rl = length(v);
-        if (rl <= 1e-6) { continue; }
-        let wl = -v / rl;
-        let e = intensity_toward(light, wl);
-        if (all(e <= vec3f(0.0))) { continue; }
-        let vis = visibility(x, -wl);
-        if (vis <= 0.0) { continue; }
+        let inc = incident(x);
+        if (inc.vis <= 0.0) { continue; }
+        let lp = light_path_start(light, x, mp.lo.xyz, mp.hi.xyz);
         let tr = exp(-mp.sigma_t.rgb * (box_length(lp, x, mp.lo.xyz, mp.hi.xyz) + (t - seg.x)));
-        acc += e / (rl * rl) * phase(dot(wl, -d)) * tr * vis;
+        acc += inc.e * phase(dot(inc.wl, -d)) * tr * inc.vis;
     }
     out_full[idx] += vec4f(mp.sigma_s.rgb * acc * dt, 0.0);
 }
@@ -130,7 +155,6 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
 fn heterogeneous(idx: u32, cam: vec3f, d: vec3f, seg: vec2f) {
     let lo = mp.lo.xyz;
     let hi = mp.hi.xyz;
-    let lp = light.faces[0].origin.xyz;
     let scatter = (mp.flags & 2u) != 0u;
     let n = max(mp.steps, 1u);
     let dt = (seg.y - seg.x) / f32(n);
@@ -144,17 +168,11 @@ fn heterogeneous(idx: u32, cam: vec3f, d: vec3f, seg: vec2f) {
         let tau_here = tau + 0.5 * rho * dt;
         tau += rho * dt;
         if (!scatter || rho <= 0.0) { continue; }
-        let v = lp - x;
-        let rl = length(v);
-        if (rl <= 1e-6) { continue; }
-        let wl = -v / rl;
-        let e = intensity_toward(light, wl);
-        if (all(e <= vec3f(0.0))) { continue; }
-        let vis = visibility(x, -wl);
-        if (vis <= 0.0) { continue; }
-        let tau_l = grid_optical_depth(density, x, lp, lo, hi, mp.light_steps);
+        let inc = incident(x);
+        if (inc.vis <= 0.0) { continue; }
+        let tau_l = grid_optical_depth(density, x, light_path_start(light, x, lo, hi), lo, hi, mp.light_steps);
         let tr = exp(-mp.sigma_t.rgb * (tau_l + tau_here));
-        acc += rho * e / (rl * rl) * phase(dot(wl, -d)) * tr * vis;
+        acc += rho * inc.e * phase(dot(inc.wl, -d)) * tr * inc.vis;
     }
     if ((mp.flags & 1u) != 0u) {
         let tr = exp(-mp.sigma_t.rgb * tau);

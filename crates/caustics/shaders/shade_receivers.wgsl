@@ -4,7 +4,8 @@
 // light through glass arrives only as caustic. Shadows: 3x3 PCF with a normal offset. Caustics:
 // bilinear in the light-space irradiance map, over the texels whose receiver point is the
 // shaded point (so caustics do not leak onto surfaces the light cannot see).
-// In a medium, both are attenuated by the transmittance from the light to the point (the
+// In a medium, both are attenuated by the transmittance from the light (a directional light:
+// from where its line back from the point leaves the medium's box) to the point (the
 // caustic along the straight line too): exp(-sigma_t d) in a homogeneous medium, the ray march
 // `grid_optical_depth` in `medium_grid.y` steps through the density grid in a heterogeneous
 // one. Run once per light; adds into `radiance` (full) and `caustic` (caustic light only).
@@ -231,10 +232,11 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (sp.medium_lo.w > 0.5) {
         var tr: vec3f;
         if (sp.medium_grid.x == 0u) {
-            tr = exp(-sp.sigma_t.rgb * box_length(light.faces[0].origin.xyz, p, sp.medium_lo.xyz, sp.medium_hi.xyz));
+            let lp = light_path_start(light, p, sp.medium_lo.xyz, sp.medium_hi.xyz);
+            tr = exp(-sp.sigma_t.rgb * box_length(lp, p, sp.medium_lo.xyz, sp.medium_hi.xyz));
         } else {
-            let od = grid_optical_depth(
-                density, light.faces[0].origin.xyz, p, sp.medium_lo.xyz, sp.medium_hi.xyz, sp.medium_grid.y);
+            let lp = light_path_start(light, p, sp.medium_lo.xyz, sp.medium_hi.xyz);
+            let od = grid_optical_depth(density, lp, p, sp.medium_lo.xyz, sp.medium_hi.xyz, sp.medium_grid.y);
             tr = exp(-sp.sigma_t.rgb * od);
         }
         e *= tr;

@@ -1290,7 +1290,7 @@ fn density_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::TextureView {
 }
 
 /// `medium_scatter` (scenes with a medium; nothing is recorded or requested otherwise): one
-/// dispatch per spot or point light over the composited images. The first attenuates both
+/// dispatch per light (spot, point or directional) over the composited images. The first attenuates both
 /// images by the transmittance along each pixel's camera ray to its first surface; each adds
 /// its light's single scattering along that ray (`RenderSettings::medium_steps` steps, shadowed
 /// by the light's shadow map) to the full image.
@@ -1317,11 +1317,7 @@ fn record_medium(
     let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
     let density = density_view(ctx, &dc.geo.density);
     for (li, lf) in lights.iter().enumerate() {
-        // A directional light's direct in-scattering is not modelled (the scene format refuses
-        // it with a medium; a scene built in code may have one for the caustic spheres' volume
-        // caustics, `caustic_spheres::gpu::record_volume`): its dispatch only attenuates.
-        let directional = matches!(dc.scene.lights.get(li), Some(crate::scene::Light::Directional { .. }));
-        let flags = u32::from(li == 0) | (u32::from(scatters && !directional) << 1);
+        let flags = u32::from(li == 0) | (u32::from(scatters) << 1);
         let params = ctx.uniform(
             "medium_params",
             bytemuck::bytes_of(&MediumParams {

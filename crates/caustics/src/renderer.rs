@@ -274,6 +274,19 @@ impl Renderer {
         }
     }
 
+    /// Caustic spheres: the points per pixel side of `sphere_gather`'s box filter (1 to 16;
+    /// default `caustic_spheres::gpu::PIXEL_SAMPLES`; 1: the pixel's centre, as the CPU
+    /// evaluation with one ray per pixel). No effect before `set_caustic_spheres`.
+    pub fn set_caustic_sphere_samples(&mut self, samples: u32) -> Result<()> {
+        if !(1..=16).contains(&samples) {
+            return Err(Error::input("<renderer>", "sphere_samples", format!("must be 1 to 16 (got {samples})")));
+        }
+        if let Some(sp) = self.spheres.as_mut() {
+            sp.pixel_samples = samples;
+        }
+        Ok(())
+    }
+
     /// Caustic spheres: lower the BVH stack of `sphere_gather`'s occlusion rays (1 to
     /// `accel::BVH_STACK`), for tests that check overflows are counted
     /// (`FrameStats::sphere_stack_overflows`). No effect before `set_caustic_spheres`.

@@ -51,8 +51,34 @@ fn equation_1_radii() {
     let g = SphereGeometry::for_shape(&scene.objects[0].shape, &small());
     let s = g.radii.len();
     assert_eq!(s, 8);
-    // r_min just beyond the ball's surface, r_max = 4 d with d = the box's largest extent.
-    assert!((g.radii[0] - 1.02 * R).abs() < 1e-5);
+    // r_min just beyond the ball's surface (0.1 % and the spawn margin, 1e-4 (1 + |c| + R)),
+    // r_max = 4 d with d = the box's largest extent.
+    let want = R * (1.0 + caustics::caustic_spheres::R_MIN_GAP) + 1e-4 * (1.0 + C.y + R);
+    assert!((g.radii[0] - want).abs() < 1e-6, "r_min {} (want {want})", g.radii[0]);
+    // A mesh: the nearest point of its triangles, not of its vertices (a cube of side 2 about
+    // the origin: 1 to its faces' centres, √3 to its corners).
+    let cube = caustics::scene::Shape::Mesh(std::sync::Arc::new(caustics::scene::TriMesh {
+        positions: (0..8).map(|i| Vec3::new([-1., 1.][i & 1], [-1., 1.][(i >> 1) & 1], [-1., 1.][i >> 2])).collect(),
+        normals: vec![],
+        indices: vec![
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 6, 7],
+            [4, 7, 5],
+            [0, 4, 5],
+            [0, 5, 1],
+            [2, 3, 7],
+            [2, 7, 6],
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3],
+        ],
+    }));
+    let near = caustics::caustic_spheres::nearest_surface(&cube, Vec3::ZERO);
+    assert!((near - 1.0).abs() < 1e-6, "cube: {near}");
+    let near = caustics::caustic_spheres::nearest_surface(&cube, Vec3::new(0.5, 0.2, 0.0));
+    assert!((near - 0.5).abs() < 1e-6, "cube, off centre: {near}");
     assert!((g.radii[s - 1] - 4.0 * 2.0 * R).abs() < 1e-5);
     assert!((g.center - C).length() < 1e-6);
     for (i, r) in g.radii.iter().enumerate() {

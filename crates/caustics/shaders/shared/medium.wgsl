@@ -26,6 +26,19 @@ fn box_length(a: vec3f, b: vec3f, lo: vec3f, hi: vec3f) -> f32 {
     return max(c.y - c.x, 0.0);
 }
 
+// Where the light's path to x starts: the spot's or point light's position; for a directional
+// light (kind 2, travelling along `light.axis`) a point on the line back from x toward the
+// light beyond the box lo..hi (its light enters the box from the vacuum outside: the path's
+// part inside the box, `box_length` or `grid_optical_depth` from there to x, is the whole
+// medium path).
+fn light_path_start(light: LightGpu, x: vec3f, lo: vec3f, hi: vec3f) -> vec3f {
+    if (light.info.y == LIGHT_DIRECTIONAL) {
+        let far = length(hi - lo) + length(x - clamp(x, lo, hi)) + 1.0;
+        return x - normalize(light.axis.xyz) * far;
+    }
+    return light.faces[0].origin.xyz;
+}
+
 // Heterogeneous media (scene `medium.density`): the density grid as an R32Float 3D texture
 // (`passes::upload_density`; 1×1×1 holding 1 for a homogeneous medium), read with textureLoad.
 

@@ -24,8 +24,8 @@ struct SphereRecord {
 }
 
 // The lookup at object-frame point po: C (rgb, times the 1/r^2 fall-off outside the spheres)
-// and the mean direction d turned by the record's rotation (object frame; zero where no light
-// is); for a compiled record the three vectors V_c instead.
+// and the mean direction d (of length <= 1) turned by the record's rotation (object frame; zero
+// where no light is); for a compiled record the three vectors V_c instead.
 struct SphereSample {
     c: vec3f,
     d: vec3f,
@@ -73,6 +73,7 @@ fn sphere_lookup(r: SphereRecord, po: vec3f) -> SphereSample {
     let cols = vec2u(u32(((i32(c0) % iw) + iw) % iw), u32(((i32(c0) + 1) % iw + iw) % iw));
     var c = vec3f(0.0);
     var d = vec3f(0.0);
+    var lum = 0.0;
     let mode = r.base.z;
     let stride = select(select(2u, 1u, mode == 1u), 3u, mode == 2u);
     for (var k = 0u; k < 8u; k++) {
@@ -100,12 +101,15 @@ fn sphere_lookup(r: SphereRecord, po: vec3f) -> SphereSample {
         }
         c += ce * wt;
         d += de * (wt * (ce.r + ce.g + ce.b));
+        lum += wt * (ce.r + ce.g + ce.b);
     }
     out.v0 *= fall;
     out.v1 *= fall;
     out.v2 *= fall;
-    if (dot(d, d) <= 0.0) { return out; }
-    let dn = normalize(d);
+    if (lum <= 0.0) { return out; }
+    // The luminance-weighted mean of the cells' mean directions, not normalized (|d| <= 1: C d
+    // is the vector irradiance, mod.rs).
+    let dn = d / lum;
     out.c = c * fall;
     out.d = vec3f(dot(r.rot[0].xyz, dn), dot(r.rot[1].xyz, dn), dot(r.rot[2].xyz, dn));
     return out;

@@ -18,8 +18,9 @@ use glam::Vec3;
 use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 8] = b"CAUSPHR\0";
-/// Bumped whenever the stored quantity, the layout or the precomputation changes.
-pub const FORMAT_VERSION: u32 = 1;
+/// Bumped whenever the stored quantity, the layout or the precomputation changes (2: r_min
+/// just beyond the nearest surface point, no longer 1.02 × the nearest vertex).
+pub const FORMAT_VERSION: u32 = 2;
 
 /// FNV-1a, 64 bits.
 #[derive(Clone, Copy)]

@@ -32,6 +32,8 @@ pub struct GpuSpheres {
     /// BVH stack entries the occlusion ray may use (`bvh_stack_limit` of `sphere_gather`;
     /// `crate::accel::BVH_STACK` unless a test lowers it to provoke overflows).
     pub stack_limit: u32,
+    /// Points per pixel side of `sphere_gather`'s box filter ([`PIXEL_SAMPLES`] by default).
+    pub pixel_samples: u32,
 }
 
 impl GpuSpheres {
@@ -90,6 +92,7 @@ impl GpuSpheres {
             bytes,
             compiled: false,
             stack_limit: crate::accel::BVH_STACK as u32,
+            pixel_samples: PIXEL_SAMPLES,
         })
     }
 
@@ -270,6 +273,14 @@ pub(crate) fn record_compile(
     compiled
 }
 
+/// Points per pixel side at which `sphere_gather` looks the tables up (a box filter over the
+/// pixel's footprint on the receiver's tangent plane, `shaders/sphere_gather.wgsl`). One point
+/// at the pixel's centre under- or over-states a focus narrower than the pixel at random: on
+/// `glass_sphere_sky` at 128 × 96 under one sun at 48°, 0.57 of the CPU reference's caustic
+/// energy with 1 point, 1.04 with 8 × 8 (CPU evaluation; docs/benchmarks.md). The cost of the
+/// lookups grows as its square.
+pub const PIXEL_SAMPLES: u32 = 3;
+
 /// Records `sphere_gather`: adds the caustic radiance of `records` to the eye's diffuse
 /// radiance and caustic buffers. Returns its statistics buffer (8 bytes; the first u32 counts
 /// the occlusion rays that overflowed the BVH stack) for the frame's statistics.
@@ -284,6 +295,13 @@ pub(crate) fn record_gather(
     let ctx = dc.ctx;
     let cam = &dc.scene.camera;
     let (w, h) = (cam.width, cam.height);
+    // A homogeneous medium attenuates the light's path to the receiver (a density grid: not
+    // modelled here, as in `sphere_volume`).
+    let medium = dc.scene.medium.as_ref().filter(|m| m.density.is_none());
+    // The records that get every point of the box filter however many there are: those with at
+    // least a 32nd of all records' irradiance (luminance r + g + b).
+    let lum = |r: &SphereRecord| r.irradiance[0] + r.irradiance[1] + r.irradiance[2];
+    let heavy = records.iter().map(lum).sum::<f32>() / 32.0;
     let pl = ctx.compute_pipeline_with("sphere_gather", &[("bvh_stack_limit", f64::from(spheres.stack_limit))]);
     // Rewritten (zeroed) every frame: a storage buffer from `buffer_init`.
     let counters =
@@ -294,8 +312,11 @@ pub(crate) fn record_gather(
             width: w,
             height: h,
             records: records.len() as u32,
-            _pad: 0,
+            samples: spheres.pixel_samples,
             camera: cam.position.extend(1.0).to_array(),
+            medium_lo: medium.map_or([0.0; 4], |m| m.bounds_min.extend(1.0).to_array()),
+            medium_hi: medium.map_or([0.0; 4], |m| m.bounds_max.extend(0.0).to_array()),
+            sigma_t: medium.map_or(Vec3::ZERO, |m| m.sigma_s + m.sigma_a).extend(heavy).to_array(),
         }),
     );
     let zero = [SphereRecord::zeroed_record()];

@@ -5,10 +5,11 @@
 //! **Stored quantity.** Per light direction ω (the direction the light travels, in the
 //! object's frame: the scene file's pose), per sphere, per latitude-longitude cell: the
 //! *concentration* C (r, g, b; dimensionless) and the flux-weighted mean direction `d` of the
-//! caustic light crossing the cell. C is the caustic flux per unit area perpendicular to its
+//! caustic light crossing the cell, not normalized (|d| ≤ 1: C d is the vector irradiance). C is the caustic flux per unit area perpendicular to its
 //! direction of travel, per unit irradiance of the light (W/m² per W/m²). A receiver at `p`
 //! with unit normal `n` under a directional light of irradiance `E` (W/m², r g b) travelling
-//! along `L` gets the caustic irradiance `E ⊙ C(p) · max(0, −d(p)·n)` W/m². C does not change
+//! along `L` gets the caustic irradiance `E ⊙ C(p) · max(0, −d(p)·n)` W/m² (exact when all
+//! the light at `p` comes from the receiver's front). C does not change
 //! when the object is scaled uniformly (the flux and the areas scale alike), so the table is
 //! kept in the object's frame and looked up at `T⁻¹ p` for an object moved by `T`.
 //!
@@ -21,8 +22,9 @@
 //! would need a stored triangulation and a point location search at run time.
 //!
 //! **Spheres**: radii by equation (1), `r_i = r_min + (r_max − r_min)((i − 1)/(s − 1))²`,
-//! `r_max = 4d` (d the largest extent of the object's bounding box), `r_min` 2% beyond the
-//! nearest surface vertex from the centre (the bounding box centre). **Cells**: W longitudes ×
+//! `r_max = 4d` (d the largest extent of the object's bounding box), `r_min` 0.1 % beyond the
+//! nearest surface point from the centre (the bounding box centre): a receiver touching the
+//! object lies between spheres, not inside the innermost one. **Cells**: W longitudes ×
 //! H latitudes in a frame whose pole is ω; the latitude is warped, θ = π t² (t ∈ [0, 1]), so
 //! that rows are dense where the caustic forms, downstream of the object along ω.
 
@@ -328,7 +330,17 @@ impl CausticSpheres {
         }
         let base = self.index(dir, 0, 0, 0);
         for (k, a) in acc.iter().enumerate() {
-            let d = Vec3::new(a[3] as f32, a[4] as f32, a[5] as f32).normalize_or_zero();
+            // The mean direction keeps its length (|d| ≤ 1, 1 when all the cell's light
+            // travels one way): C d is the cell's vector irradiance (net flux per area), so that
+            // a receiver gets C max(0, −d·n), not the larger C max(0, −d̂·n) (near a focus the
+            // light crosses a cell from a wide cone: the normalized mean overstated it by
+            // 1/|d|, 5–25 % on the floor under a resting ball).
+            let lum = a[0] + a[1] + a[2];
+            let d = if lum > 0.0 {
+                Vec3::new((a[3] / lum) as f32, (a[4] / lum) as f32, (a[5] / lum) as f32)
+            } else {
+                Vec3::ZERO
+            };
             self.data[base + k] = [a[0] as f32, a[1] as f32, a[2] as f32, 0.0, d.x, d.y, d.z, 0.0];
         }
     }
@@ -339,7 +351,8 @@ impl CausticSpheres {
         CausticSpheres { settings, geometry, layout_dirs, data: vec![[0.0; 8]; len] }
     }
 
-    /// (C, d) of stored direction `dir` at object-frame point `p`: bilinear on the spheres,
+    /// (C, d) of stored direction `dir` at object-frame point `p` (d the luminance-weighted
+    /// mean direction, of length ≤ 1: C d is the vector irradiance): bilinear on the spheres,
     /// linear between them in the eq. (1) parameter; outside the spheres C falls off as 1/r²
     /// from the nearest sphere (the caustic's flux spreads out from the object).
     pub fn sample(&self, dir: usize, p: Vec3) -> (Vec3, Vec3) {
@@ -380,6 +393,7 @@ impl CausticSpheres {
         let cols = [(c0 as i64).rem_euclid(g.width as i64) as u32, (c0 as i64 + 1).rem_euclid(g.width as i64) as u32];
         let mut c = Vec3::ZERO;
         let mut d = Vec3::ZERO;
+        let mut lum = 0.0;
         for (si, wsph) in [(s0, 1.0 - ws), (s0 + 1, ws)] {
             for (ri, wrow) in [(0, 1.0 - wr), (1, wr)] {
                 for (ci, wcol) in [(0, 1.0 - wc), (1, wc)] {
@@ -391,10 +405,14 @@ impl CausticSpheres {
                     let ce = Vec3::new(e[0], e[1], e[2]);
                     c += ce * wt;
                     d += Vec3::new(e[4], e[5], e[6]) * (wt * (ce.x + ce.y + ce.z));
+                    lum += wt * (ce.x + ce.y + ce.z);
                 }
             }
         }
-        (c * fall, d.normalize_or_zero())
+        if lum <= 0.0 {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        (c * fall, d / lum)
     }
 
     /// Caustic irradiance factor (W/m² per W/m² of light, r g b) at object-frame point `p` on a
@@ -457,6 +475,7 @@ impl CausticSpheres {
                     if d == Vec3::ZERO {
                         break;
                     }
+                    let d = d.normalize();
                     let dl = rot * d;
                     pk = p + (d - dl) * q.dot(dl);
                 }
@@ -474,25 +493,83 @@ impl CausticSpheres {
     }
 }
 
+/// Relative gap between the object's nearest surface point and the innermost sphere.
+pub const R_MIN_GAP: f32 = 1e-3;
+
+/// The distance from `center` to the nearest point of `shape`'s surface (the scene file's
+/// pose): the analytic sphere's radius less the offset of its centre, else the nearest point
+/// of the triangles (of the mesh, or of the shape's default tessellation).
+pub fn nearest_surface(shape: &crate::scene::Shape, center: Vec3) -> f32 {
+    use crate::scene::Shape;
+    let tris = |pos: &[Vec3], idx: &[[u32; 3]]| {
+        idx.iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| pos[i as usize]);
+                (closest_on_triangle(center, a, b, c) - center).length()
+            })
+            .fold(f32::INFINITY, f32::min)
+    };
+    match shape {
+        Shape::Sphere { center: c, radius } => (*radius - (*c - center).length()).abs(),
+        Shape::Mesh(m) => tris(&m.positions, &m.indices),
+        other => {
+            let t = other.tessellate(&crate::scene::Tessellation::default());
+            tris(&t.positions, &t.indices)
+        }
+    }
+}
+
+/// The point of triangle (a, b, c) nearest `p` (Ericson, Real-Time Collision Detection 5.1.5).
+fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let den = 1.0 / (va + vb + vc);
+    a + ab * (vb * den) + ac * (vc * den)
+}
+
 impl SphereGeometry {
     /// The spheres of `shape` (the scene file's pose): centred on its bounding box, radii by
-    /// equation (1) from 1.02 × the distance to the nearest surface vertex (the analytic
-    /// sphere's radius) to 4 × the box's largest extent.
+    /// equation (1) from r_min to r_max = 4 × the box's largest extent. r_min lies just beyond
+    /// the object's nearest surface point ([`nearest_surface`] × (1 + [`R_MIN_GAP`]), plus a
+    /// margin over the tracer's spawn offset), so that a receiver touching the object (a ball
+    /// resting on the floor: the floor around the contact point) lies between spheres, not
+    /// inside the innermost one, where the lookup only extrapolates. (It was 1.02 × the
+    /// nearest vertex's distance: the floor within 0.2 R of a resting ball's contact point
+    /// was inside it, where a high sun's light lands.)
     pub fn for_shape(shape: &crate::scene::Shape, settings: &SphereSettings) -> SphereGeometry {
-        use crate::scene::Shape;
         let (lo, hi) = shape.bounds();
         let center = (lo + hi) * 0.5;
         let d = (hi - lo).max_element();
-        let nearest = match shape {
-            Shape::Sphere { radius, .. } => *radius,
-            Shape::Mesh(m) => m.positions.iter().map(|p| (*p - center).length()).fold(f32::INFINITY, f32::min),
-            other => {
-                let t = other.tessellate(&crate::scene::Tessellation::default());
-                t.positions.iter().map(|p| (*p - center).length()).fold(f32::INFINITY, f32::min)
-            }
-        };
+        let nearest = nearest_surface(shape, center);
         let r_max = 4.0 * d;
-        let r_min = (1.02 * nearest).min(0.5 * r_max);
+        // The reference's tracer spawns a ray 2e-5 (1 + |p|max) off the surface: stay beyond.
+        let margin = 1e-4 * (1.0 + center.abs().max_element() + nearest);
+        let r_min = (nearest * (1.0 + R_MIN_GAP) + margin).clamp(1e-3 * r_max, 0.5 * r_max);
         SphereGeometry {
             center,
             radii: radii(r_min, r_max, settings.spheres),

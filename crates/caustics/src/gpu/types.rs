@@ -136,8 +136,15 @@ pub struct SphereGatherParams {
     pub width: u32,
     pub height: u32,
     pub records: u32,
-    pub _pad: u32,
+    /// Points per pixel side of the lookup's box filter (`caustic_spheres::gpu::PIXEL_SAMPLES`).
+    pub samples: u32,
     pub camera: [f32; 4],
+    /// A homogeneous medium's box (w = 1; 0: none, or a density grid: not attenuated).
+    pub medium_lo: [f32; 4],
+    pub medium_hi: [f32; 4],
+    /// rgb = σt (1/m); w = the irradiance luminance from which a record gets every point of
+    /// the box filter.
+    pub sigma_t: [f32; 4],
 }
 
 /// `sphere_volume` (shaders/sphere_volume.wgsl): volumetric caustics from the spheres.
@@ -151,7 +158,8 @@ pub struct SphereVolumeParams {
     pub hi: [f32; 4],
     /// rgb = σs (1/m), w = Henyey–Greenstein g (0: isotropic).
     pub sigma_s: [f32; 4],
-    /// rgb = σt (1/m).
+    /// rgb = σt (1/m); w = the irradiance luminance from which a record gets every point of
+    /// the box filter.
     pub sigma_t: [f32; 4],
     pub width: u32,
     pub height: u32,

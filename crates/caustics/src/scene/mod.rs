@@ -681,9 +681,6 @@ fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                     format!("min must be below max on every axis (an empty or inverted box: min {lo}, max {hi})"),
                 ));
             }
-            if lights.iter().any(|l| matches!(l, Light::Directional { .. })) {
-                return Err(cx.err("medium", "a medium cannot be combined with a directional light"));
-            }
             if let Some((k, _)) = &environment {
                 return Err(
                     cx.err("medium", format!("a medium cannot be combined with an environment light (lights[{k}])"))
