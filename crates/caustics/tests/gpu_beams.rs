@@ -423,12 +423,15 @@ fn a_ball_lens_focuses_into_the_fog_at_its_paraxial_focus() {
     let (n, r, centre) = (1.5f32, 0.5f32, 1.5f32);
     let f = n * r / (2.0 * (n - 1.0));
     let want = 1.0 / (1.0 / f - 1.0 / s_light);
-    // Near-axis beams (base centroid within 0.04 m of the axis, on the exit side): where their
-    // cross-section is smallest, below the centre.
+    // Near-axis beams (base centroid within 0.04 m of the axis, on the exit side, paraxial):
+    // where their cross-section is smallest, below the centre.
     let mut found = Vec::new();
     for b in list {
         let c = (b.vertices[0] + b.vertices[1] + b.vertices[2]) / 3.0;
-        if c.y > centre || Vec3::new(c.x, 0.0, c.z).length() > 0.04 {
+        // (and paraxial in direction too, within 6° of the axis: the beams of light that grazed
+        // the silhouette, now shrunk and kept, also leave the ball near its bottom, steeply)
+        let dir = (b.dirs[0] + b.dirs[1] + b.dirs[2]).normalize();
+        if c.y > centre || Vec3::new(c.x, 0.0, c.z).length() > 0.04 || -dir.y < 6f32.to_radians().cos() {
             continue;
         }
         let best = (0..=2000)
@@ -510,15 +513,16 @@ fn total_beam_flux_is_the_flux_onto_the_ball_times_fresnel() {
     }
 }
 
-// The issue's target (mean HDR-FLIP 0.1, energy within 5 %) is not met yet: measured on this
-// scene (48 x 40, the ball masked) against the noise-free line integral of the reference's
-// light (`line_integral_reference`, which matches the 2^25-photon reference within its noise:
-// energy +0.04 %, HDR-FLIP 0.056; the reference against itself with another seed: 0.066),
-// adaptive 16² + 3 with 3 x 3 rays per pixel: HDR-FLIP 0.155, energy -6.7 %; regular 64²:
-// 0.315, -9.3 % (docs/benchmarks.md, "Beams: error decomposition"). Ignored so that CI stays
-// green; run it with `--ignored` (it prints the figures; BEAM_DUMP=DIR writes the images).
+// The issue's target (mean HDR-FLIP 0.1, energy within 5 %) is met for the energy, not for
+// HDR-FLIP: measured on this scene (48 x 40, the ball masked) against the 2^25-photon reference
+// (itself within HDR-FLIP 0.056, energy +0.04 % of the noise-free line integral
+// `line_integral_reference`; against itself with another seed 0.066), default settings (adaptive
+// 16² + 3, the footprint integral, transmitted silhouettes shrunk): HDR-FLIP 0.141, energy
+// -2.8 %; regular 64²: 0.252, -4.9 % (docs/benchmarks.md, "Beams: the pixel's footprint and the
+// silhouette"). Ignored so that CI stays green; run it with `--ignored` (it prints the figures;
+// BEAM_DUMP=DIR writes the images).
 #[test]
-#[ignore = "volume caustic against the reference: HDR-FLIP 0.155, energy -6.7 % (target 0.1, 5 %)"]
+#[ignore = "volume caustic against the reference: HDR-FLIP 0.141, energy -2.8 % (target 0.1, 5 %)"]
 fn gpu_beams_match_the_cpu_reference_in_fog() {
     use caustics_reference::metrics::{energy, hdr_flip};
     use caustics_reference::reference::{self, ReferenceSettings};
@@ -541,8 +545,7 @@ fn gpu_beams_match_the_cpu_reference_in_fog() {
     let t = std::time::Instant::now();
     let r = reference::render(&sc, &rs).unwrap();
     println!("reference: {:.1} s", t.elapsed().as_secs_f64());
-    let px3 = |b: BeamSettings| BeamSettings { pixel_samples: 3, ..b };
-    for (name, b) in [("adaptive 16+3", px3(BeamSettings::default())), ("regular 64", px3(BeamSettings::regular(64)))] {
+    for (name, b) in [("adaptive 16+3", BeamSettings::default()), ("regular 64", BeamSettings::regular(64))] {
         let t = std::time::Instant::now();
         let g = render(&ctx, &sc, &render_settings(b)).unwrap();
         let ms = t.elapsed().as_secs_f64() * 1e3;
@@ -869,6 +872,7 @@ fn beam_error_decomposition() {
         vec![
             ("adaptive 16+3", ad),
             ("adaptive 16+3 foot1 l2", foot(ad, 1.0, 2)),
+            ("adaptive 16+4", BeamSettings { levels: 4, ..ad }),
             ("adaptive 16+3 foot4 l4", foot(ad, 4.0, 4)),
             ("adaptive 16+3 rays1", rays(ad, 1)),
             ("adaptive 16+3 rays3", rays(ad, 3)),
@@ -879,9 +883,12 @@ fn beam_error_decomposition() {
             ("regular 32 rays3", rays(BeamSettings::regular(32), 3)),
         ]
     };
-    // BEAM_CONFIGS=a,b: only the configurations whose names contain one of these.
+    // BEAM_CONFIGS=a,b: only the configurations whose names contain one of these (=name: is it).
     let configs: Vec<(&str, BeamSettings)> = match std::env::var("BEAM_CONFIGS") {
-        Ok(f) => configs.into_iter().filter(|(n, _)| f.split(',').any(|p| n.contains(p))).collect(),
+        Ok(f) => configs
+            .into_iter()
+            .filter(|(n, _)| f.split(',').any(|p| p.strip_prefix('=').map_or(n.contains(p), |p| *n == p)))
+            .collect(),
         Err(_) => configs,
     };
     for (name, b) in configs {
@@ -1200,4 +1207,103 @@ fn surface_caustic_from_beams_is_deterministic_and_creates_nothing_after_the_fir
     };
     assert!(frame(&mut r) > 0);
     assert_eq!(frame(&mut r), 0);
+}
+
+/// The issue's "three beam budgets" (run with `--ignored --nocapture`; BUDGET_IMAGE=PATH writes
+/// the images side by side, BUDGET_REPS=n renders each n times for the timings): adaptive
+/// 16² + 2, 3, 4 levels against regular 32², 64², 128² on `ball_in_fog` (48 × 40, the ball
+/// masked), error against the line integral and against the CPU reference (2^25 photons,
+/// single scattering), host ms per render in one run.
+#[test]
+#[ignore = "measurement: the three beam budgets (docs/benchmarks.md)"]
+fn beam_budgets() {
+    use caustics_reference::metrics::{energy, hdr_flip};
+    use caustics_reference::reference::{self, ReferenceSettings};
+    let Some(ctx) = gpu() else { return };
+    let (w, h) = (48, 40);
+    let sc = ball_in_fog(14.0, w, h);
+    let mask = ball_mask(&sc);
+    let lines = line_integral_reference(&sc, 100);
+    let total: Vec<f64> = (0..(w * h) as usize).map(|i| lines.iter().map(|c| c[i]).sum()).collect();
+    let line = to_image(&total, w, h);
+    let photons = std::env::var("REF_PHOTONS").ok().and_then(|v| v.parse().ok()).unwrap_or(1 << 25);
+    let rs = ReferenceSettings {
+        photons_per_light: photons,
+        camera_spp: 1,
+        max_depth: 8,
+        seed: 5,
+        caustic_map_size: 8,
+        medium_single_scattering_only: true,
+    };
+    let r = reference::render(&sc, &rs).unwrap();
+    let (el, er) = (energy(&line, Some(&mask)), energy(&r.caustic, Some(&mask)));
+    println!(
+        "reference ({photons} photons) vs line integral: HDR-FLIP {:.4}, energy {:+.2} %",
+        hdr_flip(&r.caustic, &line, Some(&mask)).unwrap().mean,
+        (er / el - 1.0) * 100.0
+    );
+    let reps: usize = std::env::var("BUDGET_REPS").ok().and_then(|v| v.parse().ok()).unwrap_or(1);
+    let ad = BeamSettings::default();
+    let configs = [
+        ("adaptive 16+2", BeamSettings { levels: 2, ..ad }),
+        ("adaptive 16+3", ad),
+        ("adaptive 16+4", BeamSettings { levels: 4, ..ad }),
+        ("regular 32", BeamSettings::regular(32)),
+        ("regular 64", BeamSettings::regular(64)),
+        ("regular 128", BeamSettings::regular(128)),
+    ];
+    let mut images = Vec::new();
+    println!(
+        "| grid | beams | HDR-FLIP vs line | energy vs line | HDR-FLIP vs reference | energy vs reference | ms (each run) |"
+    );
+    println!("| --- | ---: | ---: | ---: | ---: | ---: | --- |");
+    for (name, b) in configs {
+        let mut ms = Vec::new();
+        let mut out = None;
+        for _ in 0..reps {
+            let t = std::time::Instant::now();
+            let g = render(&ctx, &sc, &render_settings(b)).unwrap();
+            ms.push(format!("{:.0}", t.elapsed().as_secs_f64() * 1e3));
+            out = Some(g);
+        }
+        let g = out.unwrap();
+        let eg = energy(&g.caustic, Some(&mask));
+        println!(
+            "| {name} | {} | {:.3} | {:+.1} % | {:.3} | {:+.1} % | {} |",
+            g.beams[0].0.beams,
+            hdr_flip(&g.caustic, &line, Some(&mask)).unwrap().mean,
+            (eg / el - 1.0) * 100.0,
+            hdr_flip(&g.caustic, &r.caustic, Some(&mask)).unwrap().mean,
+            (eg / er - 1.0) * 100.0,
+            ms.join(", ")
+        );
+        images.push(g.caustic);
+    }
+    if let Some(path) = std::env::var_os("BUDGET_IMAGE") {
+        // Top row: line integral, adaptive 16+2, 16+3, 16+4; bottom row: reference, regular
+        // 32², 64², 128²; one exposure (the line integral's 98th percentile to white), the
+        // ball's pixels dark.
+        let mut v: Vec<f32> = line.pixels.iter().map(|p| p[0]).collect();
+        v.sort_by(f32::total_cmp);
+        let scale = 1.0 / v[v.len() * 98 / 100].max(1e-12);
+        let tiles = [&line, &images[0], &images[1], &images[2], &r.caustic, &images[3], &images[4], &images[5]];
+        let mut out = caustics::image_io::Image::new(4 * w + 3, 2 * h + 1);
+        for (k, t) in tiles.iter().enumerate() {
+            let (ox, oy) = ((k as u32 % 4) * (w + 1), (k as u32 / 4) * (h + 1));
+            for y in 0..h {
+                for x in 0..w {
+                    let c = if mask.include[(y * w + x) as usize] { t.get(x, y)[0] * scale } else { 0.0 };
+                    out.set(ox + x, oy + y, [c, c, c]);
+                }
+            }
+        }
+        for y in 0..out.height {
+            for x in 0..out.width {
+                if x % (w + 1) == w || y % (h + 1) == h {
+                    out.set(x, y, [1.0, 1.0, 1.0]);
+                }
+            }
+        }
+        caustics_reference::io::write_display_png(&out, std::path::Path::new(&path)).unwrap();
+    }
 }
