@@ -501,7 +501,8 @@ fn total_beam_flux_is_the_flux_onto_the_ball_times_fresnel() {
         );
         // Measured: transmitted -2.4 % (adaptive), -1.9 % (regular 64²), the light of the
         // silhouette ring of last-level triangles whose edges disagree
-        // (BeamStats::inconsistent); never more than the light onto the ball times Fresnel.
+        // (BeamStats::inconsistent); with those shrunk to their majority's part (beam_refine
+        // `shrink`), -1.9 % (adaptive); never more than the light onto the ball times Fresnel.
         // Reflected and internally reflected: -2.1 % (adaptive: its reflected branches refine
         // where their edges disagree, oblique beams are rebased), -18.5 % (regular 64²: near
         // the silhouette, where F is largest, the coarse triangles' reflected edges disagree).
