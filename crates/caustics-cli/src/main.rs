@@ -330,6 +330,13 @@ pub struct BeamArgs {
     /// surface (box filter; n² per pixel), 1 to 8.
     #[arg(long, default_value_t = 4)]
     beam_surface_samples: u32,
+    /// Beams: integrate a beam over each pixel's footprint where its section, seen from the
+    /// camera, is narrower than this many pixels (near a focus); 0 turns it off (rays only).
+    #[arg(long, default_value_t = 2.0)]
+    beam_footprint: f32,
+    /// Beams: lines per side of a thin section in the footprint integral (lines²), 1 to 4.
+    #[arg(long, default_value_t = 2)]
+    beam_footprint_lines: u32,
 }
 
 impl BeamArgs {
@@ -347,6 +354,8 @@ impl BeamArgs {
             pixel_samples: self.beam_pixel_samples,
             surface_samples: self.beam_surface_samples,
             reflection: true,
+            footprint: self.beam_footprint,
+            footprint_lines: self.beam_footprint_lines,
         }
     }
 }
@@ -376,6 +385,8 @@ fn flag_names(e: &mut anyhow::Error) {
         ("beams.samples", "--beam-samples"),
         ("beams.pixel_samples", "--beam-pixel-samples"),
         ("beams.surface_samples", "--beam-surface-samples"),
+        ("beams.footprint", "--beam-footprint"),
+        ("beams.footprint_lines", "--beam-footprint-lines"),
         ("camera.size", "--size"),
         ("splat_sigma", "--splat-sigma"),
         ("max_depth", "--max-depth"),

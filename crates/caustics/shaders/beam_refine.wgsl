@@ -19,8 +19,11 @@
 //     the branch reflected once inside it),
 //     appended to the beam buffer (overflow counted, never written out of bounds) and entered
 //     in its slot of the hierarchy (beam_order lists the slots in order, so the image does not
-//     depend on the order of the atomics). At the last level, triangles whose edges still
-//     disagree are counted (their light is lost).
+//     depend on the order of the atomics). At the last level, a triangle whose transmitted
+//     edges still disagree (a silhouette) is shrunk to the part on its majority's path
+//     (`shrink`: bisection along its sides) and kept as one beam carrying that part's flux;
+//     those with no majority, and reflected branches that disagree, are counted (their light
+//     is lost).
 
 #import raytrace
 #import beams
@@ -264,6 +267,95 @@ fn consistent(e0: Edge, e1: Edge, e2: Edge) -> bool {
     return e0.ok && e1.ok && e2.ok && e0.sig == e1.sig && e1.sig == e2.sig && e0.land == e1.land && e1.land == e2.land;
 }
 
+// Whether edge e took the path of `r` (and meets a caster first).
+fn same_path(e: Edge, r: Edge) -> bool {
+    return e.ok && e.caster && e.sig == r.sig && e.land == r.land;
+}
+
+// The last point from `good` toward `bad` (light NDC) whose edge still takes `r`'s path
+// (bisection, SHRINK_STEPS traces), and its edge.
+struct Boundary {
+    ndc: vec2f,
+    e: Edge,
+}
+
+const SHRINK_STEPS: u32 = 6u;
+
+fn boundary(f: u32, good: vec2f, bad: vec2f, br: u32, r: Edge) -> Boundary {
+    var out = Boundary(good, r);
+    var lo = 0.0;
+    var hi = 1.0;
+    for (var k = 0u; k < SHRINK_STEPS; k++) {
+        let mid = 0.5 * (lo + hi);
+        let p = mix(good, bad, mid);
+        let e = trace_edge(f, p, br);
+        if (same_path(e, r)) {
+            lo = mid;
+            out = Boundary(p, e);
+        } else {
+            hi = mid;
+        }
+    }
+    return out;
+}
+
+// The mean weight over a shrunk part: its corners' mean `wc` and its centre's (Simpson-like:
+// (corners + 2 centre) / 3); the Fresnel factors change steeply at a silhouette (the corners'
+// mean alone gave the reflected branches 9 % too much light, convex F near grazing).
+fn part_weight(f: u32, centre: vec2f, br: u32, r: Edge, wc: vec3f) -> vec3f {
+    let e = trace_edge(f, centre, br);
+    if (!same_path(e, r)) { return wc; }
+    return (wc + 2.0 * e.weight) / 3.0;
+}
+
+// A last-level triangle whose edges on branch `br` disagree (a silhouette, an edge landing
+// elsewhere): one beam over the part of it whose edges take the path of its majority (two
+// edges that agree, or the one edge that meets a caster), found by bisection along its sides;
+// its flux is that part's (a quad: the beam is the triangle over its two good corners and the
+// middle of its far side, carrying the quad's flux). flux.w < 0: none (no majority).
+fn shrink(tri: BeamTri, es: array<Edge, 3>, br: u32, level: u32) -> BeamGpu {
+    var none: BeamGpu;
+    none.flux.w = -1.0;
+    let ps = array<vec2f, 3>(tri.a, tri.b, tri.c);
+    let face = light.faces[tri.face];
+    for (var k = 0u; k < 3u; k++) {
+        let i = (k + 1u) % 3u;
+        let j = (k + 2u) % 3u;
+        // Corners i and j agree, k differs.
+        if (same_path(es[i], es[i]) && same_path(es[j], es[i]) && !same_path(es[k], es[i])) {
+            let qi = boundary(tri.face, ps[i], ps[k], br, es[i]);
+            let qj = boundary(tri.face, ps[j], ps[k], br, es[i]);
+            let mp = 0.5 * (qi.ndc + qj.ndc);
+            var em = trace_edge(tri.face, mp, br);
+            if (!same_path(em, es[i])) { em = qi.e; }
+            let li = light_dir(face, ps[i]);
+            let lj = light_dir(face, ps[j]);
+            let lqi = light_dir(face, qi.ndc);
+            let lqj = light_dir(face, qj.ndc);
+            let omega = solid_angle(li, lj, lqj) + solid_angle(li, lqj, lqi);
+            var b = make_beam(es[i], es[j], em, omega, level);
+            let w4 = (es[i].weight + es[j].weight + qi.e.weight + qj.e.weight) / 4.0;
+            b.flux = vec4f(omega * part_weight(tri.face, 0.25 * (ps[i] + ps[j] + qi.ndc + qj.ndc), br, es[i], w4), b.flux.w);
+            return b;
+        }
+    }
+    for (var k = 0u; k < 3u; k++) {
+        let i = (k + 1u) % 3u;
+        let j = (k + 2u) % 3u;
+        // Only corner k meets a caster on a path of its own.
+        if (same_path(es[k], es[k]) && !same_path(es[i], es[k]) && !same_path(es[j], es[k])) {
+            let qi = boundary(tri.face, ps[k], ps[i], br, es[k]);
+            let qj = boundary(tri.face, ps[k], ps[j], br, es[k]);
+            let omega = solid_angle(light_dir(face, ps[k]), light_dir(face, qi.ndc), light_dir(face, qj.ndc));
+            var b = make_beam(es[k], qi.e, qj.e, omega, level);
+            let w3 = (es[k].weight + qi.e.weight + qj.e.weight) / 3.0;
+            b.flux = vec4f(omega * part_weight(tri.face, (ps[k] + qi.ndc + qj.ndc) / 3.0, br, es[k], w3), b.flux.w);
+            return b;
+        }
+    }
+    return none;
+}
+
 fn emit(b: BeamGpu, slot: u32) {
     if (b.flux.w < 0.0) { atomicAdd(&stats[1u + BS_GRAZING], 1u); return; }
     let i = atomicAdd(&stats[0], 1u);
@@ -375,7 +467,13 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (consistent(e0, e1, e2)) {
         emit(make_beam(e0, e1, e2, omega, level), BEAM_BRANCHES * slot);
     } else {
-        atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
+        // The last level: the part of the triangle on its majority's path (shrink), else lost.
+        let sb = shrink(tri, array<Edge, 3>(e0, e1, e2), 0u, level);
+        if (sb.flux.w >= 0.0) {
+            emit(sb, BEAM_BRANCHES * slot);
+        } else {
+            atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
+        }
     }
     // Branch 1: reflected at the first surface; branch 2: refracted in, reflected once inside,
     // then refracted out (the light a sphere sends back toward the light's side).
@@ -386,6 +484,8 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         if (consistent(r0, r1, r2)) {
             emit(make_beam(r0, r1, r2, omega, level), BEAM_BRANCHES * slot + br);
         } else if (r0.ok || r1.ok || r2.ok) {
+            // (not shrunk: on the reflected branches shrinking gave 8 % more light than the
+            // Fresnel integral, not understood yet; their light here is lost)
             atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
         }
     }

@@ -69,6 +69,13 @@ pub(crate) struct BeamFrame {
     levels: u32,
     slots: u32,
     pixel_samples: u32,
+    /// `beam_gather`'s footprint integral (`foot`: width threshold in pixels, lines per side).
+    footprint: [f32; 4],
+}
+
+/// The footprint uniform of `beam_gather` (`foot` in beam_gather.wgsl).
+fn footprint(b: &BeamSettings) -> [f32; 4] {
+    [b.footprint, b.footprint_lines as f32, 0.0, 0.0]
 }
 
 fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, faces: u32, slots: u64) -> BeamParams {
@@ -138,7 +145,8 @@ pub(crate) fn record_beams(
         let cam = &dc.scene.camera;
         let rays = (cam.view_to_clip(0.1, 100.0) * cam.world_to_view()).inverse();
         let bp = params(dc.scene, rays, b, s.max_depth, faces, slots);
-        let frame = record_light_beams(ctx, dc, &lf.light_buf, &bp, enc, timer);
+        let mut frame = record_light_beams(ctx, dc, &lf.light_buf, &bp, enc, timer);
+        frame.footprint = footprint(b);
         if surface {
             let views = (&wgpu::BindingResource::TextureView(&rp), &wgpu::BindingResource::TextureView(&rn));
             let points = b.surface_samples.clamp(1, 8).pow(2);
@@ -176,7 +184,7 @@ pub(crate) fn record_gather(
             (&wgpu::BindingResource::TextureView(&rv), &wgpu::BindingResource::TextureView(&sv)),
             images,
             size,
-            (f.capacity, f.slots, f.pixel_samples),
+            (f.capacity, f.slots, f.pixel_samples, f.footprint),
             enc,
             timer,
         );
@@ -266,6 +274,7 @@ fn record_light_beams(
         levels,
         slots: bp.slots,
         pixel_samples: bp.pixel_samples,
+        footprint: [0.0; 4],
     }
 }
 
@@ -359,13 +368,18 @@ fn record_gather_chunks(
     eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
     images: (&wgpu::Buffer, &wgpu::Buffer),
     size: (u32, u32),
-    (capacity, slots_total, pixel_samples): (u32, u32, u32),
+    (capacity, slots_total, pixel_samples, foot): (u32, u32, u32, [f32; 4]),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
     let gpl = ctx.compute_pipeline("beam_gather");
-    // One dispatch per chunk of the ordered list (see beam_gather.wgsl).
-    let rays = pixel_samples.max(1) * pixel_samples.max(1);
+    let foot_buf = ctx.uniform("beam_footprint", bytemuck::cast_slice(&foot));
+    // One dispatch per chunk of the ordered list (see beam_gather.wgsl): a beam costs a pixel
+    // its rays and, where it is thin, its footprint's lines (counted as one ray more: a
+    // beam's thin part is short, and `many_overlapping_beams_sum_like_one` checks thousands of
+    // thin beams in one pixel; chunks of fewer beams multiply the dispatches, each of which
+    // lavapipe records at a cost in memory).
+    let rays = pixel_samples.max(1) * pixel_samples.max(1) + u32::from(foot[0] > 0.0);
     let chunk = (GATHER_CHUNK / rays).max(1);
     for c in 0..most_beams(capacity, slots_total).div_ceil(chunk) {
         let cu = ctx.uniform(
@@ -386,6 +400,7 @@ fn record_gather_chunks(
                 images.0.as_entire_binding(),
                 images.1.as_entire_binding(),
                 cu.as_entire_binding(),
+                foot_buf.as_entire_binding(),
             ],
         );
         let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -502,7 +517,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
         (&tv, &tv),
         (&full, &caustic),
         (w, h),
-        (bp.capacity, bp.slots, bp.pixel_samples),
+        (bp.capacity, bp.slots, bp.pixel_samples, footprint(b)),
         &mut enc,
         &mut timer,
     );

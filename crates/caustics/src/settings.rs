@@ -432,6 +432,14 @@ pub struct BeamSettings {
     /// Also the beams of light reflected at the first dielectric surface, and of light
     /// reflected once inside it (refracted in, reflected, refracted out).
     pub reflection: bool,
+    /// The footprint integral of the volume caustic (`beam_gather`): where a beam's
+    /// cross-section, seen from the camera, is narrower than this many pixels (near a focus, the
+    /// caustic's singular lines), its light is integrated over each pixel's footprint in beam
+    /// space instead of sampled by the pixel's rays. 0 turns it off (rays only), at most 64.
+    pub footprint: f32,
+    /// Lines per side of a thin section in the footprint integral (lines² lines of constant
+    /// barycentrics, each clipped exactly to the pixel), 1 to 4.
+    pub footprint_lines: u32,
 }
 
 impl Default for BeamSettings {
@@ -449,6 +457,8 @@ impl Default for BeamSettings {
             pixel_samples: 1,
             surface_samples: 4,
             reflection: true,
+            footprint: 2.0,
+            footprint_lines: 2,
         }
     }
 }
@@ -502,6 +512,12 @@ impl BeamSettings {
         }
         if !(1..=64).contains(&b.samples) {
             return Err(("beams.samples", format!("must be 1 to 64 (got {})", b.samples)));
+        }
+        if !(b.footprint >= 0.0 && b.footprint <= 64.0) {
+            return Err(("beams.footprint", format!("must be 0 (off) to 64 pixels (got {})", b.footprint)));
+        }
+        if !(1..=4).contains(&b.footprint_lines) {
+            return Err(("beams.footprint_lines", format!("must be 1 to 4 (got {})", b.footprint_lines)));
         }
         Ok(())
     }
