@@ -169,6 +169,7 @@ fn surface_caustic_in_an_absorbing_medium_is_attenuated_like_the_reference() {
         seed: 5,
         caustic_map_size: 8,
         medium_single_scattering_only: true,
+        ..Default::default()
     };
     let mask = ball_mask(&sc);
     let ratio = |s: &Scene| {
