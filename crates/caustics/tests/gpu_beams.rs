@@ -1237,6 +1237,7 @@ fn beam_budgets() {
         seed: 5,
         caustic_map_size: 8,
         medium_single_scattering_only: true,
+        ..Default::default()
     };
     let r = reference::render(&sc, &rs).unwrap();
     let (el, er) = (energy(&line, Some(&mask)), energy(&r.caustic, Some(&mask)));

@@ -182,6 +182,7 @@ fn single_scattering_from_a_directional_light_matches_the_reference() {
         seed: 3,
         caustic_map_size: 8,
         medium_single_scattering_only: true,
+        ..Default::default()
     };
     let r = reference::render(&sc, &rs).unwrap();
     let (mut sum_g, mut sum_r) = ([0f64; 3], [0f64; 3]);
