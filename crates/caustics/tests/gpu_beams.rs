@@ -526,7 +526,7 @@ fn total_beam_flux_is_the_flux_onto_the_ball_times_fresnel() {
 #[ignore = "volume caustic against the reference: HDR-FLIP 0.141, energy -2.8 % (target 0.1, 5 %)"]
 fn gpu_beams_match_the_cpu_reference_in_fog() {
     use caustics_reference::metrics::{energy, hdr_flip};
-    use caustics_reference::reference::{self, ReferenceSettings};
+    use caustics_reference::reference;
     let Some(ctx) = gpu() else { return };
     let (w, h) = (48, 40);
     let sc = ball_in_fog(14.0, w, h);
@@ -535,15 +535,7 @@ fn gpu_beams_match_the_cpu_reference_in_fog() {
     let mask = ball_mask(&sc);
     // 2^25 photons: the reference against itself with another seed, HDR-FLIP 0.066, energy
     // 0.2 % (the noise the comparison cannot go below).
-    let rs = ReferenceSettings {
-        photons_per_light: 1 << 25,
-        camera_spp: 1,
-        max_depth: 8,
-        seed: 5,
-        caustic_map_size: 8,
-        medium_single_scattering_only: true,
-        ..Default::default()
-    };
+    let rs = common::single_scattering_reference(1 << 25, 1, 5);
     let t = std::time::Instant::now();
     let r = reference::render(&sc, &rs).unwrap();
     println!("reference: {:.1} s", t.elapsed().as_secs_f64());
@@ -832,15 +824,11 @@ fn beam_error_decomposition() {
     let r_only: Vec<f64> = (0..(w * h) as usize).map(|i| lines[0][i] + lines[2][i] + lines[3][i]).collect();
     let r_only = to_image(&r_only, w, h);
     if std::env::var_os("NO_REF").is_none() {
-        let rs = ReferenceSettings {
-            photons_per_light: std::env::var("REF_PHOTONS").ok().and_then(|v| v.parse().ok()).unwrap_or(1 << 22),
-            camera_spp: 1,
-            max_depth: 8,
-            seed: 5,
-            caustic_map_size: 8,
-            medium_single_scattering_only: true,
-            ..Default::default()
-        };
+        let rs = common::single_scattering_reference(
+            std::env::var("REF_PHOTONS").ok().and_then(|v| v.parse().ok()).unwrap_or(1 << 22),
+            1,
+            5,
+        );
         let r = reference::render(&sc, &rs).unwrap();
         let r2 = reference::render(&sc, &ReferenceSettings { seed: 6, ..rs }).unwrap();
         let er = energy(&r.caustic, Some(&mask));
@@ -1221,7 +1209,7 @@ fn surface_caustic_from_beams_is_deterministic_and_creates_nothing_after_the_fir
 #[ignore = "measurement: the three beam budgets (docs/benchmarks.md)"]
 fn beam_budgets() {
     use caustics_reference::metrics::{energy, hdr_flip};
-    use caustics_reference::reference::{self, ReferenceSettings};
+    use caustics_reference::reference;
     let Some(ctx) = gpu() else { return };
     let (w, h) = (48, 40);
     let sc = ball_in_fog(14.0, w, h);
@@ -1230,15 +1218,7 @@ fn beam_budgets() {
     let total: Vec<f64> = (0..(w * h) as usize).map(|i| lines.iter().map(|c| c[i]).sum()).collect();
     let line = to_image(&total, w, h);
     let photons = std::env::var("REF_PHOTONS").ok().and_then(|v| v.parse().ok()).unwrap_or(1 << 25);
-    let rs = ReferenceSettings {
-        photons_per_light: photons,
-        camera_spp: 1,
-        max_depth: 8,
-        seed: 5,
-        caustic_map_size: 8,
-        medium_single_scattering_only: true,
-        ..Default::default()
-    };
+    let rs = common::single_scattering_reference(photons, 1, 5);
     let r = reference::render(&sc, &rs).unwrap();
     let (el, er) = (energy(&line, Some(&mask)), energy(&r.caustic, Some(&mask)));
     println!(

@@ -11,7 +11,7 @@ use caustics::Scene;
 use caustics::render::{RenderSettings, render};
 use caustics::renderer::{FrameRequest, Renderer};
 use caustics::scene::DensityGrid;
-use caustics_reference::reference::{self, ReferenceSettings};
+use caustics_reference::reference;
 use common::gpu;
 use glam::Vec3;
 use std::path::Path;
@@ -97,15 +97,7 @@ fn single_scattering_from_a_spot_matches_the_reference() {
     for phase in [ISOTROPIC, r#"{ "type": "hg", "g": 0.5 }"#] {
         let sc = shaft_scene_with("", phase);
         let g = render(&ctx, &sc, &RenderSettings { medium_steps: 256, ..settings() }).unwrap();
-        let rs = ReferenceSettings {
-            photons_per_light: 1,
-            camera_spp: 1 << 16,
-            max_depth: 8,
-            seed: 3,
-            caustic_map_size: 8,
-            medium_single_scattering_only: true,
-            ..Default::default()
-        };
+        let rs = common::single_scattering_reference(1, 1 << 16, 3);
         let r = reference::render(&sc, &rs).unwrap();
         let mut worst = 0.0f32;
         // Pixels inside the beam, away from its edge (the GPU takes the pixel centre, the
@@ -175,15 +167,7 @@ fn single_scattering_from_a_directional_light_matches_the_reference() {
     // a medium.
     let sc = sun_fog_scene();
     let g = render(&ctx, &sc, &RenderSettings { medium_steps: 256, shadow_map_size: 1024, ..settings() }).unwrap();
-    let rs = ReferenceSettings {
-        photons_per_light: 1,
-        camera_spp: 1 << 14,
-        max_depth: 8,
-        seed: 3,
-        caustic_map_size: 8,
-        medium_single_scattering_only: true,
-        ..Default::default()
-    };
+    let rs = common::single_scattering_reference(1, 1 << 14, 3);
     let r = reference::render(&sc, &rs).unwrap();
     let (mut sum_g, mut sum_r) = ([0f64; 3], [0f64; 3]);
     let (mut errs, mut lit, mut dark) = (Vec::new(), 0, 0);
@@ -331,15 +315,7 @@ fn single_scattering_in_a_smoke_puff_matches_the_reference() {
     let Some(ctx) = gpu() else { return };
     let sc = with_grid(shaft_scene_with("", r#"{ "type": "hg", "g": 0.3 }"#), puff());
     let g = render(&ctx, &sc, &RenderSettings { medium_steps: 256, medium_light_steps: 64, ..settings() }).unwrap();
-    let rs = ReferenceSettings {
-        photons_per_light: 1,
-        camera_spp: 1 << 15,
-        max_depth: 8,
-        seed: 3,
-        caustic_map_size: 8,
-        medium_single_scattering_only: true,
-        ..Default::default()
-    };
+    let rs = common::single_scattering_reference(1, 1 << 15, 3);
     let r = reference::render(&sc, &rs).unwrap();
     // Pixels in the beam away from its edge (rows 3..9 of the centre columns), through the puff
     // and beside it. The bound: 4 standard deviations of the reference's pixel plus 3 % for the

@@ -105,15 +105,7 @@ fn volume_caustic_of_a_glass_ball_matches_the_reference() {
         m.sigma_s = Vec3::splat(sigma_s);
         m.sigma_a = Vec3::splat(sigma_a);
         let g = render_gpu(&ctx, &sc, 128);
-        let rs = ReferenceSettings {
-            photons_per_light: 1 << 22,
-            camera_spp: 1,
-            max_depth: 8,
-            seed: 5,
-            caustic_map_size: 8,
-            medium_single_scattering_only: true,
-            ..Default::default()
-        };
+        let rs = common::single_scattering_reference(1 << 22, 1, 5);
         let r = reference::render(&sc, &rs).unwrap();
         let mask = ball_mask(&sc);
         let (eg, er) = (energy(&g.caustic, Some(&mask)), energy(&r.caustic, Some(&mask)));
@@ -162,15 +154,7 @@ fn surface_caustic_in_an_absorbing_medium_is_attenuated_like_the_reference() {
     m.sigma_a = Vec3::splat(0.15);
     let mut vacuum = sc.clone();
     vacuum.medium = None;
-    let rs = ReferenceSettings {
-        photons_per_light: 1 << 20,
-        camera_spp: 1,
-        max_depth: 8,
-        seed: 5,
-        caustic_map_size: 8,
-        medium_single_scattering_only: true,
-        ..Default::default()
-    };
+    let rs = common::single_scattering_reference(1 << 20, 1, 5);
     let mask = ball_mask(&sc);
     let ratio = |s: &Scene| {
         let g = energy(&render_gpu(&ctx, s, 64).caustic, Some(&mask));

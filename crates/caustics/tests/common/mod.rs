@@ -19,3 +19,23 @@ pub fn gpu() -> Option<GpuContext> {
         }
     }
 }
+
+/// The CPU reference's settings for the medium tests: single scattering only, `photons` light
+/// paths per light, `spp` camera samples per pixel, `seed`; paths up to 8 specular interactions;
+/// the caustic maps (not compared by these tests) at 8².
+#[allow(dead_code)]
+pub fn single_scattering_reference(
+    photons: u64,
+    spp: u32,
+    seed: u64,
+) -> caustics_reference::reference::ReferenceSettings {
+    caustics_reference::reference::ReferenceSettings {
+        photons_per_light: photons,
+        camera_spp: spp,
+        max_depth: 8,
+        seed,
+        caustic_map_size: 8,
+        medium_single_scattering_only: true,
+        ..Default::default()
+    }
+}
