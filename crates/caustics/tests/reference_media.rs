@@ -296,8 +296,8 @@ fn directional_light_single_scattering_matches_the_closed_form() {
     // A directional light straight down (E = 3 W/m²) into a box of fog from the vacuum above
     // it, a camera inside looking along −z with a 2° field (no surface in view): per pixel
     // L = σs E/(4π) e^{−σt h} (1 − e^{−σt ℓ})/σt, h = 5 m the light's path down to the ray,
-    // ℓ = 10 m the ray's length in the box. The scene format refuses a directional light with
-    // a medium (for the GPU's direct light); the reference renders it (scene built in code).
+    // ℓ = 10 m the ray's length in the box. The scene is built in code (from a point-light
+    // scene whose light is replaced by a directional one).
     let mut sc = scene(
         r#"{ "schema_version": 1, "name": "dir_fog",
   "camera": { "position": [0, 0, 0], "look_at": [0, 0, -1], "fov_y_deg": 2, "width": 4, "height": 4 },
