@@ -33,8 +33,9 @@
 //! **Measurement.** The first frame after a change is discarded (it may build pipelines or
 //! resources). The cost of the current level is the median of its last
 //! [`BudgetSettings::window`] kept frames, robust to single spikes. A decision needs that many
-//! frames, except when the cost is far off the target (over 1.5× or under 0.5×: then one frame
-//! is enough, so the controller converges in a few frames from a bad start).
+//! frames, except when the cost is far off the target: under 0.5× on one frame, or over 1.5× on
+//! two frames that both are (one spike is not enough), so the controller converges in a few
+//! frames from a bad start.
 //!
 //! **Cost model.** `ms = a + b·w`, with `w` the level's work: N² for a grid N (cost ∝ photons),
 //! times `1/sqrt(1 + tolerance)` for tolerance levels (a prior: coarser tolerances merge more
@@ -338,7 +339,13 @@ impl BudgetController {
         let t = median(&self.samples);
         self.seen[self.current] = Some((t, self.frame));
         let target = self.settings.target_ms;
-        let far = t > 1.5 * target || t < 0.5 * target;
+        // Far off the target, decide before the window is full: under 0.5× on one frame (frames
+        // are not cheaper by accident); over 1.5× only on two frames that both are (one spike,
+        // a page fault or another process, must not send the controller down and block the
+        // level it left).
+        let lo_ms = self.samples.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi_ms = self.samples.iter().copied().fold(0.0, f64::max);
+        let far = (self.samples.len() >= 2 && lo_ms > 1.5 * target) || hi_ms < 0.5 * target;
         if self.samples.len() < w && !far {
             return false;
         }
