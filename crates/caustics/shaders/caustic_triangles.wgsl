@@ -13,7 +13,7 @@
 //   crosses a gap between surfaces). Otherwise each valid corner's quarter is splatted as a
 //   normalised Gaussian at the photon, as wide as its beam (half its ray-differential diameter,
 //   Photon._pad: the image of one grid cell on the receiver; at least the fixed splat's sigma,
-//   at most 6 texels): light is never smeared across a silhouette or a total-internal-reflection
+//   at most MAX_FALLBACK_SIGMA texels): light is never smeared across a silhouette or a total-internal-reflection
 //   boundary, and where light spreads thin (quads dropped for their length) it stays smooth.
 //   (Accepting long quads whose area matches the differentials was tried: it helps the ball
 //   and the ring but moves light across gaps on the scanned meshes, whose differentials are
@@ -36,6 +36,14 @@ struct TriParams {
     max_edge: f32,
     _pad: u32,
 }
+
+// Widest fallback Gaussian, in texels. 12 rather than 6: where a mesh spreads light into fine,
+// dim filaments (bunny_over_ball) the rejected quads' photons are isolated, and 6-texel splats
+// drew them as blotches (region HDR-FLIP 0.151 -> 0.128 against the CPU reference with 12).
+// Wider is not better on lavapipe: a splat loops over (6 sigma + 1)^2 texels twice, and lavapipe
+// ends an invocation's loops after about 65536 iterations in all, so four corners at sigma 18
+// lose light; at 12 four corners take 42 600 iterations.
+const MAX_FALLBACK_SIGMA: f32 = 12.0;
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<uniform> tp: TriParams;
@@ -86,7 +94,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         if (q[k].face == INVALID) { continue; }
         var sigma = light.params.z;
         let d = bitcast<f32>(q[k]._pad);
-        if (d > 0.0 && d < 1e30) { sigma = clamp(0.5 * d, light.params.z, 6.0); }
+        if (d > 0.0 && d < 1e30) { sigma = clamp(0.5 * d, light.params.z, MAX_FALLBACK_SIGMA); }
         gauss_splat(q[k].face, q[k].pos, 0.25 * q[k].flux.rgb, sigma);
     }
 }

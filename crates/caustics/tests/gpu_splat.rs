@@ -137,3 +137,61 @@ fn every_mode_is_no_worse_than_fixed_splats_on_the_sphere() {
         }
     }
 }
+
+/// Fraction of `map`'s energy (luminance) on texels farther than `r` texels (Chebyshev) from
+/// every texel where `reference` has light: light carried into a gap where none arrives.
+fn leak_fraction(map: &caustics::image_io::Image, reference: &caustics::image_io::Image, r: usize) -> f64 {
+    let (w, h) = (reference.width as usize, reference.height as usize);
+    let (lum, rl) = (map.luminance(), reference.luminance());
+    // Distance transform by separable max filters of the "lit" mask (a dilation by r).
+    let lit: Vec<bool> = rl.iter().map(|&l| l > 0.0).collect();
+    let mut rows = vec![false; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            rows[y * w + x] = (x.saturating_sub(r)..(x + r + 1).min(w)).any(|i| lit[y * w + i]);
+        }
+    }
+    let mut near = vec![false; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            near[y * w + x] = (y.saturating_sub(r)..(y + r + 1).min(h)).any(|j| rows[j * w + x]);
+        }
+    }
+    let total: f64 = lum.iter().map(|&l| l as f64).sum();
+    let dark: f64 = lum.iter().zip(&near).filter(|(_, n)| !**n).map(|(&l, _)| l as f64).sum();
+    dark / total
+}
+
+/// Caustic triangles fall back to Gaussian splats as wide as a photon's beam (up to 12 texels)
+/// where quads are rejected (silhouettes, different paths, long edges). Those splats must not
+/// carry light into the gaps where the CPU reference (2 M photons) has none: the shadows beside
+/// the focused light of a glass ball and of the glass bunny. Fixed splats of the same photons
+/// (1-texel Gaussians, cut at 3 sigma) are the baseline: no light beyond 4 texels.
+/// Measured on lavapipe (256² photons, 256² map), the fraction of the map's energy farther than
+/// 4 texels from any lit reference texel: 0 for both modes on both scenes, with the fallback
+/// capped at 6, 12 or 24 texels; beyond 2 texels, bunny: fixed 2.4e-4, triangles 1.4e-4.
+#[test]
+fn triangle_fallback_splats_do_not_spread_light_into_gaps() {
+    let Some(ctx) = gpu() else { return };
+    let bunny = Scene::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/glass_bunny.json"))).unwrap();
+    for (name, s) in [("glass ball", small(Scene::default_scene(), 32)), ("glass bunny", small(bunny, 32))] {
+        let rs = caustics_reference::reference::ReferenceSettings {
+            photons_per_light: 2_000_000,
+            caustic_map_size: 256,
+            ..Default::default()
+        };
+        let reference = caustics_reference::reference::caustic_maps(&s, &rs).unwrap().remove(0).remove(0);
+        let leak = |mode| {
+            let out = render(&ctx, &s, &settings(256, 256, mode)).unwrap();
+            let map = &out.caustic_maps[0][0];
+            let (near, far) = (leak_fraction(map, &reference, 2), leak_fraction(map, &reference, 4));
+            eprintln!("{name} {mode}: energy beyond 2 texels of the reference's light {near:.2e}, beyond 4 {far:.2e}");
+            (near, far)
+        };
+        let fixed = leak(SplatMode::Fixed);
+        let tri = leak(SplatMode::Triangles);
+        assert!(fixed.1 < 1e-6, "{name}: fixed splats beyond 4 texels {}", fixed.1);
+        assert!(tri.1 < 1e-6, "{name}: triangles carry {} of their energy into the reference's dark", tri.1);
+        assert!(tri.0 <= fixed.0 + 1e-4, "{name}: triangles {} vs fixed {} beyond 2 texels", tri.0, fixed.0);
+    }
+}
