@@ -107,7 +107,7 @@ enum Command {
         #[arg(long, default_value = "exact", value_parser = tracer_parser())]
         tracer: caustics::render::Tracer,
         /// Exact tracer: specular interactions a photon path may have (1 to 64).
-        #[arg(long, default_value_t = 8)]
+        #[arg(long, default_value_t = caustics::render::RenderSettings::default().max_depth)]
         max_depth: u32,
         /// Trace only the light transmitted at glass, not the second photon per cell that carries
         /// the light reflected at the first dielectric surface (half the cost; every technique).
