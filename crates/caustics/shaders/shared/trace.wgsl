@@ -511,6 +511,13 @@ fn front_crossing(tr: ptr<function, FrontTrack>, fp: vec4f, depth: f32, face: Fa
     return crossed;
 }
 
+// The faces with caster buffers (front, back and their second layers): all but a spot
+// light's spill face, which only receives photons.
+fn caster_faces() -> u32 {
+    if (u32(light.splat.y) == SPILL_FACE_PRESENT) { return light.info.x - 1u; }
+    return light.info.x;
+}
+
 fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
     var none: Hit;
     none.object = INVALID;
@@ -529,7 +536,7 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
         let p = o + d * s;
         var layer = INVALID;
         var q = vec4f(0.0);
-        for (var f = 0u; f < light.info.x; f++) {
+        for (var f = 0u; f < caster_faces(); f++) {
             let qq = project_face(light.faces[f], p, g);
             if (qq.w > 0.5) { q = qq; layer = f; break; }
         }
@@ -648,7 +655,7 @@ fn surface_dn(mat: MaterialGpu, p: vec3f, nref: vec3f, dp_in: vec3f) -> vec3f {
         return s * rt_mesh_dn(exact_hit, dp);
     }
     let g = f32(light.params.w);
-    for (var f = 0u; f < light.info.x; f++) {
+    for (var f = 0u; f < caster_faces(); f++) {
         let q = project_face(light.faces[f], p, g);
         if (q.w < 0.5) { continue; }
         let t = texel_of(q.xy, u32(g));
