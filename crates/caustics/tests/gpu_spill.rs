@@ -235,3 +235,25 @@ fn frames_with_a_spill_face_are_deterministic_and_create_nothing() {
     assert_eq!(st.technique.photons_traced, 0);
     assert_eq!(st.lights_redone, [false]);
 }
+
+#[test]
+fn the_temporal_filter_keeps_a_static_spill_face() {
+    let Some(ctx) = gpu() else { return };
+    use caustics::temporal::{TemporalFilter, TemporalSettings};
+    let scene = ball_near_spot();
+    let s = settings(SpillFaces::Auto);
+    let unfiltered = render(&ctx, &scene, &s).unwrap();
+    let mut filter = TemporalFilter::new(TemporalSettings::default());
+    for frame in 0..2 {
+        let out = filter.render(&ctx, &scene, &s).unwrap();
+        let raw = filter.raw_maps(&ctx).unwrap();
+        assert_eq!(raw[0].len(), 2);
+        for f in 0..2 {
+            assert_eq!(bits(&out.caustic_maps[0][f]), bits(&raw[0][f]), "frame {frame} face {f}");
+            assert_eq!(bits(&out.caustic_maps[0][f]), bits(&unfiltered.caustic_maps[0][f]), "frame {frame} face {f}");
+        }
+        assert_eq!(bits(&out.image), bits(&unfiltered.image), "frame {frame}");
+        let st = filter.stats(&ctx).unwrap()[0];
+        assert_eq!(st.rejected + st.blended, 2 * 128 * 128);
+    }
+}
