@@ -29,7 +29,8 @@ fn region(cpu: &Image, gpu: &Image) -> Mask {
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let (mut grid, mut map, mut cpu_photons, mut frames, mut cpu_noise) = (1024u32, 1024u32, 8_000_000u64, 5usize, false);
+    let (mut grid, mut map, mut cpu_photons, mut frames, mut cpu_noise) =
+        (1024u32, 1024u32, 8_000_000u64, 5usize, false);
     let mut scenes = Vec::new();
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -66,7 +67,10 @@ fn main() {
             let mask = region(&cpu.caustic, &cpu1.caustic);
             let flip = metrics::hdr_flip(&cpu1.caustic, &cpu.caustic, Some(&mask)).expect("flip");
             let e = metrics::energy_ratio(&cpu1.caustic, &cpu.caustic, Some(&mask)).expect("energy");
-            println!("{name}: reference noise ({cpu_photons} photons, seed 1 vs 0): region FLIP {:.3}, energy {e:.4}", flip.mean);
+            println!(
+                "{name}: reference noise ({cpu_photons} photons, seed 1 vs 0): region FLIP {:.3}, energy {e:.4}",
+                flip.mean
+            );
         }
         for spill in [SpillFaces::Off, SpillFaces::Auto] {
             let s = RenderSettings {

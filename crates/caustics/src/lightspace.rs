@@ -270,7 +270,11 @@ impl RenderSettings {
     /// The light view the GPU uses for `light`: [`LightView::with_spill`] where
     /// [`RenderSettings::uses_spill_face`], else [`LightView::new`].
     pub fn light_view(&self, scene: &Scene, light: &Light) -> LightView {
-        if self.uses_spill_face(scene, light) { LightView::with_spill(scene, light) } else { LightView::new(scene, light) }
+        if self.uses_spill_face(scene, light) {
+            LightView::with_spill(scene, light)
+        } else {
+            LightView::new(scene, light)
+        }
     }
 }
 

@@ -955,7 +955,17 @@ pub(crate) fn record_light(
     for (f, face) in view.faces.iter().enumerate() {
         let (f, clip) = (f as u32, face.world_to_clip);
         dc.pass(enc, timer, "light_shadow", &raster.depth_only, None, &shadow, f, clip, Subset::All);
-        dc.pass(enc, timer, "light_receivers", &raster.none, Some((&recv.pos, &recv.nrm)), &recv.depth, f, clip, Subset::Diffuse);
+        dc.pass(
+            enc,
+            timer,
+            "light_receivers",
+            &raster.none,
+            Some((&recv.pos, &recv.nrm)),
+            &recv.depth,
+            f,
+            clip,
+            Subset::Diffuse,
+        );
         if f >= ne {
             continue;
         }

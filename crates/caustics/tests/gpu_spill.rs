@@ -77,8 +77,7 @@ fn energy(img: &caustics::image_io::Image) -> f64 {
 #[test]
 fn spot_and_spill_face_see_the_whole_scene() {
     let tan_cap = MAX_SPOT_FRUSTUM_DEG.to_radians().tan();
-    for scene in
-        [ball_near_spot(), catalogue("ball_over_bunny"), catalogue("glass_sphere"), catalogue("stacked_balls")]
+    for scene in [ball_near_spot(), catalogue("ball_over_bunny"), catalogue("glass_sphere"), catalogue("stacked_balls")]
     {
         let light = &scene.lights[0];
         let view = LightView::with_spill(&scene, light);
@@ -105,8 +104,7 @@ fn spot_and_spill_face_see_the_whole_scene() {
                 assert_ne!(scene.name, "glass_sphere", "its bounds lie inside the cap");
                 continue;
             }
-            let (f, x, y) =
-                view.project(p, m).unwrap_or_else(|| panic!("{}: {p} outside both faces", scene.name));
+            let (f, x, y) = view.project(p, m).unwrap_or_else(|| panic!("{}: {p} outside both faces", scene.name));
             assert!((0.0..=m as f32).contains(&x) && (0.0..=m as f32).contains(&y));
             in_spill += (f == 1) as u32;
         }
@@ -248,9 +246,9 @@ fn the_temporal_filter_keeps_a_static_spill_face() {
         let out = filter.render(&ctx, &scene, &s).unwrap();
         let raw = filter.raw_maps(&ctx).unwrap();
         assert_eq!(raw[0].len(), 2);
-        for f in 0..2 {
-            assert_eq!(bits(&out.caustic_maps[0][f]), bits(&raw[0][f]), "frame {frame} face {f}");
-            assert_eq!(bits(&out.caustic_maps[0][f]), bits(&unfiltered.caustic_maps[0][f]), "frame {frame} face {f}");
+        for (f, map) in raw[0].iter().enumerate() {
+            assert_eq!(bits(&out.caustic_maps[0][f]), bits(map), "frame {frame} face {f}");
+            assert_eq!(bits(map), bits(&unfiltered.caustic_maps[0][f]), "frame {frame} face {f}");
         }
         assert_eq!(bits(&out.image), bits(&unfiltered.image), "frame {frame}");
         let st = filter.stats(&ctx).unwrap()[0];
