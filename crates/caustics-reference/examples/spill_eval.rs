@@ -5,7 +5,10 @@
 //! renderer, the light redone each frame).
 //!
 //! `cargo run --release -p caustics-reference --example spill_eval -- [--grid N] [--map M]
-//!  [--cpu-photons P] [--frames F] [--cpu-noise] SCENE...`
+//!  [--cpu-photons P] [--frames F] [--cpu-noise] [--timing] SCENE...`
+//!
+//! `--timing`: no reference; the frames of `off` and `auto` alternate (one renderer each), so
+//! that a change in the machine's load falls on both, and the medians and their ratio print.
 //!
 //! The region is `tracers`' (pixels where the reference's or the GPU's caustic exceeds 2 % of
 //! the reference's 99.5th-percentile luminance), taken per run.
@@ -32,6 +35,7 @@ fn main() {
     let (mut grid, mut map, mut cpu_photons, mut frames, mut cpu_noise) =
         (1024u32, 1024u32, 8_000_000u64, 5usize, false);
     let mut scenes = Vec::new();
+    let mut timing = false;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--grid" => grid = args.next().unwrap().parse().unwrap(),
@@ -39,11 +43,18 @@ fn main() {
             "--cpu-photons" => cpu_photons = args.next().unwrap().parse().unwrap(),
             "--frames" => frames = args.next().unwrap().parse().unwrap(),
             "--cpu-noise" => cpu_noise = true,
+            "--timing" => timing = true,
             _ => scenes.push(a),
         }
     }
     let ctx = caustics::gpu::GpuContext::new(None).expect("a GPU adapter");
     println!("adapter: {}", ctx.info.name);
+    if timing {
+        for path in &scenes {
+            time_frames(&ctx, path, grid, map, frames);
+        }
+        return;
+    }
     println!("| scene | spill | faces | region FLIP | region energy | landed | outside | frame wall ms (median) |");
     println!("|---|---|---:|---:|---:|---:|---:|---:|");
     for path in &scenes {
@@ -104,4 +115,42 @@ fn main() {
             );
         }
     }
+}
+
+/// Median frame wall time (light redone every frame) with spill faces off and auto, frames
+/// alternating between the two renderers.
+fn time_frames(ctx: &caustics::gpu::GpuContext, path: &str, grid: u32, map: u32, frames: usize) {
+    let mut scene = caustics::Scene::load(std::path::Path::new(path)).expect("scene");
+    scene.camera.width = scene.camera.width.min(320);
+    scene.camera.height = scene.camera.height.min(320);
+    let mut rs: Vec<_> = [SpillFaces::Off, SpillFaces::Auto]
+        .into_iter()
+        .map(|spill| {
+            let s = RenderSettings {
+                photons: grid,
+                caustic_map_size: map,
+                tracer: Tracer::Exact,
+                spill_faces: spill,
+                ..Default::default()
+            };
+            let mut r = caustics::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s).expect("renderer");
+            r.render_once().expect("first frame");
+            (spill, r, Vec::new())
+        })
+        .collect();
+    for _ in 0..frames {
+        for (_, r, ms) in rs.iter_mut() {
+            let l = r.lights()[0].clone();
+            r.set_light(0, l).expect("light");
+            ms.push(r.render_once().expect("frame").frame_wall_ms);
+        }
+    }
+    let mut med = Vec::new();
+    for (spill, _, ms) in rs.iter_mut() {
+        ms.sort_by(f64::total_cmp);
+        let m = ms[ms.len() / 2];
+        println!("{path} {spill}: frame wall ms {ms:?}, median {m:.0}");
+        med.push(m);
+    }
+    println!("{path}: auto / off {:.3}", med[1] / med[0]);
 }
