@@ -8,7 +8,8 @@
 //!  [--cpu-photons P] [--frames F] [--cpu-noise] [--timing] SCENE...`
 //!
 //! `--timing`: no reference; the frames of `off` and `auto` alternate (one renderer each), so
-//! that a change in the machine's load falls on both, and the medians and their ratio print.
+//! that a change in the machine's load falls on both, and the medians and their ratio print
+//! (wall time, and the sum of the GPU pass timings where the adapter has timestamp queries).
 //!
 //! The region is `tracers`' (pixels where the reference's or the GPU's caustic exceeds 2 % of
 //! the reference's 99.5th-percentile luminance), taken per run.
@@ -135,22 +136,30 @@ fn time_frames(ctx: &caustics::gpu::GpuContext, path: &str, grid: u32, map: u32,
             };
             let mut r = caustics::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s).expect("renderer");
             r.render_once().expect("first frame");
-            (spill, r, Vec::new())
+            (spill, r, Vec::new(), Vec::new())
         })
         .collect();
+    let mut last = Vec::new();
     for _ in 0..frames {
-        for (_, r, ms) in rs.iter_mut() {
+        for (_, r, ms, gpu_ms) in rs.iter_mut() {
             let l = r.lights()[0].clone();
             r.set_light(0, l).expect("light");
-            ms.push(r.render_once().expect("frame").frame_wall_ms);
+            let out = r.render_once().expect("frame");
+            ms.push(out.frame_wall_ms);
+            gpu_ms.push(out.timings.iter().map(|(_, t)| t).sum::<f64>());
+            last = out.timings;
         }
     }
+    // The GPU passes of the last frame (empty without timestamp queries), by time.
+    last.sort_by(|a, b| b.1.total_cmp(&a.1));
+    println!("{path}: slowest passes of the last auto frame: {:?}", &last[..last.len().min(10)]);
     let mut med = Vec::new();
-    for (spill, _, ms) in rs.iter_mut() {
+    for (spill, _, ms, gpu_ms) in rs.iter_mut() {
         ms.sort_by(f64::total_cmp);
-        let m = ms[ms.len() / 2];
-        println!("{path} {spill}: frame wall ms {ms:?}, median {m:.0}");
-        med.push(m);
+        gpu_ms.sort_by(f64::total_cmp);
+        let (m, g) = (ms[ms.len() / 2], gpu_ms[gpu_ms.len() / 2]);
+        println!("{path} {spill}: frame wall ms {ms:?}, median {m:.0}; GPU pass ms (sum) median {g:.0}");
+        med.push((m, g));
     }
-    println!("{path}: auto / off {:.3}", med[1] / med[0]);
+    println!("{path}: auto / off: wall {:.3}, GPU passes {:.3}", med[1].0 / med[0].0, med[1].1 / med[0].1);
 }
