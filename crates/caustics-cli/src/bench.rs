@@ -84,6 +84,9 @@ pub struct BenchArgs {
     /// Where the caustic on diffuse surfaces of spot and point lights comes from.
     #[arg(long, default_value = "photons", value_parser = crate::surface_caustics_parser())]
     surface_caustics: caustics::render::SurfaceCaustics,
+    /// Spill faces of spot lights (auto, off, on; see `caustics render --help`).
+    #[arg(long, default_value = "auto", value_parser = crate::spill_faces_parser())]
+    spill_faces: caustics::render::SpillFaces,
 }
 
 fn parse_grids(s: &str) -> Result<Vec<u32>> {
@@ -681,6 +684,7 @@ fn settings(a: &BenchArgs, t: Technique, n: u32, splat: caustics::splat::SplatMo
         splat,
         tracer: a.tracer,
         surface_caustics: a.surface_caustics,
+        spill_faces: a.spill_faces,
         ..Default::default()
     }
 }

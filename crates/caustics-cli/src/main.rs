@@ -82,6 +82,13 @@ pub(crate) fn surface_caustics_parser()
     .map(|s| S::parse(&s).expect("a listed source"))
 }
 
+/// `--spill-faces`: whether spot lights get a spill face, by name.
+pub(crate) fn spill_faces_parser() -> impl clap::builder::TypedValueParser<Value = caustics::render::SpillFaces> {
+    use caustics::render::SpillFaces as S;
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(S::ALL.map(|m| m.name())).map(|s| S::parse(&s).expect("a listed value"))
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to PNG (tone-mapped) or EXR (linear radiance, W/(m^2 sr)).
@@ -174,6 +181,12 @@ enum Command {
         /// caster, with or without a medium; their photon maps are then not traced).
         #[arg(long, default_value = "photons", value_parser = surface_caustics_parser())]
         surface_caustics: caustics::render::SurfaceCaustics,
+        /// Spill faces of spot lights: a second, wider light face that receives the caustic
+        /// light glass bends outside the spot's view (auto: where a specular caster is in the
+        /// spot's view and the scene reaches beyond it, caustic maps up to 1024²). The CPU
+        /// backend gives its caustic maps the same faces.
+        #[arg(long, default_value = "auto", value_parser = spill_faces_parser())]
+        spill_faces: caustics::render::SpillFaces,
         /// Gaussian splat standard deviation (caustic-map texels).
         #[arg(long, default_value_t = 1.0)]
         splat_sigma: f32,
@@ -450,6 +463,7 @@ fn run(cli: Cli) -> Result<()> {
             env_taps,
             beams,
             surface_caustics,
+            spill_faces,
             splat_sigma,
             photon_memory,
             dump,
@@ -505,6 +519,7 @@ fn run(cli: Cli) -> Result<()> {
                 env_taps,
                 beams: beams.settings(),
                 surface_caustics,
+                spill_faces,
                 splat_sigma,
                 photon_memory: photon_memory.saturating_mul(1 << 20),
                 ..Default::default()
@@ -596,6 +611,9 @@ fn run(cli: Cli) -> Result<()> {
                         medium_single_scattering_only: single_scattering,
                         caustic_paths: caustics_reference::reference::CausticPaths::parse(&caustic_paths)
                             .expect("a listed class"),
+                        // The caustic maps get a spill face where the GPU's would (at the GPU's
+                        // default caustic map size when none is given).
+                        spill_faces: scene.lights.iter().any(|l| settings.uses_spill_face(&scene, l)),
                         ..Default::default()
                     };
                     let t0 = std::time::Instant::now();

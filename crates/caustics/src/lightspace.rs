@@ -8,11 +8,18 @@
 //! - directional light: one orthographic view along the light direction, covering the scene's
 //!   bounds.
 //!
+//! A spot light's view may also get a *spill face* ([`LightView::with_spill`]): a second, wider
+//! square perspective face on the same eye and axis, covering the scene's bounds (half-angle at
+//! most 75°). It emits no photons and has no caster buffers; it receives the photons whose
+//! landing point lies outside the spot's own face (glass bends light out of the cone).
+//! [`LightView::project`] tries the faces in order, so the spot face keeps every point it sees.
+//!
 //! Texel (i, j) of face f covers NDC x in [-1 + 2i/N, -1 + 2(i+1)/N] and y (top = +1) in
 //! [1 - 2(j+1)/N, 1 - 2j/N]. A caustic map stores, per texel, the caustic irradiance (W/m²) on
 //! the receiver point seen through the texel's centre.
 
 use crate::scene::{Light, Scene};
+use crate::settings::{RenderSettings, SpillFaces};
 use glam::{Mat4, Vec3, Vec4Swizzles};
 
 /// The widest spot cone drawn with one perspective view; wider ones use a cube.
@@ -36,8 +43,12 @@ pub struct LightView {
     pub far: f32,
     /// Radius of the scene's bounding sphere (m).
     pub scene_radius: f32,
-    /// tan of half the field of view of the perspective faces (0 for orthographic views).
+    /// tan of half the field of view of the emitting perspective faces (0 for orthographic
+    /// views).
     pub tan_half_fov: f32,
+    /// The faces photons start from, `faces[..emit_faces]`; the rest (a spot light's spill face)
+    /// only receive. Only the emitting faces have caster buffers.
+    pub emit_faces: usize,
 }
 
 fn up_for(dir: Vec3) -> Vec3 {
@@ -66,6 +77,7 @@ impl LightView {
                     far,
                     scene_radius: radius,
                     tan_half_fov: cone_angle.tan(),
+                    emit_faces: 1,
                 }
             }
             Light::Spot { position, .. } | Light::Point { position, .. } => {
@@ -79,7 +91,7 @@ impl LightView {
                         LightFace { world_to_clip: proj * view, orthographic: false, origin_or_dir: *position }
                     })
                     .collect();
-                LightView { faces, near, far, scene_radius: radius, tan_half_fov: 1.0 }
+                LightView { faces, near, far, scene_radius: radius, tan_half_fov: 1.0, emit_faces: 6 }
             }
             Light::Directional { direction, .. } => {
                 let eye = center - *direction * (radius * 2.0);
@@ -95,9 +107,26 @@ impl LightView {
                     far: radius * 3.5,
                     scene_radius: radius,
                     tan_half_fov: 0.0,
+                    emit_faces: 1,
                 }
             }
         }
+    }
+
+    /// The light view of `light` with a spill face after the spot's own face
+    /// ([`spill_face`]), for a spot light drawn with one perspective face (cone up to 75°);
+    /// other lights' views are [`LightView::new`]'s.
+    pub fn with_spill(scene: &Scene, light: &Light) -> LightView {
+        let mut view = LightView::new(scene, light);
+        if let Some(face) = spill_face(scene, light, view.near, view.far) {
+            view.faces.push(face);
+        }
+        view
+    }
+
+    /// Whether the last face is a spill face (receives, emits no photons).
+    pub fn has_spill(&self) -> bool {
+        self.emit_faces < self.faces.len()
     }
 
     /// Face and texel coordinates (continuous, in texels, origin top-left) of world point `p` in a
@@ -149,6 +178,60 @@ impl LightView {
     }
 }
 
+/// tan of the half-angle a square perspective view along `direction` from `position` needs to
+/// see every corner of the box (lo, hi); `None` where a corner lies at or behind the eye's plane
+/// (no perspective face sees it).
+pub fn tan_half_angle_covering(position: Vec3, direction: Vec3, (lo, hi): (Vec3, Vec3)) -> Option<f32> {
+    let view = Mat4::look_at_rh(position, position + direction, up_for(direction));
+    let mut t = 0.0f32;
+    for k in 0..8 {
+        let p = Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        let v = view.transform_point3(p);
+        // Looking down -z in view space.
+        if -v.z <= 1e-6 {
+            return None;
+        }
+        t = t.max(v.x.abs().max(v.y.abs()) / -v.z);
+    }
+    Some(t)
+}
+
+/// tan of the widest half-angle of a spill face: [`MAX_SPOT_FRUSTUM_DEG`].
+pub fn max_spill_tan() -> f32 {
+    MAX_SPOT_FRUSTUM_DEG.to_radians().tan()
+}
+
+/// The spill face of a spot light (cone up to 75°): a square perspective face on the spot's eye
+/// and axis (same up vector, near and far planes as its own face), wide enough to see the
+/// scene's bounds (every corner of the box: a frustum is convex, so it then holds the whole
+/// box), at most 75° half-angle, and never narrower than the cone. `None` for other lights.
+pub fn spill_face(scene: &Scene, light: &Light, near: f32, far: f32) -> Option<LightFace> {
+    let Light::Spot { position, direction, cone_angle, .. } = light else { return None };
+    if cone_angle.to_degrees() > MAX_SPOT_FRUSTUM_DEG {
+        return None;
+    }
+    let cap = max_spill_tan();
+    let need = tan_half_angle_covering(*position, *direction, scene.bounds()).unwrap_or(cap);
+    let tan_half = need.max(cone_angle.tan()).min(cap);
+    let view = Mat4::look_at_rh(*position, *position + *direction, up_for(*direction));
+    let proj = Mat4::perspective_rh(2.0 * tan_half.atan(), 1.0, near, far);
+    Some(LightFace { world_to_clip: proj * view, orthographic: false, origin_or_dir: *position })
+}
+
+/// Whether the scene's bounds reach outside a spot light's own face (cone up to 75°): some
+/// corner of the box is behind the eye or outside the cone's square. `false` for other lights.
+pub fn bounds_beyond_spot(scene: &Scene, light: &Light) -> bool {
+    let Light::Spot { position, direction, cone_angle, .. } = light else { return false };
+    if cone_angle.to_degrees() > MAX_SPOT_FRUSTUM_DEG {
+        return false;
+    }
+    tan_half_angle_covering(*position, *direction, scene.bounds()).is_none_or(|t| t > cone_angle.tan())
+}
+
 /// Cube faces: +X, -X, +Y, -Y, +Z, -Z, each with its up vector.
 pub const CUBE_DIRS: [(Vec3, Vec3); 6] = [
     (Vec3::X, Vec3::NEG_Y),
@@ -158,3 +241,61 @@ pub const CUBE_DIRS: [(Vec3, Vec3); 6] = [
     (Vec3::Z, Vec3::NEG_Y),
     (Vec3::NEG_Z, Vec3::NEG_Y),
 ];
+
+/// The largest caustic map for which [`SpillFaces::Auto`] adds spill faces (each adds a layer
+/// to every per-face map of its light).
+pub const MAX_AUTO_SPILL_MAP: u32 = 1024;
+
+impl RenderSettings {
+    /// Whether the GPU gives `light` a spill face under these settings: a spot light of up to
+    /// 75°, not handled by beams (their stages run over the light's faces), and for
+    /// [`SpillFaces::Auto`] only where a specular caster is in the spot's view, the scene's
+    /// bounds reach beyond it and the caustic map is at most [`MAX_AUTO_SPILL_MAP`]².
+    pub fn uses_spill_face(&self, scene: &Scene, light: &Light) -> bool {
+        let spot = matches!(light, Light::Spot { cone_angle, .. } if cone_angle.to_degrees() <= MAX_SPOT_FRUSTUM_DEG);
+        if !spot || self.surface_caustics_from_beams(light) || crate::beams::active(scene, self) {
+            return false;
+        }
+        match self.spill_faces {
+            SpillFaces::Off => false,
+            SpillFaces::On => true,
+            SpillFaces::Auto => {
+                self.caustic_map_size <= MAX_AUTO_SPILL_MAP
+                    && bounds_beyond_spot(scene, light)
+                    && casters_in_view(scene, &LightView::new(scene, light).faces[0])
+            }
+        }
+    }
+
+    /// The light view the GPU uses for `light`: [`LightView::with_spill`] where
+    /// [`RenderSettings::uses_spill_face`], else [`LightView::new`].
+    pub fn light_view(&self, scene: &Scene, light: &Light) -> LightView {
+        if self.uses_spill_face(scene, light) {
+            LightView::with_spill(scene, light)
+        } else {
+            LightView::new(scene, light)
+        }
+    }
+}
+
+/// Whether the box of the scene's casters reaches into `face`'s view (conservatively: a box
+/// with a corner behind the eye counts as in view).
+fn casters_in_view(scene: &Scene, face: &LightFace) -> bool {
+    let Some((lo, hi)) = scene.caster_bounds() else { return false };
+    let (mut a, mut b) = (glam::Vec2::splat(f32::MAX), glam::Vec2::splat(f32::MIN));
+    for k in 0..8 {
+        let p = Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        let c = face.world_to_clip * p.extend(1.0);
+        if c.w <= 1e-6 {
+            return true;
+        }
+        let q = glam::Vec2::new(c.x / c.w, c.y / c.w);
+        a = a.min(q);
+        b = b.max(q);
+    }
+    a.x <= 1.0 && a.y <= 1.0 && b.x >= -1.0 && b.y >= -1.0
+}

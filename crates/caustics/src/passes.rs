@@ -508,7 +508,7 @@ fn light_gpu(
         axis: axis.extend(cone).to_array(),
         params: [start, scale as f32, sigma, g as f32],
         extra: [caster_radius, view.scene_radius, view.tan_half_fov, multi_bounce],
-        splat: [lens, 0.0, 0.0, 0.0],
+        splat: [lens, if view.has_spill() { SPILL_FACE_PRESENT as f32 } else { 0.0 }, 0.0, 0.0],
         crop,
     }
 }
@@ -707,7 +707,7 @@ impl RenderSettings {
             );
         }
         let max_bind = ctx.device.limits().max_storage_buffer_binding_size;
-        let faces = scene.lights.iter().map(|l| LightView::new(scene, l).faces.len() as u64).max().unwrap_or(1);
+        let faces = scene.lights.iter().map(|l| self.light_view(scene, l).faces.len() as u64).max().unwrap_or(1);
         let accum = (self.caustic_map_size as u64).pow(2) * faces * 24;
         if accum > max_bind {
             return cl(
@@ -881,7 +881,7 @@ pub(crate) fn light_record(
     s: &RenderSettings,
     fc: &FrameConsts,
 ) -> (LightView, LightGpu, f64) {
-    let view = LightView::new(scene, light);
+    let view = s.light_view(scene, light);
     let scale = (1u64 << 52) as f64 / flux_bound(&view, light);
     let lens = s.splat.lens_flag(s.technique);
     // A directional light's view covers the whole scene: the basic technique's dense grid is
@@ -941,19 +941,35 @@ pub(crate) fn record_light(
     let (ctx, scene) = (dc.ctx, dc.scene);
     let (n, g, m) = (fc.n, fc.g, fc.m);
     let nf = view.faces.len() as u32;
+    // The faces that emit photons and have caster buffers: all but a spill face, which only
+    // receives (shadow, receiver and caustic maps).
+    let ne = view.emit_faces as u32;
     let light_buf = ctx.uniform("light", bytemuck::bytes_of(lg));
     let shadow = texture(ctx, "light_shadow", s.shadow_map_size, s.shadow_map_size, nf, DEPTH_FORMAT);
     let recv = GBuffer::new(ctx, "light_receivers", m, m, nf);
-    let front = GBuffer::new(ctx, "light_caster_front", g, g, nf);
-    let back = GBuffer::new(ctx, "light_caster_back", g, g, nf);
+    let front = GBuffer::new(ctx, "light_caster_front", g, g, ne);
+    let back = GBuffer::new(ctx, "light_caster_back", g, g, ne);
     let layer2_bufs = fc.layer2.then(|| {
-        (GBuffer::new(ctx, "light_caster_front2", g, g, nf), GBuffer::new(ctx, "light_caster_back2", g, g, nf))
+        (GBuffer::new(ctx, "light_caster_front2", g, g, ne), GBuffer::new(ctx, "light_caster_back2", g, g, ne))
     });
     for (f, face) in view.faces.iter().enumerate() {
         let (f, clip) = (f as u32, face.world_to_clip);
         dc.pass(enc, timer, "light_shadow", &raster.depth_only, None, &shadow, f, clip, Subset::All);
+        dc.pass(
+            enc,
+            timer,
+            "light_receivers",
+            &raster.none,
+            Some((&recv.pos, &recv.nrm)),
+            &recv.depth,
+            f,
+            clip,
+            Subset::Diffuse,
+        );
+        if f >= ne {
+            continue;
+        }
         for (name, pl, gb, subset) in [
-            ("light_receivers", &raster.none, &recv, Subset::Diffuse),
             ("light_caster_front", &raster.none, &front, Subset::Casters),
             ("light_caster_back", &raster.back, &back, Subset::Casters),
         ] {
@@ -1007,7 +1023,7 @@ pub(crate) fn record_light(
         splat_targets: &splat_targets,
         n,
         g,
-        bound: view.faces.iter().map(|f| relevant_bound(scene, f, n, g)).collect(),
+        bound: view.faces[..view.emit_faces].iter().map(|f| relevant_bound(scene, f, n, g)).collect(),
         reflect_branch: fc.reflect_branch,
         internal_branch: fc.internal_branch,
         residual_branch: fc.residual_branch,
@@ -1017,7 +1033,7 @@ pub(crate) fn record_light(
         skip_photons: (fc.caustic_spheres && matches!(scene.lights[li], Light::Directional { .. }))
             || s.surface_caustics_from_beams(&scene.lights[li]),
     };
-    let pending = crate::techniques::emit(&emit, enc, timer, nf)?;
+    let pending = crate::techniques::emit(&emit, enc, timer, ne)?;
     splat_targets.finish(ctx, &pipelines.splat, &light_buf, &accum, enc, timer);
     let resolve_pl = ctx.compute_pipeline("caustic_resolve");
     let rp = ctx.uniform("resolve_params", bytemuck::bytes_of(&CountParams { count: texels as u32, _pad: [0; 3] }));
@@ -1569,6 +1585,10 @@ pub(crate) fn dump_images(
     for (li, (bufs, nf)) in lights.iter().enumerate() {
         for f in 0..*nf {
             for &(name, gb) in bufs {
+                // A spill face has no caster buffers (their arrays hold the emitting faces only).
+                if f >= gb.pos.depth_or_array_layers() {
+                    continue;
+                }
                 let pos = ctx.read_texture(&gb.pos, f, 16)?;
                 let nrm = ctx.read_texture(&gb.nrm, f, 16)?;
                 let (w, h) = (gb.pos.width(), gb.pos.height());

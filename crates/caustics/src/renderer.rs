@@ -351,7 +351,7 @@ impl Renderer {
             self.light_dirty.resize(lights.len(), true);
         }
         for (l, light) in lights.iter().enumerate() {
-            let view = crate::lightspace::LightView::new(&self.scene, light);
+            let view = self.settings.light_view(&self.scene, light);
             if view.faces.iter().any(|f| box_in_view(before, f.world_to_clip) || box_in_view(after, f.world_to_clip)) {
                 self.light_dirty[l] = true;
             }

@@ -340,6 +340,46 @@ pub struct RenderSettings {
     /// summaries made with the light's maps say (`caustic_mask`, `shadow_tiles`). The image is
     /// the same bit for bit; off only to check that (tests) or to time the difference.
     pub shading_tiles: bool,
+    /// Spill faces of spot lights (`crate::lightspace::spill_face`): a second, wider face that
+    /// receives the caustic light glass bends outside the spot's own view.
+    pub spill_faces: SpillFaces,
+}
+
+/// Whether spot lights get a spill face ([`RenderSettings::spill_faces`]; the rule is
+/// `RenderSettings::uses_spill_face`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum SpillFaces {
+    /// Where a specular caster is in the spot's view and the scene's bounds reach beyond it,
+    /// with caustic maps up to 1024² (memory); never for lights whose caustics come from beams.
+    #[default]
+    Auto,
+    /// Never (the spot's own face only).
+    Off,
+    /// Every spot light of up to 75° not handled by beams.
+    On,
+}
+
+impl SpillFaces {
+    pub const ALL: [SpillFaces; 3] = [SpillFaces::Auto, SpillFaces::Off, SpillFaces::On];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SpillFaces::Auto => "auto",
+            SpillFaces::Off => "off",
+            SpillFaces::On => "on",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<SpillFaces> {
+        SpillFaces::ALL.into_iter().find(|m| m.name() == s.trim())
+    }
+}
+
+impl std::fmt::Display for SpillFaces {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// The source of the caustic on diffuse surfaces ([`RenderSettings::surface_caustics`]).
@@ -566,6 +606,7 @@ impl Default for RenderSettings {
             beams: BeamSettings::default(),
             surface_caustics: SurfaceCaustics::default(),
             shading_tiles: true,
+            spill_faces: SpillFaces::Auto,
         }
     }
 }

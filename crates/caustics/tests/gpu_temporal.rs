@@ -14,8 +14,16 @@ use glam::Vec3;
 
 const M: u32 = 64;
 
+/// Without spill faces (their count of texels and faces per light is this file's; a spill face's
+/// filtering is checked in `tests/gpu_spill.rs`).
 fn settings(m: u32) -> RenderSettings {
-    RenderSettings { photons: 128, caustic_map_size: m, shadow_map_size: 256, ..Default::default() }
+    RenderSettings {
+        photons: 128,
+        caustic_map_size: m,
+        shadow_map_size: 256,
+        spill_faces: caustics::render::SpillFaces::Off,
+        ..Default::default()
+    }
 }
 
 /// The built-in glass sphere scene (spot 4 m above the ball), 32 pixels wide, with the spot moved

@@ -62,6 +62,11 @@ pub struct ReferenceSettings {
     /// the part the GPU's caustic maps render, or the rest (for measurements). The caustic
     /// maps and the `nocaustic` image do not depend on it. See [`CausticPaths`].
     pub caustic_paths: CausticPaths,
+    /// Give spot lights (cone up to 75°) a spill face in their caustic maps
+    /// (`LightView::with_spill`), as the GPU does where `RenderSettings::uses_spill_face`; off
+    /// by default, so every map keeps one face per spot light. The camera images do not depend
+    /// on it.
+    pub spill_faces: bool,
 }
 
 impl Default for ReferenceSettings {
@@ -74,6 +79,7 @@ impl Default for ReferenceSettings {
             caustic_map_size: 512,
             medium_single_scattering_only: false,
             caustic_paths: CausticPaths::All,
+            spill_faces: false,
         }
     }
 }
@@ -422,7 +428,11 @@ fn photon_pass(
     let (w, h) = (scene.camera.width, scene.camera.height);
     let npix = (w * h) as usize;
     let size = settings.caustic_map_size;
-    let views: Vec<LightView> = scene.lights.iter().map(|l| LightView::new(scene, l)).collect();
+    let views: Vec<LightView> = scene
+        .lights
+        .iter()
+        .map(|l| if settings.spill_faces { LightView::with_spill(scene, l) } else { LightView::new(scene, l) })
+        .collect();
     let mut map_acc: Vec<Vec<Vec<Vec3>>> = views
         .iter()
         .map(|v| if maps { vec![vec![Vec3::ZERO; (size * size) as usize]; v.faces.len()] } else { Vec::new() })

@@ -26,7 +26,8 @@ struct LightGpu {
     // can meet a caster again (anything but a lone sphere), else 0
     extra: vec4f,
     // x = beam diameters from the lens equations for the splat (0 off, 1 thin lens, 2 thick
-    // lens; src/splat.rs), yzw unused
+    // lens; src/splat.rs), y = SPILL_FACE_PRESENT if the last face is a spot light's spill face
+    // (receives photons, has no caster buffers; else 0), zw unused
     splat: vec4f,
     // The NDC rectangle (lo.x, lo.y, hi.x, hi.y) photon_trace spreads its N x N grid over: the
     // casters' box for a directional light under the basic technique, else (-1, -1, 1, 1).
@@ -108,6 +109,8 @@ const SHADE_TILE: u32 = 8u;
 const LIGHT_SPOT: u32 = 0u;
 const LIGHT_POINT: u32 = 1u;
 const LIGHT_DIRECTIONAL: u32 = 2u;
+// LightGpu.splat.y: the light's last face is a spill face (lightspace::spill_face).
+const SPILL_FACE_PRESENT: u32 = 1u;
 const INVALID: u32 = 0xffffffffu;
 const PI: f32 = 3.14159265358979;
 

@@ -285,8 +285,11 @@ fn find_receiver(o: vec3f, d: vec3f) -> vec4f {
     var t = 0.0;
     var p = o;
     var converged_once = false;
-    // A single face's view is convex (a frustum or a box): once a sample beyond one inside it
-    // is outside, every later sample is too, and the march below would find nothing.
+    // A single face's view is convex (a frustum or a box), and so is a spot face with its
+    // spill face (same eye and axis, the spill face wider: their union is the spill face's
+    // frustum): once a sample beyond one inside it is outside, every later sample is too, and
+    // the march below would find nothing.
+    let convex = nfaces == 1u || u32(light.splat.y) == SPILL_FACE_PRESENT;
     var t_inside = 1e30;
     for (var it = 0u; it < 96u; it++) {
         var found = false;
@@ -296,7 +299,7 @@ fn find_receiver(o: vec3f, d: vec3f) -> vec4f {
             let q = project_face(light.faces[f], p, m);
             if (q.w > 0.5) { proj = q; face = f; found = true; break; }
         }
-        if (found) { t_inside = min(t_inside, t); } else if (nfaces == 1u && t > t_inside) { return vec4f(0.0); }
+        if (found) { t_inside = min(t_inside, t); } else if (convex && t > t_inside) { return vec4f(0.0); }
         var r = vec4f(0.0, 0.0, 0.0, -1.0);
         var n = vec3f(0.0);
         if (found) {
@@ -511,6 +514,13 @@ fn front_crossing(tr: ptr<function, FrontTrack>, fp: vec4f, depth: f32, face: Fa
     return crossed;
 }
 
+// The faces with caster buffers (front, back and their second layers): all but a spot
+// light's spill face, which only receives photons.
+fn caster_faces() -> u32 {
+    if (u32(light.splat.y) == SPILL_FACE_PRESENT) { return light.info.x - 1u; }
+    return light.info.x;
+}
+
 fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
     var none: Hit;
     none.object = INVALID;
@@ -529,7 +539,7 @@ fn find_caster(o: vec3f, d: vec3f, t_max: f32) -> Hit {
         let p = o + d * s;
         var layer = INVALID;
         var q = vec4f(0.0);
-        for (var f = 0u; f < light.info.x; f++) {
+        for (var f = 0u; f < caster_faces(); f++) {
             let qq = project_face(light.faces[f], p, g);
             if (qq.w > 0.5) { q = qq; layer = f; break; }
         }
@@ -648,7 +658,7 @@ fn surface_dn(mat: MaterialGpu, p: vec3f, nref: vec3f, dp_in: vec3f) -> vec3f {
         return s * rt_mesh_dn(exact_hit, dp);
     }
     let g = f32(light.params.w);
-    for (var f = 0u; f < light.info.x; f++) {
+    for (var f = 0u; f < caster_faces(); f++) {
         let q = project_face(light.faces[f], p, g);
         if (q.w < 0.5) { continue; }
         let t = texel_of(q.xy, u32(g));

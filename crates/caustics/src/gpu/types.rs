@@ -26,7 +26,9 @@ pub struct LightGpu {
     pub params: [f32; 4],
     /// bounding radius of the casters (m), of the scene (m), tan of half the field of view, multi-bounce flag
     pub extra: [f32; 4],
-    /// beam diameters from the lens equations (0 off, 1 thin lens, 2 thick lens), unused × 3
+    /// beam diameters from the lens equations (0 off, 1 thin lens, 2 thick lens),
+    /// [`SPILL_FACE_PRESENT`] (as f32) if the last face is a spill face (receives photons, has
+    /// no caster buffers; else 0), unused × 2
     pub splat: [f32; 4],
     /// The NDC rectangle (lo.x, lo.y, hi.x, hi.y) that `photon_trace` spreads its N × N grid
     /// over: the casters' box for a directional light traced by the basic technique, else the
@@ -502,6 +504,8 @@ pub const SHAPE_RECTANGLE: u32 = 3;
 pub const LIGHT_SPOT: u32 = 0;
 pub const LIGHT_POINT: u32 = 1;
 pub const LIGHT_DIRECTIONAL: u32 = 2;
+/// `LightGpu.splat.y`: the light's last face is a spill face (WGSL `caster_faces()`).
+pub const SPILL_FACE_PRESENT: u32 = 1;
 /// Side (texels) of the tiles of `caustic_mask` and `shadow_tiles`, which `shade_receivers` reads.
 pub const SHADE_TILE: u32 = 8;
 
@@ -519,6 +523,7 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("LIGHT_POINT", LIGHT_POINT),
     ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
     ("SHADE_TILE", SHADE_TILE),
+    ("SPILL_FACE_PRESENT", SPILL_FACE_PRESENT),
 ];
 
 /// Parameters of `caustic_triangles` (mirrors the WGSL `TriParams`).
