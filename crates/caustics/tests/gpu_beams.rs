@@ -46,7 +46,7 @@ fn vertical_beam(r: f32, focus: Option<f32>, flux: f32, length: f32) -> Beam {
         Some(f) => (Vec3::new(0.0, 1.0 - f, 0.0) - v).normalize() * f.signum(),
     });
     let ends = dirs.map(|d| length / -d.y);
-    Beam { vertices, pre: [0.0; 3], dirs, ends, flux: Vec3::splat(flux), level: 0, land: u32::MAX }
+    Beam { vertices, pre: [0.0; 3], dirs, ends, flux: Vec3::splat(flux), level: 0, land: u32::MAX, branch: 0 }
 }
 
 const SIGMA_S: f32 = 0.5;
@@ -483,33 +483,42 @@ fn total_beam_flux_is_the_flux_onto_the_ball_times_fresnel() {
         // (inside a sphere every interface meets the ray at the refraction angle: F again)
         trt += i * (1.0 - f) * f * (1.0 - f) * dw;
     }
-    let total = |reflection: bool, b: BeamSettings| {
-        let out = render(&ctx, &sc, &render_settings(BeamSettings { reflection, ..b })).unwrap();
+    // Per branch (Beam::branch): transmitted, reflected at the first surface, reflected once
+    // inside; one render with every branch traced (the reflected branches also refine the
+    // triangles, so a render without them has other transmitted beams: the branches are told
+    // apart by their id, not by subtracting renders).
+    let per_branch = |b: BeamSettings| {
+        let out = render(&ctx, &sc, &render_settings(BeamSettings { reflection: true, ..b })).unwrap();
         let (stats, list) = &out.beams[0];
         println!("{stats:?}");
-        list.iter().map(|b| f64::from(b.flux.x)).sum::<f64>()
+        let mut sums = [0.0f64; 3];
+        for beam in list {
+            sums[beam.branch as usize] += f64::from(beam.flux.x);
+        }
+        (sums, stats.inconsistent)
     };
-    for (name, b) in [("adaptive 16+3", BeamSettings::default()), ("regular 64", BeamSettings::regular(64))] {
-        let t = total(false, b);
-        let all = total(true, b);
+    let want = [trans, refl, trt];
+    for (name, b, lo) in [
+        ("adaptive 16+3", BeamSettings::default(), [0.98, 0.98, 0.98]),
+        ("regular 64", BeamSettings::regular(64), [0.98, 0.98, 0.98]),
+    ] {
+        let (got, lost) = per_branch(b);
+        let rel: Vec<String> = (0..3).map(|k| format!("{:+.2} %", (got[k] / want[k] - 1.0) * 100.0)).collect();
         println!(
-            "{name}: onto the ball {onto:.4} W; transmitted beams {t:.4} W (want {trans:.4}, {:+.2} %), reflected and internally reflected {:.4} W (want {:.4}, {:+.2} %)",
-            (t / trans - 1.0) * 100.0,
-            all - t,
-            refl + trt,
-            ((all - t) / (refl + trt) - 1.0) * 100.0
+            "{name}: onto the ball {onto:.4} W; beams TT {:.4} R {:.4} TRT {:.4} W; Fresnel TT {trans:.4} R {refl:.4} TRT {trt:.4} W; beams / Fresnel - 1: {}; triangles lost {lost}",
+            got[0],
+            got[1],
+            got[2],
+            rel.join(", ")
         );
-        // Measured: transmitted -2.4 % (adaptive), -1.9 % (regular 64²), the light of the
-        // silhouette ring of last-level triangles whose edges disagree
-        // (BeamStats::inconsistent); with those shrunk to their majority's part (beam_refine
-        // `shrink`), -1.9 % (adaptive); never more than the light onto the ball times Fresnel.
-        // Reflected and internally reflected: -2.1 % (adaptive: its reflected branches refine
-        // where their edges disagree, oblique beams are rebased), -18.5 % (regular 64²: near
-        // the silhouette, where F is largest, the coarse triangles' reflected edges disagree).
-        assert!(t <= trans * 1.001 && t > trans * 0.97, "{name}: transmitted {t} vs {trans}");
-        assert!(all - t > 0.0 && all - t <= (refl + trt) * 1.001, "{name}: reflected");
-        if b.levels > 0 {
-            assert!(all - t > (refl + trt) * 0.95, "{name}: reflected {} vs {}", all - t, refl + trt);
+        for k in 0..3 {
+            // Never more than the light onto the ball times the Fresnel factors (the quadrature
+            // and the shrink add no light), and at most the stated part lost at the silhouette.
+            // Measured (2026-12-03): adaptive 16² + 3: TT -1.17 %, R +0.25 %, TRT -0.60 % (58
+            // last-level triangles lost); regular 64²: -0.52 %, -0.04 %, -0.74 % (12 lost).
+            // Before the per-branch bookkeeping and the reflected branches' shrink and
+            // quadrature: R + TRT -18.5 % (regular 64²).
+            assert!(got[k] <= want[k] * 1.005 && got[k] >= want[k] * lo[k], "{name}: branch {k}: {} vs {}", got[k], want[k]);
         }
     }
 }
