@@ -1314,11 +1314,17 @@ fn beam_budgets() {
         ("regular 64", BeamSettings::regular(64)),
         ("regular 128", BeamSettings::regular(128)),
     ];
+    // BUDGET_CONFIGS=a,b: only the configurations whose names contain one of these (no image).
+    let only = std::env::var("BUDGET_CONFIGS").ok();
+    let configs: Vec<(&str, BeamSettings)> = configs
+        .into_iter()
+        .filter(|(n, _)| only.as_ref().is_none_or(|f| f.split(',').any(|p| n.contains(p))))
+        .collect();
     let mut images = Vec::new();
     println!(
-        "| grid | beams | HDR-FLIP vs line | energy vs line | HDR-FLIP vs reference | energy vs reference | ms (each run) |"
+        "| grid | beams | HDR-FLIP vs line | energy vs line | HDR-FLIP vs reference | energy vs reference | ms (each run) | GPU ms refine / gather (last run) |"
     );
-    println!("| --- | ---: | ---: | ---: | ---: | ---: | --- |");
+    println!("| --- | ---: | ---: | ---: | ---: | ---: | --- | --- |");
     for (name, b) in configs {
         let mut ms = Vec::new();
         let mut out = None;
@@ -1330,18 +1336,25 @@ fn beam_budgets() {
         }
         let g = out.unwrap();
         let eg = energy(&g.caustic, Some(&mask));
+        // GPU ms of the beam passes (timestamp queries, all dispatches; "-" without them).
+        let pass = |p: &str| {
+            let v: Vec<f64> = g.timings.iter().filter(|(n, _)| n == p).map(|(_, ms)| *ms).collect();
+            if v.is_empty() { "-".to_string() } else { format!("{:.0}", v.iter().sum::<f64>()) }
+        };
         println!(
-            "| {name} | {} | {:.3} | {:+.1} % | {:.3} | {:+.1} % | {} |",
+            "| {name} | {} | {:.3} | {:+.1} % | {:.3} | {:+.1} % | {} | {} / {} |",
             g.beams[0].0.beams,
             hdr_flip(&g.caustic, &line, Some(&mask)).unwrap().mean,
             (eg / el - 1.0) * 100.0,
             hdr_flip(&g.caustic, &r.caustic, Some(&mask)).unwrap().mean,
             (eg / er - 1.0) * 100.0,
-            ms.join(", ")
+            ms.join(", "),
+            pass("beam_refine"),
+            pass("beam_gather")
         );
         images.push(g.caustic);
     }
-    if let Some(path) = std::env::var_os("BUDGET_IMAGE") {
+    if let Some(path) = std::env::var_os("BUDGET_IMAGE").filter(|_| images.len() == 6) {
         // Top row: line integral, adaptive 16+2, 16+3, 16+4; bottom row: reference, regular
         // 32², 64², 128²; one exposure (the line integral's 98th percentile to white), the
         // ball's pixels dark.
