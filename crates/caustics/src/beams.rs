@@ -307,7 +307,7 @@ fn record_light_beams(
     }
     let chunks = Chunks::new(bp.capacity, bp.slots, bp.pixel_samples, &footprint, bp.surface_samples);
     let dispatch = chunks.dispatch_buffer(ctx);
-    record_order(ctx, &params, &slot_buf, &order, &stats, (&chunks, &dispatch), enc, timer);
+    record_order(ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
     BeamFrame { params, stats, beams, order, capacity: bp.capacity, levels, footprint, chunks, dispatch }
 }
 
@@ -315,9 +315,7 @@ fn record_light_beams(
 fn record_order(
     ctx: &GpuContext,
     params: &wgpu::Buffer,
-    slots: &wgpu::Buffer,
-    order: &wgpu::Buffer,
-    stats: &wgpu::Buffer,
+    (slots, order, stats): (&wgpu::Buffer, &wgpu::Buffer, &wgpu::Buffer),
     (chunks, dispatch): (&Chunks, &wgpu::Buffer),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
@@ -545,7 +543,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     let foot = footprint(b);
     let chunks = Chunks::new(bp.capacity, bp.slots, bp.pixel_samples, &foot, bp.surface_samples);
     let dispatch = chunks.dispatch_buffer(&ctx);
-    record_order(&ctx, &params, &slot_buf, &order, &stats, (&chunks, &dispatch), &mut enc, &mut timer);
+    record_order(&ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), &mut enc, &mut timer);
     record_gather_chunks(
         &ctx,
         &params,
