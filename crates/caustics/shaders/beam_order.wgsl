@@ -2,7 +2,11 @@
 // triangle id, branch) and writes the index of every kept beam in slot order, so that
 // beam_gather sums the beams in the same order whatever order beam_refine's atomics appended
 // them in (the image is the same bits from run to run). Each of the 256 threads counts the
-// beams of its run of slots, a prefix sum over the threads places the runs.
+// beams of its run of slots, a prefix sum over the threads places the runs. Then the indirect
+// dispatch sizes of beam_gather's and beam_surface's chunks of the list: the image's workgroups
+// for a chunk that holds beams, none for one past the count (the host records a dispatch per
+// chunk of the most beams the hierarchy can keep, far more than an adaptive hierarchy keeps:
+// on lavapipe each empty dispatch cost some milliseconds).
 
 #import beams
 
@@ -10,8 +14,14 @@
 @group(0) @binding(1) var<storage, read> slots: array<u32>;
 @group(0) @binding(2) var<storage, read_write> order: array<u32>;
 @group(0) @binding(3) var<storage, read_write> stats: array<u32>;
+// The chunks (beams.rs `Chunks`, in a BeamLevel record): level = beams per gather chunk, offset
+// = gather chunks, next_offset = beams per surface chunk, base_count = surface chunks.
+@group(0) @binding(4) var<uniform> ch: BeamLevel;
+// Per chunk (gather chunks, then surface chunks): workgroups x, y, z.
+@group(0) @binding(5) var<storage, read_write> dispatch: array<u32>;
 
 var<workgroup> counts: array<u32, 256>;
+var<workgroup> listed: u32;
 
 @compute @workgroup_size(256)
 fn main(@builtin(local_invocation_index) t: u32) {
@@ -31,8 +41,20 @@ fn main(@builtin(local_invocation_index) t: u32) {
             acc += c;
         }
         stats[1u + BS_ORDERED] = acc;
+        listed = acc;
     }
     workgroupBarrier();
+    let count = min(listed, bp.capacity);
+    let gx = (bp.width + 7u) / 8u;
+    let gy = (bp.height + 7u) / 8u;
+    for (var c = t; c < ch.offset + ch.base_count; c += 256u) {
+        var first = (c - ch.offset) * ch.next_offset;
+        if (c < ch.offset) { first = c * ch.level; }
+        let used = first < count;
+        dispatch[3u * c] = select(0u, gx, used);
+        dispatch[3u * c + 1u] = select(0u, gy, used);
+        dispatch[3u * c + 2u] = 1u;
+    }
     var at = counts[t];
     for (var s = s0; s < s1; s++) {
         let b = slots[s];

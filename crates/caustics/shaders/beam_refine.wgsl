@@ -21,9 +21,9 @@
 //     in its slot of the hierarchy (beam_order lists the slots in order, so the image does not
 //     depend on the order of the atomics). At the last level, a triangle whose transmitted
 //     edges still disagree (a silhouette) is shrunk to the part on its majority's path
-//     (`shrink`: bisection along its sides) and kept as one beam carrying that part's flux;
-//     those with no majority, and reflected branches that disagree, are counted (their light
-//     is lost).
+//     (`shrink`: bisection along its sides) and kept as one beam carrying that part's flux,
+//     on every branch; those with no majority are counted (their light is lost). The reflected
+//     branches' flux is a quadrature over the triangle exact for quadratics (`part_weight`).
 
 #import raytrace
 #import beams
@@ -299,13 +299,16 @@ fn boundary(f: u32, good: vec2f, bad: vec2f, br: u32, r: Edge) -> Boundary {
     return out;
 }
 
-// The mean weight over a shrunk part: its corners' mean `wc` and its centre's (Simpson-like:
-// (corners + 2 centre) / 3); the Fresnel factors change steeply at a silhouette (the corners'
-// mean alone gave the reflected branches 9 % too much light, convex F near grazing).
-fn part_weight(f: u32, centre: vec2f, br: u32, r: Edge, wc: vec3f) -> vec3f {
+// The mean weight over a part of a triangle (light NDC) from its corners' mean `wc` and its
+// centre's weight, by the rule exact for quadratics: over a triangle, corners 1/12 each and
+// centroid 3/4, i.e. (wc + 3 centre) / 4; over a parallelogram, corners 1/12 each and centre
+// 2/3, i.e. (wc + 2 centre) / 3 (`quad`). The Fresnel factors change steeply near a silhouette
+// (the corners' mean alone overestimates them there: F is convex toward grazing). The centre's
+// edge is traced once more; where it takes another path, the corners' mean.
+fn part_weight(f: u32, centre: vec2f, br: u32, r: Edge, wc: vec3f, quad: bool) -> vec3f {
     let e = trace_edge(f, centre, br);
     if (!same_path(e, r)) { return wc; }
-    return (wc + 2.0 * e.weight) / 3.0;
+    return select((wc + 3.0 * e.weight) / 4.0, (wc + 2.0 * e.weight) / 3.0, quad);
 }
 
 // A last-level triangle whose edges on branch `br` disagree (a silhouette, an edge landing
@@ -335,7 +338,7 @@ fn shrink(tri: BeamTri, es: array<Edge, 3>, br: u32, level: u32) -> BeamGpu {
             let omega = solid_angle(li, lj, lqj) + solid_angle(li, lqj, lqi);
             var b = make_beam(es[i], es[j], em, omega, level);
             let w4 = (es[i].weight + es[j].weight + qi.e.weight + qj.e.weight) / 4.0;
-            b.flux = vec4f(omega * part_weight(tri.face, 0.25 * (ps[i] + ps[j] + qi.ndc + qj.ndc), br, es[i], w4), b.flux.w);
+            b.flux = vec4f(omega * part_weight(tri.face, 0.25 * (ps[i] + ps[j] + qi.ndc + qj.ndc), br, es[i], w4, true), b.flux.w);
             return b;
         }
     }
@@ -349,18 +352,22 @@ fn shrink(tri: BeamTri, es: array<Edge, 3>, br: u32, level: u32) -> BeamGpu {
             let omega = solid_angle(light_dir(face, ps[k]), light_dir(face, qi.ndc), light_dir(face, qj.ndc));
             var b = make_beam(es[k], qi.e, qj.e, omega, level);
             let w3 = (es[k].weight + qi.e.weight + qj.e.weight) / 3.0;
-            b.flux = vec4f(omega * part_weight(tri.face, (ps[k] + qi.ndc + qj.ndc) / 3.0, br, es[k], w3), b.flux.w);
+            b.flux = vec4f(omega * part_weight(tri.face, (ps[k] + qi.ndc + qj.ndc) / 3.0, br, es[k], w3, false), b.flux.w);
             return b;
         }
     }
     return none;
 }
 
+// Appends beam b in `slot` (BEAM_BRANCHES per hierarchy slot: its branch is slot's remainder,
+// recorded in info.y).
 fn emit(b: BeamGpu, slot: u32) {
     if (b.flux.w < 0.0) { atomicAdd(&stats[1u + BS_GRAZING], 1u); return; }
     let i = atomicAdd(&stats[0], 1u);
     if (i >= bp.capacity) { atomicAdd(&stats[1u + BS_OVERFLOW], 1u); return; }
-    beams[i] = b;
+    var out = b;
+    out.info.y = slot % BEAM_BRANCHES;
+    beams[i] = out;
     slots[slot] = i + 1u;
     atomicAdd(&stats[1u + BS_KEPT + min(u32(b.flux.w), 7u)], 1u);
 }
@@ -476,17 +483,28 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         }
     }
     // Branch 1: reflected at the first surface; branch 2: refracted in, reflected once inside,
-    // then refracted out (the light a sphere sends back toward the light's side).
+    // then refracted out (the light a sphere sends back toward the light's side). Their Fresnel
+    // factors change fast across a triangle near the silhouette (where F is largest): the
+    // beam's flux is the quadrature exact for quadratics (corners 1/12 each, centroid 3/4; one
+    // more edge traced), not the corners' mean. At the last level, triangles whose edges
+    // disagree are shrunk to their majority's part as the transmitted branch's.
+    let centroid = (tri.a + tri.b + tri.c) / 3.0;
     for (var br = 1u; br < branches; br++) {
         let r0 = rb[3u * (br - 1u)];
         let r1 = rb[3u * (br - 1u) + 1u];
         let r2 = rb[3u * (br - 1u) + 2u];
         if (consistent(r0, r1, r2)) {
-            emit(make_beam(r0, r1, r2, omega, level), BEAM_BRANCHES * slot + br);
+            var b = make_beam(r0, r1, r2, omega, level);
+            let wc = (r0.weight + r1.weight + r2.weight) / 3.0;
+            b.flux = vec4f(omega * part_weight(tri.face, centroid, br, r0, wc, false), b.flux.w);
+            emit(b, BEAM_BRANCHES * slot + br);
         } else if (r0.ok || r1.ok || r2.ok) {
-            // (not shrunk: on the reflected branches shrinking gave 8 % more light than the
-            // Fresnel integral, not understood yet; their light here is lost)
-            atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
+            let sb = shrink(tri, array<Edge, 3>(r0, r1, r2), br, level);
+            if (sb.flux.w >= 0.0) {
+                emit(sb, BEAM_BRANCHES * slot + br);
+            } else {
+                atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
+            }
         }
     }
 }

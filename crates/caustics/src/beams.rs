@@ -67,10 +67,55 @@ pub(crate) struct BeamFrame {
     order: wgpu::Buffer,
     capacity: u32,
     levels: u32,
-    slots: u32,
-    pixel_samples: u32,
     /// `beam_gather`'s footprint integral (`foot`: width threshold in pixels, lines per side).
     footprint: [f32; 4],
+    /// The chunks of the ordered list and their indirect dispatch sizes (`beam_order`).
+    chunks: Chunks,
+    dispatch: wgpu::Buffer,
+}
+
+/// The chunks of the ordered list that `beam_gather` and `beam_surface` dispatch over, one
+/// dispatch each, recorded for the most beams the hierarchy can keep (no read-back of the
+/// count); `beam_order` writes each chunk's indirect dispatch size, none for a chunk past the
+/// beams it listed. (Adaptive 16² + 3's hierarchy has 43520 slots: 1020 gather chunks recorded
+/// for its 10⁴ beams; on lavapipe the empty dispatches were not measurably slower, the
+/// gather's work per beam dominates: docs/benchmarks.md, "Beams: reflected branches shrunk,
+/// the target met".)
+#[derive(Clone, Copy, Debug)]
+struct Chunks {
+    /// Beams per gather chunk, and gather chunks.
+    gather: u32,
+    gather_n: u32,
+    /// Beams per surface chunk, and surface chunks (their dispatch sizes follow the gather's).
+    surface: u32,
+    surface_n: u32,
+}
+
+impl Chunks {
+    fn new(capacity: u32, slots: u32, pixel_samples: u32, foot: &[f32; 4], surface_samples: u32) -> Chunks {
+        let most = most_beams(capacity, slots);
+        // A beam costs a pixel its rays and, where it is thin, its footprint's lines (counted as
+        // one ray more: a beam's thin part is short, and `many_overlapping_beams_sum_like_one`
+        // checks thousands of thin beams in one pixel; chunks of fewer beams multiply the
+        // dispatches, each of which lavapipe records at a cost in memory).
+        let rays = pixel_samples.max(1) * pixel_samples.max(1) + u32::from(foot[0] > 0.0);
+        let gather = (GATHER_CHUNK / rays).max(1);
+        // (a small beam's exact clip is some 40 loop iterations: counted as 16 points at least)
+        let points = surface_samples.clamp(1, 8).pow(2);
+        let surface = (SURFACE_CHUNK / points.max(16)).max(1);
+        Chunks { gather, gather_n: most.div_ceil(gather), surface, surface_n: most.div_ceil(surface) }
+    }
+
+    /// `beam_order`'s uniform (`ch` in beam_order.wgsl).
+    fn gpu(&self) -> BeamLevel {
+        BeamLevel { level: self.gather, offset: self.gather_n, next_offset: self.surface, base_count: self.surface_n }
+    }
+
+    /// The indirect dispatch sizes' buffer (3 words per chunk).
+    fn dispatch_buffer(&self, ctx: &GpuContext) -> wgpu::Buffer {
+        let n = u64::from(self.gather_n + self.surface_n);
+        crate::gpu::storage(ctx, "beam_chunk_dispatch", 12 * n.max(1), wgpu::BufferUsages::INDIRECT)
+    }
 }
 
 /// The footprint uniform of `beam_gather` (`foot` in beam_gather.wgsl).
@@ -145,12 +190,10 @@ pub(crate) fn record_beams(
         let cam = &dc.scene.camera;
         let rays = (cam.view_to_clip(0.1, 100.0) * cam.world_to_view()).inverse();
         let bp = params(dc.scene, rays, b, s.max_depth, faces, slots);
-        let mut frame = record_light_beams(ctx, dc, &lf.light_buf, &bp, enc, timer);
-        frame.footprint = footprint(b);
+        let frame = record_light_beams(ctx, dc, &lf.light_buf, &bp, footprint(b), enc, timer);
         if surface {
             let views = (&wgpu::BindingResource::TextureView(&rp), &wgpu::BindingResource::TextureView(&rn));
-            let points = b.surface_samples.clamp(1, 8).pow(2);
-            record_surface(ctx, dc, (&frame, points), views, (&eye.radiance, &eye.caustic), enc, timer);
+            record_surface(ctx, dc, &frame, views, (&eye.radiance, &eye.caustic), enc, timer);
         }
         frames.push(frame);
     }
@@ -173,7 +216,6 @@ pub(crate) fn record_gather(
     }
     let ctx = dc.ctx;
     let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
-    let size = (dc.scene.camera.width, dc.scene.camera.height);
     for f in frames {
         record_gather_chunks(
             ctx,
@@ -183,8 +225,7 @@ pub(crate) fn record_gather(
             &f.stats,
             (&wgpu::BindingResource::TextureView(&rv), &wgpu::BindingResource::TextureView(&sv)),
             images,
-            size,
-            (f.capacity, f.slots, f.pixel_samples, f.footprint),
+            (&f.chunks, &f.dispatch, f.footprint),
             enc,
             timer,
         );
@@ -197,6 +238,7 @@ fn record_light_beams(
     dc: &DrawCtx,
     light_buf: &wgpu::Buffer,
     bp: &BeamParams,
+    footprint: [f32; 4],
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) -> BeamFrame {
@@ -264,36 +306,35 @@ fn record_light_beams(
             enc.copy_buffer_to_buffer(&args, at, &indirect, at, 16);
         }
     }
-    record_order(ctx, &params, &slot_buf, &order, &stats, enc, timer);
-    BeamFrame {
-        params,
-        stats,
-        beams,
-        order,
-        capacity: bp.capacity,
-        levels,
-        slots: bp.slots,
-        pixel_samples: bp.pixel_samples,
-        footprint: [0.0; 4],
-    }
+    let chunks = Chunks::new(bp.capacity, bp.slots, bp.pixel_samples, &footprint, bp.surface_samples);
+    let dispatch = chunks.dispatch_buffer(ctx);
+    record_order(ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
+    BeamFrame { params, stats, beams, order, capacity: bp.capacity, levels, footprint, chunks, dispatch }
 }
 
 /// `beam_order`: the kept beams listed in hierarchy order.
 fn record_order(
     ctx: &GpuContext,
     params: &wgpu::Buffer,
-    slots: &wgpu::Buffer,
-    order: &wgpu::Buffer,
-    stats: &wgpu::Buffer,
+    (slots, order, stats): (&wgpu::Buffer, &wgpu::Buffer, &wgpu::Buffer),
+    (chunks, dispatch): (&Chunks, &wgpu::Buffer),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
     let opl = ctx.compute_pipeline("beam_order");
+    let cu = ctx.uniform("beam_order_chunks", bytemuck::bytes_of(&chunks.gpu()));
     let obg = bind(
         ctx,
         &opl,
         "beam_order",
-        &[params.as_entire_binding(), slots.as_entire_binding(), order.as_entire_binding(), stats.as_entire_binding()],
+        &[
+            params.as_entire_binding(),
+            slots.as_entire_binding(),
+            order.as_entire_binding(),
+            stats.as_entire_binding(),
+            cu.as_entire_binding(),
+            dispatch.as_entire_binding(),
+        ],
     );
     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
         label: Some("beam_order"),
@@ -316,17 +357,15 @@ fn most_beams(capacity: u32, slots: u32) -> u32 {
 fn record_surface(
     ctx: &GpuContext,
     dc: &DrawCtx,
-    (f, points): (&BeamFrame, u32),
+    f: &BeamFrame,
     eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
     accum: (&wgpu::Buffer, &wgpu::Buffer),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
     let pl = ctx.compute_pipeline("beam_surface");
-    let (w, h) = (dc.scene.camera.width, dc.scene.camera.height);
-    // (a small beam's exact clip is some 40 loop iterations: counted as 16 points at least)
-    let chunk = (SURFACE_CHUNK / points.max(16)).max(1);
-    for c in 0..most_beams(f.capacity, f.slots).div_ceil(chunk) {
+    let chunk = f.chunks.surface;
+    for c in 0..f.chunks.surface_n {
         let cu = ctx.uniform(
             "beam_chunk",
             bytemuck::bytes_of(&BeamLevel { level: c, offset: c * chunk, next_offset: 0, base_count: chunk }),
@@ -354,7 +393,7 @@ fn record_surface(
         });
         cp.set_pipeline(&pl);
         cp.set_bind_group(0, &bg, &[]);
-        cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+        cp.dispatch_workgroups_indirect(&f.dispatch, 12 * u64::from(f.chunks.gather_n + c));
     }
 }
 
@@ -367,21 +406,16 @@ fn record_gather_chunks(
     stats: &wgpu::Buffer,
     eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
     images: (&wgpu::Buffer, &wgpu::Buffer),
-    size: (u32, u32),
-    (capacity, slots_total, pixel_samples, foot): (u32, u32, u32, [f32; 4]),
+    (chunks, dispatch, foot): (&Chunks, &wgpu::Buffer, [f32; 4]),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
     let gpl = ctx.compute_pipeline("beam_gather");
     let foot_buf = ctx.uniform("beam_footprint", bytemuck::cast_slice(&foot));
-    // One dispatch per chunk of the ordered list (see beam_gather.wgsl): a beam costs a pixel
-    // its rays and, where it is thin, its footprint's lines (counted as one ray more: a
-    // beam's thin part is short, and `many_overlapping_beams_sum_like_one` checks thousands of
-    // thin beams in one pixel; chunks of fewer beams multiply the dispatches, each of which
-    // lavapipe records at a cost in memory).
-    let rays = pixel_samples.max(1) * pixel_samples.max(1) + u32::from(foot[0] > 0.0);
-    let chunk = (GATHER_CHUNK / rays).max(1);
-    for c in 0..most_beams(capacity, slots_total).div_ceil(chunk) {
+    // One dispatch per chunk of the ordered list (see beam_gather.wgsl and `Chunks`), its size
+    // written by beam_order (none past the beams listed).
+    let chunk = chunks.gather;
+    for c in 0..chunks.gather_n {
         let cu = ctx.uniform(
             "beam_chunk",
             bytemuck::bytes_of(&BeamLevel { level: c, offset: c * chunk, next_offset: 0, base_count: chunk }),
@@ -409,7 +443,7 @@ fn record_gather_chunks(
         });
         cp.set_pipeline(&gpl);
         cp.set_bind_group(0, &gbg, &[]);
-        cp.dispatch_workgroups(size.0.div_ceil(8), size.1.div_ceil(8), 1);
+        cp.dispatch_workgroups_indirect(dispatch, 12 * u64::from(c));
     }
 }
 
@@ -507,7 +541,10 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     let nv = ctx.view(&none, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
     let tv = wgpu::BindingResource::TextureView(&nv);
     let mut timer = PassTimer::disabled();
-    record_order(&ctx, &params, &slot_buf, &order, &stats, &mut enc, &mut timer);
+    let foot = footprint(b);
+    let chunks = Chunks::new(bp.capacity, bp.slots, bp.pixel_samples, &foot, bp.surface_samples);
+    let dispatch = chunks.dispatch_buffer(&ctx);
+    record_order(&ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), &mut enc, &mut timer);
     record_gather_chunks(
         &ctx,
         &params,
@@ -516,8 +553,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
         &stats,
         (&tv, &tv),
         (&full, &caustic),
-        (w, h),
-        (bp.capacity, bp.slots, bp.pixel_samples, footprint(b)),
+        (&chunks, &dispatch, foot),
         &mut enc,
         &mut timer,
     );

@@ -83,6 +83,9 @@ pub struct Beam {
     /// The object its edges land on (`u32::MAX`: they leave the scene); surface caustics from
     /// beams light only that object's points.
     pub land: u32,
+    /// The traced branch (`beam_refine`): 0 transmitted at every dielectric interface, 1
+    /// reflected at the first surface, 2 reflected once inside the first dielectric.
+    pub branch: u32,
 }
 
 impl Beam {
@@ -136,6 +139,7 @@ impl Beam {
             flux: self.flux * 0.25,
             level: self.level + 1,
             land: self.land,
+            branch: self.branch,
         };
         let (ab, bc, ca) = (mid(0, 1), mid(1, 2), mid(2, 0));
         [make([corner(0), ab, ca]), make([ab, corner(1), bc]), make([ca, bc, corner(2)]), make([bc, ca, ab])]
@@ -156,7 +160,7 @@ impl Beam {
             d: [0, 1, 2].map(|i| self.dirs[i].extend(self.ends[i]).to_array()),
             flux: self.flux.extend(self.level as f32).to_array(),
             bound: c.extend(r * 1.0001 + 1e-6).to_array(),
-            info: [self.land, 0, 0, 0],
+            info: [self.land, self.branch, 0, 0],
         }
     }
 
@@ -170,6 +174,7 @@ impl Beam {
             flux: v3(b.flux),
             level: b.flux[3] as u32,
             land: b.info[0],
+            branch: b.info[1],
         }
     }
 }

@@ -70,7 +70,8 @@ struct BeamTri {
 // edge directions d_i (w: distance from v_i to the edge's end on a surface), flux (W, rgb;
 // w: the hierarchy level), a bounding sphere of the beam (centre, radius), and info.x the
 // object its three edges land on (INVALID: they leave the scene; beam_surface lights only
-// that object's points).
+// that object's points), info.y its branch (0 transmitted, 1 reflected at the first surface, 2
+// reflected once inside: beam_refine).
 struct BeamGpu {
     v0: vec4f,
     v1: vec4f,
