@@ -1173,7 +1173,9 @@ fn surface_caustic_from_beams_matches_the_photon_map_and_replaces_it() {
     assert!(region.len() > 50 && core.len() > 10);
     // Bounds: the two estimate the same light (the photon map also has the paths beams do not
     // follow, reflected inside more than once: under 1 % here); sums within 3 % (measured
-    // 0.5 %). Per pixel (relative L1, measured 0.19 over the region): the beams' affine model
+    // -2.8 % with the spot's spill face, which gives the photon map the light past the spot's
+    // view; +0.8 % without it: surface_caustic_energy_against_the_cpu_reference has both
+    // against the CPU reference). Per pixel (relative L1, measured 0.19 over the region): the beams' affine model
     // turns the ball's rim light, spread far over the floor, into long thin beams (radial
     // streaks, docs/architecture.md "Surface caustics from beams"), so the bound over the
     // region is 0.25, and over the core, where the mapping is smooth, tighter (0.15).
@@ -1372,4 +1374,43 @@ fn beam_budgets() {
         }
         caustics_reference::io::write_display_png(&out, std::path::Path::new(&path)).unwrap();
     }
+}
+
+/// The surface caustic's energy on the floor against the CPU reference (first-diffuse caustic
+/// paths, 4 M photons), for the photon map with and without the spot's spill face and for the
+/// beams. Measured on lavapipe (16 M reference photons): photons with the spill face 0.991 of
+/// the reference, without it 0.951 (light refracted and reflected past the spot's view), beams
+/// 0.963 (they land anywhere, but lack 3.7 %: not located yet; the flux test finds about 1.5 %
+/// of it in the silhouettes and the untraced internal reflections). Bounds: the photon map
+/// within 2 % with the spill face and short by more than 2 % without it; the beams within 5 %
+/// (issue 14's energy bound for the volume caustic).
+#[test]
+fn surface_caustic_energy_against_the_cpu_reference() {
+    use caustics::settings::SurfaceCaustics;
+    let Some(ctx) = gpu() else { return };
+    let sc = ball_at_45(48, 48, false);
+    let rs = caustics_reference::reference::ReferenceSettings {
+        photons_per_light: 4_000_000,
+        camera_spp: 1,
+        caustic_map_size: 8,
+        caustic_paths: caustics_reference::reference::CausticPaths::FirstDiffuse,
+        ..Default::default()
+    };
+    let cpu = caustics_reference::reference::render(&sc, &rs).unwrap();
+    let total = |img: &caustics::image_io::Image| -> f64 { img.pixels.iter().map(|p| f64::from(p[0])).sum() };
+    let reference = total(&cpu.caustic);
+    assert!(reference > 0.0);
+    let ratio = |s: RenderSettings| total(&render(&ctx, &sc, &s).unwrap().caustic) / reference;
+    let spill = ratio(surface_settings(SurfaceCaustics::Photons));
+    let no_spill = ratio(RenderSettings {
+        spill_faces: caustics::render::SpillFaces::Off,
+        ..surface_settings(SurfaceCaustics::Photons)
+    });
+    let beams = ratio(surface_settings(SurfaceCaustics::Beams));
+    println!(
+        "caustic energy / CPU reference: photons {spill:.4}, without the spill face {no_spill:.4}, beams {beams:.4}"
+    );
+    assert!((spill - 1.0).abs() < 0.02, "photon map with the spill face: {spill}");
+    assert!(no_spill < 0.98, "without the spill face the light past the spot's view is lost: {no_spill}");
+    assert!((beams - 1.0).abs() < 0.05, "beams: {beams}");
 }
