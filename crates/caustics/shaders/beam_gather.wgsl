@@ -37,6 +37,7 @@
 
 #import beams
 #import medium
+#import beam_medium
 
 @group(0) @binding(0) var<uniform> bp: BeamParams;
 @group(0) @binding(1) var recv_pos: texture_2d<f32>;
@@ -54,6 +55,10 @@
 // over the pixel's footprint instead of sampled by its rays (0: never), y = lines per side of
 // the section (1 to 4).
 @group(0) @binding(9) var<uniform> foot: vec4f;
+// The medium's density grid (shared/beam_medium.wgsl): with one, the scattering coefficient
+// is the density times sigma_s, and the transmittances are the grid's optical depths along the
+// light's path (up to the base: interpolated from the edges', beam_refine) and the camera ray.
+@group(0) @binding(10) var density_grid: texture_3d<f32>;
 
 // Roots of c2 u^2 + c1 u + c0 in (0, len), appended to `cuts` (count in `n`).
 fn add_roots(c: vec3f, len: f32, cuts: ptr<function, array<f32, 16>>, n: ptr<function, u32>) {
@@ -281,8 +286,13 @@ fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, o: vec3f, d: vec3f, len
             let cos_t = max(dot(nrm, dl), 1e-4);
             let base = w.x * v[0] + w.y * v[1] + w.z * v[2];
             let pre = w.x * b.v0.w + w.y * b.v1.w + w.z * b.v2.w;
-            let sl = box_length(base, x, bp.lo.xyz, bp.hi.xyz);
-            let tr = exp(-bp.sigma_t.rgb * (pre + sl + eye_in + u));
+            var tr: vec3f;
+            if (beam_has_grid()) {
+                tr = exp(-bp.sigma_t.rgb * (pre + beam_depth(base, x) + beam_depth(bp.camera.xyz, x))) * beam_density(x);
+            } else {
+                let sl = box_length(base, x, bp.lo.xyz, bp.hi.xyz);
+                tr = exp(-bp.sigma_t.rgb * (pre + sl + eye_in + u));
+            }
             // The smooth factors at the midpoint, times the exact integral of 1/A over the step
             // (A = |S| / 2, S a quadratic in u): the pole of 1/A at a focus is integrated, not
             // sampled.
@@ -399,7 +409,12 @@ fn footprint_point(o: vec3f, sd: vec3f, y: f32, pre: f32, dl: vec3f, g: f32, cam
     let dist2 = dot(tv, tv);
     let vd = tv * inverseSqrt(dist2);
     let z = dot(vd, fwd);
-    let tr = exp(-bp.sigma_t.rgb * (pre + seg_in_box(o, x) + seg_in_box(cam, x)));
+    var tr: vec3f;
+    if (beam_has_grid()) {
+        tr = exp(-bp.sigma_t.rgb * (pre + beam_depth(o, x) + beam_depth(cam, x))) * beam_density(x);
+    } else {
+        tr = exp(-bp.sigma_t.rgb * (pre + seg_in_box(o, x) + seg_in_box(cam, x)));
+    }
     return bm_phase(dot(dl, -vd), g) * tr / (dist2 * z * z * z);
 }
 

@@ -28,6 +28,7 @@
 #import raytrace
 #import beams
 #import medium
+#import beam_medium
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<uniform> bp: BeamParams;
@@ -44,6 +45,8 @@
 @group(0) @binding(10) var<storage, read_write> beams: array<BeamGpu>;
 // Word 0: beams appended; BS_WORDS statistics words follow at 1.
 @group(0) @binding(11) var<storage, read_write> stats: array<atomic<u32>>;
+// The medium's density grid (shared/beam_medium.wgsl: the light's optical depth up to a base).
+@group(0) @binding(12) var density_grid: texture_3d<f32>;
 
 // One traced edge.
 struct Edge {
@@ -125,7 +128,7 @@ fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
             break;
         }
         if (depth >= bp.max_depth) { return e; }
-        if (!inside) { pre += box_length(seg_o, h.p, bp.lo.xyz, bp.hi.xyz); }
+        if (!inside) { pre += beam_depth(seg_o, h.p); }
         let front = dot(dir, h.ng) < 0.0;
         let ng = select(-h.ng, h.ng, front);
         let ns = select(-h.ns, h.ns, front);
@@ -196,9 +199,9 @@ fn make_beam(e0_in: Edge, e1_in: Edge, e2_in: Edge, omega: f32, level: u32) -> B
         let p0 = e0.o + e0.d * t.x;
         let p1 = e1.o + e1.d * t.y;
         let p2 = e2.o + e2.d * t.z;
-        e0.pre += box_length(e0.o, p0, bp.lo.xyz, bp.hi.xyz);
-        e1.pre += box_length(e1.o, p1, bp.lo.xyz, bp.hi.xyz);
-        e2.pre += box_length(e2.o, p2, bp.lo.xyz, bp.hi.xyz);
+        e0.pre += beam_depth(e0.o, p0);
+        e1.pre += beam_depth(e1.o, p1);
+        e2.pre += beam_depth(e2.o, p2);
         e0.o = p0;
         e1.o = p1;
         e2.o = p2;
@@ -447,7 +450,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     // would be lost otherwise: reflected edges that land on different objects, or leave the
     // scene, near the silhouette).
     var rb: array<Edge, 6>;
-    let branches = select(1u, BEAM_BRANCHES, (bp.flags & 1u) != 0u);
+    let branches = select(1u, BEAM_BRANCHES, (bp.flags & BEAM_FLAG_REFLECTION) != 0u);
     for (var br = 1u; br < branches; br++) {
         rb[3u * (br - 1u)] = trace_edge(tri.face, tri.a, br);
         rb[3u * (br - 1u) + 1u] = trace_edge(tri.face, tri.b, br);

@@ -36,6 +36,7 @@
 
 #import beams
 #import medium
+#import beam_medium
 
 @group(0) @binding(0) var<uniform> bp: BeamParams;
 @group(0) @binding(1) var recv_pos: texture_2d<f32>;
@@ -48,6 +49,8 @@
 @group(0) @binding(8) var<storage, read_write> caustic: array<vec4f>;
 // The chunk of the ordered list this dispatch tests: beams offset .. offset + base_count.
 @group(0) @binding(9) var<uniform> chunk: BeamLevel;
+// The medium's density grid (shared/beam_medium.wgsl).
+@group(0) @binding(10) var density_grid: texture_3d<f32>;
 
 const MAX_SUB: u32 = 64u;
 
@@ -134,7 +137,7 @@ fn small_beam(b: BeamGpu, px: vec2f, p: vec3f, n: vec3f, near: f32) -> vec3f {
     if (ov <= 0.0) { return vec3f(0.0); }
     let base = (b.v0.xyz + b.v1.xyz + b.v2.xyz) / 3.0;
     let pre = (b.v0.w + b.v1.w + b.v2.w) / 3.0;
-    let tr = exp(-bp.sigma_t.rgb * (pre + box_length(base, c, bp.lo.xyz, bp.hi.xyz)));
+    let tr = exp(-bp.sigma_t.rgb * (pre + beam_depth(base, c)));
     return b.flux.rgb * tr * (ov / world);
 }
 
@@ -182,7 +185,7 @@ fn beam_irradiance(b: BeamGpu, x: vec3f, n: vec3f) -> vec3f {
     let cos_b = max(dot(nrm, dl), 1e-4);
     let base = w.x * v[0] + w.y * v[1] + w.z * v[2];
     let pre = w.x * b.v0.w + w.y * b.v1.w + w.z * b.v2.w;
-    let tr = exp(-bp.sigma_t.rgb * (pre + box_length(base, x, bp.lo.xyz, bp.hi.xyz)));
+    let tr = exp(-bp.sigma_t.rgb * (pre + beam_depth(base, x)));
     // (A = area2 / 2)
     return b.flux.rgb * (2.0 / area2) * (cos_r / cos_b) * tr;
 }

@@ -23,10 +23,10 @@
 //! of the beams would avoid: `docs/benchmarks.md` measures it.
 
 use crate::error::{Error, Result};
-use crate::gpu::types::{BeamGpu, BeamLevel, BeamParams, BeamTri};
+use crate::gpu::types::{BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BeamGpu, BeamLevel, BeamParams, BeamTri};
 use crate::gpu::{GpuContext, PassTimer, bind};
 use crate::image_io::Image;
-use crate::passes::{DrawCtx, EyeFrame, LightFrame, layer_view};
+use crate::passes::{DrawCtx, EyeFrame, LightFrame, density_view, layer_view, upload_density};
 use crate::scene::{Light, Phase, Scene};
 use crate::settings::{BeamSettings, RenderSettings};
 use glam::{Mat4, Vec3};
@@ -92,17 +92,20 @@ struct Chunks {
 }
 
 impl Chunks {
-    fn new(capacity: u32, slots: u32, pixel_samples: u32, foot: &[f32; 4], surface_samples: u32) -> Chunks {
+    fn new(capacity: u32, slots: u32, pixel_samples: u32, foot: &[f32; 4], surface_samples: u32, flags: u32) -> Chunks {
         let most = most_beams(capacity, slots);
+        // With a density grid every point of a beam marches the grid toward its base and the
+        // camera (2 x BEAM_GRID_STEPS lookups): a beam costs a pixel that many times more.
+        let grid = if flags & BEAM_FLAG_GRID != 0 { GRID_COST } else { 1 };
         // A beam costs a pixel its rays and, where it is thin, its footprint's lines (counted as
         // one ray more: a beam's thin part is short, and `many_overlapping_beams_sum_like_one`
         // checks thousands of thin beams in one pixel; chunks of fewer beams multiply the
         // dispatches, each of which lavapipe records at a cost in memory).
         let rays = pixel_samples.max(1) * pixel_samples.max(1) + u32::from(foot[0] > 0.0);
-        let gather = (GATHER_CHUNK / rays).max(1);
+        let gather = (GATHER_CHUNK / rays / grid).max(1);
         // (a small beam's exact clip is some 40 loop iterations: counted as 16 points at least)
         let points = surface_samples.clamp(1, 8).pow(2);
-        let surface = (SURFACE_CHUNK / points.max(16)).max(1);
+        let surface = (SURFACE_CHUNK / points.max(16) / grid).max(1);
         Chunks { gather, gather_n: most.div_ceil(gather), surface, surface_n: most.div_ceil(surface) }
     }
 
@@ -152,7 +155,8 @@ fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, 
         samples: b.samples,
         width: cam.width,
         height: cam.height,
-        flags: u32::from(b.reflection),
+        flags: if b.reflection { BEAM_FLAG_REFLECTION } else { 0 }
+            | if m.is_some_and(|m| m.density.is_some()) { BEAM_FLAG_GRID } else { 0 },
         pixel_samples: b.pixel_samples,
     }
 }
@@ -216,6 +220,7 @@ pub(crate) fn record_gather(
     }
     let ctx = dc.ctx;
     let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
+    let density = density_view(ctx, &dc.geo.density);
     for f in frames {
         record_gather_chunks(
             ctx,
@@ -226,6 +231,7 @@ pub(crate) fn record_gather(
             (&wgpu::BindingResource::TextureView(&rv), &wgpu::BindingResource::TextureView(&sv)),
             images,
             (&f.chunks, &f.dispatch, f.footprint),
+            &density,
             enc,
             timer,
         );
@@ -260,6 +266,7 @@ fn record_light_beams(
     let stats = crate::gpu::storage(ctx, "beam_stats", STATS_WORDS * 4, storage);
     let refine = ctx.compute_pipeline("beam_refine");
     let geo = dc.geo;
+    let density = density_view(ctx, &geo.density);
     for l in 0..=levels {
         let lv = BeamLevel {
             level: l,
@@ -285,6 +292,7 @@ fn record_light_beams(
                 slot_buf.as_entire_binding(),
                 beams.as_entire_binding(),
                 stats.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&density),
             ],
         );
         {
@@ -306,7 +314,7 @@ fn record_light_beams(
             enc.copy_buffer_to_buffer(&args, at, &indirect, at, 16);
         }
     }
-    let chunks = Chunks::new(bp.capacity, bp.slots, bp.pixel_samples, &footprint, bp.surface_samples);
+    let chunks = Chunks::new(bp.capacity, bp.slots, bp.pixel_samples, &footprint, bp.surface_samples, bp.flags);
     let dispatch = chunks.dispatch_buffer(ctx);
     record_order(ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
     BeamFrame { params, stats, beams, order, capacity: bp.capacity, levels, footprint, chunks, dispatch }
@@ -364,6 +372,7 @@ fn record_surface(
     timer: &mut PassTimer,
 ) {
     let pl = ctx.compute_pipeline("beam_surface");
+    let density = density_view(ctx, &dc.geo.density);
     let chunk = f.chunks.surface;
     for c in 0..f.chunks.surface_n {
         let cu = ctx.uniform(
@@ -385,6 +394,7 @@ fn record_surface(
                 accum.0.as_entire_binding(),
                 accum.1.as_entire_binding(),
                 cu.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&density),
             ],
         );
         let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -407,6 +417,7 @@ fn record_gather_chunks(
     eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
     images: (&wgpu::Buffer, &wgpu::Buffer),
     (chunks, dispatch, foot): (&Chunks, &wgpu::Buffer, [f32; 4]),
+    density: &wgpu::TextureView,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -435,6 +446,7 @@ fn record_gather_chunks(
                 images.1.as_entire_binding(),
                 cu.as_entire_binding(),
                 foot_buf.as_entire_binding(),
+                wgpu::BindingResource::TextureView(density),
             ],
         );
         let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -459,6 +471,10 @@ const GATHER_CHUNK: u32 = 256;
 /// larger than the gather's, and a pixel's loops stay far below lavapipe's limit of about
 /// 65536 iterations per invocation.
 const SURFACE_CHUNK: u32 = 4096;
+
+/// How many times more a beam costs a pixel's loops in a medium with a density grid (its
+/// points march the grid: `Chunks::new`), so chunks are that much smaller.
+const GRID_COST: u32 = 2;
 
 /// Read a light's beams (in rendering order) and statistics back (blocking).
 pub(crate) fn read_frame(ctx: &GpuContext, f: &BeamFrame) -> Result<(BeamStats, Vec<Beam>)> {
@@ -539,10 +555,11 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
         wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
     );
     let nv = ctx.view(&none, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
+    let density = upload_density(&ctx, scene);
     let tv = wgpu::BindingResource::TextureView(&nv);
     let mut timer = PassTimer::disabled();
     let foot = footprint(b);
-    let chunks = Chunks::new(bp.capacity, bp.slots, bp.pixel_samples, &foot, bp.surface_samples);
+    let chunks = Chunks::new(bp.capacity, bp.slots, bp.pixel_samples, &foot, bp.surface_samples, bp.flags);
     let dispatch = chunks.dispatch_buffer(&ctx);
     record_order(&ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), &mut enc, &mut timer);
     record_gather_chunks(
@@ -554,6 +571,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
         (&tv, &tv),
         (&full, &caustic),
         (&chunks, &dispatch, foot),
+        &density_view(&ctx, &density),
         &mut enc,
         &mut timer,
     );

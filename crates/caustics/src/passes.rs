@@ -1272,7 +1272,7 @@ fn upload_environment(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
 /// with `textureLoad` and interpolated in the shader, `shared/medium.wgsl`: no filterable-float
 /// feature needed, and the CPU reference's arithmetic); 1×1×1 holding 1 without a grid, so the
 /// bindings are the same for every scene.
-fn upload_density(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
+pub(crate) fn upload_density(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
     let grid = scene.medium.as_ref().and_then(|m| m.density.as_deref());
     let (dims, data): ([u32; 3], &[f32]) = match grid {
         Some(g) => (g.dims, &g.data),
@@ -1301,7 +1301,7 @@ fn upload_density(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
 }
 
 /// The density grid's 3D view.
-fn density_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::TextureView {
+pub(crate) fn density_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::TextureView {
     ctx.view(t, Some(wgpu::TextureViewDimension::D3), 0, None)
 }
 

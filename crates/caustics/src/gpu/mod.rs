@@ -59,6 +59,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("environment", include_str!("../../shaders/shared/environment.wgsl")),
     ("medium", include_str!("../../shaders/shared/medium.wgsl")),
     ("beams", include_str!("../../shaders/shared/beams.wgsl")),
+    ("beam_medium", include_str!("../../shaders/shared/beam_medium.wgsl")),
     ("sphere_table", include_str!("../../shaders/shared/sphere_table.wgsl")),
 ];
 

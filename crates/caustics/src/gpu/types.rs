@@ -506,6 +506,10 @@ pub const LIGHT_POINT: u32 = 1;
 pub const LIGHT_DIRECTIONAL: u32 = 2;
 /// `LightGpu.splat.y`: the light's last face is a spill face (WGSL `caster_faces()`).
 pub const SPILL_FACE_PRESENT: u32 = 1;
+/// `BeamParams::flags`: trace the branches reflected at the first dielectric surface and inside it.
+pub const BEAM_FLAG_REFLECTION: u32 = 1;
+/// `BeamParams::flags`: the medium has a density grid (shared/beam_medium.wgsl).
+pub const BEAM_FLAG_GRID: u32 = 2;
 /// Side (texels) of the tiles of `caustic_mask` and `shadow_tiles`, which `shade_receivers` reads.
 pub const SHADE_TILE: u32 = 8;
 
@@ -524,6 +528,8 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
     ("SHADE_TILE", SHADE_TILE),
     ("SPILL_FACE_PRESENT", SPILL_FACE_PRESENT),
+    ("BEAM_FLAG_REFLECTION", BEAM_FLAG_REFLECTION),
+    ("BEAM_FLAG_GRID", BEAM_FLAG_GRID),
 ];
 
 /// Parameters of `caustic_triangles` (mirrors the WGSL `TriParams`).
