@@ -281,7 +281,24 @@ impl RenderSettings {
 /// Whether the box of the scene's casters reaches into `face`'s view (conservatively: a box
 /// with a corner behind the eye counts as in view).
 fn casters_in_view(scene: &Scene, face: &LightFace) -> bool {
-    let Some((lo, hi)) = scene.caster_bounds() else { return false };
+    match caster_box(scene, face) {
+        CasterBox::NoCasters => false,
+        CasterBox::Behind => true,
+        CasterBox::Ndc(a, b) => a.x <= 1.0 && a.y <= 1.0 && b.x >= -1.0 && b.y >= -1.0,
+    }
+}
+
+/// The casters' bounding box as a light face sees it.
+pub(crate) enum CasterBox {
+    NoCasters,
+    /// A corner of the box lies behind the face's view (no NDC box).
+    Behind,
+    /// The NDC rectangle (lo, hi) of the box's eight projected corners (not clamped).
+    Ndc(glam::Vec2, glam::Vec2),
+}
+
+pub(crate) fn caster_box(scene: &Scene, face: &LightFace) -> CasterBox {
+    let Some((lo, hi)) = scene.caster_bounds() else { return CasterBox::NoCasters };
     let (mut a, mut b) = (glam::Vec2::splat(f32::MAX), glam::Vec2::splat(f32::MIN));
     for k in 0..8 {
         let p = Vec3::new(
@@ -291,11 +308,11 @@ fn casters_in_view(scene: &Scene, face: &LightFace) -> bool {
         );
         let c = face.world_to_clip * p.extend(1.0);
         if c.w <= 1e-6 {
-            return true;
+            return CasterBox::Behind;
         }
         let q = glam::Vec2::new(c.x / c.w, c.y / c.w);
         a = a.min(q);
         b = b.max(q);
     }
-    a.x <= 1.0 && a.y <= 1.0 && b.x >= -1.0 && b.y >= -1.0
+    CasterBox::Ndc(a, b)
 }

@@ -20,7 +20,7 @@ use crate::gpu::pool::LayoutOf;
 use crate::gpu::types::*;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::image_io::Image;
-use crate::lightspace::LightView;
+use crate::lightspace::{CasterBox, LightView, caster_box};
 use crate::output::FluxStats;
 use crate::scene::{Light, Material, Scene, Tessellation};
 use crate::settings::{SplatMode, Technique};
@@ -530,35 +530,6 @@ fn flux_bound(view: &LightView, light: &Light) -> f64 {
         }
     }
     .max(1e-12)
-}
-
-/// The casters' bounding box as a light face sees it.
-enum CasterBox {
-    NoCasters,
-    /// A corner of the box lies behind the face's view (no NDC box).
-    Behind,
-    /// The NDC rectangle (lo, hi) of the box's eight projected corners (not clamped).
-    Ndc(glam::Vec2, glam::Vec2),
-}
-
-fn caster_box(scene: &Scene, face: &crate::lightspace::LightFace) -> CasterBox {
-    let Some((lo, hi)) = scene.caster_bounds() else { return CasterBox::NoCasters };
-    let (mut a, mut b) = (glam::Vec2::splat(f32::MAX), glam::Vec2::splat(f32::MIN));
-    for k in 0..8 {
-        let p = Vec3::new(
-            if k & 1 == 0 { lo.x } else { hi.x },
-            if k & 2 == 0 { lo.y } else { hi.y },
-            if k & 4 == 0 { lo.z } else { hi.z },
-        );
-        let c = face.world_to_clip * p.extend(1.0);
-        if c.w <= 1e-6 {
-            return CasterBox::Behind;
-        }
-        let q = glam::Vec2::new(c.x / c.w, c.y / c.w);
-        a = a.min(q);
-        b = b.max(q);
-    }
-    CasterBox::Ndc(a, b)
 }
 
 /// The whole face in NDC (lo.x, lo.y, hi.x, hi.y): `LightGpu.crop` of an uncropped grid.
