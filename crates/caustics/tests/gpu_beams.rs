@@ -402,6 +402,11 @@ fn ball_in_fog(falloff_start: f32, w: u32, h: u32) -> Scene {
 }
 
 fn render_settings(b: BeamSettings) -> RenderSettings {
+    // At most 2^15 beam records (these scenes make up to some 20 000; more is an overflow error,
+    // never silent): the gather's chunk dispatches are sized by the capacity, and on lavapipe
+    // every frame at the default 2^17 keeps some 1.8 GB of this process's memory (an open bug,
+    // not located: docs/architecture.md, "Beams: memory"), which the binary's renders add up.
+    let b = BeamSettings { capacity: b.capacity.min(1 << 15), ..b };
     RenderSettings { photons: 64, caustic_map_size: 64, shadow_map_size: 256, beams: b, ..Default::default() }
 }
 
