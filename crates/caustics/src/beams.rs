@@ -37,27 +37,6 @@ const STATS_WORDS: u64 = 33;
 
 pub use crate::output::{Beam, BeamStats};
 
-/// Whether the volume caustic is gathered (`beam_gather`): a medium that scatters, a specular
-/// caster, and the beams enabled.
-pub fn volume_active(scene: &Scene, s: &RenderSettings) -> bool {
-    s.beams.enabled
-        && scene.medium.as_ref().is_some_and(|m| m.sigma_s.max_element() > 0.0)
-        && scene.objects.iter().any(|o| scene.material_of(o).is_specular())
-}
-
-/// Whether the caustic on surfaces comes from the beams (`beam_surface`):
-/// [`SurfaceCaustics::Beams`](crate::settings::SurfaceCaustics) and a specular caster (with or
-/// without a medium; `BeamSettings::enabled` switches the volume caustic only).
-pub fn surface_active(scene: &Scene, s: &RenderSettings) -> bool {
-    s.surface_caustics == crate::settings::SurfaceCaustics::Beams
-        && scene.objects.iter().any(|o| scene.material_of(o).is_specular())
-}
-
-/// Whether the beam stages run for this scene (the volume caustic, the surface caustic or both).
-pub fn active(scene: &Scene, s: &RenderSettings) -> bool {
-    volume_active(scene, s) || surface_active(scene, s)
-}
-
 /// A light's beam buffers: kept for the gather after the composite and for the statistics
 /// read-back.
 pub(crate) struct BeamFrame {
@@ -162,7 +141,7 @@ fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, 
 }
 
 /// The beams of every spot and point light (`beam_refine`, `beam_order`; nothing is recorded or
-/// requested when [`active`] is false), and with [`surface_active`] their surface caustic
+/// requested when [`RenderSettings::beams_active`] is false), and with [`RenderSettings::beams_surface_active`] their surface caustic
 /// (`beam_surface`) added into the eye's radiance and caustic accumulators. Recorded after the
 /// shading passes and before `composite` (which then shows the surface caustic through glass and
 /// in mirrors as it does the photon maps'); the volume caustic follows the composite
@@ -175,12 +154,12 @@ pub(crate) fn record_beams(
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) -> Vec<BeamFrame> {
-    if !active(dc.scene, s) {
+    if !s.beams_active(dc.scene) {
         return Vec::new();
     }
     let ctx = dc.ctx;
     let b = &s.beams;
-    let surface = surface_active(dc.scene, s);
+    let surface = s.beams_surface_active(dc.scene);
     let mut frames = Vec::new();
     let (rp, rn) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
     for (li, lf) in lights.iter().enumerate() {
@@ -205,7 +184,7 @@ pub(crate) fn record_beams(
 }
 
 /// The volume caustic of the beams [`record_beams`] made (`beam_gather`, with
-/// [`volume_active`]), added to both composited images.
+/// [`RenderSettings::beams_volume_active`]), added to both composited images.
 pub(crate) fn record_gather(
     dc: &DrawCtx,
     eye: &EyeFrame,
@@ -215,7 +194,7 @@ pub(crate) fn record_gather(
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
-    if !volume_active(dc.scene, s) {
+    if !s.beams_volume_active(dc.scene) {
         return;
     }
     let ctx = dc.ctx;

@@ -253,7 +253,7 @@ impl RenderSettings {
     /// bounds reach beyond it and the caustic map is at most [`MAX_AUTO_SPILL_MAP`]².
     pub fn uses_spill_face(&self, scene: &Scene, light: &Light) -> bool {
         let spot = matches!(light, Light::Spot { cone_angle, .. } if cone_angle.to_degrees() <= MAX_SPOT_FRUSTUM_DEG);
-        if !spot || self.surface_caustics_from_beams(light) || crate::beams::active(scene, self) {
+        if !spot || self.surface_caustics_from_beams(light) || self.beams_active(scene) {
             return false;
         }
         match self.spill_faces {

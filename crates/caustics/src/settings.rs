@@ -432,6 +432,28 @@ impl RenderSettings {
     pub fn surface_caustics_from_beams(&self, light: &crate::scene::Light) -> bool {
         self.surface_caustics == SurfaceCaustics::Beams && !matches!(light, crate::scene::Light::Directional { .. })
     }
+
+    /// Whether the volume caustic is gathered (`beam_gather`): a medium that scatters, a
+    /// specular caster, and the beams enabled.
+    pub fn beams_volume_active(&self, scene: &crate::scene::Scene) -> bool {
+        self.beams.enabled
+            && scene.medium.as_ref().is_some_and(|m| m.sigma_s.max_element() > 0.0)
+            && scene.objects.iter().any(|o| scene.material_of(o).is_specular())
+    }
+
+    /// Whether the caustic on surfaces comes from the beams (`beam_surface`):
+    /// [`SurfaceCaustics::Beams`] and a specular caster (with or without a medium;
+    /// `BeamSettings::enabled` switches the volume caustic only).
+    pub fn beams_surface_active(&self, scene: &crate::scene::Scene) -> bool {
+        self.surface_caustics == SurfaceCaustics::Beams
+            && scene.objects.iter().any(|o| scene.material_of(o).is_specular())
+    }
+
+    /// Whether the beam stages (`crate::beams`) run for this scene: the volume caustic, the
+    /// surface caustic or both.
+    pub fn beams_active(&self, scene: &crate::scene::Scene) -> bool {
+        self.beams_volume_active(scene) || self.beams_surface_active(scene)
+    }
 }
 
 /// Volume caustics by adaptive beam tracing (Liktor & Dachsbacher 2011; `crate::beams`,
