@@ -39,7 +39,9 @@
 #import medium
 #import beam_medium
 
-@group(0) @binding(0) var<uniform> bp: BeamParams;
+// Constants from storage, not uniforms: this stage is bound once per chunk, and lavapipe
+// compiles a variant per bind of a shader whose loops read uniforms (ChunkRecords, beams.rs).
+@group(0) @binding(0) var<storage, read> bp: BeamParams;
 @group(0) @binding(1) var recv_pos: texture_2d<f32>;
 @group(0) @binding(2) var spec_pos: texture_2d<f32>;
 @group(0) @binding(3) var<storage, read> beams: array<BeamGpu>;
@@ -50,11 +52,11 @@
 // The chunk of the ordered list this dispatch gathers: beams offset .. offset + base_count.
 // One dispatch per chunk, in order: lavapipe was measured to stop a pixel's loop after about
 // 65536 loop iterations in all (some 950 beams), so a pixel never loops over all beams at once.
-@group(0) @binding(8) var<uniform> chunk: BeamLevel;
+@group(0) @binding(8) var<storage, read> chunk: BeamLevel;
 // The footprint integral: x = the width (pixels) under which a beam's section is integrated
 // over the pixel's footprint instead of sampled by its rays (0: never), y = lines per side of
 // the section (1 to 4).
-@group(0) @binding(9) var<uniform> foot: vec4f;
+@group(0) @binding(9) var<storage, read> foot: vec4f;
 // The medium's density grid (shared/beam_medium.wgsl): with one, the scattering coefficient
 // is the density times sigma_s, and the transmittances are the grid's optical depths along the
 // light's path (up to the base: interpolated from the edges', beam_refine) and the camera ray.

@@ -38,7 +38,9 @@
 #import medium
 #import beam_medium
 
-@group(0) @binding(0) var<uniform> bp: BeamParams;
+// Constants from storage, not uniforms: this stage is bound once per chunk, and lavapipe
+// compiles a variant per bind of a shader whose loops read uniforms (ChunkRecords, beams.rs).
+@group(0) @binding(0) var<storage, read> bp: BeamParams;
 @group(0) @binding(1) var recv_pos: texture_2d<f32>;
 @group(0) @binding(2) var recv_nrm: texture_2d<f32>;
 @group(0) @binding(3) var<storage, read> beams: array<BeamGpu>;
@@ -48,7 +50,7 @@
 @group(0) @binding(7) var<storage, read_write> radiance: array<vec4f>;
 @group(0) @binding(8) var<storage, read_write> caustic: array<vec4f>;
 // The chunk of the ordered list this dispatch tests: beams offset .. offset + base_count.
-@group(0) @binding(9) var<uniform> chunk: BeamLevel;
+@group(0) @binding(9) var<storage, read> chunk: BeamLevel;
 // The medium's density grid (shared/beam_medium.wgsl).
 @group(0) @binding(10) var density_grid: texture_3d<f32>;
 

@@ -79,7 +79,7 @@ impl Chunks {
         // A beam costs a pixel its rays and, where it is thin, its footprint's lines (counted as
         // one ray more: a beam's thin part is short, and `many_overlapping_beams_sum_like_one`
         // checks thousands of thin beams in one pixel; chunks of fewer beams multiply the
-        // dispatches, each of which lavapipe records at a cost in memory).
+        // dispatches and binds).
         let rays = pixel_samples.max(1) * pixel_samples.max(1) + u32::from(foot[0] > 0.0);
         let gather = (GATHER_CHUNK / rays / grid).max(1);
         // (a small beam's exact clip is some 40 loop iterations: counted as 16 points at least)
@@ -232,7 +232,7 @@ fn record_light_beams(
     let per_level = |l: u32| (2 * u64::from(bp.grid).pow(2) * u64::from(bp.faces)) << (2 * l);
     let offset = |l: u32| (0..l).map(per_level).sum::<u64>();
     let slots = u64::from(bp.slots);
-    let params = ctx.uniform("beam_params", bytemuck::bytes_of(bp));
+    let params = ctx.constants("beam_params", bytemuck::bytes_of(bp));
     let work = crate::gpu::storage(ctx, "beam_work", slots * std::mem::size_of::<BeamTri>() as u64, storage);
     let args = crate::gpu::storage(ctx, "beam_args", 16 * 8, storage);
     // The next level's dispatch size, copied out of `args` (a buffer a dispatch writes cannot be
@@ -352,12 +352,8 @@ fn record_surface(
 ) {
     let pl = ctx.compute_pipeline("beam_surface");
     let density = density_view(ctx, &dc.geo.density);
-    let chunk = f.chunks.surface;
+    let records = ChunkRecords::new(ctx, "beam_surface_chunks", f.chunks.surface_n, f.chunks.surface);
     for c in 0..f.chunks.surface_n {
-        let cu = ctx.uniform(
-            "beam_chunk",
-            bytemuck::bytes_of(&BeamLevel { level: c, offset: c * chunk, next_offset: 0, base_count: chunk }),
-        );
         let bg = bind(
             ctx,
             &pl,
@@ -372,7 +368,7 @@ fn record_surface(
                 dc.geo.materials.as_entire_binding(),
                 accum.0.as_entire_binding(),
                 accum.1.as_entire_binding(),
-                cu.as_entire_binding(),
+                records.binding(c),
                 wgpu::BindingResource::TextureView(&density),
             ],
         );
@@ -401,15 +397,11 @@ fn record_gather_chunks(
     timer: &mut PassTimer,
 ) {
     let gpl = ctx.compute_pipeline("beam_gather");
-    let foot_buf = ctx.uniform("beam_footprint", bytemuck::cast_slice(&foot));
+    let foot_buf = ctx.constants("beam_footprint", bytemuck::cast_slice(&foot));
     // One dispatch per chunk of the ordered list (see beam_gather.wgsl and `Chunks`), its size
     // written by beam_order (none past the beams listed).
-    let chunk = chunks.gather;
+    let records = ChunkRecords::new(ctx, "beam_gather_chunks", chunks.gather_n, chunks.gather);
     for c in 0..chunks.gather_n {
-        let cu = ctx.uniform(
-            "beam_chunk",
-            bytemuck::bytes_of(&BeamLevel { level: c, offset: c * chunk, next_offset: 0, base_count: chunk }),
-        );
         let gbg = bind(
             ctx,
             &gpl,
@@ -423,7 +415,7 @@ fn record_gather_chunks(
                 stats.as_entire_binding(),
                 images.0.as_entire_binding(),
                 images.1.as_entire_binding(),
-                cu.as_entire_binding(),
+                records.binding(c),
                 foot_buf.as_entire_binding(),
                 wgpu::BindingResource::TextureView(density),
             ],
@@ -435,6 +427,41 @@ fn record_gather_chunks(
         cp.set_pipeline(&gpl);
         cp.set_bind_group(0, &gbg, &[]);
         cp.dispatch_workgroups_indirect(dispatch, 12 * u64::from(c));
+    }
+}
+
+/// The chunk records of one chunked stage (`chunk` in beam_gather.wgsl and beam_surface.wgsl),
+/// all in one buffer of constants, one record per storage-offset alignment: each chunk's bind
+/// group binds its own record.
+///
+/// Read from storage, not a uniform per chunk: lavapipe (Mesa 22.3) specializes a shader on the
+/// uniform values its loops read, compiling and keeping a new variant at every bind of a chunk
+/// (some 0.5 MB each, kept until the device is dropped: docs/architecture.md, "Beams: memory").
+struct ChunkRecords {
+    buffer: wgpu::Buffer,
+    stride: u64,
+}
+
+impl ChunkRecords {
+    fn new(ctx: &GpuContext, label: &str, n: u32, chunk: u32) -> ChunkRecords {
+        let size = std::mem::size_of::<BeamLevel>();
+        let stride = u64::from(ctx.device.limits().min_storage_buffer_offset_alignment).max(size as u64);
+        let mut bytes = vec![0u8; stride as usize * n.max(1) as usize];
+        for c in 0..n {
+            let at = stride as usize * c as usize;
+            let record = BeamLevel { level: c, offset: c * chunk, next_offset: 0, base_count: chunk };
+            bytes[at..at + size].copy_from_slice(bytemuck::bytes_of(&record));
+        }
+        ChunkRecords { buffer: ctx.constants(label, &bytes), stride }
+    }
+
+    /// Chunk `c`'s record.
+    fn binding(&self, c: u32) -> wgpu::BindingResource<'_> {
+        wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer: &self.buffer,
+            offset: self.stride * u64::from(c),
+            size: wgpu::BufferSize::new(std::mem::size_of::<BeamLevel>() as u64),
+        })
     }
 }
 
@@ -500,7 +527,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     ctx.begin_scope("beam_gather", &mut enc);
     let usage = wgpu::BufferUsages::STORAGE;
-    let params = ctx.uniform("beam_params", bytemuck::bytes_of(&bp));
+    let params = ctx.constants("beam_params", bytemuck::bytes_of(&bp));
     let recs: Vec<BeamGpu> = beams.iter().map(Beam::to_gpu).collect();
     let beam_buf = if recs.is_empty() {
         crate::gpu::storage(&ctx, "beams", 128, wgpu::BufferUsages::empty())

@@ -402,11 +402,6 @@ fn ball_in_fog(falloff_start: f32, w: u32, h: u32) -> Scene {
 }
 
 fn render_settings(b: BeamSettings) -> RenderSettings {
-    // At most 2^15 beam records (these scenes make up to some 20 000; more is an overflow error,
-    // never silent): the gather's chunk dispatches are sized by the capacity, and on lavapipe
-    // every frame at the default 2^17 keeps some 1.8 GB of this process's memory (an open bug,
-    // not located: docs/architecture.md, "Beams: memory"), which the binary's renders add up.
-    let b = BeamSettings { capacity: b.capacity.min(1 << 15), ..b };
     RenderSettings { photons: 64, caustic_map_size: 64, shadow_map_size: 256, beams: b, ..Default::default() }
 }
 
@@ -659,6 +654,22 @@ fn beams_are_deterministic_create_nothing_after_the_first_frame_and_bad_settings
     };
     assert!(frame(&mut r) > 0);
     assert_eq!(frame(&mut r), 0);
+    // Nor does the driver keep memory per frame: lavapipe (Mesa 22.3) compiled and kept a shader
+    // variant at every bind of a chunk whose constants were uniforms, some 1.8 GB a frame at the
+    // default capacity (docs/architecture.md, "Beams: memory"). Four full frames must not add a
+    // gigabyte (the binary's other tests, run alongside, peak at some 0.6 GB in all).
+    match resident_mb() {
+        Some(before) => {
+            for _ in 0..4 {
+                r.invalidate();
+                assert_eq!(frame(&mut r), 0);
+                ctx.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+            }
+            let grown = resident_mb().unwrap().saturating_sub(before);
+            assert!(grown < 1024, "four beam frames kept {grown} MB");
+        }
+        None => eprintln!("memory per frame not checked: no /proc/self/status"),
+    }
     // Bad beam settings: an error naming the field.
     for (bad, field) in [
         (BeamSettings { grid: 0, ..Default::default() }, "beams.grid"),
@@ -669,6 +680,13 @@ fn beams_are_deterministic_create_nothing_after_the_first_frame_and_bad_settings
         let e = e.to_string();
         assert!(e.contains(field), "{e}");
     }
+}
+
+/// This process's resident memory in MB (Linux only).
+fn resident_mb() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kb = status.lines().find_map(|l| l.strip_prefix("VmRSS:"))?.trim().trim_end_matches("kB").trim();
+    Some(kb.parse::<u64>().ok()? / 1024)
 }
 
 /// Thousands of beams over one pixel: every one is gathered (lavapipe stops a long loop of one
@@ -1449,9 +1467,9 @@ fn l1_over_region(a: &caustics::image_io::Image, b: &caustics::image_io::Image) 
 fn beams_in_a_density_grid_match_the_equivalent_homogeneous_media() {
     use caustics::scene::DensityGrid;
     let Some(ctx) = gpu() else { return };
-    // Two levels and a buffer for 8192 beams (the scene makes some 5000): the default's 2^17
-    // records cost lavapipe gigabytes of recorded chunk dispatches per render.
-    let s = render_settings(BeamSettings { levels: 2, capacity: 1 << 13, ..Default::default() });
+    // Two levels (some 5000 beams): the grid's march makes every beam cost a pixel some 32
+    // lookups, and lavapipe is slow.
+    let s = render_settings(BeamSettings { levels: 2, ..Default::default() });
     let caustic = |sc: &Scene| render(&ctx, sc, &s).unwrap().caustic;
     let base = ball_in_fog(14.0, 48, 40);
     // Constant density 0.5 against half the coefficients.

@@ -511,6 +511,25 @@ impl GpuContext {
     /// rewritten with `queue.write_buffer` when the contents changed (always, for buffers the
     /// GPU may write).
     pub fn buffer_init(&self, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        let gpu_writes = usage.contains(wgpu::BufferUsages::STORAGE);
+        self.buffer_with(label, contents, usage, gpu_writes)
+    }
+
+    /// Shader constants read from a read-only storage binding (`var<storage, read>`), also
+    /// bindable as a uniform: kept from frame to frame and rewritten only when the contents
+    /// changed.
+    ///
+    /// For stages dispatched many times a frame with different bindings (the beams' chunks):
+    /// lavapipe (Mesa 22.3) specializes a compute shader on the uniform values its loops and
+    /// branches read, compiling a new variant at every bind and keeping each until the device
+    /// is dropped; storage reads are never specialized (docs/architecture.md, "Beams: memory").
+    pub fn constants(&self, label: &str, contents: &[u8]) -> wgpu::Buffer {
+        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::UNIFORM;
+        self.buffer_with(label, contents, usage, false)
+    }
+
+    /// [`GpuContext::buffer_init`], rewritten every frame when `gpu_writes`.
+    fn buffer_with(&self, label: &str, contents: &[u8], usage: wgpu::BufferUsages, gpu_writes: bool) -> wgpu::Buffer {
         use wgpu::util::DeviceExt;
         let usage = usage | wgpu::BufferUsages::COPY_DST;
         let size = contents.len() as u64;
@@ -519,7 +538,7 @@ impl GpuContext {
                 Slot::Buffer { size: s, usage: u, zeroed: false, contents: old, buffer }
                     if *s == size && *u == usage =>
                 {
-                    if old != contents || usage.contains(wgpu::BufferUsages::STORAGE) {
+                    if old != contents || gpu_writes {
                         self.queue.write_buffer(buffer, 0, contents);
                         old.clear();
                         old.extend_from_slice(contents);
