@@ -350,6 +350,10 @@ pub struct BeamArgs {
     /// Beams: lines per side of a thin section in the footprint integral (lines²), 1 to 4.
     #[arg(long, default_value_t = 2)]
     beam_footprint_lines: u32,
+    /// Beams: beams per dispatch of the gather, as a multiple of what lavapipe's loop limit
+    /// allows; 0 chooses (1 on CPU adapters, 16 on GPUs), at most 1024.
+    #[arg(long, default_value_t = 0)]
+    beam_chunk_scale: u32,
 }
 
 impl BeamArgs {
@@ -369,6 +373,7 @@ impl BeamArgs {
             reflection: true,
             footprint: self.beam_footprint,
             footprint_lines: self.beam_footprint_lines,
+            chunk_scale: self.beam_chunk_scale,
         }
     }
 }
@@ -400,6 +405,7 @@ fn flag_names(e: &mut anyhow::Error) {
         ("beams.surface_samples", "--beam-surface-samples"),
         ("beams.footprint", "--beam-footprint"),
         ("beams.footprint_lines", "--beam-footprint-lines"),
+        ("beams.chunk_scale", "--beam-chunk-scale"),
         ("camera.size", "--size"),
         ("splat_sigma", "--splat-sigma"),
         ("max_depth", "--max-depth"),

@@ -71,8 +71,11 @@ struct Chunks {
 }
 
 impl Chunks {
-    fn new(capacity: u32, slots: u32, pixel_samples: u32, foot: &[f32; 4], surface_samples: u32, flags: u32) -> Chunks {
-        let most = most_beams(capacity, slots);
+    /// Chunks for the beams `bp` can hold, `scale` times the sizes lavapipe's loop limit allows
+    /// ([`chunk_scale`]).
+    fn new(bp: &BeamParams, foot: &[f32; 4], scale: u32) -> Chunks {
+        let (pixel_samples, surface_samples, flags) = (bp.pixel_samples, bp.surface_samples, bp.flags);
+        let most = most_beams(bp.capacity, bp.slots);
         // With a density grid every point of a beam marches the grid toward its base and the
         // camera (2 x BEAM_GRID_STEPS lookups): a beam costs a pixel that many times more.
         let grid = if flags & BEAM_FLAG_GRID != 0 { GRID_COST } else { 1 };
@@ -81,10 +84,10 @@ impl Chunks {
         // checks thousands of thin beams in one pixel; chunks of fewer beams multiply the
         // dispatches and binds).
         let rays = pixel_samples.max(1) * pixel_samples.max(1) + u32::from(foot[0] > 0.0);
-        let gather = (GATHER_CHUNK / rays / grid).max(1);
+        let gather = (GATHER_CHUNK * scale / rays / grid).max(1);
         // (a small beam's exact clip is some 40 loop iterations: counted as 16 points at least)
         let points = surface_samples.clamp(1, 8).pow(2);
-        let surface = (SURFACE_CHUNK / points.max(16) / grid).max(1);
+        let surface = (SURFACE_CHUNK * scale / points.max(16) / grid).max(1);
         Chunks { gather, gather_n: most.div_ceil(gather), surface, surface_n: most.div_ceil(surface) }
     }
 
@@ -173,7 +176,7 @@ pub(crate) fn record_beams(
         let cam = &dc.scene.camera;
         let rays = (cam.view_to_clip(0.1, 100.0) * cam.world_to_view()).inverse();
         let bp = params(dc.scene, rays, b, s.max_depth, faces, slots);
-        let frame = record_light_beams(ctx, dc, &lf.light_buf, &bp, footprint(b), enc, timer);
+        let frame = record_light_beams(ctx, dc, &lf.light_buf, &bp, (footprint(b), chunk_scale(ctx, b)), enc, timer);
         if surface {
             let views = (&wgpu::BindingResource::TextureView(&rp), &wgpu::BindingResource::TextureView(&rn));
             record_surface(ctx, dc, &frame, views, (&eye.radiance, &eye.caustic), enc, timer);
@@ -223,7 +226,7 @@ fn record_light_beams(
     dc: &DrawCtx,
     light_buf: &wgpu::Buffer,
     bp: &BeamParams,
-    footprint: [f32; 4],
+    (footprint, scale): ([f32; 4], u32),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) -> BeamFrame {
@@ -293,7 +296,7 @@ fn record_light_beams(
             enc.copy_buffer_to_buffer(&args, at, &indirect, at, 16);
         }
     }
-    let chunks = Chunks::new(bp.capacity, bp.slots, bp.pixel_samples, &footprint, bp.surface_samples, bp.flags);
+    let chunks = Chunks::new(bp, &footprint, scale);
     let dispatch = chunks.dispatch_buffer(ctx);
     record_order(ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
     BeamFrame { params, stats, beams, order, capacity: bp.capacity, levels, footprint, chunks, dispatch }
@@ -465,6 +468,24 @@ impl ChunkRecords {
     }
 }
 
+/// How many times larger than lavapipe allows the chunks of `beam_gather` and `beam_surface`
+/// are: [`BeamSettings::chunk_scale`], or where that is 0 (automatic), 1 on a CPU adapter
+/// (lavapipe's shaders end an invocation's loops after some 65536 iterations in all, which sizes
+/// [`GATHER_CHUNK`] and [`SURFACE_CHUNK`]) and [`GPU_CHUNK_SCALE`] on a GPU, where every chunk is
+/// a dispatch and a barrier and no loop limit applies. (Not yet measured on a GPU.)
+fn chunk_scale(ctx: &GpuContext, b: &BeamSettings) -> u32 {
+    match b.chunk_scale {
+        0 if ctx.info.device_type == wgpu::DeviceType::Cpu => 1,
+        0 => GPU_CHUNK_SCALE,
+        n => n,
+    }
+}
+
+/// [`chunk_scale`] on GPUs: 16 (a chunk of the default gather is some 4000 beams, so the
+/// default 16² + 3 hierarchy's 10⁴ beams take 3 dispatches instead of 200, and its worst case of
+/// 130 560 beams 32 recorded dispatches instead of 2560).
+const GPU_CHUNK_SCALE: u32 = 16;
+
 /// Beams per slot of the hierarchy (`BEAM_BRANCHES` in shaders/shared/beams.wgsl): transmitted,
 /// reflected at the first surface, reflected once inside.
 const BRANCHES: u64 = 3;
@@ -565,7 +586,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     let tv = wgpu::BindingResource::TextureView(&nv);
     let mut timer = PassTimer::disabled();
     let foot = footprint(b);
-    let chunks = Chunks::new(bp.capacity, bp.slots, bp.pixel_samples, &foot, bp.surface_samples, bp.flags);
+    let chunks = Chunks::new(&bp, &foot, chunk_scale(&ctx, b));
     let dispatch = chunks.dispatch_buffer(&ctx);
     record_order(&ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), &mut enc, &mut timer);
     record_gather_chunks(

@@ -502,6 +502,11 @@ pub struct BeamSettings {
     /// Lines per side of a thin section in the footprint integral (lines² lines of constant
     /// barycentrics, each clipped exactly to the pixel), 1 to 4.
     pub footprint_lines: u32,
+    /// Beams per dispatch of the gather and of the surface caustic, as a multiple of what
+    /// lavapipe allows (its shaders end an invocation's loops after some 65536 iterations in
+    /// all): 0 (default) chooses, 1 on CPU adapters and 16 on GPUs; at most 1024. Larger chunks
+    /// mean fewer dispatches and barriers; the image changes only in the order of its sums.
+    pub chunk_scale: u32,
 }
 
 impl Default for BeamSettings {
@@ -521,6 +526,7 @@ impl Default for BeamSettings {
             reflection: true,
             footprint: 2.0,
             footprint_lines: 2,
+            chunk_scale: 0,
         }
     }
 }
@@ -580,6 +586,9 @@ impl BeamSettings {
         }
         if !(1..=4).contains(&b.footprint_lines) {
             return Err(("beams.footprint_lines", format!("must be 1 to 4 (got {})", b.footprint_lines)));
+        }
+        if b.chunk_scale > 1024 {
+            return Err(("beams.chunk_scale", format!("must be 0 (automatic) to 1024 (got {})", b.chunk_scale)));
         }
         Ok(())
     }

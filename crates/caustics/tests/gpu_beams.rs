@@ -674,11 +674,43 @@ fn beams_are_deterministic_create_nothing_after_the_first_frame_and_bad_settings
     for (bad, field) in [
         (BeamSettings { grid: 0, ..Default::default() }, "beams.grid"),
         (BeamSettings { levels: 9, ..Default::default() }, "beams.levels"),
+        (BeamSettings { chunk_scale: 1025, ..Default::default() }, "beams.chunk_scale"),
         (BeamSettings { energy_threshold: -1.0, ..Default::default() }, "beams.energy_threshold"),
     ] {
         let Err(e) = render(&ctx, &sc, &render_settings(bad)) else { panic!("{field}: no error") };
         let e = e.to_string();
         assert!(e.contains(field), "{e}");
+    }
+}
+
+/// Larger chunks (`BeamSettings::chunk_scale`, 16 by default on GPUs) change only the order of
+/// the sums: the volume caustic and the surface caustic from beams of chunks twice lavapipe's
+/// size (half the dispatches) match those of its size to float rounding.
+#[test]
+fn larger_chunks_change_only_the_order_of_the_sums() {
+    let Some(ctx) = gpu() else { return };
+    // The volume caustic in fog, and the surface caustic from beams on a lit floor.
+    let (fog, floor) = (ball_in_fog(14.0, 24, 20), ball_at_45(24, 20, true));
+    let run = |sc: &Scene, scale: u32| {
+        let b = BeamSettings { levels: 2, chunk_scale: scale, ..Default::default() };
+        let s = RenderSettings { beams: b, ..surface_settings(caustics::settings::SurfaceCaustics::Beams) };
+        let g = render(&ctx, sc, &s).unwrap();
+        assert!(g.beams[0].0.beams > 1000, "{} beams: too few to fill several chunks", g.beams[0].0.beams);
+        // Chunk passes recorded (each is timed where the adapter has timestamp queries).
+        let passes = g.timings.iter().filter(|(n, _)| n == "beam_gather" || n == "beam_surface").count();
+        (g.caustic, passes)
+    };
+    for sc in [&fog, &floor] {
+        let ((a, p1), (b, p2)) = (&run(sc, 1), &run(sc, 2));
+        if ctx.timestamps {
+            assert!(*p2 > 0 && 2 * p2 <= p1 + 2, "{p1} chunk passes, then {p2} with chunks twice as large");
+        }
+        let (sa, sb) = (sum(a), sum(b));
+        assert!(sa > 0.0);
+        assert!((sa / sb - 1.0).abs() < 1e-5, "sums {sa} and {sb}");
+        let peak = a.pixels.iter().map(|p| p[0]).fold(0.0f32, f32::max);
+        let worst = a.pixels.iter().zip(&b.pixels).map(|(p, q)| (p[0] - q[0]).abs()).fold(0.0f32, f32::max);
+        assert!(worst <= 1e-5 * peak, "a pixel differs by {worst} (peak {peak})");
     }
 }
 
