@@ -481,9 +481,9 @@ fn chunk_scale(ctx: &GpuContext, b: &BeamSettings) -> u32 {
     }
 }
 
-/// [`chunk_scale`] on GPUs: 16 (a chunk of the default gather is some 4000 beams, so the
-/// default 16² + 3 hierarchy's 10⁴ beams take 3 dispatches instead of 200, and its worst case of
-/// 130 560 beams 32 recorded dispatches instead of 2560).
+/// [`chunk_scale`] on GPUs: 16 (a chunk of the default gather is then 2048 beams instead of 128,
+/// so the default 16² + 3 hierarchy's 10⁴ beams take 5 dispatches instead of 78, and its worst
+/// case of 130 560 beams 64 recorded dispatches instead of 1020).
 const GPU_CHUNK_SCALE: u32 = 16;
 
 /// Beams per slot of the hierarchy (`BEAM_BRANCHES` in shaders/shared/beams.wgsl): transmitted,
