@@ -181,7 +181,11 @@ fn beam_irradiance(b: BeamGpu, x: vec3f, n: vec3f) -> vec3f {
     let area2 = abs(e.x + e.y + e.z);
     if (area2 <= 0.0) { return vec3f(0.0); }
     let w = e / (e.x + e.y + e.z);
-    let dl = normalize(w.x * dir[0] + w.y * dir[1] + w.z * dir[2]);
+    // The direction of the beam's line through p (constant barycentrics w over the heights:
+    // p(w, y) = sum w_i (v_i + y s_i)), along which its flux flows: with it, the irradiance the
+    // beam gives any surface across it integrates to its flux exactly. (The mean of the edges'
+    // unit directions is not that line's direction where the edges diverge.)
+    let dl = normalize(w.x * s[0] + w.y * s[1] + w.z * s[2]);
     let cos_r = -dot(n, dl);
     if (cos_r <= 0.0) { return vec3f(0.0); }
     let cos_b = max(dot(nrm, dl), 1e-4);
