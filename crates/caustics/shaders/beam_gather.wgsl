@@ -284,7 +284,9 @@ fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, o: vec3f, d: vec3f, len
             if (!same_sign(e)) { continue; }
             let w = e / (e.x + e.y + e.z);
             if (y < 0.0 || y > dot(w, yend)) { continue; }
-            let dl = normalize(w.x * dir[0] + w.y * dir[1] + w.z * dir[2]);
+            // (the direction of the beam's line of constant barycentrics, along which its flux
+            // flows: beam_surface.wgsl)
+            let dl = normalize(w.x * s[0] + w.y * s[1] + w.z * s[2]);
             let cos_t = max(dot(nrm, dl), 1e-4);
             let base = w.x * v[0] + w.y * v[1] + w.z * v[2];
             let pre = w.x * b.v0.w + w.y * b.v1.w + w.z * b.v2.w;
@@ -390,7 +392,7 @@ fn beam_footprint(b: BeamGpu, bs: BeamSpace, thin: vec2f, px: vec2f, depth: f32,
         clip_lin(&r, o.z - bp.lo.z, sd.z);
         clip_lin(&r, bp.hi.z - o.z, -sd.z);
         if (r.y <= r.x) { continue; }
-        let dl = normalize(w.x * bs.dir[0] + w.y * bs.dir[1] + w.z * bs.dir[2]);
+        let dl = normalize(sd);
         let cos_t = max(dot(bs.nrm, dl), 1e-4);
         let pre = dot(w, pre3);
         let hw = 0.5 * (r.y - r.x);
