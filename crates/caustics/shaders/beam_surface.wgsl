@@ -15,8 +15,8 @@
 // It then receives the irradiance
 //   E = Phi / A(y) * (-n . d) / (n_b . d) * exp(-sigma_t (l + s)),
 // A(y) the section's area (Phi / A(y): the flux per unit area of the base-parallel plane), d the
-// direction of the beam's line through p (constant barycentrics), n_b the base normal (over n_b . d: per unit area across the
-// light; times -n . d: on the receiver), l the in-medium length of the light's path up to the
+// direction of the beam's line through p (constant barycentrics), n_b the base normal (over
+// n_b . d: per unit area across the light; times -n . d: on the receiver), l the in-medium length of the light's path up to the
 // base (interpolated), s the in-medium length from the base to p (the transmittance toward the
 // camera is applied afterwards by medium_scatter, as for every surface). The radiance
 // albedo / pi * E is added to the eye's radiance and caustic accumulators before composite, so
