@@ -1,5 +1,5 @@
 // Stage: beam_order. The beams' list in hierarchy order: one workgroup walks the slots (level,
-// triangle id, branch) and writes the index of every kept beam in slot order, so that
+// triangle id, branch, layer) and writes the index of every kept beam in slot order, so that
 // beam_gather sums the beams in the same order whatever order beam_refine's atomics appended
 // them in (the image is the same bits from run to run). Each of the 256 threads counts the
 // beams of its run of slots, a prefix sum over the threads places the runs. Then the indirect
@@ -25,7 +25,7 @@ var<workgroup> listed: u32;
 
 @compute @workgroup_size(256)
 fn main(@builtin(local_invocation_index) t: u32) {
-    let total = BEAM_BRANCHES * bp.slots;
+    let total = BEAM_KINDS * bp.slots;
     let run = (total + 255u) / 256u;
     let s0 = min(t * run, total);
     let s1 = min(s0 + run, total);

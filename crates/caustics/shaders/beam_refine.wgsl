@@ -24,6 +24,10 @@
 //     (`shrink`: bisection along its sides) and kept as one beam carrying that part's flux,
 //     on every branch; those with no majority are counted (their light is lost). The reflected
 //     branches' flux is a quadrature over the triangle exact for quadratics (`part_weight`).
+//     Each branch's path gives a beam on each of its layers (`at_layer`): its last segment, and
+//     where its light crossed the medium from one specular object to another (a lens focusing
+//     onto a second lens, a mirror onto glass), that segment too (the second caster layer),
+//     ending on the next object's surface.
 
 #import raytrace
 #import beams
@@ -40,7 +44,7 @@
 @group(0) @binding(7) var<storage, read_write> work: array<BeamTri>;
 // Per level l: (workgroups x, 1, 1, triangles appended) at words 4l..4l+3.
 @group(0) @binding(8) var<storage, read_write> args: array<atomic<u32>>;
-// Per slot and branch (BEAM_BRANCHES per slot): beam index + 1 (0: none).
+// Per slot, branch and layer (BEAM_KINDS per slot): beam index + 1 (0: none).
 @group(0) @binding(9) var<storage, read_write> slots: array<u32>;
 @group(0) @binding(10) var<storage, read_write> beams: array<BeamGpu>;
 // Word 0: beams appended; BS_WORDS statistics words follow at 1.
@@ -69,6 +73,32 @@ struct Edge {
     pre: f32,
     // Radiant intensity toward the edge (W/sr) times the Fresnel and mirror factors.
     weight: vec3f,
+    // The segment before the last, where the path has one (layer 1: light between two
+    // specular objects, e.g. from one glass ball to the next): outside dielectrics, from the
+    // specular interaction o1 along unit d1 to the specular surface it meets at t1; pre1 and w1
+    // as pre and weight at its start.
+    has1: bool,
+    o1: vec3f,
+    d1: vec3f,
+    t1: f32,
+    pre1: f32,
+    w1: vec3f,
+}
+
+// Beam layers (BEAM_LAYERS in shared/beams.wgsl): layer 0 the path's last segment (it ends on
+// a diffuse surface or leaves the scene), layer 1 the segment before it when that runs
+// outside dielectrics from one specular interaction to the next. The edge with its fields
+// o, d, t_end, pre and weight those of `layer` (ok: the path is whole and has that layer).
+fn at_layer(e: Edge, layer: u32) -> Edge {
+    if (layer == 0u) { return e; }
+    var r = e;
+    r.ok = e.ok && e.has1;
+    r.o = e.o1;
+    r.d = e.d1;
+    r.t_end = e.t1;
+    r.pre = e.pre1;
+    r.weight = e.w1;
+    return r;
 }
 
 fn light_dir(face: Face, ndc: vec2f) -> vec3f {
@@ -77,17 +107,22 @@ fn light_dir(face: Face, ndc: vec2f) -> vec3f {
     return normalize(b4.xyz / b4.w - a4.xyz / a4.w);
 }
 
-// The edge ray of light-NDC point ndc of face f, on branch `branch`: a mask, bit k set: reflected
-// at the k-th interface (0: transmitted at every dielectric interface, total internal reflection
-// reflecting; 1: reflected at the first surface, then transmitted; 2: reflected at the second,
-// inside the first dielectric), as the photon tracer's branch masks.
-fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
+// The edge ray of light-NDC point ndc of face f, on branch `br` (BEAM_BRANCHES): 0 transmitted
+// at every dielectric interface (total internal reflection reflecting), br >= 1 reflected at
+// the br-th interaction and transmitted elsewhere (1: at the first surface; 2: inside the first
+// dielectric; 3 and 4: at the second dielectric's surface and inside it, where light crosses
+// the medium from one glass object into another). The branch's mask (`branch`, bit k: reflect
+// at interaction k, as the photon tracer's branch masks) needs a dielectric interface there
+// that does not reflect totally (there the light is branch 0's), and a path that reaches it.
+fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
+    let branch = select(0u, 1u << (br - 1u), br > 0u);
     var e: Edge;
     e.caster = false;
     e.ok = false;
     e.first_obj = INVALID;
     e.land = INVALID;
     e.sig = 0u;
+    e.has1 = false;
     let face = light.faces[f];
     let lp = face.origin.xyz;
     var o = lp;
@@ -102,7 +137,7 @@ fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
         if (h.object == INVALID) {
             if (depth == 0u) { return e; }
             // Leaves the scene: the beam runs to the far side of the medium's box.
-            e.ok = !inside;
+            e.ok = !inside && (depth >= 32u || (branch >> depth) == 0u);
             e.land = INVALID;
             e.o = seg_o;
             e.d = dir;
@@ -117,10 +152,11 @@ fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
             e.first_t = h.t;
             if (mat.kind.x == KIND_DIFFUSE || mat.kind.y == 0u) { return e; }
             e.caster = true;
-            if ((branch & 1u) == 1u && mat.kind.x != KIND_DIELECTRIC) { return e; }
         }
+        let reflect_here = depth < 32u && ((branch >> depth) & 1u) == 1u;
+        if (reflect_here && mat.kind.x != KIND_DIELECTRIC) { return e; }
         if (mat.kind.x == KIND_DIFFUSE) {
-            e.ok = !inside;
+            e.ok = !inside && (depth >= 32u || (branch >> depth) == 0u);
             e.land = h.object;
             e.o = seg_o;
             e.d = dir;
@@ -128,6 +164,18 @@ fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
             break;
         }
         if (depth >= bp.max_depth) { return e; }
+        if (depth > 0u && !inside) {
+            // A segment after a specular interaction, outside dielectrics, ends on another
+            // specular surface: the latest such is layer 1. Only where the branch reflected
+            // before it (or is branch 0): otherwise the segment's light is the transmitted
+            // branch's, whose layer 1 it is.
+            e.has1 = br == 0u || br - 1u < depth;
+            e.o1 = seg_o;
+            e.d1 = dir;
+            e.t1 = length(h.p - seg_o);
+            e.pre1 = pre;
+            e.w1 = w;
+        }
         if (!inside) { pre += beam_depth(seg_o, h.p); }
         let front = dot(dir, h.ng) < 0.0;
         let ng = select(-h.ng, h.ng, front);
@@ -143,7 +191,8 @@ fn trace_edge(f: u32, ndc: vec2f, branch: u32) -> Edge {
             n = fz.n;
             eta = fz.eta;
             let fr = fz.f;
-            reflect_it = (depth < 32u && ((branch >> depth) & 1u) == 1u) || fr >= 1.0;
+            if (reflect_here && fr >= 1.0) { return e; }
+            reflect_it = reflect_here || fr >= 1.0;
             w *= select(1.0 - fr, select(fr, 1.0, fr >= 1.0), reflect_it);
         }
         let bz = rt_bounce(dir, n, ng, eta, reflect_it);
@@ -282,16 +331,16 @@ struct Boundary {
     e: Edge,
 }
 
-const SHRINK_STEPS: u32 = 6u;
+const SHRINK_STEPS: u32 = 10u;
 
-fn boundary(f: u32, good: vec2f, bad: vec2f, br: u32, r: Edge) -> Boundary {
+fn boundary(f: u32, good: vec2f, bad: vec2f, br: u32, layer: u32, r: Edge) -> Boundary {
     var out = Boundary(good, r);
     var lo = 0.0;
     var hi = 1.0;
     for (var k = 0u; k < SHRINK_STEPS; k++) {
         let mid = 0.5 * (lo + hi);
         let p = mix(good, bad, mid);
-        let e = trace_edge(f, p, br);
+        let e = at_layer(trace_edge(f, p, br), layer);
         if (same_path(e, r)) {
             lo = mid;
             out = Boundary(p, e);
@@ -302,37 +351,83 @@ fn boundary(f: u32, good: vec2f, bad: vec2f, br: u32, r: Edge) -> Boundary {
     return out;
 }
 
-// The mean weight over a part of a triangle (light NDC) from its corners' mean `wc` and its
-// centre's weight, by the rule exact for quadratics: over a triangle, corners 1/12 each and
-// centroid 3/4, i.e. (wc + 3 centre) / 4; over a parallelogram, corners 1/12 each and centre
-// 2/3, i.e. (wc + 2 centre) / 3 (`quad`). The Fresnel factors change steeply near a silhouette
+// The mean weight over a triangle (light NDC) from its corners' mean `wc` and its centre's
+// weight, by the rule exact for quadratics: corners 1/12 each and centroid 3/4, i.e.
+// (wc + 3 centre) / 4; over a parallelogram, corners 1/12 each and centre 2/3, i.e.
+// (wc + 2 centre) / 3 (`quad`). The Fresnel factors change steeply near a silhouette
 // (the corners' mean alone overestimates them there: F is convex toward grazing). The centre's
 // edge is traced once more; where it takes another path, the corners' mean.
-fn part_weight(f: u32, centre: vec2f, br: u32, r: Edge, wc: vec3f, quad: bool) -> vec3f {
-    let e = trace_edge(f, centre, br);
+fn part_weight(f: u32, centre: vec2f, br: u32, layer: u32, r: Edge, wc: vec3f, quad: bool) -> vec3f {
+    let e = at_layer(trace_edge(f, centre, br), layer);
     if (!same_path(e, r)) { return wc; }
     return select((wc + 3.0 * e.weight) / 4.0, (wc + 2.0 * e.weight) / 3.0, quad);
 }
 
-// A last-level triangle whose edges on branch `br` disagree (a silhouette, an edge landing
-// elsewhere): one beam over the part of it whose edges take the path of its majority (two
-// edges that agree, or the one edge that meets a caster), found by bisection along its sides;
-// its flux is that part's (a quad: the beam is the triangle over its two good corners and the
-// middle of its far side, carrying the quad's flux). flux.w < 0: none (no majority).
-fn shrink(tri: BeamTri, es: array<Edge, 3>, br: u32, level: u32) -> BeamGpu {
-    var none: BeamGpu;
-    none.flux.w = -1.0;
+// Sub-triangles per side of `part_mean`'s midpoint subdivision.
+const PART_SPLIT: u32 = 4u;
+
+// The mean weight of r's path over the triangle p0 p1 p2 (light NDC, a part of a last-level
+// triangle at a silhouette), by the midpoint rule over its midpoint subdivision into
+// PART_SPLIT^2 triangles of equal area (their centroids' edges traced; those on another path
+// left out), and the subdivision's count of samples on the path (w; 0: none, use the corners).
+// The Fresnel factors change steeply toward grazing incidence, and a silhouette part reaches
+// into it: the rule exact for quadratics (`part_weight`) was measured to put 4.5 % too much
+// light into the reflected light landing near a ball (that and the lost minority parts had
+// cancelled, docs/benchmarks.md).
+fn part_mean(f: u32, p0: vec2f, p1: vec2f, p2: vec2f, br: u32, layer: u32, r: Edge) -> vec4f {
+    var acc = vec4f(0.0);
+    let n = f32(PART_SPLIT);
+    for (var i = 0u; i < PART_SPLIT; i++) {
+        for (var j = 0u; i + j < PART_SPLIT; j++) {
+            for (var up = 0u; up < 2u; up++) {
+                // (upward sub-triangles at (i + 1/3, j + 1/3) / n, downward at (i + 2/3, j + 2/3) / n)
+                if (up == 1u && i + j + 2u > PART_SPLIT) { continue; }
+                let o = select(1.0 / 3.0, 2.0 / 3.0, up == 1u);
+                let a = (f32(i) + o) / n;
+                let b = (f32(j) + o) / n;
+                let e = at_layer(trace_edge(f, p0 + a * (p1 - p0) + b * (p2 - p0), br), layer);
+                if (same_path(e, r)) { acc += vec4f(e.weight, 1.0); }
+            }
+        }
+    }
+    return acc;
+}
+
+// The mean weight over the triangle p0 p1 p2 (`part_mean`), else the corners' mean `wc`.
+fn tri_weight(f: u32, p0: vec2f, p1: vec2f, p2: vec2f, br: u32, layer: u32, r: Edge, wc: vec3f) -> vec3f {
+    let m = part_mean(f, p0, p1, p2, br, layer, r);
+    return select(wc, m.xyz / max(m.w, 1.0), m.w > 0.0);
+}
+
+// Twice the area of the triangle p0 p1 p2 (light NDC).
+fn ndc_area(p0: vec2f, p1: vec2f, p2: vec2f) -> f32 {
+    let u = p1 - p0;
+    let v = p2 - p0;
+    return abs(u.x * v.y - u.y * v.x);
+}
+
+// A last-level triangle whose edges on branch `br` and layer `layer` disagree (a silhouette, an
+// edge landing elsewhere, light that meets a second caster or misses it): one beam per caustic
+// path its corners take, each over the part of the triangle on that path, found by bisection
+// along its sides, emitted as parts 0, 1, 2 of the triangle's place (`emit`). Two corners that
+// agree give the quad between them and the far side's boundary points (the beam is the
+// triangle over its two good corners and the middle of its far side, carrying the quad's
+// flux), part 0; a corner on a path of its own the triangle between it and its boundary points
+// toward the other two. Returns whether a part was emitted (none: no corner on a caustic path).
+fn shrink(tri: BeamTri, es: array<Edge, 3>, br: u32, layer: u32, level: u32, slot: u32) -> bool {
     let ps = array<vec2f, 3>(tri.a, tri.b, tri.c);
     let face = light.faces[tri.face];
+    var done = array<bool, 3>(false, false, false);
+    var part = 0u;
     for (var k = 0u; k < 3u; k++) {
         let i = (k + 1u) % 3u;
         let j = (k + 2u) % 3u;
         // Corners i and j agree, k differs.
         if (same_path(es[i], es[i]) && same_path(es[j], es[i]) && !same_path(es[k], es[i])) {
-            let qi = boundary(tri.face, ps[i], ps[k], br, es[i]);
-            let qj = boundary(tri.face, ps[j], ps[k], br, es[i]);
+            let qi = boundary(tri.face, ps[i], ps[k], br, layer, es[i]);
+            let qj = boundary(tri.face, ps[j], ps[k], br, layer, es[i]);
             let mp = 0.5 * (qi.ndc + qj.ndc);
-            var em = trace_edge(tri.face, mp, br);
+            var em = at_layer(trace_edge(tri.face, mp, br), layer);
             if (!same_path(em, es[i])) { em = qi.e; }
             let li = light_dir(face, ps[i]);
             let lj = light_dir(face, ps[j]);
@@ -341,37 +436,69 @@ fn shrink(tri: BeamTri, es: array<Edge, 3>, br: u32, level: u32) -> BeamGpu {
             let omega = solid_angle(li, lj, lqj) + solid_angle(li, lqj, lqi);
             var b = make_beam(es[i], es[j], em, omega, level);
             let w4 = (es[i].weight + es[j].weight + qi.e.weight + qj.e.weight) / 4.0;
-            b.flux = vec4f(omega * part_weight(tri.face, 0.25 * (ps[i] + ps[j] + qi.ndc + qj.ndc), br, es[i], w4, true), b.flux.w);
-            return b;
+            var wq: vec3f;
+            if (br == 0u) {
+                wq = part_weight(tri.face, 0.25 * (ps[i] + ps[j] + qi.ndc + qj.ndc), br, layer, es[i], w4, true);
+            } else {
+                // (the quad as two triangles, each weighted by its area)
+                let ma = part_mean(tri.face, ps[i], ps[j], qj.ndc, br, layer, es[i]);
+                let mb = part_mean(tri.face, ps[i], qj.ndc, qi.ndc, br, layer, es[i]);
+                let aa = ndc_area(ps[i], ps[j], qj.ndc);
+                let ab = ndc_area(ps[i], qj.ndc, qi.ndc);
+                wq = w4;
+                if (ma.w > 0.0 && mb.w > 0.0 && aa + ab > 0.0) {
+                    wq = (aa * ma.xyz / ma.w + ab * mb.xyz / mb.w) / (aa + ab);
+                } else if (ma.w + mb.w > 0.0) {
+                    wq = (ma.xyz + mb.xyz) / (ma.w + mb.w);
+                }
+            }
+            b.flux = vec4f(omega * wq, b.flux.w);
+            emit(b, slot, br, layer, part);
+            part++;
+            done[i] = true;
+            done[j] = true;
+            break;
         }
     }
     for (var k = 0u; k < 3u; k++) {
         let i = (k + 1u) % 3u;
         let j = (k + 2u) % 3u;
-        // Only corner k meets a caster on a path of its own.
-        if (same_path(es[k], es[k]) && !same_path(es[i], es[k]) && !same_path(es[j], es[k])) {
-            let qi = boundary(tri.face, ps[k], ps[i], br, es[k]);
-            let qj = boundary(tri.face, ps[k], ps[j], br, es[k]);
+        // Corner k on a path of its own (no other corner takes it).
+        if (!done[k] && same_path(es[k], es[k]) && !same_path(es[i], es[k]) && !same_path(es[j], es[k])) {
+            let qi = boundary(tri.face, ps[k], ps[i], br, layer, es[k]);
+            let qj = boundary(tri.face, ps[k], ps[j], br, layer, es[k]);
             let omega = solid_angle(light_dir(face, ps[k]), light_dir(face, qi.ndc), light_dir(face, qj.ndc));
             var b = make_beam(es[k], qi.e, qj.e, omega, level);
             let w3 = (es[k].weight + qi.e.weight + qj.e.weight) / 3.0;
-            b.flux = vec4f(omega * part_weight(tri.face, (ps[k] + qi.ndc + qj.ndc) / 3.0, br, es[k], w3, false), b.flux.w);
-            return b;
+            let centre = (ps[k] + qi.ndc + qj.ndc) / 3.0;
+            var wt = part_weight(tri.face, centre, br, layer, es[k], w3, false);
+            if (br > 0u) { wt = tri_weight(tri.face, ps[k], qi.ndc, qj.ndc, br, layer, es[k], w3); }
+            b.flux = vec4f(omega * wt, b.flux.w);
+            emit(b, slot, br, layer, part);
+            part++;
         }
     }
-    return none;
+    return part > 0u;
 }
 
-// Appends beam b in `slot` (BEAM_BRANCHES per hierarchy slot: its branch is slot's remainder,
-// recorded in info.y).
-fn emit(b: BeamGpu, slot: u32) {
+// Appends beam b of branch `br`, layer `layer` and part `part` (0; a shrunk triangle's other
+// paths 1 and 2) in its place of hierarchy slot `slot` (BEAM_KINDS places per slot), branch and
+// layer recorded in info.y and info.z. A layer-1 beam ends on a specular surface: it lands on
+// nothing (info.x INVALID: beam_surface lights no point with it).
+fn emit(b: BeamGpu, slot: u32, br: u32, layer: u32, part: u32) {
     if (b.flux.w < 0.0) { atomicAdd(&stats[1u + BS_GRAZING], 1u); return; }
     let i = atomicAdd(&stats[0], 1u);
     if (i >= bp.capacity) { atomicAdd(&stats[1u + BS_OVERFLOW], 1u); return; }
     var out = b;
-    out.info.y = slot % BEAM_BRANCHES;
+    out.info.y = br;
+    out.info.z = layer;
+    out.info.w = part;
+    if (layer > 0u) {
+        out.info.x = INVALID;
+        atomicAdd(&stats[1u + BS_LAYER1], 1u);
+    }
     beams[i] = out;
-    slots[slot] = i + 1u;
+    slots[BEAM_KINDS * slot + BEAM_PARTS * (BEAM_LAYERS * br + layer) + part] = i + 1u;
     atomicAdd(&stats[1u + BS_KEPT + min(u32(b.flux.w), 7u)], 1u);
 }
 
@@ -434,7 +561,16 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         let ym = max(max(e0.t_end, e1.t_end), e2.t_end);
         let ar = min_area(e0, e1, e2, ym);
         // (capped at 100: a ball lens's beams all but vanish at their focus)
-        let conv = ar.x / max(ar.y, 1e-2 * ar.x);
+        var conv = ar.x / max(ar.y, 1e-2 * ar.x);
+        // Light between two casters (layer 1) converges too (a lens focusing onto the next):
+        // the larger convergence of the two layers.
+        let l0 = at_layer(e0, 1u);
+        let l1 = at_layer(e1, 1u);
+        let l2 = at_layer(e2, 1u);
+        if (consistent(l0, l1, l2) && length(cross(l1.o - l0.o, l2.o - l0.o)) > 0.0) {
+            let a1 = min_area(l0, l1, l2, max(max(l0.t_end, l1.t_end), l2.t_end));
+            conv = max(conv, a1.x / max(a1.y, 1e-2 * a1.x));
+        }
         let face_omega = solid_angle(light_dir(face, vec2f(-1.0, -1.0)), light_dir(face, vec2f(1.0, -1.0)), light_dir(face, vec2f(1.0, 1.0)))
             + solid_angle(light_dir(face, vec2f(-1.0, -1.0)), light_dir(face, vec2f(1.0, 1.0)), light_dir(face, vec2f(-1.0, 1.0)));
         let peak = max(max(light.power.r, light.power.g), light.power.b);
@@ -449,8 +585,9 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     // The reflected branches (flags bit 0) split where their edges disagree too (their light
     // would be lost otherwise: reflected edges that land on different objects, or leave the
     // scene, near the silhouette).
-    var rb: array<Edge, 6>;
-    let branches = select(1u, BEAM_BRANCHES, (bp.flags & BEAM_FLAG_REFLECTION) != 0u);
+    var rb: array<Edge, 12>;
+    // (branches 3 and 4, at a second dielectric, where light can meet one: BEAM_FLAG_CHAINS)
+    let branches = select(1u, select(3u, BEAM_BRANCHES, (bp.flags & BEAM_FLAG_CHAINS) != 0u), (bp.flags & BEAM_FLAG_REFLECTION) != 0u);
     for (var br = 1u; br < branches; br++) {
         rb[3u * (br - 1u)] = trace_edge(tri.face, tri.a, br);
         rb[3u * (br - 1u) + 1u] = trace_edge(tri.face, tri.b, br);
@@ -474,39 +611,41 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         return;
     }
     let slot = lv.offset + tri.id;
-    if (consistent(e0, e1, e2)) {
-        emit(make_beam(e0, e1, e2, omega, level), BEAM_BRANCHES * slot);
-    } else {
-        // The last level: the part of the triangle on its majority's path (shrink), else lost.
-        let sb = shrink(tri, array<Edge, 3>(e0, e1, e2), 0u, level);
-        if (sb.flux.w >= 0.0) {
-            emit(sb, BEAM_BRANCHES * slot);
-        } else {
-            atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
-        }
-    }
     // Branch 1: reflected at the first surface; branch 2: refracted in, reflected once inside,
-    // then refracted out (the light a sphere sends back toward the light's side). Their Fresnel
+    // then refracted out (the light a sphere sends back toward the light's side); 3 and 4 the
+    // same at a second dielectric (trace_edge). Their Fresnel
     // factors change fast across a triangle near the silhouette (where F is largest): the
     // beam's flux is the quadrature exact for quadratics (corners 1/12 each, centroid 3/4; one
     // more edge traced), not the corners' mean. At the last level, triangles whose edges
-    // disagree are shrunk to their majority's part as the transmitted branch's.
+    // disagree are shrunk to their majority's part as the transmitted branch's. Each branch
+    // gives a beam on each layer its path has (at_layer: its last segment, and the one between
+    // its last two specular objects).
     let centroid = (tri.a + tri.b + tri.c) / 3.0;
-    for (var br = 1u; br < branches; br++) {
-        let r0 = rb[3u * (br - 1u)];
-        let r1 = rb[3u * (br - 1u) + 1u];
-        let r2 = rb[3u * (br - 1u) + 2u];
-        if (consistent(r0, r1, r2)) {
-            var b = make_beam(r0, r1, r2, omega, level);
-            let wc = (r0.weight + r1.weight + r2.weight) / 3.0;
-            b.flux = vec4f(omega * part_weight(tri.face, centroid, br, r0, wc, false), b.flux.w);
-            emit(b, BEAM_BRANCHES * slot + br);
-        } else if (r0.ok || r1.ok || r2.ok) {
-            let sb = shrink(tri, array<Edge, 3>(r0, r1, r2), br, level);
-            if (sb.flux.w >= 0.0) {
-                emit(sb, BEAM_BRANCHES * slot + br);
-            } else {
+    for (var layer = 0u; layer < BEAM_LAYERS; layer++) {
+        let a0 = at_layer(e0, layer);
+        let a1 = at_layer(e1, layer);
+        let a2 = at_layer(e2, layer);
+        if (consistent(a0, a1, a2)) {
+            emit(make_beam(a0, a1, a2, omega, level), slot, 0u, layer, 0u);
+        } else if (layer == 0u || a0.ok || a1.ok || a2.ok) {
+            // The last level: the parts of the triangle on its corners' paths (shrink), else lost.
+            if (!shrink(tri, array<Edge, 3>(a0, a1, a2), 0u, layer, level, slot)) {
                 atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
+            }
+        }
+        for (var br = 1u; br < branches; br++) {
+            let r0 = at_layer(rb[3u * (br - 1u)], layer);
+            let r1 = at_layer(rb[3u * (br - 1u) + 1u], layer);
+            let r2 = at_layer(rb[3u * (br - 1u) + 2u], layer);
+            if (consistent(r0, r1, r2)) {
+                var b = make_beam(r0, r1, r2, omega, level);
+                let wc = (r0.weight + r1.weight + r2.weight) / 3.0;
+                b.flux = vec4f(omega * part_weight(tri.face, centroid, br, layer, r0, wc, false), b.flux.w);
+                emit(b, slot, br, layer, 0u);
+            } else if (r0.ok || r1.ok || r2.ok) {
+                if (!shrink(tri, array<Edge, 3>(r0, r1, r2), br, layer, level, slot)) {
+                    atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
+                }
             }
         }
     }

@@ -23,11 +23,14 @@
 //! of the beams would avoid: `docs/benchmarks.md` measures it.
 
 use crate::error::{Error, Result};
-use crate::gpu::types::{BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BeamGpu, BeamLevel, BeamParams, BeamTri};
+use crate::gpu::types::{
+    BEAM_FLAG_CHAINS, BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BEAM_KINDS, BEAM_PARTS, BeamGpu, BeamLevel, BeamParams,
+    BeamTri,
+};
 use crate::gpu::{GpuContext, PassTimer, bind};
 use crate::image_io::Image;
 use crate::passes::{DrawCtx, EyeFrame, LightFrame, density_view, layer_view, upload_density};
-use crate::scene::{Light, Phase, Scene};
+use crate::scene::{Light, Phase, Scene, Shape};
 use crate::settings::{BeamSettings, RenderSettings};
 use glam::{Mat4, Vec3};
 
@@ -71,11 +74,11 @@ struct Chunks {
 }
 
 impl Chunks {
-    /// Chunks for the beams `bp` can hold, `scale` times the sizes lavapipe's loop limit allows
-    /// ([`chunk_scale`]).
-    fn new(bp: &BeamParams, foot: &[f32; 4], scale: u32) -> Chunks {
+    /// Chunks for the beams `bp` can hold, at most `kinds` per slot ([`kinds`]), `scale` times
+    /// the sizes lavapipe's loop limit allows ([`chunk_scale`]).
+    fn new(bp: &BeamParams, foot: &[f32; 4], (kinds, scale): (u64, u32)) -> Chunks {
         let (pixel_samples, surface_samples, flags) = (bp.pixel_samples, bp.surface_samples, bp.flags);
-        let most = most_beams(bp.capacity, bp.slots);
+        let most = most_beams(bp.capacity, bp.slots, kinds);
         // With a density grid every point of a beam marches the grid toward its base and the
         // camera (2 x BEAM_GRID_STEPS lookups): a beam costs a pixel that many times more.
         let grid = if flags & BEAM_FLAG_GRID != 0 { GRID_COST } else { 1 };
@@ -138,7 +141,8 @@ fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, 
         width: cam.width,
         height: cam.height,
         flags: if b.reflection { BEAM_FLAG_REFLECTION } else { 0 }
-            | if m.is_some_and(|m| m.density.is_some()) { BEAM_FLAG_GRID } else { 0 },
+            | if m.is_some_and(|m| m.density.is_some()) { BEAM_FLAG_GRID } else { 0 }
+            | if chains(scene) { BEAM_FLAG_CHAINS } else { 0 },
         pixel_samples: b.pixel_samples,
     }
 }
@@ -241,7 +245,7 @@ fn record_light_beams(
     // The next level's dispatch size, copied out of `args` (a buffer a dispatch writes cannot be
     // its own indirect argument).
     let indirect = crate::gpu::storage(ctx, "beam_indirect", 16 * 8, wgpu::BufferUsages::INDIRECT);
-    let slot_buf = crate::gpu::storage(ctx, "beam_slots", BRANCHES * slots * 4, storage);
+    let slot_buf = crate::gpu::storage(ctx, "beam_slots", KINDS * slots * 4, storage);
     let cap = u64::from(bp.capacity);
     let beams = crate::gpu::storage(ctx, "beams", cap * std::mem::size_of::<BeamGpu>() as u64, storage);
     let order = crate::gpu::storage(ctx, "beam_order", cap * 4, storage);
@@ -296,7 +300,7 @@ fn record_light_beams(
             enc.copy_buffer_to_buffer(&args, at, &indirect, at, 16);
         }
     }
-    let chunks = Chunks::new(bp, &footprint, scale);
+    let chunks = Chunks::new(bp, &footprint, (kinds(dc.scene), scale));
     let dispatch = chunks.dispatch_buffer(ctx);
     record_order(ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
     BeamFrame { params, stats, beams, order, capacity: bp.capacity, levels, footprint, chunks, dispatch }
@@ -335,10 +339,30 @@ fn record_order(
     cp.dispatch_workgroups(1, 1, 1);
 }
 
-/// The most beams a light's ordered list can hold: `capacity`, and at most BRANCHES per slot of
+/// The most beams a light's ordered list can hold: `capacity`, and at most `kinds` per slot of
 /// the hierarchy.
-fn most_beams(capacity: u32, slots: u32) -> u32 {
-    u64::from(capacity).min(BRANCHES * u64::from(slots)).max(1) as u32
+fn most_beams(capacity: u32, slots: u32, kinds: u64) -> u32 {
+    u64::from(capacity).min(kinds * u64::from(slots)).max(1) as u32
+}
+
+/// Whether light can cross `scene`'s medium from one specular surface to another: unless it
+/// has at most one specular object, a sphere or a rectangle (which light leaving it never meets
+/// again). Then the beams' second layer and the branches reflected at a second dielectric exist
+/// ([`BEAM_FLAG_CHAINS`]).
+fn chains(scene: &Scene) -> bool {
+    let mut specular = scene.objects.iter().filter(|o| scene.materials[o.material].is_specular());
+    match (specular.next(), specular.next()) {
+        (None, _) => false,
+        (Some(o), None) => !matches!(o.shape, Shape::Sphere { .. } | Shape::Rectangle { .. }),
+        _ => true,
+    }
+}
+
+/// The beams a slot of `scene`'s hierarchy can hold: [`KINDS`], or without [`chains`] the
+/// parts of the first three branches' last segments alone. Only the number of gather and
+/// surface chunks recorded depends on it (those past the beams kept are empty dispatches).
+fn kinds(scene: &Scene) -> u64 {
+    if chains(scene) { KINDS } else { 3 * u64::from(BEAM_PARTS) }
 }
 
 /// `beam_surface`: the surface caustic of one light's beams, one dispatch per chunk of the
@@ -486,9 +510,11 @@ fn chunk_scale(ctx: &GpuContext, b: &BeamSettings) -> u32 {
 /// case of 130 560 beams 64 recorded dispatches instead of 1020).
 const GPU_CHUNK_SCALE: u32 = 16;
 
-/// Beams per slot of the hierarchy (`BEAM_BRANCHES` in shaders/shared/beams.wgsl): transmitted,
-/// reflected at the first surface, reflected once inside.
-const BRANCHES: u64 = 3;
+/// Beams per slot of the hierarchy ([`BEAM_KINDS`]): five branches (transmitted, reflected at
+/// the first surface, reflected once inside, the same two at a second dielectric) times two
+/// layers (the path's last segment, and the one between its last two specular objects) times
+/// three parts (a last-level triangle whose corners take different paths: one beam per path).
+const KINDS: u64 = BEAM_KINDS as u64;
 
 /// Beams one `beam_gather` dispatch loops over per camera ray (beam_gather.wgsl says why).
 const GATHER_CHUNK: u32 = 256;
@@ -515,6 +541,7 @@ pub(crate) fn read_frame(ctx: &GpuContext, f: &BeamFrame) -> Result<(BeamStats, 
         overflow: w(16),
         inconsistent: w(17),
         grazing: w(19),
+        between_casters: w(20),
     };
     let count = stats.beams as u64;
     if count == 0 {
@@ -555,7 +582,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     } else {
         ctx.buffer_init("beams", bytemuck::cast_slice(&recs), usage)
     };
-    let b3 = BRANCHES as u32;
+    let b3 = KINDS as u32;
     let slots: Vec<u32> = (0..b3 * beams.len() as u32).map(|i| if i % b3 == 0 { i / b3 + 1 } else { 0 }).collect();
     let slot_buf = ctx.buffer_init(
         "beam_slots",
@@ -586,7 +613,8 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     let tv = wgpu::BindingResource::TextureView(&nv);
     let mut timer = PassTimer::disabled();
     let foot = footprint(b);
-    let chunks = Chunks::new(&bp, &foot, chunk_scale(&ctx, b));
+    // (one beam per slot here)
+    let chunks = Chunks::new(&bp, &foot, (1, chunk_scale(&ctx, b)));
     let dispatch = chunks.dispatch_buffer(&ctx);
     record_order(&ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), &mut enc, &mut timer);
     record_gather_chunks(

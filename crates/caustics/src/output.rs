@@ -65,10 +65,11 @@ pub struct GpuRender {
     pub beams: Vec<(BeamStats, Vec<Beam>)>,
 }
 
-/// A beam: a triangle of light leaving the last specular surface of its path.
+/// A beam: a triangle of light leaving a specular surface of its path (the last, or on layer 1
+/// the one before: `layer`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Beam {
-    /// Base vertices (on the last specular surface).
+    /// Base vertices (on the specular surface the light leaves).
     pub vertices: [Vec3; 3],
     /// In-medium length of the light's path before each base vertex (m).
     pub pre: [f32; 3],
@@ -84,8 +85,16 @@ pub struct Beam {
     /// beams light only that object's points.
     pub land: u32,
     /// The traced branch (`beam_refine`): 0 transmitted at every dielectric interface, 1
-    /// reflected at the first surface, 2 reflected once inside the first dielectric.
+    /// reflected at the first surface, 2 reflected once inside the first dielectric, 3 and 4 the
+    /// same at a second dielectric the light crosses the medium into.
     pub branch: u32,
+    /// The segment of its path it lights: 0 the last (it ends on a diffuse surface or leaves
+    /// the scene), 1 the one before, from one specular object to the next (it ends on that
+    /// object's surface, and `land` is `u32::MAX`).
+    pub layer: u32,
+    /// 0, or for the parts of a last-level triangle whose corners took different paths, 1 or 2
+    /// (its other paths' beams: `beam_refine`'s `shrink`).
+    pub part: u32,
 }
 
 impl Beam {
@@ -140,6 +149,8 @@ impl Beam {
             level: self.level + 1,
             land: self.land,
             branch: self.branch,
+            layer: self.layer,
+            part: self.part,
         };
         let (ab, bc, ca) = (mid(0, 1), mid(1, 2), mid(2, 0));
         [make([corner(0), ab, ca]), make([ab, corner(1), bc]), make([ca, bc, corner(2)]), make([bc, ca, ab])]
@@ -160,7 +171,7 @@ impl Beam {
             d: [0, 1, 2].map(|i| self.dirs[i].extend(self.ends[i]).to_array()),
             flux: self.flux.extend(self.level as f32).to_array(),
             bound: c.extend(r * 1.0001 + 1e-6).to_array(),
-            info: [self.land, self.branch, 0, 0],
+            info: [self.land, self.branch, self.layer, self.part],
         }
     }
 
@@ -175,6 +186,8 @@ impl Beam {
             level: b.flux[3] as u32,
             land: b.info[0],
             branch: b.info[1],
+            layer: b.info[2],
+            part: b.info[3],
         }
     }
 }
@@ -194,4 +207,7 @@ pub struct BeamStats {
     pub inconsistent: u32,
     /// Beams dropped for a degenerate or grazing base.
     pub grazing: u32,
+    /// Beams kept on layer 1 (light crossing the medium from one specular object to another),
+    /// included in `kept_per_level`.
+    pub between_casters: u32,
 }

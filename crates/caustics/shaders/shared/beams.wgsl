@@ -42,8 +42,18 @@ struct BeamParams {
 }
 
 // Beams per slot of the hierarchy: transmitted, reflected at the first surface, reflected once
-// inside (beam_refine.wgsl).
-const BEAM_BRANCHES: u32 = 3u;
+// inside, reflected at the second dielectric's surface, reflected once inside it
+// (beam_refine.wgsl, `trace_edge`).
+const BEAM_BRANCHES: u32 = 5u;
+// Beams per branch: layer 0 the path's last segment, layer 1 the segment before it where the
+// light crossed the medium between two specular objects (beam_refine.wgsl, `at_layer`).
+const BEAM_LAYERS: u32 = 2u;
+// Beams per branch and layer: a last-level triangle whose corners take different paths gives
+// one beam per path (beam_refine.wgsl, `shrink`).
+const BEAM_PARTS: u32 = 3u;
+// Beams per slot (their places: slot x BEAM_KINDS + (branch x BEAM_LAYERS + layer) x
+// BEAM_PARTS + part).
+const BEAM_KINDS: u32 = 30u;
 
 // One refinement level's dispatch.
 struct BeamLevel {
@@ -69,9 +79,10 @@ struct BeamTri {
 // A beam: base vertices v_i (w: the in-medium length of the light's path before v_i), unit
 // edge directions d_i (w: distance from v_i to the edge's end on a surface), flux (W, rgb;
 // w: the hierarchy level), a bounding sphere of the beam (centre, radius), and info.x the
-// object its three edges land on (INVALID: they leave the scene; beam_surface lights only
-// that object's points), info.y its branch (0 transmitted, 1 reflected at the first surface, 2
-// reflected once inside: beam_refine).
+// object its three edges land on (INVALID: they leave the scene or, on layer 1, end on a
+// specular surface; beam_surface lights only that object's points), info.y its branch (0
+// transmitted, 1 reflected at the first surface, 2 reflected once inside: beam_refine), info.z
+// its layer.
 struct BeamGpu {
     v0: vec4f,
     v1: vec4f,
@@ -87,13 +98,14 @@ struct BeamGpu {
 // Statistics words (u32): 0..7 beams kept per level, 8..15 triangles visited per level,
 // 16 beams over the capacity (dropped: an overflow, reported), 17 triangles with inconsistent
 // edges at the last level (their light is lost), 18 beams in the ordered list, 19 beams
-// discarded for grazing bases.
+// discarded for grazing bases, 20 beams kept on layer 1 (between two specular objects).
 const BS_KEPT: u32 = 0u;
 const BS_VISITED: u32 = 8u;
 const BS_OVERFLOW: u32 = 16u;
 const BS_INCONSISTENT: u32 = 17u;
 const BS_ORDERED: u32 = 18u;
 const BS_GRAZING: u32 = 19u;
+const BS_LAYER1: u32 = 20u;
 const BS_WORDS: u32 = 32u;
 
 fn bm_phase(cos_t: f32, g: f32) -> f32 {

@@ -510,6 +510,21 @@ pub const SPILL_FACE_PRESENT: u32 = 1;
 pub const BEAM_FLAG_REFLECTION: u32 = 1;
 /// `BeamParams::flags`: the medium has a density grid (shared/beam_medium.wgsl).
 pub const BEAM_FLAG_GRID: u32 = 2;
+/// `BeamParams::flags`: light can cross the medium from one specular object to another (more
+/// than one, or one that is neither a sphere nor a rectangle): with reflection, trace the branches
+/// reflected at the second dielectric too (beams.rs `chains`).
+pub const BEAM_FLAG_CHAINS: u32 = 4;
+/// Beam branches (beam_refine.wgsl `trace_edge`): transmitted; reflected at the first, second,
+/// third or fourth interaction (the first dielectric's surface and inside it, the second's).
+pub const BEAM_BRANCHES: u32 = 5;
+/// Beam layers per branch: the path's last segment, and the one before it from one specular
+/// object to the next.
+pub const BEAM_LAYERS: u32 = 2;
+/// Beams per branch and layer of a slot: a last-level triangle whose corners take different
+/// paths gives one beam per path (beam_refine.wgsl `shrink`).
+pub const BEAM_PARTS: u32 = 3;
+/// Beams per slot of the beam hierarchy (`BEAM_BRANCHES` x `BEAM_LAYERS` x `BEAM_PARTS`).
+pub const BEAM_KINDS: u32 = BEAM_BRANCHES * BEAM_LAYERS * BEAM_PARTS;
 /// Side (texels) of the tiles of `caustic_mask` and `shadow_tiles`, which `shade_receivers` reads.
 pub const SHADE_TILE: u32 = 8;
 
@@ -530,6 +545,11 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("SPILL_FACE_PRESENT", SPILL_FACE_PRESENT),
     ("BEAM_FLAG_REFLECTION", BEAM_FLAG_REFLECTION),
     ("BEAM_FLAG_GRID", BEAM_FLAG_GRID),
+    ("BEAM_FLAG_CHAINS", BEAM_FLAG_CHAINS),
+    ("BEAM_BRANCHES", BEAM_BRANCHES),
+    ("BEAM_LAYERS", BEAM_LAYERS),
+    ("BEAM_PARTS", BEAM_PARTS),
+    ("BEAM_KINDS", BEAM_KINDS),
 ];
 
 /// Parameters of `caustic_triangles` (mirrors the WGSL `TriParams`).
