@@ -168,6 +168,19 @@ fn project_face(face: Face, p: vec3f, size: f32) -> vec4f {
     return vec4f((ndc.x * 0.5 + 0.5) * size, (0.5 - ndc.y * 0.5) * size, ndc.z, select(0.0, 1.0, inside));
 }
 
+// The distance along unit u from p over which face's depth (ndc z, a float in [0, 1]) changes by
+// 8 ulps of a float near 1 (2^-24 each): what a shadow lookup's offset toward the light must add
+// for the rounding of the stored and the looked-up depths. A perspective face's depth is
+// 1 - near / z far from its near plane, so one ulp spans a world distance growing as z² / near
+// (1.5 mm at 5 m with the near plane at 1 mm: more than a 4096² map's texel there).
+// d(c.z / c.w) = (dz c.w - c.z dw) / c.w² along u.
+fn depth_precision(face: Face, p: vec3f, u: vec3f) -> f32 {
+    let c = face.world_to_clip * vec4f(p, 1.0);
+    let dc = face.world_to_clip * vec4f(u, 0.0);
+    let rate = abs(dc.z * c.w - c.z * dc.w) / max(c.w * c.w, 1e-30);
+    return 8.0 * 5.9604645e-8 / max(rate, 1e-30);
+}
+
 // Direction from p toward the light (unit), and distance (infinite for directional lights).
 fn to_light(light: LightGpu, p: vec3f) -> vec4f {
     if (light.info.y == LIGHT_DIRECTIONAL) { return vec4f(-light.axis.xyz, 1e30); }
