@@ -59,7 +59,7 @@ pub(crate) struct BeamFrame {
 /// The chunks of the ordered list that `beam_gather` and `beam_surface` dispatch over, one
 /// dispatch each, recorded for the most beams the hierarchy can keep (no read-back of the
 /// count); `beam_order` writes each chunk's indirect dispatch size, none for a chunk past the
-/// beams it listed. (Adaptive 16² + 3's hierarchy has 43520 slots: 1020 gather chunks recorded
+/// beams it listed. (Adaptive 16² + 3's hierarchy has 43520 slots: 1024 gather chunks recorded
 /// for its 10⁴ beams; on lavapipe the empty dispatches were not measurably slower, the
 /// gather's work per beam dominates: docs/benchmarks.md, "Beams: reflected branches shrunk,
 /// the target met".)
@@ -507,7 +507,7 @@ fn chunk_scale(ctx: &GpuContext, b: &BeamSettings) -> u32 {
 
 /// [`chunk_scale`] on GPUs: 16 (a chunk of the default gather is then 2048 beams instead of 128,
 /// so the default 16² + 3 hierarchy's 10⁴ beams take 5 dispatches instead of 78, and its worst
-/// case of 130 560 beams 64 recorded dispatches instead of 1020).
+/// case, the capacity of 131 072 beams, 64 recorded dispatches instead of 1024).
 const GPU_CHUNK_SCALE: u32 = 16;
 
 /// Beams per slot of the hierarchy ([`BEAM_KINDS`]): five branches (transmitted, reflected at
