@@ -671,7 +671,7 @@ fn report_gpu(out: &GpuRender, wall_ms: f64) {
     println!("photons: {} traced in {} batch(es)", out.photons_traced, out.batches);
     for (li, (b, _)) in out.beams.iter().enumerate() {
         println!(
-            "beams (light {li}): {} rendered; kept per level {:?}, traced per level {:?}; {} lost at the last level (edges disagree), {} grazing, {} over capacity",
+            "beams (light {li}): {} rendered; kept per level {:?}, traced per level {:?}; {} lost at the last level (no corner on a caustic path), {} grazing, {} over capacity",
             b.beams, b.kept_per_level, b.visited_per_level, b.inconsistent, b.grazing, b.overflow
         );
     }

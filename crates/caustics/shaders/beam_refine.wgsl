@@ -19,11 +19,12 @@
 //     the branch reflected once inside it),
 //     appended to the beam buffer (overflow counted, never written out of bounds) and entered
 //     in its slot of the hierarchy (beam_order lists the slots in order, so the image does not
-//     depend on the order of the atomics). At the last level, a triangle whose transmitted
-//     edges still disagree (a silhouette) is shrunk to the part on its majority's path
-//     (`shrink`: bisection along its sides) and kept as one beam carrying that part's flux,
-//     on every branch; those with no majority are counted (their light is lost). The reflected
-//     branches' flux is a quadrature over the triangle exact for quadratics (`part_weight`).
+//     depend on the order of the atomics). At the last level, a triangle whose edges still
+//     disagree (a silhouette) is split into the parts on its corners' paths (`shrink`:
+//     bisection along its sides), one beam each, on every branch and layer; those none of whose
+//     corners takes a caustic path are counted (their light is lost). The reflected branches'
+//     flux is a quadrature over the triangle exact for quadratics (`part_weight`), over a
+//     silhouette part the midpoint rule of its subdivision (`part_mean`).
 //     Each branch's path gives a beam on each of its layers (`at_layer`): its last segment, and
 //     where its light crossed the medium from one specular object to another (a lens focusing
 //     onto a second lens, a mirror onto glass), that segment too (the second caster layer),
@@ -470,9 +471,12 @@ fn shrink(tri: BeamTri, es: array<Edge, 3>, br: u32, layer: u32, level: u32, slo
             let omega = solid_angle(light_dir(face, ps[k]), light_dir(face, qi.ndc), light_dir(face, qj.ndc));
             var b = make_beam(es[k], qi.e, qj.e, omega, level);
             let w3 = (es[k].weight + qi.e.weight + qj.e.weight) / 3.0;
-            let centre = (ps[k] + qi.ndc + qj.ndc) / 3.0;
-            var wt = part_weight(tri.face, centre, br, layer, es[k], w3, false);
-            if (br > 0u) { wt = tri_weight(tri.face, ps[k], qi.ndc, qj.ndc, br, layer, es[k], w3); }
+            var wt: vec3f;
+            if (br == 0u) {
+                wt = part_weight(tri.face, (ps[k] + qi.ndc + qj.ndc) / 3.0, br, layer, es[k], w3, false);
+            } else {
+                wt = tri_weight(tri.face, ps[k], qi.ndc, qj.ndc, br, layer, es[k], w3);
+            }
             b.flux = vec4f(omega * wt, b.flux.w);
             emit(b, slot, br, layer, part);
             part++;
@@ -617,7 +621,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     // factors change fast across a triangle near the silhouette (where F is largest): the
     // beam's flux is the quadrature exact for quadratics (corners 1/12 each, centroid 3/4; one
     // more edge traced), not the corners' mean. At the last level, triangles whose edges
-    // disagree are shrunk to their majority's part as the transmitted branch's. Each branch
+    // disagree are split into their corners' paths' parts as the transmitted branch's. Each branch
     // gives a beam on each layer its path has (at_layer: its last segment, and the one between
     // its last two specular objects).
     let centroid = (tri.a + tri.b + tri.c) / 3.0;

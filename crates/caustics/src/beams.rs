@@ -300,7 +300,7 @@ fn record_light_beams(
             enc.copy_buffer_to_buffer(&args, at, &indirect, at, 16);
         }
     }
-    let chunks = Chunks::new(bp, &footprint, (kinds(dc.scene), scale));
+    let chunks = Chunks::new(bp, &footprint, (kinds(bp.flags), scale));
     let dispatch = chunks.dispatch_buffer(ctx);
     record_order(ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
     BeamFrame { params, stats, beams, order, capacity: bp.capacity, levels, footprint, chunks, dispatch }
@@ -358,11 +358,12 @@ fn chains(scene: &Scene) -> bool {
     }
 }
 
-/// The beams a slot of `scene`'s hierarchy can hold: [`KINDS`], or without [`chains`] the
-/// parts of the first three branches' last segments alone. Only the number of gather and
-/// surface chunks recorded depends on it (those past the beams kept are empty dispatches).
-fn kinds(scene: &Scene) -> u64 {
-    if chains(scene) { KINDS } else { 3 * u64::from(BEAM_PARTS) }
+/// The beams a slot of the hierarchy can hold under beam flags `flags`: [`KINDS`], or without
+/// [`BEAM_FLAG_CHAINS`] ([`chains`]) the parts of the first three branches' last segments
+/// alone. Only the number of gather and surface chunks recorded depends on it (those past the
+/// beams kept are empty dispatches).
+fn kinds(flags: u32) -> u64 {
+    if flags & BEAM_FLAG_CHAINS != 0 { KINDS } else { 3 * u64::from(BEAM_PARTS) }
 }
 
 /// `beam_surface`: the surface caustic of one light's beams, one dispatch per chunk of the

@@ -203,7 +203,8 @@ pub struct BeamStats {
     pub beams: u32,
     /// Beams that did not fit the beam buffer (`BeamSettings::capacity`): an overflow.
     pub overflow: u32,
-    /// Triangles at the last level whose edges still took different paths (their light is lost).
+    /// Triangles at the last level whose edges still took different paths and none of whose
+    /// corners takes a caustic path (their light is lost; the others are split into parts).
     pub inconsistent: u32,
     /// Beams dropped for a degenerate or grazing base.
     pub grazing: u32,

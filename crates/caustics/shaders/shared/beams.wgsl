@@ -81,8 +81,8 @@ struct BeamTri {
 // w: the hierarchy level), a bounding sphere of the beam (centre, radius), and info.x the
 // object its three edges land on (INVALID: they leave the scene or, on layer 1, end on a
 // specular surface; beam_surface lights only that object's points), info.y its branch (0
-// transmitted, 1 reflected at the first surface, 2 reflected once inside: beam_refine), info.z
-// its layer.
+// transmitted, 1 reflected at the first surface, 2 reflected once inside, 3 and 4 the same at a
+// second dielectric: beam_refine), info.z its layer, info.w its part (`shrink`).
 struct BeamGpu {
     v0: vec4f,
     v1: vec4f,
@@ -96,9 +96,10 @@ struct BeamGpu {
 }
 
 // Statistics words (u32): 0..7 beams kept per level, 8..15 triangles visited per level,
-// 16 beams over the capacity (dropped: an overflow, reported), 17 triangles with inconsistent
-// edges at the last level (their light is lost), 18 beams in the ordered list, 19 beams
-// discarded for grazing bases, 20 beams kept on layer 1 (between two specular objects).
+// 16 beams over the capacity (dropped: an overflow, reported), 17 triangles at the last level
+// whose edges disagree and none of whose corners takes a caustic path (their light is lost),
+// 18 beams in the ordered list, 19 beams discarded for grazing bases, 20 beams kept on layer 1
+// (between two specular objects).
 const BS_KEPT: u32 = 0u;
 const BS_VISITED: u32 = 8u;
 const BS_OVERFLOW: u32 = 16u;
