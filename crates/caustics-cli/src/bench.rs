@@ -87,6 +87,9 @@ pub struct BenchArgs {
     /// Spill faces of spot lights (auto, off, on; see `caustics render --help`).
     #[arg(long, default_value = "auto", value_parser = crate::spill_faces_parser())]
     spill_faces: caustics::render::SpillFaces,
+    /// The volume caustic's beams (scenes with a medium; see `caustics render --help`).
+    #[command(flatten)]
+    beams: crate::BeamArgs,
 }
 
 fn parse_grids(s: &str) -> Result<Vec<u32>> {
@@ -685,6 +688,7 @@ fn settings(a: &BenchArgs, t: Technique, n: u32, splat: caustics::splat::SplatMo
         tracer: a.tracer,
         surface_caustics: a.surface_caustics,
         spill_faces: a.spill_faces,
+        beams: a.beams.settings(),
         ..Default::default()
     }
 }

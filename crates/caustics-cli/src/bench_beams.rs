@@ -1,13 +1,17 @@
 //! The beams' part of `caustics bench` (scenes with a medium, or `--surface-caustics beams`):
-//! per run, the beams kept per refinement level and the GPU milliseconds of each beam pass
-//! (`beam_refine` summed over its levels, `beam_order`, `beam_gather` and `beam_surface` summed
-//! over their chunks; timestamp queries, "-" where the adapter has none or the pass did not run). Its own module so that the photon tables of `bench.rs` stay as they are.
+//! per run, the beams kept per refinement level, the fragments their hulls shaded
+//! (`--beam-volume hulls`) and the GPU milliseconds of each beam pass (`beam_refine` summed over
+//! its levels, `beam_order`, `beam_gather` and `beam_surface` summed over their chunks,
+//! `beam_hull`, `beam_raster` and `beam_resolve`; timestamp queries, "-" where the adapter has
+//! none or the pass did not run). Its own module so that the photon tables of `bench.rs` stay
+//! as they are.
 
 use caustics::output::GpuRender;
 use std::fmt::Write;
 
 /// The beam passes, in the order they run.
-const PASSES: [&str; 4] = ["beam_refine", "beam_order", "beam_gather", "beam_surface"];
+const PASSES: [&str; 7] =
+    ["beam_refine", "beam_order", "beam_gather", "beam_surface", "beam_hull", "beam_raster", "beam_resolve"];
 
 /// GPU ms of a beam pass in a render (all its dispatches), if it was timed.
 fn pass_ms(out: &GpuRender, pass: &str) -> Option<f64> {
@@ -21,24 +25,24 @@ pub fn markdown<'a>(runs: impl Iterator<Item = (String, &'a GpuRender)>) -> Stri
     for (label, out) in runs {
         for (li, (stats, _)) in out.beams.iter().enumerate() {
             if s.is_empty() {
+                let heads: Vec<String> = PASSES.iter().map(|p| format!(" {p} ms |")).collect();
                 let _ = writeln!(
                     s,
-                    "\n## Volume caustics (beams)\n\nBeams kept per refinement level (all branches), beams rendered, and GPU ms per beam pass (timestamp queries; \"-\": not timed or not run).\n\n| run | light | kept per level | beams | {} ms | {} ms | {} ms | {} ms |\n| --- | ---: | --- | ---: | ---: | ---: | ---: | ---: |",
-                    PASSES[0], PASSES[1], PASSES[2], PASSES[3]
+                    "\n## Volume caustics (beams)\n\nBeams kept per refinement level (all branches), beams rendered, fragments their hulls shaded (`--beam-volume hulls`), and GPU ms per beam pass (timestamp queries; \"-\": not timed or not run).\n\n| run | light | kept per level | beams | hull fragments |{}\n| --- | ---: | --- | ---: | ---: |{}",
+                    heads.concat(),
+                    " ---: |".repeat(PASSES.len())
                 );
             }
             let levels: Vec<String> = stats.kept_per_level.iter().map(u32::to_string).collect();
             let ms: Vec<String> =
-                PASSES.iter().map(|p| pass_ms(out, p).map_or("-".into(), |v| format!("{v:.2}"))).collect();
+                PASSES.iter().map(|p| pass_ms(out, p).map_or(" - |".into(), |v| format!(" {v:.2} |"))).collect();
             let _ = writeln!(
                 s,
-                "| {label} | {li} | {} | {} | {} | {} | {} | {} |",
+                "| {label} | {li} | {} | {} | {} |{}",
                 levels.join(" / "),
                 stats.beams,
-                ms[0],
-                ms[1],
-                ms[2],
-                ms[3]
+                stats.hull_fragments,
+                ms.concat()
             );
         }
     }

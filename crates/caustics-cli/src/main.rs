@@ -82,6 +82,16 @@ pub(crate) fn surface_caustics_parser()
     .map(|s| S::parse(&s).expect("a listed source"))
 }
 
+/// `--beam-volume`: how the volume caustic's beams reach the pixels, by name, with its help.
+pub(crate) fn beam_volume_parser() -> impl clap::builder::TypedValueParser<Value = caustics::render::BeamVolume> {
+    use caustics::render::BeamVolume as V;
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(
+        V::ALL.map(|m| clap::builder::PossibleValue::new(m.name()).help(m.describe())),
+    )
+    .map(|s| V::parse(&s).expect("a listed way"))
+}
+
 /// `--spill-faces`: whether spot lights get a spill face, by name.
 pub(crate) fn spill_faces_parser() -> impl clap::builder::TypedValueParser<Value = caustics::render::SpillFaces> {
     use caustics::render::SpillFaces as S;
@@ -354,6 +364,10 @@ pub struct BeamArgs {
     /// allows; 0 chooses (1 on CPU adapters, 16 on GPUs), at most 1024.
     #[arg(long, default_value_t = 0)]
     beam_chunk_scale: u32,
+    /// Beams: how the volume caustic is drawn: the beams' hulls (indirect draws; need float32
+    /// blending), a per-pixel gather over all beams, or auto (hulls where the adapter can).
+    #[arg(long, default_value = "auto", value_parser = beam_volume_parser())]
+    beam_volume: caustics::render::BeamVolume,
 }
 
 impl BeamArgs {
@@ -374,6 +388,7 @@ impl BeamArgs {
             footprint: self.beam_footprint,
             footprint_lines: self.beam_footprint_lines,
             chunk_scale: self.beam_chunk_scale,
+            volume: self.beam_volume,
         }
     }
 }

@@ -6,7 +6,8 @@
 // dispatch sizes of beam_gather's and beam_surface's chunks of the list: the image's workgroups
 // for a chunk that holds beams, none for one past the count (the host records a dispatch per
 // chunk of the most beams the hierarchy can keep, far more than an adaptive hierarchy keeps:
-// on lavapipe each empty dispatch cost some milliseconds).
+// on lavapipe each empty dispatch cost some milliseconds); and the sizes of beam_hull's
+// dispatch and beam_raster's draw (a thread and an instance per listed beam).
 
 #import beams
 
@@ -17,7 +18,9 @@
 // The chunks (beams.rs `Chunks`, in a BeamLevel record): level = beams per gather chunk, offset
 // = gather chunks, next_offset = beams per surface chunk, base_count = surface chunks.
 @group(0) @binding(4) var<uniform> ch: BeamLevel;
-// Per chunk (gather chunks, then surface chunks): workgroups x, y, z.
+// Per chunk (gather chunks, then surface chunks): workgroups x, y, z; then beam_hull's
+// workgroups (x, y, z) and beam_raster's draw (vertices, instances, first vertex, first
+// instance).
 @group(0) @binding(5) var<storage, read_write> dispatch: array<u32>;
 
 var<workgroup> counts: array<u32, 256>;
@@ -42,6 +45,15 @@ fn main(@builtin(local_invocation_index) t: u32) {
         }
         stats[1u + BS_ORDERED] = acc;
         listed = acc;
+        let n = min(acc, bp.capacity);
+        let at = 3u * (ch.offset + ch.base_count);
+        dispatch[at] = (n + 63u) / 64u;
+        dispatch[at + 1u] = 1u;
+        dispatch[at + 2u] = 1u;
+        dispatch[at + 3u] = BEAM_HULL_VERTICES;
+        dispatch[at + 4u] = n;
+        dispatch[at + 5u] = 0u;
+        dispatch[at + 6u] = 0u;
     }
     workgroupBarrier();
     let count = min(listed, bp.capacity);

@@ -10,28 +10,30 @@
 //!    buffer; overflow counted and reported). No CPU round trip between levels.
 //! 2. `beam_order`: the kept beams listed in hierarchy order (so the image is the same bits
 //!    from run to run whatever order the atomics ran in).
-//! 3. `beam_gather`: per pixel, every beam's exact intersection with the camera ray and the
-//!    single-scattering integral along it, added to the image (and to the caustic-only image:
-//!    the volume caustic is caustic light).
+//! 3. The volume caustic, per [`BeamVolume`]: `beam_hull`, `beam_raster` and `beam_resolve`
+//!    (the paper's way: each beam's hull on the image drawn indirectly, a fragment per pixel it
+//!    covers, blended in list order; the default where the adapter blends float32 targets), or
+//!    `beam_gather` (per pixel, a loop over every beam, culled by its bounding sphere). Both add
+//!    the same per-pixel, per-beam integral (`shaders/shared/beam_scatter.wgsl`): the beam's
+//!    exact intersection with the camera ray and the single scattering along it, into the image
+//!    and the caustic-only image (the volume caustic is caustic light). Each is the same bits
+//!    every run; they differ only in the order of the sums.
 //!
-//! The paper rasterizes a bounding hull per beam with additive blending; we gather per pixel in
-//! a compute pass over the ordered list, culled by each beam's bounding sphere. Why: every beam
-//! is met exactly once per pixel by construction (a camera inside a beam included, no hull
-//! faces to choose), the sum is in a fixed order (deterministic bits, which blending does not
-//! give), and the intersection is exact, so no soft clipping is needed. The price is a loop
-//! over all beams per pixel (sphere tests), which a hull rasterizer or a screen-space binning
-//! of the beams would avoid: `docs/benchmarks.md` measures it.
+//! The hull is the silhouette of the beam's convex hull grown by a pixel, drawn as a triangle
+//! fan, so every beam is met exactly once per pixel (a camera inside a beam included, no hull
+//! faces to choose); docs/architecture.md, "Volume caustics from beams", says why it replaces
+//! the paper's six-triangle hull and prism.
 
 use crate::error::{Error, Result};
 use crate::gpu::types::{
-    BEAM_FLAG_CHAINS, BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BEAM_KINDS, BEAM_PARTS, BeamGpu, BeamLevel, BeamParams,
-    BeamTri,
+    BEAM_FLAG_CHAINS, BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BEAM_KINDS, BEAM_PARTS, BeamGpu, BeamHull, BeamLevel,
+    BeamParams, BeamTri,
 };
 use crate::gpu::{GpuContext, PassTimer, bind};
 use crate::image_io::Image;
 use crate::passes::{DrawCtx, EyeFrame, LightFrame, density_view, layer_view, upload_density};
 use crate::scene::{Light, Phase, Scene, Shape};
-use crate::settings::{BeamSettings, RenderSettings};
+use crate::settings::{BeamSettings, BeamVolume, RenderSettings};
 use glam::{Mat4, Vec3};
 
 /// Statistics words of a light's beam stages (`shaders/shared/beams.wgsl`, after the append
@@ -54,6 +56,10 @@ pub(crate) struct BeamFrame {
     /// The chunks of the ordered list and their indirect dispatch sizes (`beam_order`).
     chunks: Chunks,
     dispatch: wgpu::Buffer,
+    /// The image's size (pixels).
+    size: (u32, u32),
+    /// The beams' hull polygons (`beam_hull`), where the hulls are drawn ([`BeamVolume::Hulls`]).
+    hulls: Option<wgpu::Buffer>,
 }
 
 /// The chunks of the ordered list that `beam_gather` and `beam_surface` dispatch over, one
@@ -99,10 +105,15 @@ impl Chunks {
         BeamLevel { level: self.gather, offset: self.gather_n, next_offset: self.surface, base_count: self.surface_n }
     }
 
-    /// The indirect dispatch sizes' buffer (3 words per chunk).
+    /// The indirect arguments' buffer (beam_order writes them): 3 words per chunk, then
+    /// `beam_hull`'s dispatch (3 words) and `beam_raster`'s draw (4 words).
     fn dispatch_buffer(&self, ctx: &GpuContext) -> wgpu::Buffer {
-        let n = u64::from(self.gather_n + self.surface_n);
-        crate::gpu::storage(ctx, "beam_chunk_dispatch", 12 * n.max(1), wgpu::BufferUsages::INDIRECT)
+        crate::gpu::storage(ctx, "beam_chunk_dispatch", self.hull_args() + 28, wgpu::BufferUsages::INDIRECT)
+    }
+
+    /// Byte offset of `beam_hull`'s indirect dispatch size (`beam_raster`'s draw follows it).
+    fn hull_args(&self) -> u64 {
+        12 * u64::from(self.gather_n + self.surface_n)
     }
 }
 
@@ -167,6 +178,7 @@ pub(crate) fn record_beams(
     let ctx = dc.ctx;
     let b = &s.beams;
     let surface = s.beams_surface_active(dc.scene);
+    let hulls = b.volume.on(ctx.device.features()) == BeamVolume::Hulls;
     let mut frames = Vec::new();
     let (rp, rn) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
     for (li, lf) in lights.iter().enumerate() {
@@ -180,7 +192,11 @@ pub(crate) fn record_beams(
         let cam = &dc.scene.camera;
         let rays = (cam.view_to_clip(0.1, 100.0) * cam.world_to_view()).inverse();
         let bp = params(dc.scene, rays, b, s.max_depth, faces, slots);
-        let frame = record_light_beams(ctx, dc, &lf.light_buf, &bp, (footprint(b), chunk_scale(ctx, b)), enc, timer);
+        let mut frame =
+            record_light_beams(ctx, dc, &lf.light_buf, &bp, (footprint(b), chunk_scale(ctx, b)), enc, timer);
+        if hulls {
+            frame.hulls = Some(record_hull_polygons(ctx, &frame, enc, timer));
+        }
         if surface {
             let views = (&wgpu::BindingResource::TextureView(&rp), &wgpu::BindingResource::TextureView(&rn));
             record_surface(ctx, dc, &frame, views, (&eye.radiance, &eye.caustic), enc, timer);
@@ -208,6 +224,11 @@ pub(crate) fn record_gather(
     let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
     let density = density_view(ctx, &dc.geo.density);
     for f in frames {
+        if let Some(hulls) = &f.hulls {
+            let views = (&wgpu::BindingResource::TextureView(&rv), &wgpu::BindingResource::TextureView(&sv));
+            record_volume_hulls(ctx, f, hulls, views, images, &density, enc, timer);
+            continue;
+        }
         record_gather_chunks(
             ctx,
             &f.params,
@@ -303,7 +324,20 @@ fn record_light_beams(
     let chunks = Chunks::new(bp, &footprint, (kinds(bp.flags), scale));
     let dispatch = chunks.dispatch_buffer(ctx);
     record_order(ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
-    BeamFrame { params, stats, beams, order, capacity: bp.capacity, levels, footprint, chunks, dispatch }
+    let size = (bp.width, bp.height);
+    BeamFrame {
+        params,
+        stats,
+        beams,
+        order,
+        capacity: bp.capacity,
+        levels,
+        footprint,
+        chunks,
+        dispatch,
+        size,
+        hulls: None,
+    }
 }
 
 /// `beam_order`: the kept beams listed in hierarchy order.
@@ -366,9 +400,10 @@ fn kinds(flags: u32) -> u64 {
     if flags & BEAM_FLAG_CHAINS != 0 { KINDS } else { 3 * u64::from(BEAM_PARTS) }
 }
 
-/// `beam_surface`: the surface caustic of one light's beams, one dispatch per chunk of the
-/// ordered list (as the gather: a fixed order, and short loops), added into the eye's diffuse
-/// radiance and caustic accumulators.
+/// The surface caustic of one light's beams, added into the eye's diffuse radiance and caustic
+/// accumulators: their hulls drawn (`beam_surface_raster`) where the frame has them, else
+/// `beam_surface`, one dispatch per chunk of the ordered list (as the gather: a fixed order, and
+/// short loops).
 fn record_surface(
     ctx: &GpuContext,
     dc: &DrawCtx,
@@ -378,6 +413,21 @@ fn record_surface(
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
+    if let Some(hulls) = &f.hulls {
+        let density = density_view(ctx, &dc.geo.density);
+        let resources = [
+            f.params.as_entire_binding(),
+            eye_views.0.clone(),
+            eye_views.1.clone(),
+            f.beams.as_entire_binding(),
+            hulls.as_entire_binding(),
+            dc.geo.materials.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&density),
+            f.stats.as_entire_binding(),
+        ];
+        draw_hulls(ctx, f, "beam_surface_raster", &resources, accum, enc, timer);
+        return;
+    }
     let pl = ctx.compute_pipeline("beam_surface");
     let density = density_view(ctx, &dc.geo.density);
     let records = ChunkRecords::new(ctx, "beam_surface_chunks", f.chunks.surface_n, f.chunks.surface);
@@ -408,6 +458,170 @@ fn record_surface(
         cp.set_bind_group(0, &bg, &[]);
         cp.dispatch_workgroups_indirect(&f.dispatch, 12 * u64::from(f.chunks.gather_n + c));
     }
+}
+
+/// `beam_hull`: each ordered beam's hull polygon on the image (an indirect dispatch, a thread
+/// per listed beam), for the hull draws of the surface and volume caustics.
+fn record_hull_polygons(
+    ctx: &GpuContext,
+    f: &BeamFrame,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> wgpu::Buffer {
+    let size = u64::from(f.capacity) * std::mem::size_of::<BeamHull>() as u64;
+    let hulls = crate::gpu::storage(ctx, "beam_hulls", size, wgpu::BufferUsages::empty());
+    let hpl = ctx.compute_pipeline("beam_hull");
+    let hbg = bind(
+        ctx,
+        &hpl,
+        "beam_hull",
+        &[
+            f.params.as_entire_binding(),
+            f.beams.as_entire_binding(),
+            f.order.as_entire_binding(),
+            f.stats.as_entire_binding(),
+            hulls.as_entire_binding(),
+        ],
+    );
+    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("beam_hull"),
+        timestamp_writes: timer.compute("beam_hull"),
+    });
+    cp.set_pipeline(&hpl);
+    cp.set_bind_group(0, &hbg, &[]);
+    cp.dispatch_workgroups_indirect(&f.dispatch, f.chunks.hull_args());
+    hulls
+}
+
+/// The hulls of one light's beams drawn by render stage `stage` (`beam_raster`: the volume
+/// caustic; `beam_surface_raster`: the surface caustic) with group 0 `resources`, indirectly
+/// (instance k the list's k-th beam; `beam_order` wrote the count), blended into a float image in
+/// list order, then `beam_resolve`: that image added to both `images`.
+fn draw_hulls(
+    ctx: &GpuContext,
+    f: &BeamFrame,
+    stage: &str,
+    resources: &[wgpu::BindingResource],
+    images: (&wgpu::Buffer, &wgpu::Buffer),
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let (w, h) = f.size;
+    let extent = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+    let target = ctx.texture(stage, extent, HULL_FORMAT, usage);
+    let target_view = ctx.view(&target, None, 0, None);
+    let rpl = raster_pipeline(ctx, stage);
+    let entries: Vec<wgpu::BindGroupEntry> = resources
+        .iter()
+        .enumerate()
+        .map(|(i, r)| wgpu::BindGroupEntry { binding: i as u32, resource: r.clone() })
+        .collect();
+    let rbg = ctx.bind_group(stage, crate::gpu::pool::LayoutOf::Render(rpl.clone()), &entries);
+    {
+        let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(stage),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &target_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: timer.render(stage),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        rp.set_pipeline(&rpl);
+        rp.set_bind_group(0, &rbg, &[]);
+        rp.draw_indirect(&f.dispatch, f.chunks.hull_args() + 12);
+    }
+    let apl = ctx.compute_pipeline("beam_resolve");
+    let abg = bind(
+        ctx,
+        &apl,
+        "beam_resolve",
+        &[wgpu::BindingResource::TextureView(&target_view), images.0.as_entire_binding(), images.1.as_entire_binding()],
+    );
+    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("beam_resolve"),
+        timestamp_writes: timer.compute("beam_resolve"),
+    });
+    cp.set_pipeline(&apl);
+    cp.set_bind_group(0, &abg, &[]);
+    cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+}
+
+/// The volume caustic of one light's beams drawn as their hulls (`beam_raster`), added to both
+/// frame images.
+#[expect(clippy::too_many_arguments, reason = "the volume draw's resources")]
+fn record_volume_hulls(
+    ctx: &GpuContext,
+    f: &BeamFrame,
+    hulls: &wgpu::Buffer,
+    eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
+    images: (&wgpu::Buffer, &wgpu::Buffer),
+    density: &wgpu::TextureView,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let foot = ctx.constants("beam_footprint", bytemuck::cast_slice(&f.footprint));
+    let resources = [
+        f.params.as_entire_binding(),
+        eye_views.0.clone(),
+        eye_views.1.clone(),
+        f.beams.as_entire_binding(),
+        hulls.as_entire_binding(),
+        foot.as_entire_binding(),
+        wgpu::BindingResource::TextureView(density),
+        f.stats.as_entire_binding(),
+    ];
+    draw_hulls(ctx, f, "beam_raster", &resources, images, enc, timer);
+}
+
+/// The hull draws' image: float32, so that the blend adds as the gather's sums do.
+const HULL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+
+/// A hull draw's pipeline (render stage `stage`): no vertex buffers (the vertex shader reads the
+/// hulls), no depth (the fragment clips at the pixel's first surface itself), additive blending.
+fn raster_pipeline(ctx: &GpuContext, stage: &str) -> wgpu::RenderPipeline {
+    ctx.render_pipeline(stage, || {
+        let module = ctx.shader(stage);
+        let layout = ctx.render_stage_layout(stage);
+        let add = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        ctx.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(stage),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: HULL_FORMAT,
+                    blend: Some(wgpu::BlendState { color: add, alpha: add }),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    })
 }
 
 #[expect(clippy::too_many_arguments, reason = "the gathering stage's resources")]
@@ -543,6 +757,7 @@ pub(crate) fn read_frame(ctx: &GpuContext, f: &BeamFrame) -> Result<(BeamStats, 
         inconsistent: w(17),
         grazing: w(19),
         between_casters: w(20),
+        hull_fragments: w(21),
     };
     let count = stats.beams as u64;
     if count == 0 {
@@ -556,11 +771,14 @@ pub(crate) fn read_frame(ctx: &GpuContext, f: &BeamFrame) -> Result<(BeamStats, 
 }
 
 /// The radiance `beams` scatter toward `scene`'s camera in its medium, alone (no surfaces: the
-/// camera rays end at the medium's box): `beam_gather` over the given beams, for tests and
-/// tools. Blocking.
+/// camera rays end at the medium's box): the given beams gathered per pixel or drawn as hulls
+/// (`BeamSettings::volume`), for tests and tools. Blocking.
 pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings) -> Result<Image> {
     let field = |f: &'static str, m: String| Error::input("<beams>", f, m);
     b.validate().map_err(|(f, m)| field(f, m))?;
+    if b.volume == BeamVolume::Hulls && !ctx.device.features().contains(wgpu::Features::FLOAT32_BLENDABLE) {
+        return Err(field("volume", format!("hulls need float32 blending, which {} does not offer", ctx.info.name)));
+    }
     if scene.medium.is_none() {
         return Err(field("medium", "the scene has no medium".into()));
     }
@@ -618,19 +836,38 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     let chunks = Chunks::new(&bp, &foot, (1, chunk_scale(&ctx, b)));
     let dispatch = chunks.dispatch_buffer(&ctx);
     record_order(&ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), &mut enc, &mut timer);
-    record_gather_chunks(
-        &ctx,
-        &params,
-        &beam_buf,
-        &order,
-        &stats,
-        (&tv, &tv),
-        (&full, &caustic),
-        (&chunks, &dispatch, foot),
-        &density_view(&ctx, &density),
-        &mut enc,
-        &mut timer,
-    );
+    let dv = density_view(&ctx, &density);
+    if b.volume.on(ctx.device.features()) == BeamVolume::Hulls {
+        let f = BeamFrame {
+            params,
+            stats,
+            beams: beam_buf,
+            order,
+            capacity: bp.capacity,
+            levels: 0,
+            footprint: foot,
+            chunks,
+            dispatch,
+            size: (w, h),
+            hulls: None,
+        };
+        let hulls = record_hull_polygons(&ctx, &f, &mut enc, &mut timer);
+        record_volume_hulls(&ctx, &f, &hulls, (&tv, &tv), (&full, &caustic), &dv, &mut enc, &mut timer);
+    } else {
+        record_gather_chunks(
+            &ctx,
+            &params,
+            &beam_buf,
+            &order,
+            &stats,
+            (&tv, &tv),
+            (&full, &caustic),
+            (&chunks, &dispatch, foot),
+            &dv,
+            &mut enc,
+            &mut timer,
+        );
+    }
     ctx.end_scope();
     ctx.queue.submit([enc.finish()]);
     let data = ctx.read_buffer(&full, img_bytes)?;

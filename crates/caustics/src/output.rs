@@ -211,4 +211,7 @@ pub struct BeamStats {
     /// Beams kept on layer 1 (light crossing the medium from one specular object to another),
     /// included in `kept_per_level`.
     pub between_casters: u32,
+    /// Fragments the beams' hulls shaded (`BeamVolume::Hulls`: one per pixel a hull covers; 0
+    /// with the gather).
+    pub hull_fragments: u32,
 }

@@ -667,6 +667,14 @@ impl RenderSettings {
         if let Err((field, msg)) = self.beams.validate() {
             return cl(field, msg);
         }
+        if self.beams.volume == crate::settings::BeamVolume::Hulls
+            && !ctx.device.features().contains(wgpu::Features::FLOAT32_BLENDABLE)
+        {
+            return cl(
+                "beams.volume",
+                format!("hulls need float32 blending, which {} does not offer (use gather)", ctx.info.name),
+            );
+        }
         if !(self.splat_sigma > 0.1 && self.splat_sigma <= 16.0) {
             return cl("splat_sigma", format!("must lie in (0.1, 16] texels (got {})", self.splat_sigma));
         }

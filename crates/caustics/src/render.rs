@@ -7,7 +7,9 @@ use crate::scene::Scene;
 
 pub use crate::output::{FluxStats, GpuRender};
 pub use crate::passes::{DumpImage, DumpKind};
-pub use crate::settings::{Inspect, RenderSettings, SpillFaces, SplatMode, SurfaceCaustics, Technique, Tracer};
+pub use crate::settings::{
+    BeamVolume, Inspect, RenderSettings, SpillFaces, SplatMode, SurfaceCaustics, Technique, Tracer,
+};
 pub use crate::techniques::{LevelStats, TechniqueStats};
 
 /// Render `scene` once on the GPU: a [`crate::renderer::Renderer`] made for one frame, with

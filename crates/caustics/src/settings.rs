@@ -456,6 +456,64 @@ impl RenderSettings {
     }
 }
 
+/// How the volume caustic's beams reach the pixels ([`BeamSettings::volume`]). Both add the same
+/// light per pixel and beam (`shaders/shared/beam_scatter.wgsl`); only the order of the sums
+/// differs, and each is the same bits from run to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum BeamVolume {
+    /// Hulls where the device blends float32 targets, else the gather.
+    #[default]
+    Auto,
+    /// Per pixel, a loop over every beam, culled by its bounding sphere (`beam_gather`): the
+    /// work grows with pixels times beams.
+    Gather,
+    /// The paper's way: each beam's hull drawn indirectly (`beam_hull`, `beam_raster`), so a
+    /// beam costs only the pixels its hull covers. Needs float32 blending
+    /// (`wgpu::Features::FLOAT32_BLENDABLE`).
+    Hulls,
+}
+
+impl BeamVolume {
+    pub const ALL: [BeamVolume; 3] = [BeamVolume::Auto, BeamVolume::Gather, BeamVolume::Hulls];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            BeamVolume::Auto => "auto",
+            BeamVolume::Gather => "gather",
+            BeamVolume::Hulls => "hulls",
+        }
+    }
+
+    /// One line on what it does (the command line's help).
+    pub fn describe(self) -> &'static str {
+        match self {
+            BeamVolume::Auto => "Hulls where the adapter blends float32 targets, else the gather (the default)",
+            BeamVolume::Gather => "Per pixel, a loop over every beam",
+            BeamVolume::Hulls => "Each beam's hull drawn indirectly: work only where a beam can reach",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<BeamVolume> {
+        BeamVolume::ALL.into_iter().find(|m| m.name() == s.trim())
+    }
+
+    /// The way used on a device with `features`: [`BeamVolume::Auto`] resolved.
+    pub fn on(self, features: wgpu::Features) -> BeamVolume {
+        match self {
+            BeamVolume::Auto if features.contains(wgpu::Features::FLOAT32_BLENDABLE) => BeamVolume::Hulls,
+            BeamVolume::Auto => BeamVolume::Gather,
+            v => v,
+        }
+    }
+}
+
+impl std::fmt::Display for BeamVolume {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// Volume caustics by adaptive beam tracing (Liktor & Dachsbacher 2011; `crate::beams`,
 /// docs/architecture.md "Volume caustics from beams"). Used in scenes with a participating
 /// medium and a specular caster, for every spot and point light.
@@ -507,6 +565,8 @@ pub struct BeamSettings {
     /// all): 0 (default) chooses, 1 on CPU adapters and 16 on GPUs; at most 1024. Larger chunks
     /// mean fewer dispatches and barriers; the image changes only in the order of its sums.
     pub chunk_scale: u32,
+    /// How the volume caustic is drawn: a per-pixel gather or the beams' hulls.
+    pub volume: BeamVolume,
 }
 
 impl Default for BeamSettings {
@@ -527,6 +587,7 @@ impl Default for BeamSettings {
             footprint: 2.0,
             footprint_lines: 2,
             chunk_scale: 0,
+            volume: BeamVolume::Auto,
         }
     }
 }

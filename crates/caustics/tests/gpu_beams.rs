@@ -853,15 +853,17 @@ fn beams_are_deterministic_create_nothing_after_the_first_frame_and_bad_settings
 }
 
 /// Larger chunks (`BeamSettings::chunk_scale`, 16 by default on GPUs) change only the order of
-/// the sums: the volume caustic and the surface caustic from beams of chunks twice lavapipe's
-/// size (half the dispatches) match those of its size to float rounding.
+/// the sums: the volume caustic (gathered, `BeamVolume::Gather`) and the surface caustic from
+/// beams of chunks twice lavapipe's size (half the dispatches) match those of its size to float
+/// rounding.
 #[test]
 fn larger_chunks_change_only_the_order_of_the_sums() {
     let Some(ctx) = gpu() else { return };
     // The volume caustic in fog, and the surface caustic from beams on a lit floor.
     let (fog, floor) = (ball_in_fog(14.0, 24, 20), ball_at_45(24, 20, true));
     let run = |sc: &Scene, scale: u32| {
-        let b = BeamSettings { levels: 2, chunk_scale: scale, ..Default::default() };
+        let volume = caustics::render::BeamVolume::Gather;
+        let b = BeamSettings { levels: 2, chunk_scale: scale, volume, ..Default::default() };
         let s = RenderSettings { beams: b, ..surface_settings(caustics::settings::SurfaceCaustics::Beams) };
         let g = render(&ctx, sc, &s).unwrap();
         assert!(g.beams[0].0.beams > 1000, "{} beams: too few to fill several chunks", g.beams[0].0.beams);
@@ -881,6 +883,112 @@ fn larger_chunks_change_only_the_order_of_the_sums() {
         let worst = a.pixels.iter().zip(&b.pixels).map(|(p, q)| (p[0] - q[0]).abs()).fold(0.0f32, f32::max);
         assert!(worst <= 1e-5 * peak, "a pixel differs by {worst} (peak {peak})");
     }
+}
+
+/// The beams' hulls (`BeamVolume::Hulls`: beam_hull, beam_raster) add, per pixel and beam, what
+/// the gather adds: the same images to the rounding of the sums' order, from the side (the
+/// footprint integral of thin beams, several rays per pixel), with the camera inside the cone
+/// under the ball (beams reaching behind the camera: their hull is the whole image), and close
+/// up (beams crossing the image's edges). A hull missing a pixel a beam reaches, or covering one twice, would
+/// differ by that beam's light there. The surface caustic from beams likewise (beam_surface
+/// against beam_surface_raster). The same bits from run to run, and nothing created after a
+/// renderer's first frame.
+#[test]
+fn hulls_draw_what_the_gather_adds() {
+    use caustics::render::BeamVolume;
+    use caustics::renderer::{FrameRequest, Renderer};
+    let Some(ctx) = gpu() else { return };
+    if !ctx.device.features().contains(wgpu::Features::FLOAT32_BLENDABLE) {
+        let e = render(
+            &ctx,
+            &ball_in_fog(14.0, 8, 6),
+            &render_settings(BeamSettings { volume: BeamVolume::Hulls, ..Default::default() }),
+        );
+        assert!(e.is_err_and(|e| e.to_string().contains("beams.volume")));
+        eprintln!("hulls not checked: {} has no float32 blending", ctx.info.name);
+        return;
+    }
+    // (small: the gather's cost is pixels times beams, and lavapipe is slow)
+    let side = ball_in_fog(14.0, 32, 24);
+    // Inside the cone below the focus (y 0.75), looking across it and down at the floor.
+    let mut inside = side.clone();
+    inside.camera.position = Vec3::new(0.0, 0.5, 0.0);
+    inside.camera.look_at = Vec3::new(1.0, 0.2, 0.3);
+    // Close up: the cone fills and leaves the image.
+    let mut close = side.clone();
+    close.camera.position = Vec3::new(0.0, 0.7, 0.8);
+    close.camera.look_at = Vec3::new(0.0, 0.6, 0.0);
+    for (name, sc, b) in [
+        ("side, 2x2 rays", &side, BeamSettings { levels: 2, pixel_samples: 2, ..Default::default() }),
+        ("inside the cone", &inside, BeamSettings { levels: 1, ..Default::default() }),
+        ("close up", &close, BeamSettings { levels: 1, ..Default::default() }),
+    ] {
+        let gather = render(&ctx, sc, &render_settings(BeamSettings { volume: BeamVolume::Gather, ..b })).unwrap();
+        let hs = render_settings(BeamSettings { volume: BeamVolume::Hulls, ..b });
+        let hulls = render(&ctx, sc, &hs).unwrap();
+        let (a, h) = (&gather.caustic, &hulls.caustic);
+        let (sa, sh) = (sum(a), sum(h));
+        let peak = a.pixels.iter().map(|p| p[0]).fold(0.0f32, f32::max);
+        let worst = a.pixels.iter().zip(&h.pixels).map(|(p, q)| (p[0] - q[0]).abs()).fold(0.0f32, f32::max);
+        let lit = a.pixels.iter().filter(|p| p[0] > 1e-3 * peak).count();
+        println!(
+            "{name}: {} beams, gather {sa:.6e}, hulls {sh:.6e} ({:+.2e}), worst pixel {:.2e} of the peak, {lit} lit pixels",
+            gather.beams[0].0.beams,
+            sh / sa - 1.0,
+            worst / peak
+        );
+        assert!(sa > 0.0 && lit > 300, "{name}: too little volume caustic to compare");
+        assert!((sh / sa - 1.0).abs() < 1e-5, "{name}: sums {sa} (gather) and {sh} (hulls)");
+        assert!(worst <= 1e-5 * peak, "{name}: a pixel differs by {worst} (peak {peak})");
+        // The full image too (the volume caustic is added to both).
+        let full = gather.image.pixels.iter().zip(&hulls.image.pixels).map(|(p, q)| (p[0] - q[0]).abs());
+        assert!(full.fold(0.0f32, f32::max) <= 1e-5 * peak, "{name}: the full images differ");
+        let again = render(&ctx, sc, &hs).unwrap();
+        assert_eq!(again.image.pixels, hulls.image.pixels, "{name}: hulls are not the same bits twice");
+    }
+    // The surface caustic from beams (beam_surface against beam_surface_raster), on a floor
+    // under a tilted spot, with a table the beams stop at, and in the fog.
+    let surf =
+        |b: BeamSettings| RenderSettings { beams: b, ..surface_settings(caustics::settings::SurfaceCaustics::Beams) };
+    let mut fog = side.clone();
+    fog.camera.position = Vec3::new(0.0, 2.5, 2.2);
+    fog.camera.look_at = Vec3::new(0.0, 0.0, 0.0);
+    let floor = ball_at_45(32, 24, true);
+    let mut white = floor.clone();
+    white.medium = fog.medium.clone();
+    for (name, sc) in [("floor and table", &floor), ("floor in fog", &white), ("fog from above", &fog)] {
+        let b = BeamSettings { levels: 1, ..Default::default() };
+        let gather = render(&ctx, sc, &surf(BeamSettings { volume: BeamVolume::Gather, ..b })).unwrap();
+        let hulls = render(&ctx, sc, &surf(BeamSettings { volume: BeamVolume::Hulls, ..b })).unwrap();
+        let (a, h) = (&gather.caustic, &hulls.caustic);
+        let (sa, sh) = (sum(a), sum(h));
+        let peak = a.pixels.iter().map(|p| p[0]).fold(0.0f32, f32::max);
+        let worst = a.pixels.iter().zip(&h.pixels).map(|(p, q)| (p[0] - q[0]).abs()).fold(0.0f32, f32::max);
+        println!(
+            "surface, {name}: {} beams, gather {sa:.6e}, hulls {sh:.6e} ({:+.2e}), worst pixel {:.2e} of the peak, {} hull fragments",
+            gather.beams[0].0.beams,
+            sh / sa - 1.0,
+            worst / peak,
+            hulls.beams[0].0.hull_fragments
+        );
+        assert!(sa > 0.0 && hulls.beams[0].0.hull_fragments > 0 && gather.beams[0].0.hull_fragments == 0);
+        assert!((sh / sa - 1.0).abs() < 1e-5, "surface, {name}: sums {sa} (gather) and {sh} (hulls)");
+        assert!(worst <= 1e-5 * peak, "surface, {name}: a pixel differs by {worst} (peak {peak})");
+    }
+    // The renderer's steady state with hulls: nothing created after the first frame.
+    let hs = render_settings(BeamSettings { levels: 2, volume: BeamVolume::Hulls, ..Default::default() });
+    let mut r = Renderer::with_context(ctx.clone(), side.clone(), hs).unwrap();
+    let mut frame = || {
+        let before = r.created();
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        r.encode(&mut enc, FrameRequest { stats: false }).unwrap();
+        let created = (r.created() - before).total();
+        ctx.queue.submit([enc.finish()]);
+        r.invalidate();
+        created
+    };
+    assert!(frame() > 0);
+    assert_eq!(frame(), 0);
 }
 
 /// This process's resident memory in MB (Linux only).
@@ -1543,7 +1651,7 @@ fn beam_budgets() {
         .collect();
     let mut images = Vec::new();
     println!(
-        "| grid | beams | HDR-FLIP vs line | energy vs line | HDR-FLIP vs reference | energy vs reference | ms (each run) | GPU ms refine / gather (last run) |"
+        "| grid | beams | HDR-FLIP vs line | energy vs line | HDR-FLIP vs reference | energy vs reference | ms (each run) | GPU ms refine / volume (last run) |"
     );
     println!("| --- | ---: | ---: | ---: | ---: | ---: | --- | --- |");
     for (name, b) in configs {
@@ -1558,8 +1666,9 @@ fn beam_budgets() {
         let g = out.unwrap();
         let eg = energy(&g.caustic, Some(&mask));
         // GPU ms of the beam passes (timestamp queries, all dispatches; "-" without them).
-        let pass = |p: &str| {
-            let v: Vec<f64> = g.timings.iter().filter(|(n, _)| n == p).map(|(_, ms)| *ms).collect();
+        // (the volume caustic: the gather, or the hulls' three passes)
+        let pass = |ps: &[&str]| {
+            let v: Vec<f64> = g.timings.iter().filter(|(n, _)| ps.contains(&n.as_str())).map(|(_, ms)| *ms).collect();
             if v.is_empty() { "-".to_string() } else { format!("{:.0}", v.iter().sum::<f64>()) }
         };
         println!(
@@ -1570,8 +1679,8 @@ fn beam_budgets() {
             hdr_flip(&g.caustic, &r.caustic, Some(&mask)).unwrap().mean,
             (eg / er - 1.0) * 100.0,
             ms.join(", "),
-            pass("beam_refine"),
-            pass("beam_gather")
+            pass(&["beam_refine"]),
+            pass(&["beam_gather", "beam_hull", "beam_raster", "beam_resolve"])
         );
         images.push(g.caustic);
     }

@@ -55,6 +55,18 @@ const BEAM_PARTS: u32 = 3u;
 // BEAM_PARTS + part).
 const BEAM_KINDS: u32 = 30u;
 
+// A beam's hull on the image (beam_hull, drawn by beam_raster): info.x its vertices (a convex
+// polygon, 4 to BEAM_HULL_MAX), info.y the beam's index in the beam buffer; p the vertices in
+// pixels (two per vec4: p[i / 2].xy, .zw).
+struct BeamHull {
+    info: vec4u,
+    p: array<vec4f, 6>,
+}
+const BEAM_HULL_MAX: u32 = 12u;
+// Vertices per instance of beam_raster's draw: a fan of BEAM_HULL_MAX - 2 triangles (those past
+// a hull's vertex count are degenerate and draw nothing).
+const BEAM_HULL_VERTICES: u32 = 3u * (BEAM_HULL_MAX - 2u);
+
 // One refinement level's dispatch.
 struct BeamLevel {
     level: u32,
@@ -99,7 +111,7 @@ struct BeamGpu {
 // 16 beams over the capacity (dropped: an overflow, reported), 17 triangles at the last level
 // whose edges disagree and none of whose corners takes a caustic path (their light is lost),
 // 18 beams in the ordered list, 19 beams discarded for grazing bases, 20 beams kept on layer 1
-// (between two specular objects).
+// (between two specular objects), 21 fragments beam_raster shaded.
 const BS_KEPT: u32 = 0u;
 const BS_VISITED: u32 = 8u;
 const BS_OVERFLOW: u32 = 16u;
@@ -107,6 +119,7 @@ const BS_INCONSISTENT: u32 = 17u;
 const BS_ORDERED: u32 = 18u;
 const BS_GRAZING: u32 = 19u;
 const BS_LAYER1: u32 = 20u;
+const BS_FRAGMENTS: u32 = 21u;
 const BS_WORDS: u32 = 32u;
 
 fn bm_phase(cos_t: f32, g: f32) -> f32 {

@@ -43,6 +43,10 @@ pub const STAGES: &[(&str, &str)] = &[
     ("beam_order", include_str!("../../shaders/beam_order.wgsl")),
     ("beam_gather", include_str!("../../shaders/beam_gather.wgsl")),
     ("beam_surface", include_str!("../../shaders/beam_surface.wgsl")),
+    ("beam_hull", include_str!("../../shaders/beam_hull.wgsl")),
+    ("beam_raster", include_str!("../../shaders/beam_raster.wgsl")),
+    ("beam_surface_raster", include_str!("../../shaders/beam_surface_raster.wgsl")),
+    ("beam_resolve", include_str!("../../shaders/beam_resolve.wgsl")),
 ];
 pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 
@@ -60,6 +64,9 @@ pub const SHARED: &[(&str, &str)] = &[
     ("medium", include_str!("../../shaders/shared/medium.wgsl")),
     ("beams", include_str!("../../shaders/shared/beams.wgsl")),
     ("beam_medium", include_str!("../../shaders/shared/beam_medium.wgsl")),
+    ("beam_scatter", include_str!("../../shaders/shared/beam_scatter.wgsl")),
+    ("beam_receive", include_str!("../../shaders/shared/beam_receive.wgsl")),
+    ("beam_fan", include_str!("../../shaders/shared/beam_fan.wgsl")),
     ("sphere_table", include_str!("../../shaders/shared/sphere_table.wgsl")),
 ];
 
@@ -101,22 +108,41 @@ pub fn validate_stage(name: &str) -> Result<naga::Module> {
 /// the WGSL (naga reflection). Float textures are non-filterable (the stages read them with
 /// `textureLoad`; a stage with a filtering sampler is refused).
 pub fn stage_bindings(name: &str) -> Result<Vec<wgpu::BindGroupLayoutEntry>> {
+    entry_bindings(name, &[("main", wgpu::ShaderStages::COMPUTE)])
+}
+
+/// Group 0 of render stage `name` (entry points `vs_main` and `fs_main`) as layout entries,
+/// every binding either uses, visible to those that use it (as [`stage_bindings`] for compute
+/// stages).
+pub fn render_stage_bindings(name: &str) -> Result<Vec<wgpu::BindGroupLayoutEntry>> {
+    entry_bindings(name, &[("vs_main", wgpu::ShaderStages::VERTEX), ("fs_main", wgpu::ShaderStages::FRAGMENT)])
+}
+
+/// Group 0 of stage `name` as its entry points (name, stage) use it.
+fn entry_bindings(name: &str, entries_of: &[(&str, wgpu::ShaderStages)]) -> Result<Vec<wgpu::BindGroupLayoutEntry>> {
     let src = stage_source(name);
     let module = naga::front::wgsl::parse_str(&src)
         .map_err(|e| Error::Shader { name: name.into(), message: e.emit_to_string(&src) })?;
     let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
         .validate(&module)
         .map_err(|e| Error::Shader { name: name.into(), message: format!("{e:?}") })?;
-    let ep = module
-        .entry_points
-        .iter()
-        .position(|e| e.name == "main")
-        .ok_or_else(|| Error::Shader { name: name.into(), message: "no entry point main".into() })?;
-    let uses = info.get_entry_point(ep);
+    let mut uses = Vec::new();
+    for (entry, stage) in entries_of {
+        let ep = module
+            .entry_points
+            .iter()
+            .position(|e| e.name == *entry)
+            .ok_or_else(|| Error::Shader { name: name.into(), message: format!("no entry point {entry}") })?;
+        uses.push((info.get_entry_point(ep), *stage));
+    }
     let mut entries = Vec::new();
     for (handle, var) in module.global_variables.iter() {
         let Some(binding) = &var.binding else { continue };
-        if uses[handle].is_empty() {
+        let visibility = uses
+            .iter()
+            .filter(|(u, _)| !u[handle].is_empty())
+            .fold(wgpu::ShaderStages::NONE, |v, (_, stage)| v | *stage);
+        if visibility.is_empty() {
             continue;
         }
         let bad = |m: &str| Error::Shader { name: name.into(), message: format!("binding {}: {m}", binding.binding) };
@@ -175,12 +201,7 @@ pub fn stage_bindings(name: &str) -> Result<Vec<wgpu::BindGroupLayoutEntry>> {
             }
             _ => return Err(bad("unsupported binding")),
         };
-        entries.push(wgpu::BindGroupLayoutEntry {
-            binding: binding.binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty,
-            count: None,
-        });
+        entries.push(wgpu::BindGroupLayoutEntry { binding: binding.binding, visibility, ty, count: None });
     }
     entries.sort_by_key(|e| e.binding);
     Ok(entries)
@@ -294,8 +315,12 @@ impl GpuContext {
     /// these when creating the device an engine shares with [`crate::renderer::Renderer`].
     pub fn device_requirements(adapter: &wgpu::Adapter) -> (wgpu::Features, wgpu::Limits) {
         let mut required = wgpu::Features::empty();
-        if adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
-            required |= wgpu::Features::TIMESTAMP_QUERY;
+        // Optional features, used where the adapter has them: pass timings, and float32 blending
+        // (the beams' hulls, `BeamVolume::Hulls`).
+        for f in [wgpu::Features::TIMESTAMP_QUERY, wgpu::Features::FLOAT32_BLENDABLE] {
+            if adapter.features().contains(f) {
+                required |= f;
+            }
         }
         let al = adapter.limits();
         let limits = wgpu::Limits {
@@ -383,7 +408,15 @@ impl GpuContext {
     /// bindings its entry point uses, as wgpu's derived layouts have them), with the bind group
     /// layout shared by every stage whose group 0 is the same.
     pub fn stage_layout(&self, name: &str) -> wgpu::PipelineLayout {
-        let entries = stage_bindings(name).unwrap_or_else(|e| panic!("{e}"));
+        self.layout_of(name, stage_bindings(name).unwrap_or_else(|e| panic!("{e}")))
+    }
+
+    /// The pipeline layout of render stage `name` ([`render_stage_bindings`]).
+    pub fn render_stage_layout(&self, name: &str) -> wgpu::PipelineLayout {
+        self.layout_of(name, render_stage_bindings(name).unwrap_or_else(|e| panic!("{e}")))
+    }
+
+    fn layout_of(&self, name: &str, entries: Vec<wgpu::BindGroupLayoutEntry>) -> wgpu::PipelineLayout {
         let bgl = self
             .layouts
             .lock()

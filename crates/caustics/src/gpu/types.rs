@@ -298,6 +298,18 @@ pub struct BeamGpu {
     pub info: [u32; 4],
 }
 
+/// A beam's hull on the image (WGSL `BeamHull`, beam_hull.wgsl): `info[0]` its vertices,
+/// `info[1]` the beam's index; the vertices in pixels, two per row.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct BeamHull {
+    pub info: [u32; 4],
+    pub p: [[f32; 4]; 6],
+}
+
+/// Most vertices of a beam's hull polygon (`BeamHull`).
+pub const BEAM_HULL_MAX: u32 = 12;
+
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct CompositeParams {
@@ -550,6 +562,7 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("BEAM_LAYERS", BEAM_LAYERS),
     ("BEAM_PARTS", BEAM_PARTS),
     ("BEAM_KINDS", BEAM_KINDS),
+    ("BEAM_HULL_MAX", BEAM_HULL_MAX),
 ];
 
 /// Parameters of `caustic_triangles` (mirrors the WGSL `TriParams`).
@@ -614,6 +627,7 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("BeamLevel", "BeamLevel", std::mem::size_of::<BeamLevel>()),
     ("BeamTri", "BeamTri", std::mem::size_of::<BeamTri>()),
     ("BeamGpu", "BeamGpu", std::mem::size_of::<BeamGpu>()),
+    ("BeamHull", "BeamHull", std::mem::size_of::<BeamHull>()),
     ("TriParams", "TriParams", std::mem::size_of::<TriParams>()),
     ("BlendParams", "BlendParams", std::mem::size_of::<BlendParams>()),
     ("ObjectTransform", "ObjectTransform", std::mem::size_of::<ObjectTransform>()),

@@ -1,0 +1,41 @@
+// Stage: beam_surface_raster. The surface caustic from beams drawn as the beams' hulls (Liktor &
+// Dachsbacher 2011, section 5.3: the same fragment shader tests the camera's surface point in
+// the beam), as beam_raster draws the volume caustic: one instance per listed beam, a fan over
+// its hull (shared/beam_fan.wgsl). Each fragment adds what beam_surface adds for that pixel and
+// beam (shared/beam_receive.wgsl, `surface_beam`), as radiance, by the blend into a float image
+// in list order (beam_resolve adds it to the eye's radiance and caustic accumulators before the
+// composite). The hull holds every point the beam can light (beam_hull grows it to the heights
+// `beam_irradiance` accepts), grown by the pixel's square, which holds the footprint's points.
+
+#import beams
+#import medium
+#import beam_medium
+#import beam_receive
+#import beam_fan
+
+@group(0) @binding(0) var<storage, read> bp: BeamParams;
+@group(0) @binding(1) var recv_pos: texture_2d<f32>;
+@group(0) @binding(2) var recv_nrm: texture_2d<f32>;
+@group(0) @binding(3) var<storage, read> beams: array<BeamGpu>;
+@group(0) @binding(4) var<storage, read> hulls: array<BeamHull>;
+@group(0) @binding(5) var<storage, read> materials: array<MaterialGpu>;
+@group(0) @binding(6) var density_grid: texture_3d<f32>;
+// The beam statistics: the fragments shaded are counted (as beam_raster's).
+@group(0) @binding(7) var<storage, read_write> stats: array<atomic<u32>>;
+
+@vertex
+fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) k: u32) -> HullVertex {
+    return hull_vertex(vi, k);
+}
+
+@fragment
+fn fs_main(in: HullVertex) -> @location(0) vec4f {
+    let px = vec2u(in.pos.xy);
+    atomicAdd(&stats[1u + BS_FRAGMENTS], 1u);
+    var sp = surface_pixel(px);
+    if (!sp.lit) { return vec4f(0.0); }
+    var acc = vec3f(0.0);
+    var splat = vec3f(0.0);
+    surface_beam(in.beam, px, &sp, &acc, &splat);
+    return vec4f(surface_radiance(&sp, acc, splat), 0.0);
+}

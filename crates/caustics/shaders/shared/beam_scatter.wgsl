@@ -1,0 +1,484 @@
+// Shared WGSL (`#import beam_scatter`, after `#import beams`, `#import medium` and
+// `#import beam_medium`): the single scattering of one beam's light toward the camera in one
+// pixel (Liktor & Dachsbacher 2011, section 5, equations 2-5, after Ernst et al. 2005), for
+// beam_gather (a pixel's loop over the ordered beams) and beam_raster (a fragment of the beam's
+// hull). A stage importing it declares `bp` (BeamParams), `recv_pos` and `spec_pos` (the eye's
+// receiver and specular positions), `beams`, `foot` and `density_grid`. Per beam, the pixel centre's ray from the camera to the first
+// surface it sees (the nearer of the eye's diffuse and specular buffers), clipped to the
+// medium's box, is tested against the beam's bounding sphere, then intersected with the beam
+// exactly: in beam space (the base triangle's plane, edges scaled to unit height y) the
+// cross-section at height y is the triangle q_i(y) = v_i + y d_i / (n . d_i), and along the ray
+// its three edge functions are quadratics in the ray parameter, so the ray's pieces inside the
+// beam lie between their roots. Each piece is integrated in `bp.samples` steps of
+//   sigma_s phase(d . -w) Phi / (A(y) cos theta) exp(-sigma_t (l_light + s)) exp(-sigma_t t_eye),
+// the smooth factors at each step's midpoint times the exact integral of 1 / A over the step
+// (A is a quadratic in the ray parameter: near a focus the midpoint rule would sample its pole),
+// A(y) the cross-section's area (a quadratic in y), theta the angle between the interpolated
+// edge direction d and the base normal (Phi / A(y) is the irradiance of the cross-section's
+// plane; over cos theta, the fluence of the beam's light), l_light the in-medium length of the
+// light's path up to the base (interpolated), s the in-medium length from the base to the
+// point, t_eye from the camera's box entry to the point. A point lies in the beam up to the
+// plane through its edges' ends (the receivers). The pixel's camera ray ends at the first
+// surface (a hard clip: the exact interval needs no soft clipping). Each pixel averages
+// `bp.pixel_samples`^2 stratified rays (the box pixel filter).
+//
+// The pixel's footprint (`foot`, BeamSettings::footprint): where a beam's cross-section, seen
+// from the camera, is narrower than `foot.x` pixels (near a focus: the caustic's singular lines,
+// which rays through points of the pixel would hit or miss), its light is not sampled by the
+// pixel's rays but integrated over the pixel's whole footprint in beam space, where 1 / A(y)
+// cancels: a point (barycentrics w of the section, height y) fills the volume A(y) dmu dy
+// (mu: the barycentric measure, 1 over the section), so the pixel receives
+//   sigma_s phase Phi T dmu dy / (cos theta dist^2 z^3 pix_area)
+// (dist: to the camera; z: the cosine of its direction with the view axis; pix_area: the
+// pixel's area on the image plane at unit distance; the same measure as the rays' average).
+// The section is `foot.y`^2 lines of constant w (the centroids of its midpoint subdivision, each
+// mu = 1 / foot.y^2); each line, a straight segment in y, is clipped exactly to the pixel's
+// square, the depth of its first surface and the medium's box (all linear in y in clip space)
+// and integrated by the two-point Gauss rule (the integrand is smooth). The rays then skip
+// those heights: every point of a beam is counted by exactly one of the two.
+
+
+// Roots of c2 u^2 + c1 u + c0 in (0, len), appended to `cuts` (count in `n`).
+fn add_roots(c: vec3f, len: f32, cuts: ptr<function, array<f32, 16>>, n: ptr<function, u32>) {
+    var r = vec2f(-1.0);
+    let scale = abs(c.x) * len * len + abs(c.y) * len + abs(c.z);
+    if (abs(c.z) * len * len <= 1e-7 * scale) {
+        if (c.y != 0.0) { r.x = -c.x / c.y; }
+    } else {
+        let disc = c.y * c.y - 4.0 * c.z * c.x;
+        if (disc < 0.0) { return; }
+        let q = -0.5 * (c.y + select(-1.0, 1.0, c.y >= 0.0) * sqrt(disc));
+        r.x = q / c.z;
+        if (q != 0.0) { r.y = c.x / q; }
+    }
+    for (var k = 0; k < 2; k++) {
+        if (r[k] > 0.0 && r[k] < len && *n < 13u) {
+            (*cuts)[*n] = r[k];
+            *n += 1u;
+        }
+    }
+}
+
+// The integral of 1 / |S(u)| over a step [u0, u0 + h] of length h, S a quadratic without a
+// root inside the step (the pieces are cut at its roots), given by its values at the start,
+// middle and end. S in Bernstein form over the step,
+// S(t) = Sa (1 - t)^2 + 2 P t (1 - t) + Sb t^2, and t = x / (1 + x) turn it into
+// h * integral over x in [0, inf) of dx / (Sa + 2 P x + Sb x^2) = h * I with D = Sa Sb - P^2:
+// I = atan2(sqrt(D), P) / sqrt(D) (D > 0), atanh(q / P) / q, q = sqrt(-D) (D < 0), and
+// (1 - D / (3 P^2)) / P near D = 0 (both series agree there). A root at an end (a ray through
+// a focus line) makes the integral diverge logarithmically: the ends are kept off zero.
+fn inv_quadratic_integral(s_a: f32, s_m: f32, s_b: f32, h: f32) -> f32 {
+    let sg = select(-1.0, 1.0, s_m >= 0.0);
+    let sm = sg * s_m;
+    if (sm <= 0.0) { return 0.0; }
+    let sa = max(sg * s_a, 1e-6 * sm);
+    let sb = max(sg * s_b, 1e-6 * sm);
+    let p = 2.0 * sm - 0.5 * (sa + sb);
+    let dd = sa * sb - p * p;
+    var i = 0.0;
+    if (p > 0.0 && abs(dd) < 1e-4 * p * p) {
+        i = (1.0 - dd / (3.0 * p * p)) / p;
+    } else if (dd > 0.0) {
+        let r = sqrt(dd);
+        i = atan2(r, p) / r;
+    } else {
+        // (p > 0 here: S has no root in the step)
+        let q = sqrt(-dd);
+        // atanh(q / p) / q, with p - q = Sa Sb / (p + q) (no cancellation).
+        i = 0.5 * log((p + q) * (p + q) / (sa * sb)) / q;
+    }
+    return h * i;
+}
+
+// The edge functions (twice the signed areas of the sub-triangles, opposite corners 0, 1, 2)
+// of point x in the beam's section at height y (corners v_i + y s_i).
+fn edge_fns(v: array<vec3f, 3>, s: array<vec3f, 3>, nrm: vec3f, x: vec3f, y: f32) -> vec3f {
+    let q0 = v[0] + y * s[0];
+    let q1 = v[1] + y * s[1];
+    let q2 = v[2] + y * s[2];
+    return vec3f(dot(nrm, cross(q2 - q1, x - q1)), dot(nrm, cross(q0 - q2, x - q2)), dot(nrm, cross(q1 - q0, x - q0)));
+}
+
+// All three of the same sign (and not all zero): inside the section.
+fn same_sign(e: vec3f) -> bool {
+    return (all(e >= vec3f(0.0)) || all(e <= vec3f(0.0))) && any(e != vec3f(0.0));
+}
+
+// A beam in beam space: base vertices v, unit edge directions dir, the base's normal (along the
+// edges), the edges scaled to unit height s_i = d_i / (n . d_i), and the heights of the edges'
+// ends.
+struct BeamSpace {
+    v: array<vec3f, 3>,
+    dir: array<vec3f, 3>,
+    s: array<vec3f, 3>,
+    nrm: vec3f,
+    yend: vec3f,
+}
+
+fn beam_space(b: BeamGpu) -> BeamSpace {
+    var r: BeamSpace;
+    r.v = array<vec3f, 3>(b.v0.xyz, b.v1.xyz, b.v2.xyz);
+    r.dir = array<vec3f, 3>(b.d0.xyz, b.d1.xyz, b.d2.xyz);
+    var nrm = normalize(cross(r.v[1] - r.v[0], r.v[2] - r.v[0]));
+    if (dot(nrm, r.dir[0] + r.dir[1] + r.dir[2]) < 0.0) { nrm = -nrm; }
+    r.nrm = nrm;
+    for (var i = 0; i < 3; i++) {
+        let c = dot(nrm, r.dir[i]);
+        r.s[i] = r.dir[i] / c;
+        r.yend[i] = select(b.d0.w, select(b.d1.w, b.d2.w, i == 2), i >= 1) * c;
+    }
+    return r;
+}
+
+// The heights y (an interval; empty: x >= y) where the beam's cross-section, projected across
+// the direction from the camera, has every side shorter than foot.x pixels at the distance of
+// the beam's centroid line nearest the camera (`tan_pix`: a pixel's width at unit distance).
+// Each side is |a + y b| across the view (convex in y), so the set is one interval. (No loops
+// here and in the footprint integral: lavapipe ends an invocation's loops after some 65536
+// iterations in all, see record_gather_chunks.)
+fn thin_range(bs: BeamSpace, cam: vec3f, tan_pix: f32) -> vec2f {
+    if (foot.x <= 0.0) { return vec2f(1.0, 0.0); }
+    let ymax = max(bs.yend.x, max(bs.yend.y, bs.yend.z));
+    let c0 = (bs.v[0] + bs.v[1] + bs.v[2]) / 3.0;
+    let c1 = (bs.s[0] + bs.s[1] + bs.s[2]) / 3.0;
+    let yc = clamp(dot(cam - c0, c1) / max(dot(c1, c1), 1e-20), 0.0, ymax);
+    let to = c0 + yc * c1 - cam;
+    let dist = length(to);
+    if (dist <= 0.0) { return vec2f(1.0, 0.0); }
+    let u = to / dist;
+    let rr = foot.x * tan_pix * dist;
+    var r = vec2f(0.0, ymax);
+    side_range(&r, bs.v[1] - bs.v[0], bs.s[1] - bs.s[0], u, rr);
+    side_range(&r, bs.v[2] - bs.v[1], bs.s[2] - bs.s[1], u, rr);
+    side_range(&r, bs.v[0] - bs.v[2], bs.s[0] - bs.s[2], u, rr);
+    return r;
+}
+
+// Narrow r to the y where the side a + y b, across the unit direction u, is at most rr long.
+fn side_range(r: ptr<function, vec2f>, a: vec3f, b: vec3f, u: vec3f, rr: f32) {
+    let pa = a - dot(a, u) * u;
+    let pb = b - dot(b, u) * u;
+    // qa y^2 + 2 qb y + qc <= 0
+    let qa = dot(pb, pb);
+    let qb = dot(pa, pb);
+    let qc = dot(pa, pa) - rr * rr;
+    if (qa <= 1e-12 * (abs(qc) + rr * rr)) {
+        // (the side's length hardly changes with y)
+        if (qc > 0.0) { *r = vec2f(1.0, 0.0); }
+        return;
+    }
+    let disc = qb * qb - qa * qc;
+    if (disc <= 0.0) {
+        *r = vec2f(1.0, 0.0);
+        return;
+    }
+    let sq = sqrt(disc);
+    (*r).x = max((*r).x, (-qb - sq) / qa);
+    (*r).y = min((*r).y, (-qb + sq) / qa);
+}
+
+// The radiance the beam scatters toward the camera along o + u d, 0 <= u <= len, outside the
+// heights `thin` (those the footprint integral takes); the camera's box entry is at u = -eye_in
+// (the transmittance toward the camera starts there).
+fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, o: vec3f, d: vec3f, len: f32, eye_in: f32) -> vec3f {
+    let v = bs.v;
+    let dir = bs.dir;
+    let nrm = bs.nrm;
+    let s = bs.s;
+    let yend = bs.yend;
+    let y0 = dot(o - v[0], nrm);
+    let yr = dot(d, nrm);
+    // Edge functions E_k(u) (edge i -> j opposite vertex k) as quadratics (c0, c1, c2).
+    var ek: array<vec3f, 3>;
+    for (var k = 0; k < 3; k++) {
+        let i = (k + 1) % 3;
+        let j = (k + 2) % 3;
+        let p0 = (v[j] - v[i]) + y0 * (s[j] - s[i]);
+        let p1 = yr * (s[j] - s[i]);
+        let q0 = o - v[i] - y0 * s[i];
+        let q1 = d - yr * s[i];
+        ek[k] = vec3f(dot(nrm, cross(p0, q0)), dot(nrm, cross(p0, q1) + cross(p1, q0)), dot(nrm, cross(p1, q1)));
+    }
+    var cuts: array<f32, 16>;
+    var n = 0u;
+    cuts[0] = 0.0;
+    n = 1u;
+    for (var k = 0; k < 3; k++) { add_roots(ek[k], len, &cuts, &n); }
+    // Where the cross-section's area passes through zero (a focus) the barycentrics change
+    // sign without any edge function doing so: a cut too.
+    // Twice the signed section area at height y: S(y) = kq.x + y kq.y + y^2 kq.z (Ernst et al.
+    // 2005), from the base (well conditioned near a focus, unlike the sum of the edge
+    // functions' quadratics in the ray parameter, whose coefficients are those of the ray's
+    // whole length); along the ray, a quadratic in u.
+    let ka = v[1] - v[0];
+    let kb = s[1] - s[0];
+    let kc = v[2] - v[0];
+    let kd = s[2] - s[0];
+    let kq = vec3f(dot(nrm, cross(ka, kc)), dot(nrm, cross(ka, kd) + cross(kb, kc)), dot(nrm, cross(kb, kd)));
+    add_roots(vec3f(kq.x + y0 * (kq.y + y0 * kq.z), yr * (kq.y + 2.0 * kq.z * y0), kq.z * yr * yr), len, &cuts, &n);
+    if (yr != 0.0) {
+        let u = -y0 / yr;
+        if (u > 0.0 && u < len) { cuts[n] = u; n++; }
+        if (thin.y > thin.x) {
+            let ua = (thin.x - y0) / yr;
+            let ub = (thin.y - y0) / yr;
+            if (ua > 0.0 && ua < len) { cuts[n] = ua; n++; }
+            if (ub > 0.0 && ub < len) { cuts[n] = ub; n++; }
+        }
+    }
+    cuts[n] = len;
+    n++;
+    // Sort the cuts (insertion sort; at most 11).
+    for (var a = 1u; a < n; a++) {
+        let x = cuts[a];
+        var c = a;
+        while (c > 0u && cuts[c - 1u] > x) { cuts[c] = cuts[c - 1u]; c--; }
+        cuts[c] = x;
+    }
+    let phi = b.flux.rgb;
+    let g = bp.sigma_s.w;
+    var acc = vec3f(0.0);
+    let m = max(bp.samples, 1u);
+    for (var p = 0u; p + 1u < n; p++) {
+        let ua = cuts[p];
+        let ub = cuts[p + 1u];
+        if (ub <= ua) { continue; }
+        // Inside at the piece's midpoint? (The edge functions from the section's corners at
+        // the point's height: the polynomials' cancellation near a focus, where all three
+        // vanish, would open spurious slivers "inside" between their rounded roots.)
+        let um = 0.5 * (ua + ub);
+        let em = edge_fns(v, s, nrm, o + d * um, y0 + um * yr);
+        let ym = y0 + um * yr;
+        if (!same_sign(em) || ym < 0.0 || (ym >= thin.x && ym <= thin.y)) { continue; }
+        let du = (ub - ua) / f32(m);
+        for (var q = 0u; q < m; q++) {
+            let u0 = ua + f32(q) * du;
+            let u = u0 + 0.5 * du;
+            let y = y0 + u * yr;
+            let x = o + d * u;
+            let e = edge_fns(v, s, nrm, x, y);
+            if (!same_sign(e)) { continue; }
+            let w = e / (e.x + e.y + e.z);
+            if (y < 0.0 || y > dot(w, yend)) { continue; }
+            // (the direction of the beam's line of constant barycentrics, along which its flux
+            // flows: beam_surface.wgsl)
+            let dl = normalize(w.x * s[0] + w.y * s[1] + w.z * s[2]);
+            let cos_t = max(dot(nrm, dl), 1e-4);
+            let base = w.x * v[0] + w.y * v[1] + w.z * v[2];
+            let pre = w.x * b.v0.w + w.y * b.v1.w + w.z * b.v2.w;
+            var tr: vec3f;
+            if (beam_has_grid()) {
+                tr = exp(-bp.sigma_t.rgb * (pre + beam_depth(base, x) + beam_depth(bp.camera.xyz, x))) * beam_density(x);
+            } else {
+                let sl = box_length(base, x, bp.lo.xyz, bp.hi.xyz);
+                tr = exp(-bp.sigma_t.rgb * (pre + sl + eye_in + u));
+            }
+            // The smooth factors at the midpoint, times the exact integral of 1/A over the step
+            // (A = |S| / 2, S a quadratic in u): the pole of 1/A at a focus is integrated, not
+            // sampled.
+            let ya = y0 + u0 * yr;
+            let yb = ya + du * yr;
+            let sa = kq.x + ya * (kq.y + ya * kq.z);
+            let sm = kq.x + y * (kq.y + y * kq.z);
+            let sb = kq.x + yb * (kq.y + yb * kq.z);
+            acc += phi / cos_t * bm_phase(dot(dl, -d), g) * tr * (2.0 * inv_quadratic_integral(sa, sm, sb, du));
+        }
+    }
+    return bp.sigma_s.rgb * acc;
+}
+
+// Keep the y of a line o + y s where f0 + f1 y >= 0.
+fn clip_lin(r: ptr<function, vec2f>, f0: f32, f1: f32) {
+    if (f1 > 0.0) {
+        (*r).x = max((*r).x, -f0 / f1);
+    } else if (f1 < 0.0) {
+        (*r).y = min((*r).y, -f0 / f1);
+    } else if (f0 < 0.0) {
+        *r = vec2f(1.0, 0.0);
+    }
+}
+
+// Length of the segment from a to b inside the box lo..hi (box_length without its loop).
+fn seg_in_box(a: vec3f, b: vec3f) -> f32 {
+    let v = b - a;
+    let inv = 1.0 / select(v, vec3f(1e-30), abs(v) < vec3f(1e-30));
+    let ta = (bp.lo.xyz - a) * inv;
+    let tb = (bp.hi.xyz - a) * inv;
+    let lo = min(ta, tb);
+    let hi = max(ta, tb);
+    let t0 = max(max(lo.x, lo.y), max(lo.z, 0.0));
+    let t1 = min(min(hi.x, hi.y), min(hi.z, 1.0));
+    return max(t1 - t0, 0.0) * length(v);
+}
+
+// The centroids (barycentrics a, b) of the midpoint subdivision of a triangle into n^2 triangles,
+// n = 1 to 4 (starting at (n - 1) n (2n - 1) / 6): upward ones at ((i + 1/3) / n, (j + 1/3) / n),
+// downward ones at ((i + 2/3) / n, (j + 2/3) / n).
+const LINES: array<vec2f, 30> = array<vec2f, 30>(
+    vec2f(0.33333334, 0.33333334),
+    vec2f(0.16666667, 0.16666667), vec2f(0.6666667, 0.16666667), vec2f(0.16666667, 0.6666667), vec2f(0.33333334, 0.33333334),
+    vec2f(0.11111111, 0.11111111), vec2f(0.44444445, 0.11111111), vec2f(0.7777778, 0.11111111),
+    vec2f(0.11111111, 0.44444445), vec2f(0.44444445, 0.44444445), vec2f(0.11111111, 0.7777778),
+    vec2f(0.22222222, 0.22222222), vec2f(0.5555556, 0.22222222), vec2f(0.22222222, 0.5555556),
+    vec2f(0.083333336, 0.083333336), vec2f(0.33333334, 0.083333336), vec2f(0.5833333, 0.083333336), vec2f(0.8333333, 0.083333336),
+    vec2f(0.083333336, 0.33333334), vec2f(0.33333334, 0.33333334), vec2f(0.5833333, 0.33333334),
+    vec2f(0.083333336, 0.5833333), vec2f(0.33333334, 0.5833333), vec2f(0.083333336, 0.8333333),
+    vec2f(0.16666667, 0.16666667), vec2f(0.41666666, 0.16666667), vec2f(0.6666667, 0.16666667),
+    vec2f(0.16666667, 0.41666666), vec2f(0.41666666, 0.41666666), vec2f(0.16666667, 0.6666667),
+);
+
+// The light of the beam's heights `thin` in pixel `px` (its top-left corner), integrated over
+// the pixel's footprint (see the top of this file); `depth` along `centre`: the first surface.
+// Each line's clipped piece (inside one pixel's frustum: a short, smooth integrand) by the
+// two-point Gauss rule.
+fn beam_footprint(b: BeamGpu, bs: BeamSpace, thin: vec2f, px: vec2f, depth: f32, centre: vec3f, fwd: vec3f) -> vec3f {
+    let cam = bp.camera.xyz;
+    let wf = f32(bp.width);
+    let hf = f32(bp.height);
+    // The pixel's square in NDC.
+    let x0 = px.x / wf * 2.0 - 1.0;
+    let x1 = (px.x + 1.0) / wf * 2.0 - 1.0;
+    let yt = 1.0 - px.y / hf * 2.0;
+    let yb = 1.0 - (px.y + 1.0) / hf * 2.0;
+    let nl = u32(clamp(foot.y, 1.0, 4.0));
+    let first = (nl - 1u) * nl * (2u * nl - 1u) / 6u;
+    let g = bp.sigma_s.w;
+    let pre3 = vec3f(b.v0.w, b.v1.w, b.v2.w);
+    var acc = vec3f(0.0);
+    for (var li = 0u; li < nl * nl; li++) {
+        let ab = LINES[first + li];
+        let w = vec3f(ab, 1.0 - ab.x - ab.y);
+        let o = w.x * bs.v[0] + w.y * bs.v[1] + w.z * bs.v[2];
+        let sd = w.x * bs.s[0] + w.y * bs.s[1] + w.z * bs.s[2];
+        var r = vec2f(max(thin.x, 0.0), min(thin.y, dot(w, bs.yend)));
+        let c0 = bp.world_to_clip * vec4f(o, 1.0);
+        let c1 = bp.world_to_clip * vec4f(sd, 0.0);
+        // In front of the camera, inside the pixel's square.
+        clip_lin(&r, c0.w - 1e-6, c1.w);
+        clip_lin(&r, c0.x - x0 * c0.w, c1.x - x0 * c1.w);
+        clip_lin(&r, x1 * c0.w - c0.x, x1 * c1.w - c1.x);
+        clip_lin(&r, c0.y - yb * c0.w, c1.y - yb * c1.w);
+        clip_lin(&r, yt * c0.w - c0.y, yt * c1.w - c1.y);
+        // Before the first surface (the plane the pixel's rays end at), inside the medium.
+        clip_lin(&r, depth - dot(o - cam, centre), -dot(sd, centre));
+        clip_lin(&r, o.x - bp.lo.x, sd.x);
+        clip_lin(&r, bp.hi.x - o.x, -sd.x);
+        clip_lin(&r, o.y - bp.lo.y, sd.y);
+        clip_lin(&r, bp.hi.y - o.y, -sd.y);
+        clip_lin(&r, o.z - bp.lo.z, sd.z);
+        clip_lin(&r, bp.hi.z - o.z, -sd.z);
+        if (r.y <= r.x) { continue; }
+        let dl = normalize(sd);
+        let cos_t = max(dot(bs.nrm, dl), 1e-4);
+        let pre = dot(w, pre3);
+        let hw = 0.5 * (r.y - r.x);
+        let mid = 0.5 * (r.x + r.y);
+        let ya = mid - 0.57735027 * hw;
+        let yb2 = mid + 0.57735027 * hw;
+        let line = footprint_point(o, sd, ya, pre, dl, g, cam, fwd) + footprint_point(o, sd, yb2, pre, dl, g, cam, fwd);
+        acc += line * (hw / cos_t);
+    }
+    let inv_n = 1.0 / f32(nl);
+    return bp.sigma_s.rgb * b.flux.rgb * acc * (inv_n * inv_n);
+}
+
+// phase T / (dist^2 z^3) at height y of the line o + y sd.
+fn footprint_point(o: vec3f, sd: vec3f, y: f32, pre: f32, dl: vec3f, g: f32, cam: vec3f, fwd: vec3f) -> vec3f {
+    let x = o + y * sd;
+    let tv = x - cam;
+    let dist2 = dot(tv, tv);
+    let vd = tv * inverseSqrt(dist2);
+    let z = dot(vd, fwd);
+    var tr: vec3f;
+    if (beam_has_grid()) {
+        tr = exp(-bp.sigma_t.rgb * (pre + beam_depth(o, x) + beam_depth(cam, x))) * beam_density(x);
+    } else {
+        tr = exp(-bp.sigma_t.rgb * (pre + seg_in_box(o, x) + seg_in_box(cam, x)));
+    }
+    return bm_phase(dot(dl, -vd), g) * tr / (dist2 * z * z * z);
+}
+
+// The unit camera ray through image point p (pixels, (0, 0) the top-left corner).
+fn ray_of(p: vec2f) -> vec3f {
+    let ndc = vec2f(p.x / f32(bp.width) * 2.0 - 1.0, 1.0 - p.y / f32(bp.height) * 2.0);
+    let q = bp.clip_to_world * vec4f(ndc, 0.5, 1.0);
+    return normalize(q.xyz / q.w - bp.camera.xyz);
+}
+
+// What a pixel's rays need of the camera: the first surface's distance along the pixel centre's
+// ray, that ray, the view axis, a pixel's size on the image plane at unit distance, and the
+// pixel's cone around its centre ray.
+struct PixelView {
+    depth: f32,
+    centre: vec3f,
+    fwd: vec3f,
+    pw: f32,
+    ph: f32,
+    tan_half: f32,
+    sec_half: f32,
+}
+
+fn pixel_view(px: vec2u) -> PixelView {
+    var v: PixelView;
+    let cam = bp.camera.xyz;
+    // The first surface's distance along the pixel centre's ray (the eye buffers hold one
+    // point per pixel): the sub-pixel rays end at the plane through it facing the camera.
+    v.depth = 1e30;
+    let r = textureLoad(recv_pos, vec2i(px), 0);
+    let sp = textureLoad(spec_pos, vec2i(px), 0);
+    v.centre = ray_of(vec2f(px) + 0.5);
+    if (r.w >= 0.0) { v.depth = min(v.depth, dot(r.xyz - cam, v.centre)); }
+    if (sp.w >= 0.0) { v.depth = min(v.depth, dot(sp.xyz - cam, v.centre)); }
+    let half = 0.5 * vec2f(f32(bp.width), f32(bp.height));
+    v.fwd = ray_of(half);
+    let ex = ray_of(half + vec2f(1.0, 0.0));
+    let ey = ray_of(half + vec2f(0.0, 1.0));
+    v.pw = length(ex / dot(ex, v.fwd) - v.fwd);
+    v.ph = length(ey / dot(ey, v.fwd) - v.fwd);
+    // (a bound: a pixel is widest at the image's centre)
+    v.tan_half = 0.5 * sqrt(v.pw * v.pw + v.ph * v.ph);
+    v.sec_half = sqrt(1.0 + v.tan_half * v.tan_half);
+    return v;
+}
+
+// Beam `bi`'s light in pixel `px`, added to `acc`. The box pixel filter: ns x ns stratified
+// rays (a volume caustic's focal line is thinner than a pixel: the pixel centre alone would miss
+// or overweight it); where the beam is thinner than foot.x pixels, the footprint integral
+// instead. Only points of the beam count, and those lie in the convex hull of its six corners
+// (its base and its section at the farthest end height), as the hull stage bounds them.
+fn beam_pixel(bi: u32, px: vec2u, v: PixelView, acc: ptr<function, vec3f>) {
+    let cam = bp.camera.xyz;
+    // The bounding sphere against the pixel's cone first (only it is read for the beams the
+    // pixel misses).
+    let bound = beams[bi].bound;
+    let oc = bound.xyz - cam;
+    let tb = dot(oc, v.centre);
+    let perp2 = max(dot(oc, oc) - tb * tb, 0.0);
+    let reach = bound.w * v.sec_half + max(tb, 0.0) * v.tan_half;
+    if (perp2 > reach * reach) { return; }
+    let b = beams[bi];
+    let bs = beam_space(b);
+    let thin = thin_range(bs, cam, v.pw);
+    let ns = max(bp.pixel_samples, 1u);
+    let inv_rays = 1.0 / f32(ns * ns);
+    for (var si = 0u; si < ns * ns; si++) {
+        let sub = vec2f(f32(si % ns), f32(si / ns));
+        let d = ray_of(vec2f(px) + (sub + 0.5) / f32(ns));
+        let t_max = select(1e30, v.depth / max(dot(d, v.centre), 1e-6), v.depth < 1e29);
+        let seg = box_clip(cam, d, t_max, bp.lo.xyz, bp.hi.xyz);
+        if (seg.y <= seg.x) { continue; }
+        // The ray against the bounding sphere.
+        let tc = dot(oc, d);
+        let h2 = bound.w * bound.w - (dot(oc, oc) - tc * tc);
+        if (h2 <= 0.0) { continue; }
+        let hh = sqrt(h2);
+        let t0 = max(tc - hh, seg.x);
+        let t1 = min(tc + hh, seg.y);
+        if (t1 > t0) {
+            *acc += inv_rays * beam_radiance(b, bs, thin, cam + d * t0, d, t1 - t0, t0 - seg.x);
+        }
+    }
+    if (thin.y > thin.x) {
+        *acc += beam_footprint(b, bs, thin, vec2f(px), v.depth, v.centre, v.fwd) / (v.pw * v.ph);
+    }
+}
