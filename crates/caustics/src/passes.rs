@@ -667,6 +667,21 @@ impl RenderSettings {
         if let Err((field, msg)) = self.beams.validate() {
             return cl(field, msg);
         }
+        let beam_record =
+            std::mem::size_of::<crate::gpu::types::BeamGpu>().max(std::mem::size_of::<crate::gpu::types::BeamHull>());
+        let beam_bytes = u64::from(self.beams.capacity) * beam_record as u64;
+        let max_bind = ctx.device.limits().max_storage_buffer_binding_size;
+        if beam_bytes > max_bind {
+            return cl(
+                "beams.capacity",
+                format!(
+                    "{} beams need {} MiB, over this adapter's {} MiB storage-binding limit",
+                    self.beams.capacity,
+                    beam_bytes >> 20,
+                    max_bind >> 20
+                ),
+            );
+        }
         if self.beams.volume == crate::settings::BeamVolume::Hulls
             && !ctx.device.features().contains(wgpu::Features::FLOAT32_BLENDABLE)
         {
@@ -685,7 +700,6 @@ impl RenderSettings {
                 format!("{}x{} exceeds this adapter's texture limit {max_tex}", c.width, c.height),
             );
         }
-        let max_bind = ctx.device.limits().max_storage_buffer_binding_size;
         let faces = scene.lights.iter().map(|l| self.light_view(scene, l).faces.len() as u64).max().unwrap_or(1);
         let accum = (self.caustic_map_size as u64).pow(2) * faces * 24;
         if accum > max_bind {

@@ -850,6 +850,14 @@ fn beams_are_deterministic_create_nothing_after_the_first_frame_and_bad_settings
         let e = e.to_string();
         assert!(e.contains(field), "{e}");
     }
+    // A capacity whose beam records exceed the adapter's storage-binding limit: named, not a
+    // validation panic (lavapipe's limit is 128 MiB; 2^22 beams need 576 MiB).
+    let most = BeamSettings { capacity: 1 << 22, ..Default::default() };
+    let need = u64::from(most.capacity) * std::mem::size_of::<caustics::gpu::types::BeamGpu>() as u64;
+    if need > ctx.device.limits().max_storage_buffer_binding_size {
+        let Err(e) = render(&ctx, &sc, &render_settings(most)) else { panic!("beams.capacity: no error") };
+        assert!(e.to_string().contains("beams.capacity"), "{e}");
+    }
 }
 
 /// Larger chunks (`BeamSettings::chunk_scale`, 16 by default on GPUs) change only the order of

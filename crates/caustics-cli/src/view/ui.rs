@@ -513,8 +513,8 @@ fn medium_controls(
     }
 }
 
-/// The beams' settings: the volume caustic (scenes with a medium) and the beam grid, also used
-/// by surface caustics from beams.
+/// The beams' settings: the volume caustic (scenes with a medium), the beam grid and how the
+/// beams are drawn (hulls or the gather), also used by surface caustics from beams.
 fn beam_controls(ui: &mut egui::Ui, session: &mut Session) {
     let s = session.settings().clone();
     let mut b = s.beams;
@@ -530,6 +530,15 @@ fn beam_controls(ui: &mut egui::Ui, session: &mut Session) {
             }
         });
         changed |= b.grid != s.beams.grid;
+        egui::ComboBox::from_id_salt("beam_volume").selected_text(format!("beams drawn: {}", b.volume)).show_ui(
+            ui,
+            |ui| {
+                for v in caustics::render::BeamVolume::ALL {
+                    ui.selectable_value(&mut b.volume, v, v.name()).on_hover_text(v.describe());
+                }
+            },
+        );
+        changed |= b.volume != s.beams.volume;
         let sliders = [
             ui.add(egui::Slider::new(&mut b.levels, 0..=6).text("beam levels")),
             ui.add(egui::Slider::new(&mut b.normal_threshold_deg, 1.0..=90.0).text("normal threshold °")),
