@@ -517,8 +517,9 @@ fn caustic_spheres_switch_loads_tables_and_follows_the_environment() {
 #[test]
 fn medium_density_and_beam_settings_change_live() {
     // The fog scene: doubling the medium's density changes the frame; a bad value is refused
-    // and keeps the state; the loaded values again give the first frame bit for bit; switching
-    // the beams off removes the volume caustic (the caustic light in the fog).
+    // and keeps the state; the loaded values again give the first frame bit for bit; the beams
+    // gathered instead of drawn give the same caustic light; switching the beams off removes the
+    // volume caustic (the caustic light in the fog).
     let Some(d) = device() else { return };
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/volume_caustic_fog.json");
     let scene = Scene::load(&path).unwrap();
@@ -567,6 +568,14 @@ fn medium_density_and_beam_settings_change_live() {
         diff.len(),
         &diff[..diff.len().min(8)]
     );
+    // The way the beams are drawn, switched live (auto: hulls where the adapter blends float32
+    // targets; then the gather): the same volume caustic to rounding.
+    let mut gather = s.settings().clone();
+    gather.beams.volume = caustics::render::BeamVolume::Gather;
+    s.act(Action::SetSettings(Box::new(gather))).unwrap();
+    frame(&mut s);
+    let gathered = caustic_sum(&s);
+    assert!((gathered / with_beams - 1.0).abs() < 1e-5, "caustic light: {with_beams} drawn, {gathered} gathered");
     // Beams off: the caustic light in the fog goes.
     let mut off = s.settings().clone();
     off.beams.enabled = false;
