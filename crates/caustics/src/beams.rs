@@ -555,8 +555,8 @@ fn draw_hulls(
     cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
 }
 
-/// The volume caustic of one light's beams drawn as their hulls (`beam_raster`), added to both
-/// frame images.
+/// The volume caustic of one light's beams drawn as their hulls (`beam_raster`, the frame's hull
+/// polygons), added to both frame images.
 #[expect(clippy::too_many_arguments, reason = "the volume draw's resources")]
 fn record_volume_hulls(
     ctx: &GpuContext,
@@ -776,8 +776,8 @@ pub(crate) fn read_frame(ctx: &GpuContext, f: &BeamFrame) -> Result<(BeamStats, 
 pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings) -> Result<Image> {
     let field = |f: &'static str, m: String| Error::input("<beams>", f, m);
     b.validate().map_err(|(f, m)| field(f, m))?;
-    if b.volume == BeamVolume::Hulls && !ctx.device.features().contains(wgpu::Features::FLOAT32_BLENDABLE) {
-        return Err(field("volume", format!("hulls need float32 blending, which {} does not offer", ctx.info.name)));
+    if let Some(why) = b.volume.unsupported(ctx) {
+        return Err(field("volume", why));
     }
     if scene.medium.is_none() {
         return Err(field("medium", "the scene has no medium".into()));

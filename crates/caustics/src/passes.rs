@@ -682,13 +682,8 @@ impl RenderSettings {
                 ),
             );
         }
-        if self.beams.volume == crate::settings::BeamVolume::Hulls
-            && !ctx.device.features().contains(wgpu::Features::FLOAT32_BLENDABLE)
-        {
-            return cl(
-                "beams.volume",
-                format!("hulls need float32 blending, which {} does not offer (use gather)", ctx.info.name),
-            );
+        if let Some(why) = self.beams.volume.unsupported(ctx) {
+            return cl("beams.volume", why);
         }
         if !(self.splat_sigma > 0.1 && self.splat_sigma <= 16.0) {
             return cl("splat_sigma", format!("must lie in (0.1, 16] texels (got {})", self.splat_sigma));

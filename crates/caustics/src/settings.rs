@@ -498,6 +498,12 @@ impl BeamVolume {
         BeamVolume::ALL.into_iter().find(|m| m.name() == s.trim())
     }
 
+    /// Why this way cannot run on `ctx`'s device (hulls without float32 blending), if it cannot.
+    pub fn unsupported(self, ctx: &crate::gpu::GpuContext) -> Option<String> {
+        (self == BeamVolume::Hulls && !ctx.device.features().contains(wgpu::Features::FLOAT32_BLENDABLE))
+            .then(|| format!("hulls need float32 blending, which {} does not offer (use gather)", ctx.info.name))
+    }
+
     /// The way used on a device with `features`: [`BeamVolume::Auto`] resolved.
     pub fn on(self, features: wgpu::Features) -> BeamVolume {
         match self {
