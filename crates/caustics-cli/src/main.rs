@@ -340,6 +340,10 @@ pub struct BeamArgs {
     /// Beams: split where the beam's width over its distance to the camera exceeds this (rad).
     #[arg(long, default_value_t = 0.2)]
     beam_camera_threshold: f32,
+    /// Beams: split where a beam misplaces more than this fraction of its triangle's light (the
+    /// exactly traced light of the triangle's centroid against the beam's); 0 turns it off.
+    #[arg(long, default_value_t = 0.05)]
+    beam_linearity_threshold: f32,
     /// Beams held per light (more is an overflow, reported as an error).
     #[arg(long, default_value_t = 1 << 17)]
     beam_capacity: u32,
@@ -380,6 +384,7 @@ impl BeamArgs {
             depth_threshold: self.beam_depth_threshold,
             energy_threshold: self.beam_energy_threshold,
             camera_threshold: self.beam_camera_threshold,
+            linearity_threshold: self.beam_linearity_threshold,
             capacity: self.beam_capacity,
             samples: self.beam_samples,
             pixel_samples: self.beam_pixel_samples,
@@ -414,6 +419,7 @@ fn flag_names(e: &mut anyhow::Error) {
         ("beams.depth_threshold", "--beam-depth-threshold"),
         ("beams.energy_threshold", "--beam-energy-threshold"),
         ("beams.camera_threshold", "--beam-camera-threshold"),
+        ("beams.linearity_threshold", "--beam-linearity-threshold"),
         ("beams.capacity", "--beam-capacity"),
         ("beams.samples", "--beam-samples"),
         ("beams.pixel_samples", "--beam-pixel-samples"),

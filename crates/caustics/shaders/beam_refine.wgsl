@@ -12,8 +12,10 @@
 //     the depth threshold (discontinuities); the edges took different paths or land on
 //     different objects (on any traced branch); the beam's flux relative to the face's flux, times its convergence
 //     (base area over its smallest cross-section before the receiver), exceeds the energy
-//     threshold; or the beam's width over its distance from the camera exceeds the camera
-//     threshold;
+//     threshold; the beam's width over its distance from the camera exceeds the camera
+//     threshold; or (ours) a beam it would keep departs from the light of the triangle's
+//     centroid by more than the linearity threshold of its width, weighted by the share of the
+//     triangle's light it carries (`nonlinearity`);
 //   - kept: one beam per traced branch whose three edges took the same path (the transmitted
 //     branch; with flags bit 0 also the branch reflected at the first dielectric surface and
 //     the branch reflected once inside it),
@@ -316,6 +318,38 @@ fn min_area(e0: Edge, e1: Edge, e2: Edge, ym: f32) -> vec2f {
     return vec2f(abs(k0), m);
 }
 
+// How far the beam over edges e0..e2 departs from the light it stands for (the linearity
+// criterion, ours: the paper's criteria look at the corners only). A beam interpolates its
+// edges linearly; the light of the triangle's centroid really runs along `ec` (traced). Both
+// are cut by the planes across the edges' mean direction at the beam's start and at its
+// farthest end; the larger distance between the centroid's true point and the beam's point
+// of barycentrics (1/3, 1/3, 1/3), over the beam's widest section there (the sections'
+// corners move linearly, so the width and that distance are largest at one of the two
+// planes). A fraction of the beam's size, so it does not depend on the scene's scale: near
+// a ball's rim, where refraction bends fast, coarse beams put their light up to a section's
+// width off its true place. Returns 2 where the centroid takes another path, 0 where the
+// planes cannot be built (edges nearly across the mean direction: left to the other criteria).
+fn nonlinearity(e0: Edge, e1: Edge, e2: Edge, ec: Edge) -> f32 {
+    if (!same_path(ec, e0)) { return 2.0; }
+    let m = normalize(e0.d + e1.d + e2.d);
+    let dm = vec4f(dot(e0.d, m), dot(e1.d, m), dot(e2.d, m), dot(ec.d, m));
+    if (min(min(dm.x, dm.y), min(dm.z, dm.w)) < 1e-3) { return 0.0; }
+    let z0 = max(max(dot(e0.o, m), dot(e1.o, m)), dot(e2.o, m));
+    let z1 = max(max(dot(e0.o + e0.d * e0.t_end, m), dot(e1.o + e1.d * e1.t_end, m)), dot(e2.o + e2.d * e2.t_end, m));
+    var dev = 0.0;
+    var width = 0.0;
+    for (var k = 0; k < 2; k++) {
+        let z = select(z0, max(z1, z0), k == 1);
+        let p0 = e0.o + e0.d * ((z - dot(e0.o, m)) / dm.x);
+        let p1 = e1.o + e1.d * ((z - dot(e1.o, m)) / dm.y);
+        let p2 = e2.o + e2.d * ((z - dot(e2.o, m)) / dm.z);
+        let pc = ec.o + ec.d * ((z - dot(ec.o, m)) / dm.w);
+        dev = max(dev, length(pc - (p0 + p1 + p2) / 3.0));
+        width = max(width, max(max(length(p1 - p0), length(p2 - p1)), length(p0 - p2)));
+    }
+    return dev / max(width, 1e-30);
+}
+
 fn consistent(e0: Edge, e1: Edge, e2: Edge) -> bool {
     return e0.ok && e1.ok && e2.ok && e0.sig == e1.sig && e1.sig == e2.sig && e0.land == e1.land && e1.land == e2.land;
 }
@@ -600,6 +634,37 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         let r1 = rb[3u * (br - 1u) + 1u];
         let r2 = rb[3u * (br - 1u) + 2u];
         split = split || ((r0.ok || r1.ok || r2.ok) && !consistent(r0, r1, r2));
+    }
+    if (!split && level < bp.levels && bp.linearity > 0.0) {
+        // Linearity: the centroid's edge on every branch and layer a beam would be kept on,
+        // its departure weighted by the share of the light toward the triangle the beam
+        // carries (its corners' weights over the light's intensity toward them: about 0.9 on
+        // the transmitted branch, the Fresnel factor on a reflected one), so a beam is split
+        // for the fraction of the triangle's light it misplaces.
+        let centre = (tri.a + tri.b + tri.c) / 3.0;
+        let inc = intensity_toward(light, light_dir(face, tri.a)) + intensity_toward(light, light_dir(face, tri.b))
+            + intensity_toward(light, light_dir(face, tri.c));
+        for (var br = 0u; br < branches && !split; br++) {
+            var c0 = e0;
+            var c1 = e1;
+            var c2 = e2;
+            if (br > 0u) {
+                c0 = rb[3u * (br - 1u)];
+                c1 = rb[3u * (br - 1u) + 1u];
+                c2 = rb[3u * (br - 1u) + 2u];
+            }
+            if (!consistent(c0, c1, c2)) { continue; }
+            let ec = trace_edge(tri.face, centre, br);
+            for (var layer = 0u; layer < BEAM_LAYERS; layer++) {
+                let a0 = at_layer(c0, layer);
+                let a1 = at_layer(c1, layer);
+                let a2 = at_layer(c2, layer);
+                if (consistent(a0, a1, a2)) {
+                    let share = dot(a0.weight + a1.weight + a2.weight, vec3f(1.0)) / max(dot(inc, vec3f(1.0)), 1e-30);
+                    split = split || nonlinearity(a0, a1, a2, at_layer(ec, layer)) * share > bp.linearity;
+                }
+            }
+        }
     }
     if (split && level < bp.levels) {
         let k = atomicAdd(&args[4u * (level + 1u) + 3u], 4u);

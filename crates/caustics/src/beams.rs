@@ -155,6 +155,8 @@ fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, 
             | if m.is_some_and(|m| m.density.is_some()) { BEAM_FLAG_GRID } else { 0 }
             | if chains(scene) { BEAM_FLAG_CHAINS } else { 0 },
         pixel_samples: b.pixel_samples,
+        linearity: b.linearity_threshold,
+        _pad: [0; 3],
     }
 }
 

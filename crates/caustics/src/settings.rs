@@ -543,6 +543,13 @@ pub struct BeamSettings {
     pub energy_threshold: f32,
     /// Split where the beam's width over its distance from the camera exceeds this (radians).
     pub camera_threshold: f32,
+    /// Split where a beam misplaces more than this fraction of the triangle's light: the exactly
+    /// traced edge of the triangle's centroid against the beam's line of barycentrics (1/3, 1/3,
+    /// 1/3), at the beam's start and farthest end, over the beam's width, times the share of the
+    /// light toward the triangle the beam carries (ours, not the paper's: its criteria see the
+    /// corners only, and where refraction or reflection bends fast, near a silhouette, a coarse
+    /// beam puts its light off its true place). 0 turns it off.
+    pub linearity_threshold: f32,
     /// Beams held per light (more are dropped and reported as an overflow).
     pub capacity: u32,
     /// Midpoint-rule points per piece of a camera ray inside a beam.
@@ -585,6 +592,7 @@ impl Default for BeamSettings {
             depth_threshold: 0.1,
             energy_threshold: 0.05,
             camera_threshold: 0.2,
+            linearity_threshold: 0.05,
             capacity: 1 << 17,
             samples: 4,
             pixel_samples: 1,
@@ -635,6 +643,12 @@ impl BeamSettings {
             if !(v > 0.0 && v.is_finite()) {
                 return Err((name, format!("must be a positive number (got {v})")));
             }
+        }
+        if !(b.linearity_threshold >= 0.0 && b.linearity_threshold.is_finite()) {
+            return Err((
+                "beams.linearity_threshold",
+                format!("must be 0 (off) or a positive number (got {})", b.linearity_threshold),
+            ));
         }
         if !(1..=1 << 22).contains(&b.capacity) {
             return Err(("beams.capacity", format!("must be 1 to 4194304 beams (got {})", b.capacity)));

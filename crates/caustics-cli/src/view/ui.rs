@@ -545,6 +545,7 @@ fn beam_controls(ui: &mut egui::Ui, session: &mut Session) {
             ui.add(egui::Slider::new(&mut b.depth_threshold, 0.01..=1.0).logarithmic(true).text("depth threshold")),
             ui.add(egui::Slider::new(&mut b.energy_threshold, 0.001..=1.0).logarithmic(true).text("energy threshold")),
             ui.add(egui::Slider::new(&mut b.camera_threshold, 0.01..=1.0).logarithmic(true).text("camera threshold")),
+            ui.add(egui::Slider::new(&mut b.linearity_threshold, 0.0..=1.0).text("linearity threshold")),
             ui.add(egui::Slider::new(&mut b.pixel_samples, 1..=4).text("rays per pixel side")),
             ui.add(egui::Slider::new(&mut b.surface_samples, 1..=8).text("surface points per pixel side")),
         ];

@@ -37,6 +37,12 @@ struct BeamParams {
     flags: u32,
     // Camera rays per pixel side (beam_gather: the box pixel filter).
     pixel_samples: u32,
+    // Split threshold (BeamSettings::linearity_threshold): the centroid's light off the beam's
+    // line, over the beam's width (beam_refine's nonlinearity); 0: off.
+    linearity: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
     // The inverse of clip_to_world (beam_surface: a beam's end in the image).
     world_to_clip: mat4x4f,
 }

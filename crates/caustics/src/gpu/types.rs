@@ -260,6 +260,10 @@ pub struct BeamParams {
     pub flags: u32,
     /// Camera rays per pixel side in `beam_gather`.
     pub pixel_samples: u32,
+    /// Split where the centroid's light is farther than this fraction of the beam's width off
+    /// the beam's line (`beam_refine`'s `nonlinearity`); 0: off.
+    pub linearity: f32,
+    pub _pad: [u32; 3],
     /// Inverse of `clip_to_world`: where `beam_surface` finds a beam's end in the image.
     pub world_to_clip: [[f32; 4]; 4],
 }
