@@ -492,6 +492,7 @@ fn cpu_bench(a: &BenchArgs) -> Result<()> {
         a.size.1,
         rows.join("\n")
     );
+    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
     let path = a.out.join(format!("bench_{}_cpu.md", scene.name));
     std::fs::write(&path, &md).with_context(|| format!("cannot write {}", path.display()))?;
     println!("{md}wrote {}", path.display());

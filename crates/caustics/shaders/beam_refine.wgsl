@@ -428,12 +428,6 @@ fn part_mean(f: u32, p0: vec2f, p1: vec2f, p2: vec2f, br: u32, layer: u32, r: Ed
     return acc;
 }
 
-// The mean weight over the triangle p0 p1 p2 (`part_mean`), else the corners' mean `wc`.
-fn tri_weight(f: u32, p0: vec2f, p1: vec2f, p2: vec2f, br: u32, layer: u32, r: Edge, wc: vec3f) -> vec3f {
-    let m = part_mean(f, p0, p1, p2, br, layer, r);
-    return select(wc, m.xyz / max(m.w, 1.0), m.w > 0.0);
-}
-
 // Twice the area of the triangle p0 p1 p2 (light NDC).
 fn ndc_area(p0: vec2f, p1: vec2f, p2: vec2f) -> f32 {
     let u = p1 - p0;
@@ -449,18 +443,51 @@ fn ndc_area(p0: vec2f, p1: vec2f, p2: vec2f) -> f32 {
 // triangle over its two good corners and the middle of its far side, carrying the quad's
 // flux), part 0; a corner on a path of its own the triangle between it and its boundary points
 // toward the other two. Returns whether a part was emitted (none: no corner on a caustic path).
+//
+// The six cases (three quads, then three lone corners) share one loop body, so that each
+// tracing helper is called from one place: a GPU's shader compiler inlines every call of
+// `trace_edge` with the whole BVH traversal in it, and with a call per case the stage held
+// some thirty such copies, which NVIDIA's compiler did not finish compiling in a minute
+// (docs/benchmarks.md, the first NVIDIA figures; tests/shaders.rs bounds the copies).
 fn shrink(tri: BeamTri, es: array<Edge, 3>, br: u32, layer: u32, level: u32, slot: u32) -> bool {
     let ps = array<vec2f, 3>(tri.a, tri.b, tri.c);
     let face = light.faces[tri.face];
     var done = array<bool, 3>(false, false, false);
     var part = 0u;
-    for (var k = 0u; k < 3u; k++) {
+    var quad_done = false;
+    for (var c = 0u; c < 6u; c++) {
+        let quad = c < 3u;
+        let k = c % 3u;
         let i = (k + 1u) % 3u;
         let j = (k + 2u) % 3u;
-        // Corners i and j agree, k differs.
-        if (same_path(es[i], es[i]) && same_path(es[j], es[i]) && !same_path(es[k], es[i])) {
-            let qi = boundary(tri.face, ps[i], ps[k], br, layer, es[i]);
-            let qj = boundary(tri.face, ps[j], ps[k], br, layer, es[i]);
+        var applies: bool;
+        if (quad) {
+            // Corners i and j agree, k differs (the first such quad only).
+            applies = !quad_done && same_path(es[i], es[i]) && same_path(es[j], es[i]) && !same_path(es[k], es[i]);
+        } else {
+            // Corner k on a path of its own (no other corner takes it).
+            applies = !done[k] && same_path(es[k], es[k]) && !same_path(es[i], es[k]) && !same_path(es[j], es[k]);
+        }
+        if (!applies) { continue; }
+        // The path's corner, and the boundary points: a quad's from i and from j toward k, a
+        // lone corner's from k toward i and toward j.
+        var r = es[k];
+        if (quad) { r = es[i]; }
+        var q: array<Boundary, 2>;
+        for (var sd = 0u; sd < 2u; sd++) {
+            let good = select(ps[k], select(ps[j], ps[i], sd == 0u), quad);
+            let bad = select(select(ps[j], ps[i], sd == 0u), ps[k], quad);
+            q[sd] = boundary(tri.face, good, bad, br, layer, r);
+        }
+        let qi = q[0];
+        let qj = q[1];
+        var omega: f32;
+        var x0 = es[k];
+        var x1 = qi.e;
+        var x2 = qj.e;
+        var wm: vec3f;
+        var centre: vec2f;
+        if (quad) {
             let mp = 0.5 * (qi.ndc + qj.ndc);
             var em = at_layer(trace_edge(tri.face, mp, br), layer);
             if (!same_path(em, es[i])) { em = qi.e; }
@@ -468,52 +495,52 @@ fn shrink(tri: BeamTri, es: array<Edge, 3>, br: u32, layer: u32, level: u32, slo
             let lj = light_dir(face, ps[j]);
             let lqi = light_dir(face, qi.ndc);
             let lqj = light_dir(face, qj.ndc);
-            let omega = solid_angle(li, lj, lqj) + solid_angle(li, lqj, lqi);
-            var b = make_beam(es[i], es[j], em, omega, level);
-            let w4 = (es[i].weight + es[j].weight + qi.e.weight + qj.e.weight) / 4.0;
-            var wq: vec3f;
-            if (br == 0u) {
-                wq = part_weight(tri.face, 0.25 * (ps[i] + ps[j] + qi.ndc + qj.ndc), br, layer, es[i], w4, true);
-            } else {
-                // (the quad as two triangles, each weighted by its area)
-                let ma = part_mean(tri.face, ps[i], ps[j], qj.ndc, br, layer, es[i]);
-                let mb = part_mean(tri.face, ps[i], qj.ndc, qi.ndc, br, layer, es[i]);
+            omega = solid_angle(li, lj, lqj) + solid_angle(li, lqj, lqi);
+            x0 = es[i];
+            x1 = es[j];
+            x2 = em;
+            wm = (es[i].weight + es[j].weight + qi.e.weight + qj.e.weight) / 4.0;
+            centre = 0.25 * (ps[i] + ps[j] + qi.ndc + qj.ndc);
+        } else {
+            omega = solid_angle(light_dir(face, ps[k]), light_dir(face, qi.ndc), light_dir(face, qj.ndc));
+            wm = (es[k].weight + qi.e.weight + qj.e.weight) / 3.0;
+            centre = (ps[k] + qi.ndc + qj.ndc) / 3.0;
+        }
+        var b = make_beam(x0, x1, x2, omega, level);
+        var wq = wm;
+        if (br == 0u) {
+            wq = part_weight(tri.face, centre, br, layer, r, wm, quad);
+        } else {
+            // The midpoint rule over the part: a lone corner's triangle, or the quad as two
+            // triangles, each weighted by its area.
+            var m: array<vec4f, 2>;
+            for (var t = 0u; t < select(1u, 2u, quad); t++) {
+                let p0 = select(ps[k], ps[i], quad);
+                let p1 = select(qi.ndc, select(qj.ndc, ps[j], t == 0u), quad);
+                let p2 = select(qj.ndc, select(qi.ndc, qj.ndc, t == 0u), quad);
+                m[t] = part_mean(tri.face, p0, p1, p2, br, layer, r);
+            }
+            if (quad) {
+                let ma = m[0];
+                let mb = m[1];
                 let aa = ndc_area(ps[i], ps[j], qj.ndc);
                 let ab = ndc_area(ps[i], qj.ndc, qi.ndc);
-                wq = w4;
                 if (ma.w > 0.0 && mb.w > 0.0 && aa + ab > 0.0) {
                     wq = (aa * ma.xyz / ma.w + ab * mb.xyz / mb.w) / (aa + ab);
                 } else if (ma.w + mb.w > 0.0) {
                     wq = (ma.xyz + mb.xyz) / (ma.w + mb.w);
                 }
+            } else {
+                wq = select(wm, m[0].xyz / max(m[0].w, 1.0), m[0].w > 0.0);
             }
-            b.flux = vec4f(omega * wq, b.flux.w);
-            emit(b, slot, br, layer, part);
-            part++;
+        }
+        b.flux = vec4f(omega * wq, b.flux.w);
+        emit(b, slot, br, layer, part);
+        part++;
+        if (quad) {
             done[i] = true;
             done[j] = true;
-            break;
-        }
-    }
-    for (var k = 0u; k < 3u; k++) {
-        let i = (k + 1u) % 3u;
-        let j = (k + 2u) % 3u;
-        // Corner k on a path of its own (no other corner takes it).
-        if (!done[k] && same_path(es[k], es[k]) && !same_path(es[i], es[k]) && !same_path(es[j], es[k])) {
-            let qi = boundary(tri.face, ps[k], ps[i], br, layer, es[k]);
-            let qj = boundary(tri.face, ps[k], ps[j], br, layer, es[k]);
-            let omega = solid_angle(light_dir(face, ps[k]), light_dir(face, qi.ndc), light_dir(face, qj.ndc));
-            var b = make_beam(es[k], qi.e, qj.e, omega, level);
-            let w3 = (es[k].weight + qi.e.weight + qj.e.weight) / 3.0;
-            var wt: vec3f;
-            if (br == 0u) {
-                wt = part_weight(tri.face, (ps[k] + qi.ndc + qj.ndc) / 3.0, br, layer, es[k], w3, false);
-            } else {
-                wt = tri_weight(tri.face, ps[k], qi.ndc, qj.ndc, br, layer, es[k], w3);
-            }
-            b.flux = vec4f(omega * wt, b.flux.w);
-            emit(b, slot, br, layer, part);
-            part++;
+            quad_done = true;
         }
     }
     return part > 0u;
@@ -575,11 +602,20 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         tri = work[lv.offset + i];
     }
     atomicAdd(&stats[1u + BS_VISITED + min(level, 7u)], 1u);
-    let e0 = trace_edge(tri.face, tri.a, 0u);
-    let e1 = trace_edge(tri.face, tri.b, 0u);
-    let e2 = trace_edge(tri.face, tri.c, 0u);
+    // (branches 3 and 4, at a second dielectric, where light can meet one: BEAM_FLAG_CHAINS)
+    let branches = select(1u, select(3u, BEAM_BRANCHES, (bp.flags & BEAM_FLAG_CHAINS) != 0u), (bp.flags & BEAM_FLAG_REFLECTION) != 0u);
+    // The corners' edges on every branch (es[3 br + corner]), traced at one call site (see
+    // `shrink`); the reflected branches only where a corner's light meets a caster.
+    var es: array<Edge, 15>;
+    for (var k = 0u; k < 3u * branches; k++) {
+        let p = select(select(tri.c, tri.b, k % 3u == 1u), tri.a, k % 3u == 0u);
+        es[k] = trace_edge(tri.face, p, k / 3u);
+        if (k == 2u && u32(es[0].caster) + u32(es[1].caster) + u32(es[2].caster) == 0u) { return; }
+    }
+    let e0 = es[0];
+    let e1 = es[1];
+    let e2 = es[2];
     let casters = u32(e0.caster) + u32(e1.caster) + u32(e2.caster);
-    if (casters == 0u) { return; }
     let face = light.faces[tri.face];
     let omega = solid_angle(light_dir(face, tri.a), light_dir(face, tri.b), light_dir(face, tri.c));
     var split = casters < 3u || !consistent(e0, e1, e2);
@@ -623,16 +659,10 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     // The reflected branches (flags bit 0) split where their edges disagree too (their light
     // would be lost otherwise: reflected edges that land on different objects, or leave the
     // scene, near the silhouette).
-    var rb: array<Edge, 12>;
-    // (branches 3 and 4, at a second dielectric, where light can meet one: BEAM_FLAG_CHAINS)
-    let branches = select(1u, select(3u, BEAM_BRANCHES, (bp.flags & BEAM_FLAG_CHAINS) != 0u), (bp.flags & BEAM_FLAG_REFLECTION) != 0u);
     for (var br = 1u; br < branches; br++) {
-        rb[3u * (br - 1u)] = trace_edge(tri.face, tri.a, br);
-        rb[3u * (br - 1u) + 1u] = trace_edge(tri.face, tri.b, br);
-        rb[3u * (br - 1u) + 2u] = trace_edge(tri.face, tri.c, br);
-        let r0 = rb[3u * (br - 1u)];
-        let r1 = rb[3u * (br - 1u) + 1u];
-        let r2 = rb[3u * (br - 1u) + 2u];
+        let r0 = es[3u * br];
+        let r1 = es[3u * br + 1u];
+        let r2 = es[3u * br + 2u];
         split = split || ((r0.ok || r1.ok || r2.ok) && !consistent(r0, r1, r2));
     }
     if (!split && level < bp.levels && bp.linearity > 0.0) {
@@ -645,14 +675,9 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         let inc = intensity_toward(light, light_dir(face, tri.a)) + intensity_toward(light, light_dir(face, tri.b))
             + intensity_toward(light, light_dir(face, tri.c));
         for (var br = 0u; br < branches && !split; br++) {
-            var c0 = e0;
-            var c1 = e1;
-            var c2 = e2;
-            if (br > 0u) {
-                c0 = rb[3u * (br - 1u)];
-                c1 = rb[3u * (br - 1u) + 1u];
-                c2 = rb[3u * (br - 1u) + 2u];
-            }
+            let c0 = es[3u * br];
+            let c1 = es[3u * br + 1u];
+            let c2 = es[3u * br + 2u];
             if (!consistent(c0, c1, c2)) { continue; }
             let ec = trace_edge(tri.face, centre, br);
             for (var layer = 0u; layer < BEAM_LAYERS; layer++) {
@@ -691,27 +716,19 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     // its last two specular objects).
     let centroid = (tri.a + tri.b + tri.c) / 3.0;
     for (var layer = 0u; layer < BEAM_LAYERS; layer++) {
-        let a0 = at_layer(e0, layer);
-        let a1 = at_layer(e1, layer);
-        let a2 = at_layer(e2, layer);
-        if (consistent(a0, a1, a2)) {
-            emit(make_beam(a0, a1, a2, omega, level), slot, 0u, layer, 0u);
-        } else if (layer == 0u || a0.ok || a1.ok || a2.ok) {
-            // The last level: the parts of the triangle on its corners' paths (shrink), else lost.
-            if (!shrink(tri, array<Edge, 3>(a0, a1, a2), 0u, layer, level, slot)) {
-                atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
-            }
-        }
-        for (var br = 1u; br < branches; br++) {
-            let r0 = at_layer(rb[3u * (br - 1u)], layer);
-            let r1 = at_layer(rb[3u * (br - 1u) + 1u], layer);
-            let r2 = at_layer(rb[3u * (br - 1u) + 2u], layer);
+        for (var br = 0u; br < branches; br++) {
+            let r0 = at_layer(es[3u * br], layer);
+            let r1 = at_layer(es[3u * br + 1u], layer);
+            let r2 = at_layer(es[3u * br + 2u], layer);
             if (consistent(r0, r1, r2)) {
                 var b = make_beam(r0, r1, r2, omega, level);
-                let wc = (r0.weight + r1.weight + r2.weight) / 3.0;
-                b.flux = vec4f(omega * part_weight(tri.face, centroid, br, layer, r0, wc, false), b.flux.w);
+                if (br > 0u) {
+                    let wc = (r0.weight + r1.weight + r2.weight) / 3.0;
+                    b.flux = vec4f(omega * part_weight(tri.face, centroid, br, layer, r0, wc, false), b.flux.w);
+                }
                 emit(b, slot, br, layer, 0u);
-            } else if (r0.ok || r1.ok || r2.ok) {
+            } else if ((br == 0u && layer == 0u) || r0.ok || r1.ok || r2.ok) {
+                // The last level: the parts of the triangle on its corners' paths (shrink), else lost.
                 if (!shrink(tri, array<Edge, 3>(r0, r1, r2), br, layer, level, slot)) {
                     atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
                 }

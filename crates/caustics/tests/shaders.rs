@@ -82,3 +82,71 @@ fn every_compute_stage_has_an_explicit_layout() {
     eprintln!("{stages} compute stages, {} distinct bind group layouts", distinct.len());
     assert!(distinct.len() <= stages);
 }
+
+/// The expressions of `f` once every call in it is inlined, as a GPU's shader compiler does
+/// (memoised by function).
+fn inlined_size(
+    m: &naga::Module,
+    f: &naga::Function,
+    memo: &mut std::collections::HashMap<naga::Handle<naga::Function>, usize>,
+) -> usize {
+    fn calls(block: &naga::Block, out: &mut Vec<naga::Handle<naga::Function>>) {
+        for st in block.iter() {
+            match st {
+                naga::Statement::Call { function, .. } => out.push(*function),
+                naga::Statement::Block(b) => calls(b, out),
+                naga::Statement::If { accept, reject, .. } => {
+                    calls(accept, out);
+                    calls(reject, out);
+                }
+                naga::Statement::Switch { cases, .. } => cases.iter().for_each(|c| calls(&c.body, out)),
+                naga::Statement::Loop { body, continuing, .. } => {
+                    calls(body, out);
+                    calls(continuing, out);
+                }
+                _ => {}
+            }
+        }
+    }
+    let mut callees = Vec::new();
+    calls(&f.body, &mut callees);
+    let mut n = f.expressions.len();
+    for h in callees {
+        let size = match memo.get(&h) {
+            Some(&s) => s,
+            None => {
+                let s = inlined_size(m, &m.functions[h], memo);
+                memo.insert(h, s);
+                s
+            }
+        };
+        n += size;
+    }
+    n
+}
+
+#[test]
+fn no_stage_inlines_to_more_than_a_driver_compiles_quickly() {
+    // A GPU's shader compiler inlines every function call, so a stage that calls the BVH
+    // traversal (`scene_hit`) or the photon tracer from many places compiles to many copies of
+    // it. beam_refine did, 28 copies of its edge tracer: NVIDIA's compiler (driver 580 on an
+    // H200) had not finished building it after a minute (docs/benchmarks.md), while the
+    // photon tracer's stage, a few copies, built in well under the 5 s that the whole built-in
+    // scene's first render took there. The bound is a multiple of the photon tracer's size.
+    let mut sizes = Vec::new();
+    for (name, _) in gpu::STAGES {
+        let module = gpu::validate_stage(name).unwrap();
+        let mut memo = Default::default();
+        for ep in &module.entry_points {
+            sizes.push((format!("{name}::{}", ep.name), inlined_size(&module, &ep.function, &mut memo)));
+        }
+    }
+    sizes.sort_by_key(|(_, s)| std::cmp::Reverse(*s));
+    for (n, s) in &sizes {
+        println!("{s:>9} {n}");
+    }
+    let photon = sizes.iter().find(|(n, _)| n == "photon_trace::main").expect("photon_trace::main").1;
+    for (n, s) in &sizes {
+        assert!(*s <= 3 * photon, "{n} inlines to {s} expressions, more than 3x photon_trace's {photon}");
+    }
+}

@@ -72,6 +72,21 @@ pub const SHARED: &[(&str, &str)] = &[
 
 /// Full source of a stage: the shared code, then the stage with its `#import` lines replaced by
 /// the modules they name (a tiny preprocessor, as vello does; WGSL has no includes).
+/// Build a pipeline with `make`; with the environment variable `CAUSTICS_LOG_PIPELINES` set,
+/// say on stderr which pipeline is being built before the driver compiles it and how long that
+/// took after, so that a driver whose shader compiler stalls on one stage names it (a device's
+/// compiler runs inside `create_*_pipeline`, on the calling thread, before any GPU work).
+fn logged_build<T>(kind: &str, name: &str, make: impl FnOnce() -> T) -> T {
+    if std::env::var_os("CAUSTICS_LOG_PIPELINES").is_none() {
+        return make();
+    }
+    eprintln!("pipeline {kind} {name}: building");
+    let t0 = std::time::Instant::now();
+    let p = make();
+    eprintln!("pipeline {kind} {name}: {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);
+    p
+}
+
 pub fn stage_source(name: &str) -> String {
     let src =
         STAGES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s).unwrap_or_else(|| panic!("no shader stage {name}"));
@@ -390,15 +405,17 @@ impl GpuContext {
         cache
             .entry(key)
             .or_insert_with(|| {
-                let module = self.shader(name);
-                let layout = self.stage_layout(name);
-                self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(name),
-                    layout: Some(&layout),
-                    module: &module,
-                    entry_point: Some("main"),
-                    compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
-                    cache: None,
+                logged_build("compute", name, || {
+                    let module = self.shader(name);
+                    let layout = self.stage_layout(name);
+                    self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(name),
+                        layout: Some(&layout),
+                        module: &module,
+                        entry_point: Some("main"),
+                        compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
+                        cache: None,
+                    })
                 })
             })
             .clone()
@@ -442,7 +459,7 @@ impl GpuContext {
     /// A render pipeline built once per context by `make`, under `name`.
     pub fn render_pipeline(&self, name: &str, make: impl FnOnce() -> wgpu::RenderPipeline) -> wgpu::RenderPipeline {
         let mut cache = self.render_cache.lock().unwrap_or_else(|e| e.into_inner());
-        cache.entry(name.to_string()).or_insert_with(make).clone()
+        cache.entry(name.to_string()).or_insert_with(|| logged_build("render", name, make)).clone()
     }
 
     /// A context on the same device, sharing the pipelines, with a resource pool (and creation
