@@ -7,7 +7,9 @@
 //!    triangles each) over every light face; each triangle's three edge rays are traced exactly
 //!    through the casters; the triangle is discarded, split 1 → 4 into the next level's work
 //!    list (atomic append, indirect dispatch) or kept as a beam (atomic append into the beam
-//!    buffer; overflow counted and reported). No CPU round trip between levels.
+//!    buffer; overflow counted and reported). No CPU round trip between levels. At the last
+//!    level a triangle whose corners take different paths queues its parts, and `beam_shrink`
+//!    (one thread per part, an indirect dispatch) finds each by bisection and keeps its beam.
 //! 2. `beam_order`: the kept beams listed in hierarchy order (so the image is the same bits
 //!    from run to run whatever order the atomics ran in).
 //! 3. The volume caustic, per [`BeamVolume`]: `beam_hull`, `beam_raster` and `beam_resolve`
@@ -27,7 +29,7 @@
 use crate::error::{Error, Result};
 use crate::gpu::types::{
     BEAM_FLAG_CHAINS, BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BEAM_KINDS, BEAM_PARTS, BeamGpu, BeamHull, BeamLevel,
-    BeamParams, BeamTri,
+    BeamParams, BeamPart, BeamTri,
 };
 use crate::gpu::{GpuContext, PassTimer, bind};
 use crate::image_io::Image;
@@ -39,6 +41,14 @@ use glam::{Mat4, Vec3};
 /// Statistics words of a light's beam stages (`shaders/shared/beams.wgsl`, after the append
 /// counter at word 0).
 const STATS_WORDS: u64 = 33;
+
+/// The entry of `beam_refine`'s indirect arguments (16 bytes each, one per level before it) that
+/// holds `beam_shrink`'s dispatch size and the parts queued (`PARTS_ARGS` in
+/// shaders/shared/beams.wgsl).
+const PARTS_ARGS: u64 = 7;
+
+/// The most parts `beam_shrink` takes (one dispatch of 65535 workgroups of 64).
+const PARTS_MAX: u64 = 65535 * 64;
 
 pub use crate::output::{Beam, BeamStats};
 
@@ -273,6 +283,10 @@ fn record_light_beams(
     let beams = crate::gpu::storage(ctx, "beams", cap * std::mem::size_of::<BeamGpu>() as u64, storage);
     let order = crate::gpu::storage(ctx, "beam_order", cap * 4, storage);
     let stats = crate::gpu::storage(ctx, "beam_stats", STATS_WORDS * 4, storage);
+    // The parts of the silhouette triangles (`beam_shrink`): at most one beam each, so no more
+    // than the beam buffer holds (more are counted as an overflow).
+    let parts =
+        crate::gpu::storage(ctx, "beam_parts", cap.min(PARTS_MAX) * std::mem::size_of::<BeamPart>() as u64, storage);
     let refine = ctx.compute_pipeline("beam_refine");
     let geo = dc.geo;
     let density = density_view(ctx, &geo.density);
@@ -302,6 +316,7 @@ fn record_light_beams(
                 beams.as_entire_binding(),
                 stats.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&density),
+                parts.as_entire_binding(),
             ],
         );
         {
@@ -323,6 +338,7 @@ fn record_light_beams(
             enc.copy_buffer_to_buffer(&args, at, &indirect, at, 16);
         }
     }
+    record_shrink(ctx, dc, light_buf, &params, (&parts, &args, &indirect), (&slot_buf, &beams, &stats), enc, timer);
     let chunks = Chunks::new(bp, &footprint, (kinds(bp.flags), scale));
     let dispatch = chunks.dispatch_buffer(ctx);
     record_order(ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
@@ -340,6 +356,52 @@ fn record_light_beams(
         size,
         hulls: None,
     }
+}
+
+/// `beam_shrink`: the beams of the silhouette triangles' parts `beam_refine` queued, one thread
+/// each (indirect dispatch over their count, in `args`' entry [`PARTS_ARGS`]).
+#[allow(clippy::too_many_arguments)]
+fn record_shrink(
+    ctx: &GpuContext,
+    dc: &DrawCtx,
+    light_buf: &wgpu::Buffer,
+    params: &wgpu::Buffer,
+    (parts, args, indirect): (&wgpu::Buffer, &wgpu::Buffer, &wgpu::Buffer),
+    (slots, beams, stats): (&wgpu::Buffer, &wgpu::Buffer, &wgpu::Buffer),
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let at = 16 * PARTS_ARGS;
+    enc.copy_buffer_to_buffer(args, at, indirect, at, 16);
+    let geo = dc.geo;
+    let density = density_view(ctx, &geo.density);
+    let pl = ctx.compute_pipeline("beam_shrink");
+    let bg = bind(
+        ctx,
+        &pl,
+        "beam_shrink",
+        &[
+            light_buf.as_entire_binding(),
+            params.as_entire_binding(),
+            geo.materials.as_entire_binding(),
+            geo.bvh_nodes.as_entire_binding(),
+            geo.bvh_tris.as_entire_binding(),
+            geo.bvh_instances.as_entire_binding(),
+            parts.as_entire_binding(),
+            args.as_entire_binding(),
+            slots.as_entire_binding(),
+            beams.as_entire_binding(),
+            stats.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&density),
+        ],
+    );
+    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("beam_shrink"),
+        timestamp_writes: timer.compute("beam_shrink"),
+    });
+    cp.set_pipeline(&pl);
+    cp.set_bind_group(0, &bg, &[]);
+    cp.dispatch_workgroups_indirect(indirect, at);
 }
 
 /// `beam_order`: the kept beams listed in hierarchy order.

@@ -93,7 +93,7 @@ pub struct Beam {
     /// object's surface, and `land` is `u32::MAX`).
     pub layer: u32,
     /// 0, or for the parts of a last-level triangle whose corners took different paths, 1 or 2
-    /// (its other paths' beams: `beam_refine`'s `shrink`).
+    /// (its other paths' beams: `beam_shrink`).
     pub part: u32,
 }
 

@@ -55,7 +55,7 @@ const BEAM_BRANCHES: u32 = 5u;
 // light crossed the medium between two specular objects (beam_refine.wgsl, `at_layer`).
 const BEAM_LAYERS: u32 = 2u;
 // Beams per branch and layer: a last-level triangle whose corners take different paths gives
-// one beam per path (beam_refine.wgsl, `shrink`).
+// one beam per path (beam_shrink.wgsl).
 const BEAM_PARTS: u32 = 3u;
 // Beams per slot (their places: slot x BEAM_KINDS + (branch x BEAM_LAYERS + layer) x
 // BEAM_PARTS + part).
@@ -94,13 +94,31 @@ struct BeamTri {
     face: u32,
 }
 
+// A part of a last-level triangle whose corners' edges take different paths on one branch and
+// layer (beam_refine queues it, beam_shrink makes its beam): the triangle's corners a, b, c
+// (light NDC on light face `face`), its slot of the hierarchy and its level, and
+// kind = branch | layer << 4 | case << 8 | part << 12 (beam_refine's `part_applies`).
+struct BeamPart {
+    a: vec2f,
+    b: vec2f,
+    c: vec2f,
+    face: u32,
+    slot: u32,
+    level: u32,
+    kind: u32,
+}
+
+// The entry of beam_refine's indirect arguments (4 words each; entries 0..6 the levels) that
+// holds beam_shrink's dispatch size (word 0) and the parts queued (word 3).
+const PARTS_ARGS: u32 = 7u;
+
 // A beam: base vertices v_i (w: the in-medium length of the light's path before v_i), unit
 // edge directions d_i (w: distance from v_i to the edge's end on a surface), flux (W, rgb;
 // w: the hierarchy level), a bounding sphere of the beam (centre, radius), and info.x the
 // object its three edges land on (INVALID: they leave the scene or, on layer 1, end on a
 // specular surface; beam_surface lights only that object's points), info.y its branch (0
 // transmitted, 1 reflected at the first surface, 2 reflected once inside, 3 and 4 the same at a
-// second dielectric: beam_refine), info.z its layer, info.w its part (`shrink`).
+// second dielectric: beam_refine), info.z its layer, info.w its part (beam_shrink).
 struct BeamGpu {
     v0: vec4f,
     v1: vec4f,

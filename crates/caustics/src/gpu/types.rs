@@ -289,6 +289,21 @@ pub struct BeamTri {
     pub face: u32,
 }
 
+/// A part of a last-level triangle whose corners take different paths (WGSL `BeamPart`):
+/// `beam_refine` queues it, `beam_shrink` makes its beam. `kind` = branch | layer << 4 |
+/// case << 8 | part << 12.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct BeamPart {
+    pub a: [f32; 2],
+    pub b: [f32; 2],
+    pub c: [f32; 2],
+    pub face: u32,
+    pub slot: u32,
+    pub level: u32,
+    pub kind: u32,
+}
+
 /// A beam (WGSL `BeamGpu`): base vertices (w: in-medium light path before them), unit edge
 /// directions (w: length to the edge's end), flux (W; w: level), bounding sphere, and
 /// `info.x` the object its edges land on (`u32::MAX`: they leave the scene).
@@ -537,7 +552,7 @@ pub const BEAM_BRANCHES: u32 = 5;
 /// object to the next.
 pub const BEAM_LAYERS: u32 = 2;
 /// Beams per branch and layer of a slot: a last-level triangle whose corners take different
-/// paths gives one beam per path (beam_refine.wgsl `shrink`).
+/// paths gives one beam per path (beam_shrink.wgsl).
 pub const BEAM_PARTS: u32 = 3;
 /// Beams per slot of the beam hierarchy (`BEAM_BRANCHES` x `BEAM_LAYERS` x `BEAM_PARTS`).
 pub const BEAM_KINDS: u32 = BEAM_BRANCHES * BEAM_LAYERS * BEAM_PARTS;
@@ -630,6 +645,7 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("BeamParams", "BeamParams", std::mem::size_of::<BeamParams>()),
     ("BeamLevel", "BeamLevel", std::mem::size_of::<BeamLevel>()),
     ("BeamTri", "BeamTri", std::mem::size_of::<BeamTri>()),
+    ("BeamPart", "BeamPart", std::mem::size_of::<BeamPart>()),
     ("BeamGpu", "BeamGpu", std::mem::size_of::<BeamGpu>()),
     ("BeamHull", "BeamHull", std::mem::size_of::<BeamHull>()),
     ("TriParams", "TriParams", std::mem::size_of::<TriParams>()),

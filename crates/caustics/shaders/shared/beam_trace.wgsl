@@ -1,0 +1,287 @@
+// Shared WGSL (`#import beam_trace`, after `#import raytrace`, `#import beams`, `#import medium`
+// and `#import beam_medium`): the beam edges of the adaptive grid traced exactly from the light
+// (`trace_edge`), the beam over three of them (`make_beam`), and its entry in the beam buffer and
+// the hierarchy (`emit`), for beam_refine (the grid's triangles, level by level) and beam_shrink
+// (the parts of the triangles whose corners take different paths). A stage importing it
+// declares `light` (LightGpu), `bp` (BeamParams), the scene's `materials` and BVH
+// (shared/raytrace.wgsl), `slots`, `beams`, `stats` (shared/beams.wgsl) and `density_grid`.
+
+// One traced edge.
+struct Edge {
+    // The first surface the light ray meets is a specular caster.
+    caster: bool,
+    // The path reached a diffuse surface or left the scene outside any dielectric, within the
+    // interactions allowed (a beam can be built on it).
+    ok: bool,
+    first_obj: u32,
+    first_n: vec3f,
+    first_t: f32,
+    // The path (objects, reflected or refracted, side) and the object it lands on.
+    sig: u32,
+    land: u32,
+    // The last segment: from the last specular interaction o along unit d, t_end to its end.
+    o: vec3f,
+    d: vec3f,
+    t_end: f32,
+    // In-medium length of the path before o (outside dielectrics, inside the box).
+    pre: f32,
+    // Radiant intensity toward the edge (W/sr) times the Fresnel and mirror factors.
+    weight: vec3f,
+    // The segment before the last, where the path has one (layer 1: light between two
+    // specular objects, e.g. from one glass ball to the next): outside dielectrics, from the
+    // specular interaction o1 along unit d1 to the specular surface it meets at t1; pre1 and w1
+    // as pre and weight at its start.
+    has1: bool,
+    o1: vec3f,
+    d1: vec3f,
+    t1: f32,
+    pre1: f32,
+    w1: vec3f,
+}
+
+// Beam layers (BEAM_LAYERS in shared/beams.wgsl): layer 0 the path's last segment (it ends on
+// a diffuse surface or leaves the scene), layer 1 the segment before it when that runs
+// outside dielectrics from one specular interaction to the next. The edge with its fields
+// o, d, t_end, pre and weight those of `layer` (ok: the path is whole and has that layer).
+fn at_layer(e: Edge, layer: u32) -> Edge {
+    if (layer == 0u) { return e; }
+    var r = e;
+    r.ok = e.ok && e.has1;
+    r.o = e.o1;
+    r.d = e.d1;
+    r.t_end = e.t1;
+    r.pre = e.pre1;
+    r.weight = e.w1;
+    return r;
+}
+
+fn light_dir(face: Face, ndc: vec2f) -> vec3f {
+    let a4 = face.clip_to_world * vec4f(ndc, 0.0, 1.0);
+    let b4 = face.clip_to_world * vec4f(ndc, 1.0, 1.0);
+    return normalize(b4.xyz / b4.w - a4.xyz / a4.w);
+}
+
+// The edge ray of light-NDC point ndc of face f, on branch `br` (BEAM_BRANCHES): 0 transmitted
+// at every dielectric interface (total internal reflection reflecting), br >= 1 reflected at
+// the br-th interaction and transmitted elsewhere (1: at the first surface; 2: inside the first
+// dielectric; 3 and 4: at the second dielectric's surface and inside it, where light crosses
+// the medium from one glass object into another). The branch's mask (`branch`, bit k: reflect
+// at interaction k, as the photon tracer's branch masks) needs a dielectric interface there
+// that does not reflect totally (there the light is branch 0's), and a path that reaches it.
+fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
+    let branch = select(0u, 1u << (br - 1u), br > 0u);
+    var e: Edge;
+    e.caster = false;
+    e.ok = false;
+    e.first_obj = INVALID;
+    e.land = INVALID;
+    e.sig = 0u;
+    e.has1 = false;
+    let face = light.faces[f];
+    let lp = face.origin.xyz;
+    var o = lp;
+    var dir = light_dir(face, ndc);
+    var w = intensity_toward(light, dir);
+    var inside = false;
+    var pre = 0.0;
+    var depth = 0u;
+    var seg_o = lp;
+    loop {
+        let h = scene_hit(o, dir, 1e30);
+        if (h.object == INVALID) {
+            if (depth == 0u) { return e; }
+            // Leaves the scene: the beam runs to the far side of the medium's box.
+            e.ok = !inside && (depth >= 32u || (branch >> depth) == 0u);
+            e.land = INVALID;
+            e.o = seg_o;
+            e.d = dir;
+            let c = box_clip(seg_o, dir, 1e30, bp.lo.xyz, bp.hi.xyz);
+            e.t_end = max(c.y, 0.0);
+            break;
+        }
+        let mat = materials[h.object];
+        if (depth == 0u) {
+            e.first_obj = h.object;
+            e.first_n = h.ns;
+            e.first_t = h.t;
+            if (mat.kind.x == KIND_DIFFUSE || mat.kind.y == 0u) { return e; }
+            e.caster = true;
+        }
+        let reflect_here = depth < 32u && ((branch >> depth) & 1u) == 1u;
+        if (reflect_here && mat.kind.x != KIND_DIELECTRIC) { return e; }
+        if (mat.kind.x == KIND_DIFFUSE) {
+            e.ok = !inside && (depth >= 32u || (branch >> depth) == 0u);
+            e.land = h.object;
+            e.o = seg_o;
+            e.d = dir;
+            e.t_end = length(h.p - seg_o);
+            break;
+        }
+        if (depth >= bp.max_depth) { return e; }
+        if (depth > 0u && !inside) {
+            // A segment after a specular interaction, outside dielectrics, ends on another
+            // specular surface: the latest such is layer 1. Only where the branch reflected
+            // before it (or is branch 0): otherwise the segment's light is the transmitted
+            // branch's, whose layer 1 it is.
+            e.has1 = br == 0u || br - 1u < depth;
+            e.o1 = seg_o;
+            e.d1 = dir;
+            e.t1 = length(h.p - seg_o);
+            e.pre1 = pre;
+            e.w1 = w;
+        }
+        if (!inside) { pre += beam_depth(seg_o, h.p); }
+        let front = dot(dir, h.ng) < 0.0;
+        let ng = select(-h.ng, h.ng, front);
+        let ns = select(-h.ns, h.ns, front);
+        // The interface step (shared/raytrace.wgsl, as the photon tracer's: shared/trace.wgsl).
+        var n = ns;
+        var reflect_it = true;
+        var eta = 1.0;
+        if (mat.kind.x == KIND_MIRROR || mat.kind.x == KIND_CONDUCTOR) {
+            w *= rt_metal_weight(mat, dir, ns);
+        } else {
+            let fz = rt_dielectric_fresnel(mat, dir, ns, ng, front);
+            n = fz.n;
+            eta = fz.eta;
+            let fr = fz.f;
+            if (reflect_here && fr >= 1.0) { return e; }
+            reflect_it = reflect_here || fr >= 1.0;
+            w *= select(1.0 - fr, select(fr, 1.0, fr >= 1.0), reflect_it);
+        }
+        let bz = rt_bounce(dir, n, ng, eta, reflect_it);
+        let reflected = bz.reflected;
+        let new_dir = bz.dir;
+        if (!reflected && mat.kind.x == KIND_DIELECTRIC) { inside = front; }
+        e.sig = (e.sig * 31u + h.object * 8u + u32(reflected) * 2u + u32(front) + 1u) & 0xffffffu;
+        dir = new_dir;
+        seg_o = h.p;
+        o = rt_spawn(h.p, h.ng, dir);
+        depth++;
+    }
+    e.pre = pre;
+    e.weight = w;
+    return e;
+}
+
+// Beams whose edges meet their base at a cosine below this are rebased (make_beam).
+const REBASE_COS: f32 = 0.25;
+
+// Solid angle of the spherical triangle of unit directions a, b, c (Van Oosterom & Strackee).
+fn solid_angle(a: vec3f, b: vec3f, c: vec3f) -> f32 {
+    let num = abs(dot(a, cross(b, c)));
+    let den = 1.0 + dot(a, b) + dot(b, c) + dot(c, a);
+    return 2.0 * atan2(num, den);
+}
+
+// The beam over edges e0..e2 of a triangle of light directions l0..l2. Returns flux.w < 0 when
+// the base is degenerate or its edges diverge too far to rebase.
+fn make_beam(e0_in: Edge, e1_in: Edge, e2_in: Edge, omega: f32, level: u32) -> BeamGpu {
+    var e0 = e0_in;
+    var e1 = e1_in;
+    var e2 = e2_in;
+    var b: BeamGpu;
+    b.flux = vec4f(omega * (e0.weight + e1.weight + e2.weight) / 3.0, f32(level));
+    var nrm = cross(e1.o - e0.o, e2.o - e0.o);
+    var len = length(nrm);
+    if (len <= 0.0) { b.flux.w = -1.0; return b; }
+    nrm /= len;
+    if (dot(nrm, e0.d + e1.d + e2.d) < 0.0) { nrm = -nrm; }
+    if (min(min(dot(nrm, e0.d), dot(nrm, e1.d)), dot(nrm, e2.d)) < REBASE_COS) {
+        // An oblique base (light reflected or refracted near a silhouette, where Fresnel
+        // reflection is strongest): each edge's start moved along it to the plane across the
+        // mean direction through the most advanced start, so the beam's sections are not
+        // degenerate. The sliver between the surface and that plane is dropped (its light
+        // has not travelled yet: a short wedge at the surface).
+        let m = normalize(e0.d + e1.d + e2.d);
+        let c = max(max(dot(e0.o, m), dot(e1.o, m)), dot(e2.o, m));
+        let dm = vec3f(dot(e0.d, m), dot(e1.d, m), dot(e2.d, m));
+        if (min(min(dm.x, dm.y), dm.z) < 1e-3) { b.flux.w = -1.0; return b; }
+        let t = vec3f(c - dot(e0.o, m), c - dot(e1.o, m), c - dot(e2.o, m)) / dm;
+        if (any(t > vec3f(e0.t_end, e1.t_end, e2.t_end))) { b.flux.w = -1.0; return b; }
+        let p0 = e0.o + e0.d * t.x;
+        let p1 = e1.o + e1.d * t.y;
+        let p2 = e2.o + e2.d * t.z;
+        e0.pre += beam_depth(e0.o, p0);
+        e1.pre += beam_depth(e1.o, p1);
+        e2.pre += beam_depth(e2.o, p2);
+        e0.o = p0;
+        e1.o = p1;
+        e2.o = p2;
+        e0.t_end -= t.x;
+        e1.t_end -= t.y;
+        e2.t_end -= t.z;
+        nrm = cross(e1.o - e0.o, e2.o - e0.o);
+        len = length(nrm);
+        if (len <= 0.0) { b.flux.w = -1.0; return b; }
+        nrm /= len;
+        if (dot(nrm, m) < 0.0) { nrm = -nrm; }
+    }
+    b.v0 = vec4f(e0.o, e0.pre);
+    b.v1 = vec4f(e1.o, e1.pre);
+    b.v2 = vec4f(e2.o, e2.pre);
+    b.d0 = vec4f(e0.d, e0.t_end);
+    b.d1 = vec4f(e1.d, e1.t_end);
+    b.d2 = vec4f(e2.d, e2.t_end);
+    if (min(min(dot(nrm, e0.d), dot(nrm, e1.d)), dot(nrm, e2.d)) < 1e-3) { b.flux.w = -1.0; return b; }
+    // Bounding sphere of the six corners (the beam between its base and its farthest end
+    // height lies in their convex hull).
+    let y0 = e0.t_end * dot(nrm, e0.d);
+    let y1 = e1.t_end * dot(nrm, e1.d);
+    let y2 = e2.t_end * dot(nrm, e2.d);
+    let ym = max(max(y0, y1), y2);
+    let p = array<vec3f, 6>(e0.o, e1.o, e2.o,
+        e0.o + e0.d * (ym / dot(nrm, e0.d)), e1.o + e1.d * (ym / dot(nrm, e1.d)), e2.o + e2.d * (ym / dot(nrm, e2.d)));
+    var lo = p[0];
+    var hi = p[0];
+    for (var k = 1; k < 6; k++) { lo = min(lo, p[k]); hi = max(hi, p[k]); }
+    let c = 0.5 * (lo + hi);
+    var r = 0.0;
+    for (var k = 0; k < 6; k++) { r = max(r, length(p[k] - c)); }
+    b.bound = vec4f(c, r * 1.0001 + 1e-6);
+    // (consistent edges: all three land on the same object)
+    b.info = vec4u(e0.land, 0u, 0u, 0u);
+    return b;
+}
+
+fn consistent(e0: Edge, e1: Edge, e2: Edge) -> bool {
+    return e0.ok && e1.ok && e2.ok && e0.sig == e1.sig && e1.sig == e2.sig && e0.land == e1.land && e1.land == e2.land;
+}
+
+// Whether edge e took the path of `r` (and meets a caster first).
+fn same_path(e: Edge, r: Edge) -> bool {
+    return e.ok && e.caster && e.sig == r.sig && e.land == r.land;
+}
+
+// The mean weight over a triangle (light NDC) from its corners' mean `wc` and its centre's
+// weight, by the rule exact for quadratics: corners 1/12 each and centroid 3/4, i.e.
+// (wc + 3 centre) / 4; over a parallelogram, corners 1/12 each and centre 2/3, i.e.
+// (wc + 2 centre) / 3 (`quad`). The Fresnel factors change steeply near a silhouette
+// (the corners' mean alone overestimates them there: F is convex toward grazing). The centre's
+// edge is traced once more; where it takes another path, the corners' mean.
+fn part_weight(f: u32, centre: vec2f, br: u32, layer: u32, r: Edge, wc: vec3f, quad: bool) -> vec3f {
+    let e = at_layer(trace_edge(f, centre, br), layer);
+    if (!same_path(e, r)) { return wc; }
+    return select((wc + 3.0 * e.weight) / 4.0, (wc + 2.0 * e.weight) / 3.0, quad);
+}
+
+// Appends beam b of branch `br`, layer `layer` and part `part` (0; a shrunk triangle's other
+// paths 1 and 2) in its place of hierarchy slot `slot` (BEAM_KINDS places per slot), branch and
+// layer recorded in info.y and info.z. A layer-1 beam ends on a specular surface: it lands on
+// nothing (info.x INVALID: beam_surface lights no point with it).
+fn emit(b: BeamGpu, slot: u32, br: u32, layer: u32, part: u32) {
+    if (b.flux.w < 0.0) { atomicAdd(&stats[1u + BS_GRAZING], 1u); return; }
+    let i = atomicAdd(&stats[0], 1u);
+    if (i >= bp.capacity) { atomicAdd(&stats[1u + BS_OVERFLOW], 1u); return; }
+    var out = b;
+    out.info.y = br;
+    out.info.z = layer;
+    out.info.w = part;
+    if (layer > 0u) {
+        out.info.x = INVALID;
+        atomicAdd(&stats[1u + BS_LAYER1], 1u);
+    }
+    beams[i] = out;
+    slots[BEAM_KINDS * slot + BEAM_PARTS * (BEAM_LAYERS * br + layer) + part] = i + 1u;
+    atomicAdd(&stats[1u + BS_KEPT + min(u32(b.flux.w), 7u)], 1u);
+}
