@@ -10,7 +10,7 @@
 // midpoint rule of its Fresnel weight), and one triangle has up to three parts on each of five
 // branches and two layers. In one invocation that was more loop iterations than lavapipe lets a
 // shader run (some 65536 in all; past them its loops end early) where the casters are meshes
-// with deep BVHs: a third of the glass dragon's silhouette triangles lost their light
+// with deep BVHs: a quarter of the glass dragon's last-level triangles lost their light
 // (docs/benchmarks.md). One part per thread also spreads the work that only silhouette
 // triangles have over the GPU instead of leaving the other threads of beam_refine's waves idle.
 

@@ -338,7 +338,8 @@ fn record_light_beams(
             enc.copy_buffer_to_buffer(&args, at, &indirect, at, 16);
         }
     }
-    record_shrink(ctx, dc, light_buf, &params, (&parts, &args, &indirect), (&slot_buf, &beams, &stats), enc, timer);
+    let shrink_inputs = (light_buf, &params, &density);
+    record_shrink(ctx, geo, shrink_inputs, (&parts, &args, &indirect), (&slot_buf, &beams, &stats), enc, timer);
     let chunks = Chunks::new(bp, &footprint, (kinds(bp.flags), scale));
     let dispatch = chunks.dispatch_buffer(ctx);
     record_order(ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
@@ -363,9 +364,8 @@ fn record_light_beams(
 #[allow(clippy::too_many_arguments)]
 fn record_shrink(
     ctx: &GpuContext,
-    dc: &DrawCtx,
-    light_buf: &wgpu::Buffer,
-    params: &wgpu::Buffer,
+    geo: &crate::passes::Geometry,
+    (light_buf, params, density): (&wgpu::Buffer, &wgpu::Buffer, &wgpu::TextureView),
     (parts, args, indirect): (&wgpu::Buffer, &wgpu::Buffer, &wgpu::Buffer),
     (slots, beams, stats): (&wgpu::Buffer, &wgpu::Buffer, &wgpu::Buffer),
     enc: &mut wgpu::CommandEncoder,
@@ -373,8 +373,6 @@ fn record_shrink(
 ) {
     let at = 16 * PARTS_ARGS;
     enc.copy_buffer_to_buffer(args, at, indirect, at, 16);
-    let geo = dc.geo;
-    let density = density_view(ctx, &geo.density);
     let pl = ctx.compute_pipeline("beam_shrink");
     let bg = bind(
         ctx,
@@ -392,7 +390,7 @@ fn record_shrink(
             slots.as_entire_binding(),
             beams.as_entire_binding(),
             stats.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&density),
+            wgpu::BindingResource::TextureView(density),
         ],
     );
     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {

@@ -72,8 +72,6 @@ pub const SHARED: &[(&str, &str)] = &[
     ("sphere_table", include_str!("../../shaders/shared/sphere_table.wgsl")),
 ];
 
-/// Full source of a stage: the shared code, then the stage with its `#import` lines replaced by
-/// the modules they name (a tiny preprocessor, as vello does; WGSL has no includes).
 /// Build a pipeline with `make`; with the environment variable `CAUSTICS_LOG_PIPELINES` set,
 /// say on stderr which pipeline is being built before the driver compiles it and how long that
 /// took after, so that a driver whose shader compiler stalls on one stage names it (a device's
@@ -89,6 +87,8 @@ fn logged_build<T>(kind: &str, name: &str, make: impl FnOnce() -> T) -> T {
     p
 }
 
+/// Full source of a stage: the shared code, then the stage with its `#import` lines replaced by
+/// the modules they name (a tiny preprocessor, as vello does; WGSL has no includes).
 pub fn stage_source(name: &str) -> String {
     let src =
         STAGES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s).unwrap_or_else(|| panic!("no shader stage {name}"));
