@@ -118,18 +118,15 @@ fn nonlinearity(e0: Edge, e1: Edge, e2: Edge, ec: Edge) -> f32 {
     return dev / max(width, 1e-30);
 }
 
-// Whether case c of a triangle whose corners' edges es take different paths gives a part
-// (beam_shrink's `shrink_part`): c = 0, 1, 2 the quad over the two corners other than c that
-// take one path (corner c another), c = 3, 4, 5 corner c - 3 on a path no other corner takes.
-// At most one quad applies, and a lone corner is in no quad, so the cases are independent.
-fn part_applies(es: array<Edge, 3>, c: u32) -> bool {
-    let k = c % 3u;
-    let i = (k + 1u) % 3u;
-    let j = (k + 2u) % 3u;
-    if (c < 3u) {
-        return same_path(es[i], es[i]) && same_path(es[j], es[i]) && !same_path(es[k], es[i]);
-    }
-    return same_path(es[k], es[k]) && !same_path(es[i], es[k]) && !same_path(es[j], es[k]);
+// The mean weight over a triangle (light NDC) from its corners' mean `wc` and its centre's
+// weight, by the rule exact for quadratics: corners 1/12 each and centroid 3/4, i.e.
+// (wc + 3 centre) / 4. The Fresnel factors change steeply near a silhouette (the corners' mean
+// alone overestimates them there: F is convex toward grazing). The centre's edge is traced once
+// more; where it takes another path, the corners' mean.
+fn part_weight(f: u32, centre: vec2f, br: u32, layer: u32, r: Edge, wc: vec3f) -> vec3f {
+    let e = at_layer(trace_edge(f, centre, br), layer);
+    if (!same_path(e, r)) { return wc; }
+    return (wc + 3.0 * e.weight) / 4.0;
 }
 
 // Appends a part for beam_shrink (overflow counted: more parts than beams the buffer holds
@@ -140,7 +137,10 @@ fn queue_part(p: BeamPart) {
         atomicAdd(&stats[1u + BS_OVERFLOW], 1u);
         return;
     }
-    atomicMax(&args[4u * PARTS_ARGS], (k + 64u) / 64u);
+    // (beam_shrink: SHRINK_GROUP_PARTS parts per workgroup, 65535 workgroups per row)
+    let groups = (k + SHRINK_GROUP_PARTS) / SHRINK_GROUP_PARTS;
+    atomicMax(&args[4u * PARTS_ARGS], min(groups, 65535u));
+    atomicMax(&args[4u * PARTS_ARGS + 1u], (groups + 65534u) / 65535u);
     parts[k] = p;
 }
 
@@ -303,7 +303,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
                 var b = make_beam(r0, r1, r2, omega, level);
                 if (br > 0u) {
                     let wc = (r0.weight + r1.weight + r2.weight) / 3.0;
-                    b.flux = vec4f(omega * part_weight(tri.face, centroid, br, layer, r0, wc, false), b.flux.w);
+                    b.flux = vec4f(omega * part_weight(tri.face, centroid, br, layer, r0, wc), b.flux.w);
                 }
                 emit(b, slot, br, layer, 0u);
             } else if ((br == 0u && layer == 0u) || r0.ok || r1.ok || r2.ok) {

@@ -1,18 +1,23 @@
 // Stage: beam_shrink. The parts of the last level's triangles whose corners' edges take
 // different paths (Liktor & Dachsbacher 2011 split such triangles without end; we stop at the
-// last level and keep every path's light): one thread per part beam_refine queued (`parts`, an
-// indirect dispatch over their count), which traces the triangle's three corners again on the
-// part's branch (the same edges beam_refine traced), finds the part by bisection along the
-// triangle's sides (`boundary`), and emits its beam in the triangle's place of the hierarchy, so
-// the beams' order does not depend on the order of the threads (beam_order).
+// last level and keep every path's light): SAMPLES threads per part beam_refine queued (`parts`,
+// an indirect dispatch over their count, GROUP_PARTS parts per workgroup). Together they trace
+// the triangle's three corners again on the part's branch (the same edges beam_refine traced)
+// and SAMPLES sample edges of the triangle, find the part by bisection along the triangle's
+// sides (`boundary`, one side per thread), trace SAMPLES sample edges of each of the part's own
+// region's triangles, and one of them emits its beam with its flux (`part_flux`) in the
+// triangle's place of the hierarchy, so the beams' order does not depend on the order of the
+// threads (beam_order).
 //
-// Its own pass, not beam_refine's: a part traces some twenty to forty edges (bisection steps, the
-// midpoint rule of its Fresnel weight), and one triangle has up to three parts on each of five
-// branches and two layers. In one invocation that was more loop iterations than lavapipe lets a
-// shader run (some 65536 in all; past them its loops end early) where the casters are meshes
-// with deep BVHs: a quarter of the glass dragon's last-level triangles lost their light
-// (docs/benchmarks.md). One part per thread also spreads the work that only silhouette
-// triangles have over the GPU instead of leaving the other threads of beam_refine's waves idle.
+// Its own pass, not beam_refine's: a part traces some fifty edges, and one triangle has up to
+// three parts on each of five branches and two layers. In one invocation that is more loop
+// iterations than lavapipe lets a shader run (some 65536 in all; past them its loops end early)
+// where the casters are meshes with deep BVHs: a quarter of the glass dragon's last-level
+// triangles lost their light in beam_refine, and half of its silhouette light was lost with one
+// thread per part here (docs/benchmarks.md, "Beams on a mesh caster"). Spread over the
+// threads of a workgroup, no invocation traces more than 15 edges, and the work that only
+// silhouette triangles have runs in parallel instead of leaving the other threads of
+// beam_refine's waves idle.
 
 #import raytrace
 #import beams
@@ -64,34 +69,31 @@ fn boundary(f: u32, good: vec2f, bad: vec2f, br: u32, layer: u32, r: Edge) -> Bo
     return out;
 }
 
-// Sub-triangles per side of `part_mean`'s midpoint subdivision.
+// Sub-triangles per side of a triangle's midpoint subdivision (`sample_point`): its
+// PART_SPLIT^2 sub-triangles' centroids are its samples, one thread each.
 const PART_SPLIT: u32 = 4u;
+const SAMPLES: u32 = PART_SPLIT * PART_SPLIT;
+// Parts per workgroup (SAMPLES threads each).
+const GROUP_PARTS: u32 = 64u / SAMPLES;
 
-// The mean weight of r's path over the triangle p0 p1 p2 (light NDC, a part of a last-level
-// triangle at a silhouette), by the midpoint rule over its midpoint subdivision into
-// PART_SPLIT^2 triangles of equal area (their centroids' edges traced; those on another path
-// left out), and the subdivision's count of samples on the path (w; 0: none, use the corners).
-// The Fresnel factors change steeply toward grazing incidence, and a silhouette part reaches
-// into it: the rule exact for quadratics (`part_weight`) was measured to put 4.5 % too much
-// light into the reflected light landing near a ball (that and the lost minority parts had
-// cancelled, docs/benchmarks.md).
-fn part_mean(f: u32, p0: vec2f, p1: vec2f, p2: vec2f, br: u32, layer: u32, r: Edge) -> vec4f {
-    var acc = vec4f(0.0);
-    let n = f32(PART_SPLIT);
-    for (var i = 0u; i < PART_SPLIT; i++) {
-        for (var j = 0u; i + j < PART_SPLIT; j++) {
-            for (var up = 0u; up < 2u; up++) {
-                // (upward sub-triangles at (i + 1/3, j + 1/3) / n, downward at (i + 2/3, j + 2/3) / n)
-                if (up == 1u && i + j + 2u > PART_SPLIT) { continue; }
-                let o = select(1.0 / 3.0, 2.0 / 3.0, up == 1u);
-                let a = (f32(i) + o) / n;
-                let b = (f32(j) + o) / n;
-                let e = at_layer(trace_edge(f, p0 + a * (p1 - p0) + b * (p2 - p0), br), layer);
-                if (same_path(e, r)) { acc += vec4f(e.weight, 1.0); }
-            }
-        }
+// Sample s of triangle p0 p1 p2 (light NDC): the centroid of the s-th sub-triangle of its
+// midpoint subdivision into PART_SPLIT^2 triangles of equal area (row i, column j; upward
+// sub-triangles at (i + 1/3, j + 1/3) / n, downward at (i + 2/3, j + 2/3) / n).
+fn sample_point(p0: vec2f, p1: vec2f, p2: vec2f, s: u32) -> vec2f {
+    var i = 0u;
+    var left = s;
+    // (row i has 2 (PART_SPLIT - i) - 1 sub-triangles)
+    while (left >= 2u * (PART_SPLIT - i) - 1u) {
+        left -= 2u * (PART_SPLIT - i) - 1u;
+        i++;
     }
-    return acc;
+    let up = left & 1u;
+    let j = left / 2u;
+    let n = f32(PART_SPLIT);
+    let o = select(1.0 / 3.0, 2.0 / 3.0, up == 1u);
+    let a = (f32(i) + o) / n;
+    let b = (f32(j) + o) / n;
+    return p0 + a * (p1 - p0) + b * (p2 - p0);
 }
 
 // Twice the area of the triangle p0 p1 p2 (light NDC).
@@ -101,105 +103,220 @@ fn ndc_area(p0: vec2f, p1: vec2f, p2: vec2f) -> f32 {
     return abs(u.x * v.y - u.y * v.x);
 }
 
-// One part of a last-level triangle whose edges on branch `br` and layer `layer` disagree (a
-// silhouette, an edge landing elsewhere, light that meets a second caster or misses it): the
-// part of the triangle on one of the caustic paths its corners take, found by bisection along
-// its sides, emitted as part `part` (0, 1, 2) of the triangle's place (`emit`). Case c (as
-// beam_refine's `part_applies`): c = 0, 1, 2, two corners (those other than c) that agree give
-// the quad between them and the far side's boundary points (the beam is the triangle over its
-// two good corners and the middle of its far side, carrying the quad's flux); c = 3, 4, 5,
-// corner c - 3 on a path of its own gives the triangle between it and its boundary points
-// toward the other two.
-fn shrink_part(p: BeamPart, es: array<Edge, 3>, br: u32, layer: u32, c: u32, part: u32) {
-    let ps = array<vec2f, 3>(p.a, p.b, p.c);
-    let face = light.faces[p.face];
-    let quad = c < 3u;
-    let k = c % 3u;
-    let i = (k + 1u) % 3u;
-    let j = (k + 2u) % 3u;
-    // The path's corner, and the boundary points: a quad's from i and from j toward k, a
-    // lone corner's from k toward i and toward j.
-    var r = es[k];
-    if (quad) { r = es[i]; }
-    var q: array<Boundary, 2>;
-    for (var sd = 0u; sd < 2u; sd++) {
-        let good = select(ps[k], select(ps[j], ps[i], sd == 0u), quad);
-        let bad = select(select(ps[j], ps[i], sd == 0u), ps[k], quad);
-        q[sd] = boundary(p.face, good, bad, br, layer, r);
+// Whether point x lies in the convex polygon of n (3 or 4) vertices q (light NDC, either
+// orientation; on its border counts; a polygon of no area, a part whose bisection found no
+// neighbour on its path, holds nothing).
+fn in_polygon(x: vec2f, q: array<vec2f, 4>, n: u32) -> bool {
+    var pos = false;
+    var neg = false;
+    for (var k = 0u; k < n; k++) {
+        let a = q[k];
+        let b = q[(k + 1u) % n];
+        let c = (b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x);
+        pos = pos || c > 0.0;
+        neg = neg || c < 0.0;
     }
-    let qi = q[0];
-    let qj = q[1];
-    var omega: f32;
-    var x0 = es[k];
+    return (pos || neg) && !(pos && neg);
+}
+
+// A traced sample's path and weight, as the part's threads share it.
+struct Sample {
+    weight: vec3f,
+    // The sample's edge is on a caustic path (ok, meets a caster first).
+    ok: u32,
+    sig: u32,
+    land: u32,
+}
+// What beam_shrink's threads share for each of a workgroup's parts: the triangle's corners'
+// edges, its samples, the two boundary points, and the samples of the part's own region (a
+// quad as its two triangles: (weight sum, count) of those on the part's path).
+var<workgroup> corners: array<array<Edge, 3>, GROUP_PARTS>;
+var<workgroup> samples: array<array<Sample, SAMPLES>, GROUP_PARTS>;
+var<workgroup> bounds: array<array<Boundary, 2>, GROUP_PARTS>;
+var<workgroup> region: array<array<array<vec4f, SAMPLES>, 2>, GROUP_PARTS>;
+
+// Whether a sample took path r.
+fn sample_on(x: Sample, r: Edge) -> bool {
+    return x.ok != 0u && r.ok && r.caster && x.sig == r.sig && x.land == r.land;
+}
+
+// The part's case c (as `part_applies`): c = 0, 1, 2, two corners (those other than c) that
+// agree give the quad between them and the far side's boundary points; c = 3, 4, 5, corner
+// c - 3 on a path of its own the triangle between it and its boundary points toward the other
+// two. Its corners k, i, j (k the case's corner) and the path's corner.
+struct Case {
+    quad: bool,
+    k: u32,
+    i: u32,
+    j: u32,
+    path: u32,
+}
+
+fn part_case(c: u32) -> Case {
+    let k = c % 3u;
+    let quad = c < 3u;
+    return Case(quad, k, (k + 1u) % 3u, (k + 2u) % 3u, select(k, (k + 1u) % 3u, quad));
+}
+
+// The part's region (light NDC; a lone corner's triangle, or the quad) and its two triangles
+// (the quad's i j qj and i qj qi; a lone corner's k qi qj and nothing).
+struct Region {
+    q: array<vec2f, 4>,
+    n: u32,
+    t: array<array<vec2f, 3>, 2>,
+}
+
+fn part_region(p: BeamPart, cs: Case, qi: vec2f, qj: vec2f) -> Region {
+    let ps = array<vec2f, 3>(p.a, p.b, p.c);
+    if (cs.quad) {
+        return Region(array<vec2f, 4>(ps[cs.i], ps[cs.j], qj, qi), 4u,
+            array<array<vec2f, 3>, 2>(array<vec2f, 3>(ps[cs.i], ps[cs.j], qj), array<vec2f, 3>(ps[cs.i], qj, qi)));
+    }
+    let lone = array<vec2f, 3>(ps[cs.k], qi, qj);
+    return Region(array<vec2f, 4>(ps[cs.k], qi, qj, qj), 3u, array<array<vec2f, 3>, 2>(lone, lone));
+}
+
+// The part's flux: the light of its own region (its solid angle times the mean weight of the
+// region's samples on its path, the midpoint rule over each of its triangles: the Fresnel
+// factors change steeply toward grazing incidence, which a silhouette part reaches into, and
+// the rule exact for quadratics, beam_refine's `part_weight`, put 4.5 % too much light into the
+// reflected light landing near a ball), corrected by the triangle's samples where the paths do
+// not follow the bisected boundaries: plus the samples on its path outside its region, minus
+// (at its mean weight) the samples inside its region on another path or none, plus an equal
+// share (1 / `parts`, the triangle's parts on this branch and layer) of the samples on a caustic
+// path none of its corners takes. Where the boundaries are straight (a ball's silhouette) the
+// corrections vanish. Where a mesh caster's light takes many paths within a triangle (the glass
+// dragon: light leaving one body part into another, reflected totally inside a thin one a
+// varying number of times) the regions cover a fraction of the triangle, and weighting each
+// part by its own area lost 43 % of the dragon's transmitted light (docs/benchmarks.md, "Beams
+// on a mesh caster: the deficit found"); with the corrections the parts carry all the
+// triangle's caustic light in the samples' estimate, each within the triangle's extent of
+// where it goes.
+fn part_flux(p: BeamPart, g: u32, cs: Case, rg: Region, es: array<Edge, 3>, parts: u32) -> vec3f {
+    let r = es[cs.path];
+    let face = light.faces[p.face];
+    // The region's own light.
+    var mean = vec3f(0.0);
+    var area = 0.0;
+    var omega = 0.0;
+    for (var t = 0u; t < select(1u, 2u, cs.quad); t++) {
+        var m = vec4f(0.0);
+        for (var s = 0u; s < SAMPLES; s++) { m += region[g][t][s]; }
+        let tr = rg.t[t];
+        let a = ndc_area(tr[0], tr[1], tr[2]);
+        if (m.w > 0.0) {
+            mean += a * m.xyz / m.w;
+            area += a;
+        }
+        omega += solid_angle(light_dir(face, tr[0]), light_dir(face, tr[1]), light_dir(face, tr[2]));
+    }
+    mean = select((es[cs.path].weight + select(es[cs.path].weight, es[cs.j].weight, cs.quad)) / 2.0, mean / area, area > 0.0);
+    // The triangle's samples.
+    var extra = vec3f(0.0);
+    var intruders = 0.0;
+    for (var s = 0u; s < SAMPLES; s++) {
+        let x = samples[g][s];
+        let inside = in_polygon(sample_point(p.a, p.b, p.c, s), rg.q, rg.n);
+        let on = sample_on(x, r);
+        if (on && !inside) { extra += x.weight; }
+        if (!on && inside) { intruders += 1.0; }
+        if (x.ok != 0u && !sample_on(x, es[0]) && !sample_on(x, es[1]) && !sample_on(x, es[2])) {
+            extra += x.weight / f32(max(parts, 1u));
+        }
+    }
+    let omega_tri = solid_angle(light_dir(face, p.a), light_dir(face, p.b), light_dir(face, p.c));
+    return max(omega * mean + omega_tri / f32(SAMPLES) * (extra - intruders * mean), vec3f(0.0));
+}
+
+// One part of a last-level triangle whose edges on its branch and layer disagree (a silhouette,
+// an edge landing elsewhere, light that meets a second caster or misses it): the part of the
+// triangle on one of the caustic paths its corners take, found by bisection along its sides (the
+// boundary points: a quad's from i and from j toward k, a lone corner's from k toward i and
+// toward j), emitted as part `part` (0, 1, 2) of the triangle's place (`emit`). A quad's beam is
+// the triangle over its two good corners and the middle of its far side; a part whose beam is
+// degenerate (bisection found no neighbour on its path: a sliver) a thin beam along its
+// corner's edge, as wide as the light's bundle through the triangle where it meets the caster
+// (on layer 1 meeting at the edge's end on the next specular surface).
+fn shrink_part(p: BeamPart, g: u32, es: array<Edge, 3>, br: u32, layer: u32, c: u32, part: u32) {
+    let cs = part_case(c);
+    let qi = bounds[g][0];
+    let qj = bounds[g][1];
+    var x0 = es[cs.k];
     var x1 = qi.e;
     var x2 = qj.e;
-    var wm: vec3f;
-    var centre: vec2f;
-    if (quad) {
-        let mp = 0.5 * (qi.ndc + qj.ndc);
-        var em = at_layer(trace_edge(p.face, mp, br), layer);
-        if (!same_path(em, es[i])) { em = qi.e; }
-        let li = light_dir(face, ps[i]);
-        let lj = light_dir(face, ps[j]);
-        let lqi = light_dir(face, qi.ndc);
-        let lqj = light_dir(face, qj.ndc);
-        omega = solid_angle(li, lj, lqj) + solid_angle(li, lqj, lqi);
-        x0 = es[i];
-        x1 = es[j];
+    if (cs.quad) {
+        var em = at_layer(trace_edge(p.face, 0.5 * (qi.ndc + qj.ndc), br), layer);
+        if (!same_path(em, es[cs.i])) { em = qi.e; }
+        x0 = es[cs.i];
+        x1 = es[cs.j];
         x2 = em;
-        wm = (es[i].weight + es[j].weight + qi.e.weight + qj.e.weight) / 4.0;
-        centre = 0.25 * (ps[i] + ps[j] + qi.ndc + qj.ndc);
-    } else {
-        omega = solid_angle(light_dir(face, ps[k]), light_dir(face, qi.ndc), light_dir(face, qj.ndc));
-        wm = (es[k].weight + qi.e.weight + qj.e.weight) / 3.0;
-        centre = (ps[k] + qi.ndc + qj.ndc) / 3.0;
     }
+    let face = light.faces[p.face];
+    let omega = solid_angle(light_dir(face, p.a), light_dir(face, p.b), light_dir(face, p.c));
     var b = make_beam(x0, x1, x2, omega, p.level);
-    var wq = wm;
-    if (br == 0u) {
-        wq = part_weight(p.face, centre, br, layer, r, wm, quad);
-    } else {
-        // The midpoint rule over the part: a lone corner's triangle, or the quad as two
-        // triangles, each weighted by its area.
-        var m: array<vec4f, 2>;
-        for (var t = 0u; t < select(1u, 2u, quad); t++) {
-            let p0 = select(ps[k], ps[i], quad);
-            let p1 = select(qi.ndc, select(qj.ndc, ps[j], t == 0u), quad);
-            let p2 = select(qj.ndc, select(qi.ndc, qj.ndc, t == 0u), quad);
-            m[t] = part_mean(p.face, p0, p1, p2, br, layer, r);
-        }
-        if (quad) {
-            let ma = m[0];
-            let mb = m[1];
-            let aa = ndc_area(ps[i], ps[j], qj.ndc);
-            let ab = ndc_area(ps[i], qj.ndc, qi.ndc);
-            if (ma.w > 0.0 && mb.w > 0.0 && aa + ab > 0.0) {
-                wq = (aa * ma.xyz / ma.w + ab * mb.xyz / mb.w) / (aa + ab);
-            } else if (ma.w + mb.w > 0.0) {
-                wq = (ma.xyz + mb.xyz) / (ma.w + mb.w);
-            }
-        } else {
-            wq = select(wm, m[0].xyz / max(m[0].w, 1.0), m[0].w > 0.0);
-        }
+    if (b.flux.w < 0.0) {
+        let e = es[cs.path];
+        b = thin_beam(e, 0.5 * sqrt(omega) * e.first_t, omega, p.level, layer > 0u);
     }
-    b.flux = vec4f(omega * wq, b.flux.w);
+    var parts = 0u;
+    for (var cc = 0u; cc < 6u; cc++) { parts += u32(part_applies(es, cc)); }
+    b.flux = vec4f(part_flux(p, g, cs, part_region(p, cs, qi.ndc, qj.ndc), es, parts), b.flux.w);
     emit(b, p.slot, br, layer, part);
 }
 
+// SAMPLES threads per part (GROUP_PARTS parts per workgroup; the header says why): each traces
+// a sample of the triangle (threads 0..2 their corner too), threads 0 and 1 bisect a side each,
+// each traces a sample of each of the part's region's triangles, and thread 0 makes the beam.
+// (Threads past the parts' count take part in the barriers only.)
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3u) {
+fn main(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: vec3u) {
     let n = min(args[4u * PARTS_ARGS + 3u], min(bp.capacity, 65535u * 64u));
-    if (gid.x >= n) { return; }
-    let p = parts[gid.x];
+    let g = li / SAMPLES;
+    let s = li % SAMPLES;
+    let index = (wid.x + wid.y * 65535u) * GROUP_PARTS + g;
+    let live = index < n;
+    var p: BeamPart;
+    if (live) { p = parts[index]; }
     let br = p.kind & 15u;
     let layer = (p.kind >> 4u) & 15u;
     let c = (p.kind >> 8u) & 15u;
     let part = p.kind >> 12u;
-    // The corners' edges on the part's branch and layer, as beam_refine traced them.
-    var es: array<Edge, 3>;
-    for (var k = 0u; k < 3u; k++) {
-        let q = select(select(p.c, p.b, k == 1u), p.a, k == 0u);
-        es[k] = at_layer(trace_edge(p.face, q, br), layer);
+    let cs = part_case(c);
+    // The triangle's sample, and (threads 0..2) the corner's edge: the corners' edges on the
+    // part's branch and layer as beam_refine traced them.
+    if (live) {
+        for (var t = 0u; t < select(1u, 2u, s < 3u); t++) {
+            let q = select(sample_point(p.a, p.b, p.c, s), select(select(p.c, p.b, s == 1u), p.a, s == 0u), t == 1u);
+            let e = at_layer(trace_edge(p.face, q, br), layer);
+            if (t == 0u) {
+                samples[g][s] = Sample(e.weight, u32(e.ok && e.caster), e.sig, e.land);
+            } else {
+                corners[g][s] = e;
+            }
+        }
     }
-    shrink_part(p, es, br, layer, c, part);
+    workgroupBarrier();
+    let es = corners[g];
+    if (live && s < 2u) {
+        let ps = array<vec2f, 3>(p.a, p.b, p.c);
+        let good = select(ps[cs.k], select(ps[cs.j], ps[cs.i], s == 0u), cs.quad);
+        let bad = select(select(ps[cs.j], ps[cs.i], s == 0u), ps[cs.k], cs.quad);
+        bounds[g][s] = boundary(p.face, good, bad, br, layer, es[cs.path]);
+    }
+    workgroupBarrier();
+    // The samples of the part's own region.
+    let rg = part_region(p, cs, bounds[g][0].ndc, bounds[g][1].ndc);
+    for (var t = 0u; t < 2u; t++) {
+        var m = vec4f(0.0);
+        if (live && (t == 0u || cs.quad)) {
+            let tr = rg.t[t];
+            let e = at_layer(trace_edge(p.face, sample_point(tr[0], tr[1], tr[2], s), br), layer);
+            if (same_path(e, es[cs.path])) { m = vec4f(e.weight, 1.0); }
+        }
+        region[g][t][s] = m;
+    }
+    workgroupBarrier();
+    if (live && s == 0u) {
+        shrink_part(p, g, es, br, layer, c, part);
+    }
 }

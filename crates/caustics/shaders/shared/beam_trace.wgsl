@@ -1,7 +1,8 @@
 // Shared WGSL (`#import beam_trace`, after `#import raytrace`, `#import beams`, `#import medium`
 // and `#import beam_medium`): the beam edges of the adaptive grid traced exactly from the light
-// (`trace_edge`), the beam over three of them (`make_beam`), and its entry in the beam buffer and
-// the hierarchy (`emit`), for beam_refine (the grid's triangles, level by level) and beam_shrink
+// (`trace_edge`), the beam over three of them (`make_beam`; `thin_beam` along one), the parts of
+// a triangle whose corners take different paths (`part_applies`), and a beam's entry in the beam
+// buffer and the hierarchy (`emit`), for beam_refine (the grid's triangles, level by level) and beam_shrink
 // (the parts of the triangles whose corners take different paths). A stage importing it
 // declares `light` (LightGpu), `bp` (BeamParams), the scene's `materials` and BVH
 // (shared/raytrace.wgsl), `slots`, `beams`, `stats` (shared/beams.wgsl) and `density_grid`.
@@ -19,9 +20,11 @@ struct Edge {
     // The path (objects, reflected or refracted, side) and the object it lands on.
     sig: u32,
     land: u32,
-    // The last segment: from the last specular interaction o along unit d, t_end to its end.
+    // The last segment: from the last specular interaction o along unit d, t_end to its end;
+    // n the surface's geometric normal at o on d's side.
     o: vec3f,
     d: vec3f,
+    n: vec3f,
     t_end: f32,
     // In-medium length of the path before o (outside dielectrics, inside the box).
     pre: f32,
@@ -34,6 +37,7 @@ struct Edge {
     has1: bool,
     o1: vec3f,
     d1: vec3f,
+    n1: vec3f,
     t1: f32,
     pre1: f32,
     w1: vec3f,
@@ -49,6 +53,7 @@ fn at_layer(e: Edge, layer: u32) -> Edge {
     r.ok = e.ok && e.has1;
     r.o = e.o1;
     r.d = e.d1;
+    r.n = e.n1;
     r.t_end = e.t1;
     r.pre = e.pre1;
     r.weight = e.w1;
@@ -86,6 +91,7 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
     var pre = 0.0;
     var depth = 0u;
     var seg_o = lp;
+    var seg_n = dir;
     loop {
         let h = scene_hit(o, dir, 1e30);
         if (h.object == INVALID) {
@@ -95,6 +101,7 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
             e.land = INVALID;
             e.o = seg_o;
             e.d = dir;
+            e.n = seg_n;
             let c = box_clip(seg_o, dir, 1e30, bp.lo.xyz, bp.hi.xyz);
             e.t_end = max(c.y, 0.0);
             break;
@@ -114,6 +121,7 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
             e.land = h.object;
             e.o = seg_o;
             e.d = dir;
+            e.n = seg_n;
             e.t_end = length(h.p - seg_o);
             break;
         }
@@ -126,6 +134,7 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
             e.has1 = br == 0u || br - 1u < depth;
             e.o1 = seg_o;
             e.d1 = dir;
+            e.n1 = seg_n;
             e.t1 = length(h.p - seg_o);
             e.pre1 = pre;
             e.w1 = w;
@@ -156,6 +165,7 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
         e.sig = (e.sig * 31u + h.object * 8u + u32(reflected) * 2u + u32(front) + 1u) & 0xffffffu;
         dir = new_dir;
         seg_o = h.p;
+        seg_n = select(-h.ng, h.ng, dot(new_dir, h.ng) > 0.0);
         o = rt_spawn(h.p, h.ng, dir);
         depth++;
     }
@@ -244,6 +254,29 @@ fn make_beam(e0_in: Edge, e1_in: Edge, e2_in: Edge, omega: f32, level: u32) -> B
     return b;
 }
 
+// A thin beam along edge e, for the light of a part whose own beam is degenerate (beam_shrink:
+// bisection found no neighbour on its path, or its base is too oblique to rebase): three edges
+// from points `radius` from e's start on the surface's tangent plane there (outside a convex
+// surface), parallel to e (a prism whose end section lights the surface e lands on:
+// beam_surface), or with `converge` meeting at e's end (a layer-1 beam ends exactly on the next
+// specular surface).
+fn thin_beam(e: Edge, radius: f32, omega: f32, level: u32, converge: bool) -> BeamGpu {
+    let a = select(vec3f(1.0, 0.0, 0.0), vec3f(0.0, 1.0, 0.0), abs(e.n.x) > 0.9);
+    let u = normalize(a - e.n * dot(e.n, a));
+    let v = cross(e.n, u);
+    let end = e.o + e.d * e.t_end;
+    let offs = array<vec3f, 3>(u, -0.5 * u + 0.8660254 * v, -0.5 * u - 0.8660254 * v);
+    var es = array<Edge, 3>(e, e, e);
+    for (var k = 0u; k < 3u; k++) {
+        es[k].o = e.o + radius * offs[k];
+        if (converge) {
+            es[k].t_end = length(end - es[k].o);
+            es[k].d = (end - es[k].o) / max(es[k].t_end, 1e-30);
+        }
+    }
+    return make_beam(es[0], es[1], es[2], omega, level);
+}
+
 fn consistent(e0: Edge, e1: Edge, e2: Edge) -> bool {
     return e0.ok && e1.ok && e2.ok && e0.sig == e1.sig && e1.sig == e2.sig && e0.land == e1.land && e1.land == e2.land;
 }
@@ -253,16 +286,19 @@ fn same_path(e: Edge, r: Edge) -> bool {
     return e.ok && e.caster && e.sig == r.sig && e.land == r.land;
 }
 
-// The mean weight over a triangle (light NDC) from its corners' mean `wc` and its centre's
-// weight, by the rule exact for quadratics: corners 1/12 each and centroid 3/4, i.e.
-// (wc + 3 centre) / 4; over a parallelogram, corners 1/12 each and centre 2/3, i.e.
-// (wc + 2 centre) / 3 (`quad`). The Fresnel factors change steeply near a silhouette
-// (the corners' mean alone overestimates them there: F is convex toward grazing). The centre's
-// edge is traced once more; where it takes another path, the corners' mean.
-fn part_weight(f: u32, centre: vec2f, br: u32, layer: u32, r: Edge, wc: vec3f, quad: bool) -> vec3f {
-    let e = at_layer(trace_edge(f, centre, br), layer);
-    if (!same_path(e, r)) { return wc; }
-    return select((wc + 3.0 * e.weight) / 4.0, (wc + 2.0 * e.weight) / 3.0, quad);
+// Whether case c of a triangle whose corners' edges es take different paths gives a part
+// (beam_refine queues one for each, beam_shrink's `shrink_part` makes its beam): c = 0, 1, 2
+// the quad over the two corners other than c that take one path (corner c another), c = 3, 4,
+// 5 corner c - 3 on a path no other corner takes.
+// At most one quad applies, and a lone corner is in no quad, so the cases are independent.
+fn part_applies(es: array<Edge, 3>, c: u32) -> bool {
+    let k = c % 3u;
+    let i = (k + 1u) % 3u;
+    let j = (k + 2u) % 3u;
+    if (c < 3u) {
+        return same_path(es[i], es[i]) && same_path(es[j], es[i]) && !same_path(es[k], es[i]);
+    }
+    return same_path(es[k], es[k]) && !same_path(es[i], es[k]) && !same_path(es[j], es[k]);
 }
 
 // Appends beam b of branch `br`, layer `layer` and part `part` (0; a shrunk triangle's other

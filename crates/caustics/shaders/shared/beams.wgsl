@@ -109,8 +109,10 @@ struct BeamPart {
 }
 
 // The entry of beam_refine's indirect arguments (4 words each; entries 0..6 the levels) that
-// holds beam_shrink's dispatch size (word 0) and the parts queued (word 3).
+// holds beam_shrink's dispatch size (words 0 and 1) and the parts queued (word 3).
 const PARTS_ARGS: u32 = 7u;
+// Parts per workgroup of beam_shrink (its dispatch size in PARTS_ARGS: workgroups x, rows y).
+const SHRINK_GROUP_PARTS: u32 = 4u;
 
 // A beam: base vertices v_i (w: the in-medium length of the light's path before v_i), unit
 // edge directions d_i (w: distance from v_i to the edge's end on a surface), flux (W, rgb;

@@ -1,0 +1,188 @@
+//! The light of a spot light's transmitted beam branch, traced on the CPU (diagnostic for the
+//! beams on mesh casters: docs/benchmarks.md, "Beams on a mesh caster: the deficit found").
+//! `cargo run --release -p caustics-reference --example beam_paths -- SCENE [N] [MAX_DEPTH] [GRID]`
+//! prints, for the scene's first light (a spot), the flux (W, first channel) over N² stratified
+//! directions of its cone that meets a specular object, that leaves on the transmitted branch
+//! (every dielectric interface transmitting with weight 1 − F, total internal reflection
+//! followed, as `beam_refine`'s branch 0) to a diffuse surface or out of the scene, that passes
+//! MAX_DEPTH interactions, and that ends inside a dielectric; then, over a GRID² grid of the
+//! spot's light face, the light in triangles whose three corners take one path (the
+//! `beam_refine` signature) or not, and in those whose corners take three paths.
+use caustics::scene::{Light, Material, Scene};
+use caustics_reference::reference::emit::Emitter;
+use caustics_reference::reference::geometry::{Accel, spawn};
+use caustics_reference::reference::optics::{fresnel_dielectric, reflect, refract};
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+/// Where a light ray's transmitted branch ends.
+#[derive(Clone, Copy, PartialEq)]
+enum Fate {
+    /// It meets no specular object first.
+    Missed,
+    /// On a diffuse surface or out of the scene, outside dielectrics: a caustic path.
+    Caustic,
+    /// Past the interactions allowed.
+    Deep,
+    /// On a diffuse surface or out of the scene while "inside" a dielectric.
+    Inside,
+}
+
+/// One ray's transmitted branch: its fate, weight (Fresnel factors), `beam_refine`'s signature
+/// (objects, reflected or refracted, side) and landing object, and whether it crossed the medium
+/// from one specular interaction to another (a second caster layer).
+struct Path {
+    fate: Fate,
+    weight: f32,
+    sig: u32,
+    land: u32,
+    layer1: bool,
+}
+
+fn trace(scene: &Scene, accel: &Accel, o0: Vec3, d0: Vec3, max_depth: u32) -> Path {
+    let (mut o, mut d) = (o0, d0);
+    let mut p = Path { fate: Fate::Missed, weight: 1.0, sig: 0, land: u32::MAX, layer1: false };
+    let mut inside = false;
+    let mut depth = 0;
+    loop {
+        let hit = accel.intersect(o, d, 1e30);
+        let dielectric = hit.and_then(|h| match scene.materials[scene.objects[h.object as usize].material] {
+            Material::Dielectric { ior, ext_ior } => Some((h, ior, ext_ior)),
+            _ => None,
+        });
+        let Some((h, ior, ext_ior)) = dielectric else {
+            if depth > 0 {
+                p.fate = if inside { Fate::Inside } else { Fate::Caustic };
+                p.land = hit.map_or(u32::MAX, |h| h.object);
+            }
+            return p;
+        };
+        if depth >= max_depth {
+            p.fate = Fate::Deep;
+            return p;
+        }
+        p.layer1 |= depth > 0 && !inside;
+        let front = d.dot(h.ng) < 0.0;
+        let ng = if front { h.ng } else { -h.ng };
+        let mut ns = if front { h.ns } else { -h.ns };
+        let eta = if front { ior / ext_ior } else { ext_ior / ior };
+        if -d.dot(ns) <= 0.0 {
+            ns = ng;
+        }
+        let (f, cos_t) = fresnel_dielectric(-d.dot(ns), eta);
+        let mut refl = f >= 1.0;
+        let mut nd = Vec3::ZERO;
+        if !refl {
+            nd = refract(d, ns, eta, cos_t);
+            if nd.dot(ng) >= 0.0 {
+                let (f2, c2) = fresnel_dielectric(-d.dot(ng), eta);
+                if f2 >= 1.0 {
+                    refl = true;
+                } else {
+                    nd = refract(d, ng, eta, c2);
+                }
+            }
+            p.weight *= 1.0 - f;
+        }
+        if refl {
+            nd = reflect(d, ns);
+            if nd.dot(ng) <= 0.0 {
+                nd = reflect(d, ng);
+            }
+        } else {
+            inside = front;
+        }
+        p.sig = (p.sig.wrapping_mul(31).wrapping_add(h.object * 8 + (refl as u32) * 2 + front as u32 + 1)) & 0xffffff;
+        o = spawn(h.p, h.ng, nd);
+        d = nd;
+        depth += 1;
+    }
+}
+
+fn main() {
+    let a: Vec<String> = std::env::args().skip(1).collect();
+    let scene = Scene::load(std::path::Path::new(&a[0])).unwrap_or_else(|e| panic!("{e}"));
+    let arg = |k: usize, default: u32| a.get(k).map_or(default, |s| s.parse().unwrap());
+    let (n, max_depth, g) = (arg(1, 1000), arg(2, 16), arg(3, 128) as usize);
+    let accel = Accel::new(&scene);
+    let light = &scene.lights[0];
+    let em = Emitter::full(light, Vec3::ZERO, 10.0);
+    // Flux by fate: onto a caster, caustic, of it with a second layer, deep, inside.
+    let t = (0..n)
+        .into_par_iter()
+        .map(|j| {
+            let mut acc = [0.0f64; 5];
+            for i in 0..n {
+                let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                let Some(e) = em.sample(u) else { continue };
+                let p = trace(&scene, &accel, e.origin, e.dir, max_depth);
+                let w = f64::from(e.flux_n.x) / f64::from(n * n);
+                if p.fate != Fate::Missed {
+                    acc[0] += w;
+                }
+                match p.fate {
+                    Fate::Caustic => {
+                        acc[1] += w * f64::from(p.weight);
+                        if p.layer1 {
+                            acc[2] += w * f64::from(p.weight);
+                        }
+                    }
+                    Fate::Deep => acc[3] += w * f64::from(p.weight),
+                    Fate::Inside => acc[4] += w * f64::from(p.weight),
+                    Fate::Missed => {}
+                }
+            }
+            acc
+        })
+        .reduce(|| [0.0; 5], |x, y| std::array::from_fn(|k| x[k] + y[k]));
+    println!(
+        "onto specular objects {:.4} W; transmitted branch on caustic paths {:.4} W (of it after a second layer {:.4} W); past {max_depth} interactions {:.4} W; ended inside {:.4} W",
+        t[0], t[1], t[2], t[3], t[4]
+    );
+    let Light::Spot { position, direction, cone_angle, .. } = light else { return };
+    // The light face of a spot (lightspace.rs: a square frustum around the cone).
+    let tan = cone_angle.tan();
+    let axis = direction.normalize();
+    let right = axis.any_orthonormal_vector();
+    let up = axis.cross(right);
+    let dir = |x: f32, y: f32| (axis + right * (x * tan) + up * (y * tan)).normalize();
+    let corner = |i: usize, j: usize| {
+        let p = trace(
+            &scene,
+            &accel,
+            *position,
+            dir(-1.0 + 2.0 * i as f32 / g as f32, -1.0 + 2.0 * j as f32 / g as f32),
+            max_depth,
+        );
+        (p.fate == Fate::Caustic, p.fate != Fate::Missed, p.sig, p.land)
+    };
+    let pts: Vec<_> = (0..=g).into_par_iter().flat_map_iter(|j| (0..=g).map(move |i| corner(i, j))).collect();
+    let at = |i: usize, j: usize| pts[j * (g + 1) + i];
+    let same = |a: (bool, bool, u32, u32), b: (bool, bool, u32, u32)| a.0 && b.0 && a.2 == b.2 && a.3 == b.3;
+    let cell = (2.0 * tan / g as f32).powi(2) / 2.0;
+    let (mut one, mut other, mut three) = (0.0f64, 0.0f64, 0.0f64);
+    for j in 0..g {
+        for i in 0..g {
+            for tri in [[at(i, j), at(i + 1, j), at(i + 1, j + 1)], [at(i, j), at(i + 1, j + 1), at(i, j + 1)]] {
+                if !tri.iter().any(|p| p.1) {
+                    continue;
+                }
+                let d = dir(-1.0 + 2.0 * (i as f32 + 0.5) / g as f32, -1.0 + 2.0 * (j as f32 + 0.5) / g as f32);
+                // (the triangle's solid angle: its area on the face times cos³ of its angle)
+                let w = f64::from(light.intensity_toward(d).x * cell * d.dot(axis).powi(3));
+                if same(tri[0], tri[1]) && same(tri[1], tri[2]) {
+                    one += w;
+                } else {
+                    other += w;
+                    let all = tri.iter().all(|p| p.0);
+                    if all && !same(tri[0], tri[1]) && !same(tri[1], tri[2]) && !same(tri[0], tri[2]) {
+                        three += w;
+                    }
+                }
+            }
+        }
+    }
+    println!(
+        "grid {g}²: light toward triangles meeting a specular object whose corners take one caustic path {one:.4} W, not {other:.4} W, three paths {three:.4} W"
+    );
+}
