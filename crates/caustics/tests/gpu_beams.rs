@@ -562,7 +562,8 @@ fn reflected_silhouette_shrink_conserves_the_fresnel_flux() {
     // triangles shows. Measured (2026-12-03): R +0.28 %, TRT -1.37 %; regular 64² -0.04 %,
     // -0.74 %; since the parts' flux is corrected by the triangle's samples (2026-12-05):
     // -0.06 %, +0.02 % (the triangle's 16 samples alone, without the region's own light:
-    // R +0.84 %). Not at 16² (R -7.3 %, TRT -2.0 %: docs/architecture.md, "Beams: accuracy").
+    // R +0.84 %). At 16² now R -0.28 %, TRT +0.52 % (before: -7.3 %, -2.0 %;
+    // docs/architecture.md, "Beams: accuracy").
     let sc = ball_in_fog(14.0, 8, 8);
     let (_, want) = fresnel_flux(0.0);
     let (_, band) = fresnel_flux(1.0 - 1.0 / 64.0);
