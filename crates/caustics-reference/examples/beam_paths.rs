@@ -8,96 +8,12 @@
 //! MAX_DEPTH interactions, and that ends inside a dielectric; then, over a GRID² grid of the
 //! spot's light face, the light in triangles whose three corners take one path (the
 //! `beam_refine` signature) or not, and in those whose corners take three paths.
-use caustics::scene::{Light, Material, Scene};
+use caustics::scene::{Light, Scene};
+use caustics_reference::reference::branch::{Fate, trace};
 use caustics_reference::reference::emit::Emitter;
-use caustics_reference::reference::geometry::{Accel, spawn};
-use caustics_reference::reference::optics::{fresnel_dielectric, reflect, refract};
+use caustics_reference::reference::geometry::Accel;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-
-/// Where a light ray's transmitted branch ends.
-#[derive(Clone, Copy, PartialEq)]
-enum Fate {
-    /// It meets no specular object first.
-    Missed,
-    /// On a diffuse surface or out of the scene, outside dielectrics: a caustic path.
-    Caustic,
-    /// Past the interactions allowed.
-    Deep,
-    /// On a diffuse surface or out of the scene while "inside" a dielectric.
-    Inside,
-}
-
-/// One ray's transmitted branch: its fate, weight (Fresnel factors), `beam_refine`'s signature
-/// (objects, reflected or refracted, side) and landing object, and whether it crossed the medium
-/// from one specular interaction to another (a second caster layer).
-struct Path {
-    fate: Fate,
-    weight: f32,
-    sig: u32,
-    land: u32,
-    layer1: bool,
-}
-
-fn trace(scene: &Scene, accel: &Accel, o0: Vec3, d0: Vec3, max_depth: u32) -> Path {
-    let (mut o, mut d) = (o0, d0);
-    let mut p = Path { fate: Fate::Missed, weight: 1.0, sig: 0, land: u32::MAX, layer1: false };
-    let mut inside = false;
-    let mut depth = 0;
-    loop {
-        let hit = accel.intersect(o, d, 1e30);
-        let dielectric = hit.and_then(|h| match scene.materials[scene.objects[h.object as usize].material] {
-            Material::Dielectric { ior, ext_ior } => Some((h, ior, ext_ior)),
-            _ => None,
-        });
-        let Some((h, ior, ext_ior)) = dielectric else {
-            if depth > 0 {
-                p.fate = if inside { Fate::Inside } else { Fate::Caustic };
-                p.land = hit.map_or(u32::MAX, |h| h.object);
-            }
-            return p;
-        };
-        if depth >= max_depth {
-            p.fate = Fate::Deep;
-            return p;
-        }
-        p.layer1 |= depth > 0 && !inside;
-        let front = d.dot(h.ng) < 0.0;
-        let ng = if front { h.ng } else { -h.ng };
-        let mut ns = if front { h.ns } else { -h.ns };
-        let eta = if front { ior / ext_ior } else { ext_ior / ior };
-        if -d.dot(ns) <= 0.0 {
-            ns = ng;
-        }
-        let (f, cos_t) = fresnel_dielectric(-d.dot(ns), eta);
-        let mut refl = f >= 1.0;
-        let mut nd = Vec3::ZERO;
-        if !refl {
-            nd = refract(d, ns, eta, cos_t);
-            if nd.dot(ng) >= 0.0 {
-                let (f2, c2) = fresnel_dielectric(-d.dot(ng), eta);
-                if f2 >= 1.0 {
-                    refl = true;
-                } else {
-                    nd = refract(d, ng, eta, c2);
-                }
-            }
-            p.weight *= 1.0 - f;
-        }
-        if refl {
-            nd = reflect(d, ns);
-            if nd.dot(ng) <= 0.0 {
-                nd = reflect(d, ng);
-            }
-        } else {
-            inside = front;
-        }
-        p.sig = (p.sig.wrapping_mul(31).wrapping_add(h.object * 8 + (refl as u32) * 2 + front as u32 + 1)) & 0xffffff;
-        o = spawn(h.p, h.ng, nd);
-        d = nd;
-        depth += 1;
-    }
-}
 
 fn main() {
     let a: Vec<String> = std::env::args().skip(1).collect();

@@ -1926,12 +1926,11 @@ fn beams_in_a_density_grid_match_the_equivalent_homogeneous_media() {
 /// transmitted branch (every dielectric interface transmitting with weight 1 − F, total internal
 /// reflection followed, as `beam_refine`'s branch 0) and reaches a diffuse surface or leaves the
 /// scene: what the transmitted beams of the paths' last segments carry in all. Traced on the CPU
-/// (the reference's geometry and optics) over n² stratified directions of the light's cone.
+/// (`caustics_reference::reference::branch`) over n² stratified directions of the light's cone.
 fn transmitted_flux(sc: &Scene, n: u32, max_depth: u32) -> f64 {
-    use caustics::scene::Material;
+    use caustics_reference::reference::branch::{Fate, trace};
     use caustics_reference::reference::emit::Emitter;
-    use caustics_reference::reference::geometry::{Accel, spawn};
-    use caustics_reference::reference::optics::{fresnel_dielectric, reflect, refract};
+    use caustics_reference::reference::geometry::Accel;
     use rayon::prelude::*;
     let accel = Accel::new(sc);
     let em = Emitter::full(&sc.lights[0], Vec3::ZERO, 10.0);
@@ -1942,59 +1941,9 @@ fn transmitted_flux(sc: &Scene, n: u32, max_depth: u32) -> f64 {
             for i in 0..n {
                 let u = glam::Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
                 let Some(e) = em.sample(u) else { continue };
-                let (mut o, mut d) = (e.origin, e.dir);
-                let mut w = f64::from(e.flux_n.x) / f64::from(n * n);
-                let (mut inside, mut depth) = (false, 0);
-                loop {
-                    let Some(h) = accel.intersect(o, d, 1e30) else {
-                        if depth > 0 && !inside {
-                            acc += w;
-                        }
-                        break;
-                    };
-                    let Material::Dielectric { ior, ext_ior } = sc.materials[sc.objects[h.object as usize].material]
-                    else {
-                        if depth > 0 && !inside {
-                            acc += w;
-                        }
-                        break;
-                    };
-                    if depth >= max_depth {
-                        break;
-                    }
-                    let front = d.dot(h.ng) < 0.0;
-                    let ng = if front { h.ng } else { -h.ng };
-                    let mut ns = if front { h.ns } else { -h.ns };
-                    let eta = if front { ior / ext_ior } else { ext_ior / ior };
-                    if -d.dot(ns) <= 0.0 {
-                        ns = ng;
-                    }
-                    let (f, cos_t) = fresnel_dielectric(-d.dot(ns), eta);
-                    let mut refl = f >= 1.0;
-                    let mut nd = Vec3::ZERO;
-                    if !refl {
-                        nd = refract(d, ns, eta, cos_t);
-                        if nd.dot(ng) >= 0.0 {
-                            let (f2, c2) = fresnel_dielectric(-d.dot(ng), eta);
-                            if f2 >= 1.0 {
-                                refl = true;
-                            } else {
-                                nd = refract(d, ng, eta, c2);
-                            }
-                        }
-                        w *= 1.0 - f64::from(f);
-                    }
-                    if refl {
-                        nd = reflect(d, ns);
-                        if nd.dot(ng) <= 0.0 {
-                            nd = reflect(d, ng);
-                        }
-                    } else {
-                        inside = front;
-                    }
-                    o = spawn(h.p, h.ng, nd);
-                    d = nd;
-                    depth += 1;
+                let p = trace(sc, &accel, e.origin, e.dir, max_depth);
+                if p.fate == Fate::Caustic {
+                    acc += f64::from(e.flux_n.x) * f64::from(p.weight) / f64::from(n * n);
                 }
             }
             acc

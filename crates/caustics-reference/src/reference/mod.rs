@@ -15,6 +15,7 @@
 //!
 //! See `docs/reference-renderer.md`.
 
+pub mod branch;
 pub mod bvh;
 pub mod emit;
 pub mod geometry;
