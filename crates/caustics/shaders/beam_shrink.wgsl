@@ -192,7 +192,7 @@ fn part_region(p: BeamPart, cs: Case, qi: vec2f, qj: vec2f) -> Region {
 // on a mesh caster: the deficit found"); with the corrections the parts carry all the
 // triangle's caustic light in the samples' estimate, each within the triangle's extent of
 // where it goes.
-fn part_flux(p: BeamPart, g: u32, cs: Case, rg: Region, es: array<Edge, 3>, parts: u32) -> vec3f {
+fn part_flux(p: BeamPart, g: u32, cs: Case, rg: Region, es: array<Edge, 3>, parts: u32, omega_tri: f32) -> vec3f {
     let r = es[cs.path];
     let face = light.faces[p.face];
     // The region's own light.
@@ -210,7 +210,9 @@ fn part_flux(p: BeamPart, g: u32, cs: Case, rg: Region, es: array<Edge, 3>, part
         }
         omega += solid_angle(light_dir(face, tr[0]), light_dir(face, tr[1]), light_dir(face, tr[2]));
     }
-    mean = select((es[cs.path].weight + select(es[cs.path].weight, es[cs.j].weight, cs.quad)) / 2.0, mean / area, area > 0.0);
+    // (no region sample on the path: the mean of its corners)
+    let corner_mean = select(r.weight, 0.5 * (es[cs.i].weight + es[cs.j].weight), cs.quad);
+    mean = select(corner_mean, mean / area, area > 0.0);
     // The triangle's samples.
     var extra = vec3f(0.0);
     var intruders = 0.0;
@@ -224,7 +226,6 @@ fn part_flux(p: BeamPart, g: u32, cs: Case, rg: Region, es: array<Edge, 3>, part
             extra += x.weight / f32(max(parts, 1u));
         }
     }
-    let omega_tri = solid_angle(light_dir(face, p.a), light_dir(face, p.b), light_dir(face, p.c));
     return max(omega * mean + omega_tri / f32(SAMPLES) * (extra - intruders * mean), vec3f(0.0));
 }
 
@@ -237,8 +238,7 @@ fn part_flux(p: BeamPart, g: u32, cs: Case, rg: Region, es: array<Edge, 3>, part
 // degenerate (bisection found no neighbour on its path: a sliver) a thin beam along its
 // corner's edge, as wide as the light's bundle through the triangle where it meets the caster
 // (on layer 1 meeting at the edge's end on the next specular surface).
-fn shrink_part(p: BeamPart, g: u32, es: array<Edge, 3>, br: u32, layer: u32, c: u32, part: u32) {
-    let cs = part_case(c);
+fn shrink_part(p: BeamPart, g: u32, es: array<Edge, 3>, br: u32, layer: u32, cs: Case, part: u32) {
     let qi = bounds[g][0];
     let qj = bounds[g][1];
     var x0 = es[cs.k];
@@ -260,7 +260,7 @@ fn shrink_part(p: BeamPart, g: u32, es: array<Edge, 3>, br: u32, layer: u32, c: 
     }
     var parts = 0u;
     for (var cc = 0u; cc < 6u; cc++) { parts += u32(part_applies(es, cc)); }
-    b.flux = vec4f(part_flux(p, g, cs, part_region(p, cs, qi.ndc, qj.ndc), es, parts), b.flux.w);
+    b.flux = vec4f(part_flux(p, g, cs, part_region(p, cs, qi.ndc, qj.ndc), es, parts, omega), b.flux.w);
     emit(b, p.slot, br, layer, part);
 }
 
@@ -317,6 +317,6 @@ fn main(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: ve
     }
     workgroupBarrier();
     if (live && s == 0u) {
-        shrink_part(p, g, es, br, layer, c, part);
+        shrink_part(p, g, es, br, layer, cs, part);
     }
 }
