@@ -127,7 +127,8 @@ enum Command {
         #[arg(long, default_value_t = caustics::render::RenderSettings::default().max_depth)]
         max_depth: u32,
         /// Trace only the light transmitted at glass, not the second photon per cell that carries
-        /// the light reflected at the first dielectric surface (half the cost; every technique).
+        /// the light reflected at the first dielectric surface (half the cost; every technique:
+        /// the beams then make only their transmitted branch).
         #[arg(long)]
         no_glass_reflection: bool,
         /// Do not rasterize the light's second caster layer (the casters behind the nearest one;
@@ -544,7 +545,7 @@ fn run(cli: Cli) -> Result<()> {
                 medium_light_steps,
                 env_lights,
                 env_taps,
-                beams: beams.settings(),
+                beams: caustics::settings::BeamSettings { reflection: !no_glass_reflection, ..beams.settings() },
                 surface_caustics,
                 spill_faces,
                 splat_sigma,

@@ -197,7 +197,8 @@ pub(crate) fn record_beams(
         if matches!(dc.scene.lights[li], Light::Directional { .. }) {
             continue;
         }
-        let faces = lf.faces;
+        // (the faces the light's photons start from: a spot's spill face only receives)
+        let faces = lf.emit_faces;
         let slots = b.slots_per_face() * u64::from(faces);
         // Only the directions of the camera's rays are used: a projection of moderate depth
         // range keeps them exact in f32 (the eye passes' near plane can be very close).
@@ -790,7 +791,8 @@ const GPU_CHUNK_SCALE: u32 = 16;
 /// Beams per slot of the hierarchy ([`BEAM_KINDS`]): five branches (transmitted, reflected at
 /// the first surface, reflected once inside, the same two at a second dielectric) times two
 /// layers (the path's last segment, and the one between its last two specular objects) times
-/// three parts (a last-level triangle whose corners take different paths: one beam per path).
+/// four parts (a last-level triangle whose corners take different paths: one beam per path,
+/// and one for its orphans, the light on paths none of its corners takes).
 const KINDS: u64 = BEAM_KINDS as u64;
 
 /// Beams one `beam_gather` dispatch loops over per camera ray (beam_gather.wgsl says why).

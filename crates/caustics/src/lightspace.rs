@@ -248,12 +248,13 @@ pub const MAX_AUTO_SPILL_MAP: u32 = 1024;
 
 impl RenderSettings {
     /// Whether the GPU gives `light` a spill face under these settings: a spot light of up to
-    /// 75°, not handled by beams (their stages run over the light's faces), and for
+    /// 75° whose surface caustic is not drawn by the beams (then it has no photon map; the
+    /// beams' stages run over the emitting faces, `LightView::emit_faces`), and for
     /// [`SpillFaces::Auto`] only where a specular caster is in the spot's view, the scene's
     /// bounds reach beyond it and the caustic map is at most [`MAX_AUTO_SPILL_MAP`]².
     pub fn uses_spill_face(&self, scene: &Scene, light: &Light) -> bool {
         let spot = matches!(light, Light::Spot { cone_angle, .. } if cone_angle.to_degrees() <= MAX_SPOT_FRUSTUM_DEG);
-        if !spot || self.surface_caustics_from_beams(light) || self.beams_active(scene) {
+        if !spot || self.surface_caustics_from_beams(light) {
             return false;
         }
         match self.spill_faces {

@@ -894,6 +894,8 @@ pub(crate) fn light_record(
 pub(crate) struct LightFrame {
     pub light_buf: wgpu::Buffer,
     pub faces: u32,
+    /// The faces photons (and beams) start from: all but a spot's spill face, the last.
+    pub emit_faces: u32,
     pub scale: f64,
     pub shadow: wgpu::Texture,
     pub recv: GBuffer,
@@ -1068,6 +1070,7 @@ pub(crate) fn record_light(
     let frame = LightFrame {
         light_buf,
         faces: nf,
+        emit_faces: ne,
         scale,
         shadow,
         recv,

@@ -1925,9 +1925,10 @@ fn beams_in_a_density_grid_match_the_equivalent_homogeneous_media() {
 /// The flux (W, first channel) of a scene's first light that leaves its specular objects on the
 /// transmitted branch (every dielectric interface transmitting with weight 1 − F, total internal
 /// reflection followed, as `beam_refine`'s branch 0) and reaches a diffuse surface or leaves the
-/// scene: what the transmitted beams of the paths' last segments carry in all. Traced on the CPU
-/// (`caustics_reference::reference::branch`) over n² stratified directions of the light's cone.
-fn transmitted_flux(sc: &Scene, n: u32, max_depth: u32) -> f64 {
+/// scene: what the transmitted beams of the paths' last segments carry in all, and of it what
+/// lands on object `land`. Traced on the CPU (`caustics_reference::reference::branch`) over n²
+/// stratified directions of the light's cone.
+fn transmitted_flux(sc: &Scene, n: u32, max_depth: u32, land: u32) -> (f64, f64) {
     use caustics_reference::reference::branch::{Fate, trace};
     use caustics_reference::reference::emit::Emitter;
     use caustics_reference::reference::geometry::Accel;
@@ -1937,18 +1938,22 @@ fn transmitted_flux(sc: &Scene, n: u32, max_depth: u32) -> f64 {
     (0..n)
         .into_par_iter()
         .map(|j| {
-            let mut acc = 0.0f64;
+            let mut acc = (0.0f64, 0.0f64);
             for i in 0..n {
                 let u = glam::Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
                 let Some(e) = em.sample(u) else { continue };
                 let p = trace(sc, &accel, e.origin, e.dir, max_depth);
                 if p.fate == Fate::Caustic {
-                    acc += f64::from(e.flux_n.x) * f64::from(p.weight) / f64::from(n * n);
+                    let w = f64::from(e.flux_n.x) * f64::from(p.weight) / f64::from(n * n);
+                    acc.0 += w;
+                    if p.land == land {
+                        acc.1 += w;
+                    }
                 }
             }
             acc
         })
-        .sum()
+        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1))
 }
 
 /// A mesh caster (`scenes/glass_dragon_fog.json`: the glass dragon, 100k triangles, in fog) at
@@ -1980,12 +1985,24 @@ fn a_mesh_casters_silhouette_triangles_all_get_their_parts() {
     // Parts of the same triangle exist (the dragon's corners take different paths everywhere).
     assert!(list.iter().filter(|b| b.part > 0).count() > 1000);
     assert_eq!(stats.overflow, 0);
-    // The transmitted branch's last segments against the CPU's (2.53 W; 0.1 % at 400²).
-    // Measured (2026-12-05, lavapipe): 2.506 W, 0.990.
-    let beams: f64 = list.iter().filter(|b| b.branch == 0 && b.layer == 0).map(|b| f64::from(b.flux.x)).sum();
-    let cpu = transmitted_flux(&sc, 400, RenderSettings::default().max_depth);
+    // The transmitted branch's last segments against the CPU's (2.53 W; 0.1 % at 400²), and of
+    // it the light on the floor (object 1): light on a path none of a triangle's corners takes
+    // goes to a beam that lands where it does (beam_shrink's orphans). Shared equally among the
+    // corners' parts, it put 4.6 % too much on the floor (taken from the light leaving the
+    // scene sideways and upward).
+    // Measured (2026-12-05, lavapipe): 2.506 W, 0.991; on the floor 1.842 of 1.846 W, 0.998
+    // (the equal share: 1.046, failing).
+    let t0: Vec<_> = list.iter().filter(|b| b.branch == 0 && b.layer == 0).collect();
+    let beams: f64 = t0.iter().map(|b| f64::from(b.flux.x)).sum();
+    let floor: f64 = t0.iter().filter(|b| b.land == 1).map(|b| f64::from(b.flux.x)).sum();
+    let (cpu, cpu_floor) = transmitted_flux(&sc, 400, RenderSettings::default().max_depth, 1);
     println!("transmitted beams {beams:.4} W, CPU {cpu:.4} W: {:.4}", beams / cpu);
+    println!("on the floor {floor:.4} W, CPU {cpu_floor:.4} W: {:.4}", floor / cpu_floor);
     assert!((beams / cpu - 1.0).abs() < 0.03, "transmitted beams carry {beams} W of {cpu} W");
+    assert!(
+        (floor / cpu_floor - 1.0).abs() < 0.02,
+        "transmitted beams put {floor} W on the floor, the CPU {cpu_floor} W"
+    );
     // Parts whose own beam would be degenerate get a thin one: almost none is dropped.
     assert!(stats.grazing < 100, "{} beams dropped as grazing", stats.grazing);
 }

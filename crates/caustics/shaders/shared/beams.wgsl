@@ -55,11 +55,12 @@ const BEAM_BRANCHES: u32 = 5u;
 // light crossed the medium between two specular objects (beam_refine.wgsl, `at_layer`).
 const BEAM_LAYERS: u32 = 2u;
 // Beams per branch and layer: a last-level triangle whose corners take different paths gives
-// one beam per path (beam_shrink.wgsl).
-const BEAM_PARTS: u32 = 3u;
+// one beam per path, and one more for the light on paths none of its corners takes (its
+// orphans: beam_shrink.wgsl).
+const BEAM_PARTS: u32 = 4u;
 // Beams per slot (their places: slot x BEAM_KINDS + (branch x BEAM_LAYERS + layer) x
 // BEAM_PARTS + part).
-const BEAM_KINDS: u32 = 30u;
+const BEAM_KINDS: u32 = 40u;
 
 // A beam's hull on the image (beam_hull, drawn by beam_raster): info.x its vertices (a convex
 // polygon, 4 to BEAM_HULL_MAX), info.y the beam's index in the beam buffer; p the vertices in

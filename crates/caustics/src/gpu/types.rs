@@ -552,8 +552,9 @@ pub const BEAM_BRANCHES: u32 = 5;
 /// object to the next.
 pub const BEAM_LAYERS: u32 = 2;
 /// Beams per branch and layer of a slot: a last-level triangle whose corners take different
-/// paths gives one beam per path (beam_shrink.wgsl).
-pub const BEAM_PARTS: u32 = 3;
+/// paths gives one beam per path, and one more for the light on paths none of its corners
+/// takes (its orphans: beam_shrink.wgsl).
+pub const BEAM_PARTS: u32 = 4;
 /// Beams per slot of the beam hierarchy (`BEAM_BRANCHES` x `BEAM_LAYERS` x `BEAM_PARTS`).
 pub const BEAM_KINDS: u32 = BEAM_BRANCHES * BEAM_LAYERS * BEAM_PARTS;
 /// Side (texels) of the tiles of `caustic_mask` and `shadow_tiles`, which `shade_receivers` reads.
