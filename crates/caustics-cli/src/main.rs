@@ -229,6 +229,12 @@ enum Command {
         /// volume caustics).
         #[arg(long, default_value = "all", value_parser = ["all", "first-diffuse", "rest"])]
         caustic_paths: String,
+        /// CPU backend: caustic photons transmit at every dielectric interface with weight
+        /// 1 - F (total internal reflection still reflects) instead of reflecting partially:
+        /// the light the GPU's transmitted branch carries (compare with the GPU's
+        /// --no-glass-reflection, like for like).
+        #[arg(long)]
+        no_partial_reflections: bool,
         /// The same as --technique caustic-spheres (kept as an alias): the caustics of
         /// directional lights come from precomputed caustic spheres (cached; built first if
         /// needed) in one eye-space pass; spot and point lights get basic caustic maps.
@@ -501,6 +507,7 @@ fn run(cli: Cli) -> Result<()> {
             seed,
             single_scattering,
             caustic_paths,
+            no_partial_reflections,
             caustic_spheres,
             sphere_args,
         } => {
@@ -642,6 +649,7 @@ fn run(cli: Cli) -> Result<()> {
                         // The caustic maps get a spill face where the GPU's would (at the GPU's
                         // default caustic map size when none is given).
                         spill_faces: scene.lights.iter().any(|l| settings.uses_spill_face(&scene, l)),
+                        partial_reflections: !no_partial_reflections,
                         ..Default::default()
                     };
                     let t0 = std::time::Instant::now();

@@ -68,6 +68,12 @@ pub struct ReferenceSettings {
     /// by default, so every map keeps one face per spot light. The camera images do not depend
     /// on it.
     pub spill_faces: bool,
+    /// Caustic photons reflect partially at dielectric interfaces (the default). Off, every
+    /// dielectric interface transmits them with weight 1 − F, reflecting only totally: the light
+    /// the GPU's transmitted branches carry (the beams' and photon maps' first branch; with
+    /// `--no-glass-reflection` on the GPU the like-for-like comparison of docs/benchmarks.md).
+    /// The camera paths (the `nocaustic` image) do not depend on it.
+    pub partial_reflections: bool,
 }
 
 impl Default for ReferenceSettings {
@@ -81,6 +87,7 @@ impl Default for ReferenceSettings {
             medium_single_scattering_only: false,
             caustic_paths: CausticPaths::All,
             spill_faces: false,
+            partial_reflections: true,
         }
     }
 }
@@ -199,6 +206,7 @@ fn tracer<'a>(scene: &'a Scene, accel: &'a Accel, settings: &ReferenceSettings) 
     let mut t = Tracer::new(scene, accel, settings.max_depth);
     t.single_scattering = settings.medium_single_scattering_only;
     t.caustic_paths = settings.caustic_paths;
+    t.partial_reflections = settings.partial_reflections;
     t
 }
 

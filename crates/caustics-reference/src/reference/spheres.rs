@@ -78,7 +78,7 @@ fn escaping_with(
                     }
                     let front = d.dot(h.ng) < 0.0;
                     let (ng, ns) = if front { (h.ng, h.ns) } else { (-h.ng, -h.ns) };
-                    let Some((nd, w)) = scatter_specular(mat, d, ng, ns, front, &mut rng) else { break };
+                    let Some((nd, w)) = scatter_specular(mat, d, ng, ns, front, &mut rng, true) else { break };
                     f *= w;
                     d = nd;
                     o = spawn(h.p, h.ng, d);

@@ -179,6 +179,9 @@ pub struct Tracer<'a> {
     pub single_scattering: bool,
     /// Which caustic paths are connected to the camera.
     pub caustic_paths: CausticPaths,
+    /// Caustic photons reflect partially at dielectric interfaces (with probability F); off,
+    /// they transmit with weight 1 − F (`ReferenceSettings::partial_reflections`).
+    pub partial_reflections: bool,
 }
 
 impl<'a> Tracer<'a> {
@@ -193,6 +196,7 @@ impl<'a> Tracer<'a> {
             media: scene.medium.as_ref().map(Media::new),
             single_scattering: false,
             caustic_paths: CausticPaths::All,
+            partial_reflections: true,
         }
     }
 
@@ -324,7 +328,9 @@ impl<'a> Tracer<'a> {
                     continue;
                 }
                 m => {
-                    let Some((nd, w)) = scatter_specular(m, d, ng, ns, front, rng) else { break };
+                    let Some((nd, w)) = scatter_specular(m, d, ng, ns, front, rng, self.partial_reflections) else {
+                        break;
+                    };
                     spec += 1;
                     flux *= w;
                     d = nd;
@@ -505,7 +511,7 @@ impl<'a> Tracer<'a> {
                     o = spawn(h.p, h.ng, d);
                 }
                 m => {
-                    let Some((nd, w)) = scatter_specular(m, d, ng, ns, front, rng) else { break };
+                    let Some((nd, w)) = scatter_specular(m, d, ng, ns, front, rng, true) else { break };
                     beta *= w;
                     d = nd;
                     bsdf_pdf = None;
@@ -581,7 +587,8 @@ impl<'a> Tracer<'a> {
 /// Scatter off a specular surface: new direction and throughput weight. `ng`, `ns` face the
 /// incoming side; `front` says whether the ray arrived from the side the normal points to
 /// (outside, for a dielectric). Dielectrics choose reflection with probability F (unbiased,
-/// weight 1).
+/// weight 1); without `partial` they reflect only totally and otherwise transmit with weight
+/// 1 − F (the light of the GPU's transmitted branches: `beam_refine`'s branch 0).
 #[inline]
 pub(crate) fn scatter_specular(
     m: Material,
@@ -590,6 +597,7 @@ pub(crate) fn scatter_specular(
     ns: Vec3,
     front: bool,
     rng: &mut PathRng,
+    partial: bool,
 ) -> Option<(Vec3, Vec3)> {
     let reflect_checked = |n: Vec3| {
         let r = reflect(d, n);
@@ -610,20 +618,60 @@ pub(crate) fn scatter_specular(
                 cos_i = -d.dot(n);
             }
             let (f, cos_t) = fresnel_dielectric(cos_i, eta);
-            if f >= 1.0 || rng.next_f32() < f {
+            if f >= 1.0 || (partial && rng.next_f32() < f) {
                 Some((reflect_checked(n), Vec3::ONE))
             } else {
+                let w = if partial { Vec3::ONE } else { Vec3::splat(1.0 - f) };
                 let t = refract(d, n, eta, cos_t);
                 if t.dot(ng) < 0.0 {
-                    Some((t, Vec3::ONE))
+                    Some((t, w))
                 } else {
                     // Shading normal sent the refracted ray back out: refract about the
                     // geometric normal instead.
                     let (_, ct) = fresnel_dielectric(-d.dot(ng), eta);
-                    Some((refract(d, ng, eta, ct), Vec3::ONE))
+                    Some((refract(d, ng, eta, ct), w))
                 }
             }
         }
         Material::Diffuse { .. } => None,
+    }
+}
+
+#[cfg(test)]
+mod scatter_tests {
+    use super::*;
+
+    const GLASS: Material = Material::Dielectric { ior: 1.5, ext_ior: 1.0 };
+
+    /// Without partial reflections a dielectric transmits with weight 1 − F every time and
+    /// reflects only totally; with them, it reflects with probability F at weight 1: the same
+    /// transmitted light on average (the like-for-like class of `--no-partial-reflections`).
+    #[test]
+    fn without_partial_reflections_glass_transmits_with_one_minus_fresnel() {
+        let n = Vec3::Y;
+        let d = Vec3::new(0.8, -0.6, 0.0);
+        let (f, _) = fresnel_dielectric(0.6, 1.5);
+        assert!(f > 0.02 && f < 0.2, "F = {f}");
+        let mut rng = PathRng::new(7);
+        let draws = 200_000;
+        let mut transmitted = 0.0f64;
+        for _ in 0..draws {
+            let (t, w) = scatter_specular(GLASS, d, n, n, true, &mut rng, false).expect("a dielectric scatters");
+            assert!(t.dot(n) < 0.0, "refracted into the glass");
+            assert_eq!(w, Vec3::splat(1.0 - f));
+            let (t, w) = scatter_specular(GLASS, d, n, n, true, &mut rng, true).expect("a dielectric scatters");
+            assert_eq!(w, Vec3::ONE);
+            if t.dot(n) < 0.0 {
+                transmitted += 1.0;
+            }
+        }
+        let p = transmitted / f64::from(draws);
+        let sigma = (f64::from(f) * (1.0 - f64::from(f)) / f64::from(draws)).sqrt();
+        assert!((p - (1.0 - f64::from(f))).abs() < 4.0 * sigma, "transmitted {p} against {}", 1.0 - f);
+        // Past the critical angle inside the glass: total internal reflection either way.
+        let inside = Vec3::new(0.9, 0.1f32.sqrt(), 0.0).normalize();
+        let (r, w) = scatter_specular(GLASS, inside, -n, -n, false, &mut rng, false).expect("a dielectric scatters");
+        assert!(r.dot(n) < 0.0, "reflected back into the glass");
+        assert_eq!(w, Vec3::ONE);
     }
 }
