@@ -125,8 +125,7 @@ struct Sample {
     weight: vec3f,
     // The sample's edge is on a caustic path (ok, meets a caster first).
     ok: u32,
-    // Its last segment's direction (a sample on a path no corner takes goes to the part whose
-    // path leaves nearest to it: `nearest_part`).
+    // Its last segment's direction (where an orphan goes: `nearest_part`).
     dir: vec3f,
     sig: u32,
     land: u32,
@@ -138,8 +137,8 @@ var<workgroup> corners: array<array<Edge, 3>, GROUP_PARTS>;
 var<workgroup> samples: array<array<Sample, SAMPLES>, GROUP_PARTS>;
 var<workgroup> bounds: array<array<Boundary, 2>, GROUP_PARTS>;
 var<workgroup> region: array<array<array<vec4f, SAMPLES>, 2>, GROUP_PARTS>;
-// The triangle's first sample on a caustic path none of its corners takes (SAMPLES: none), and
-// its edge: the axis of the orphans' beam (`orphan_beam`).
+// The orphans' axis: the index of the first orphan sample that lands where no corner's path
+// does, else SAMPLES + the first orphan's (2 SAMPLES: none), and its edge (`orphan_beam`).
 var<workgroup> orphan_s: array<atomic<u32>, GROUP_PARTS>;
 var<workgroup> orphan: array<Edge, GROUP_PARTS>;
 // Which beam carries each sample that is an orphan (`nearest_part`: a part's case, 6 the orphans'
@@ -200,11 +199,13 @@ fn foreign(x: Sample, es: array<Edge, 3>) -> bool {
     return f;
 }
 
-// The axis of a triangle's orphans' beam (`orphan_beam`), where it has one.
+// The axis of a triangle's orphans' beam (`orphan_beam`), where it has one, and its part (its
+// place after the triangle's parts').
 struct OrphanAxis {
     has: bool,
     d: vec3f,
     land: u32,
+    part: u32,
 }
 
 // The orphans' axis of workgroup part g (once `orphan` is written): the triangle has an
@@ -214,7 +215,7 @@ fn orphan_axis(g: u32, es: array<Edge, 3>, omega: f32, level: u32, layer: u32) -
     var parts = 0u;
     for (var cc = 0u; cc < 6u; cc++) { parts += u32(part_applies(es, cc)); }
     let has = atomicLoad(&orphan_s[g]) < 2u * SAMPLES && parts < BEAM_PARTS && orphan_shape(g, omega, level, layer).flux.w >= 0.0;
-    return OrphanAxis(has, orphan[g].d, orphan[g].land);
+    return OrphanAxis(has, orphan[g].d, orphan[g].land, parts);
 }
 
 // Which beam of the triangle whose corners' edges are `es` carries orphan sample x: of its
@@ -248,8 +249,8 @@ fn nearest_part(es: array<Edge, 3>, x: Sample, ax: OrphanAxis) -> u32 {
 // not follow the bisected boundaries: plus the samples on its path outside its region, minus
 // (at its mean weight) the samples inside its region on another path or none, plus the
 // triangle's orphans assigned to it (`assign`, `nearest_part`). Where the boundaries are
-// straight (a ball's silhouette) the corrections vanish. Where a mesh caster's light takes many paths within a triangle (the glass
-// dragon: light leaving one body part into another, reflected totally inside a thin one a
+// straight (a ball's silhouette) the corrections vanish. Where a mesh caster's light takes
+// many paths within a triangle (the glass dragon: light leaving one body part into another, reflected totally inside a thin one a
 // varying number of times) the regions cover a fraction of the triangle, and weighting each
 // part by its own area lost 43 % of the dragon's transmitted light (docs/benchmarks.md, "Beams
 // on a mesh caster: the deficit found"); with the corrections the parts carry all the
@@ -327,9 +328,7 @@ fn shrink_part(p: BeamPart, g: u32, es: array<Edge, 3>, br: u32, layer: u32, cs:
     emit(b, p.slot, br, layer, part);
     // The orphans' beam, where the triangle has one (its place after the parts'): made by part 0.
     if (part == 0u && ax.has) {
-        var parts = 0u;
-        for (var cc = 0u; cc < 6u; cc++) { parts += u32(part_applies(es, cc)); }
-        emit(orphan_beam(g, omega, p.level, layer), p.slot, br, layer, parts);
+        emit(orphan_beam(g, omega, p.level, layer), p.slot, br, layer, ax.part);
     }
 }
 

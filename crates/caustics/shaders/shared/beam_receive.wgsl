@@ -32,7 +32,8 @@
 // ends, on the receiver) covers less than SPLAT_PIXELS pixels of the image is integrated over
 // the pixel exactly instead: its flux spread evenly over its end triangle, times the fraction
 // of the triangle's image inside the pixel's square (the triangle clipped to the square):
-// E = Phi T area(image triangle within the pixel) / area(end triangle). Such a beam (near its
+// E = Phi T area(image triangle within the pixel) / area(end triangle), the end triangle
+// projected along the beam onto the pixel's tangent plane first. Such a beam (near its
 // focus: A(y) small and 1/A(y) steep) would otherwise light a few of the n^2 points strongly or
 // none: speckle around the right mean. Each beam takes one of the two ways for every pixel (the
 // choice depends on the beam alone), so none is counted twice.

@@ -2,8 +2,8 @@
 // and `#import beam_medium`): the beam edges of the adaptive grid traced exactly from the light
 // (`trace_edge`), the beam over three of them (`make_beam`; `thin_beam` along one), the parts of
 // a triangle whose corners take different paths (`part_applies`), and a beam's entry in the beam
-// buffer and the hierarchy (`emit`), for beam_refine (the grid's triangles, level by level) and beam_shrink
-// (the parts of the triangles whose corners take different paths). A stage importing it
+// buffer and the hierarchy (`emit`), for beam_refine (the grid's triangles, level by level) and
+// beam_shrink (the parts of the triangles whose corners take different paths). A stage importing it
 // declares `light` (LightGpu), `bp` (BeamParams), the scene's `materials` and BVH
 // (shared/raytrace.wgsl), `slots`, `beams`, `stats` (shared/beams.wgsl) and `density_grid`.
 
@@ -255,7 +255,8 @@ fn make_beam(e0_in: Edge, e1_in: Edge, e2_in: Edge, omega: f32, level: u32) -> B
 }
 
 // A thin beam along edge e, for the light of a part whose own beam is degenerate (beam_shrink:
-// bisection found no neighbour on its path, or its base is too oblique to rebase): three edges
+// bisection found no neighbour on its path, or its base is too oblique to rebase) and for a
+// triangle's orphans (beam_shrink's `orphan_beam`): three edges
 // from points `radius` from e's start on the surface's tangent plane there (outside a convex
 // surface), parallel to e (a prism whose end section lights the surface e lands on:
 // beam_surface), or with `converge` meeting at e's end (a layer-1 beam ends exactly on the next
