@@ -351,6 +351,11 @@ pub struct BeamArgs {
     /// exactly traced light of the triangle's centroid against the beam's); 0 turns it off.
     #[arg(long, default_value_t = 0.05)]
     beam_linearity_threshold: f32,
+    /// Beams: the residual branch's probability of reflecting at each dielectric interface (the
+    /// light reflected partially where no other branch follows it, drawn at random per
+    /// triangle); 0 turns it off, below 1.
+    #[arg(long, default_value_t = 0.3)]
+    beam_residual: f32,
     /// Beams held per light (more is an overflow, reported as an error).
     #[arg(long, default_value_t = 1 << 17)]
     beam_capacity: u32,
@@ -397,6 +402,7 @@ impl BeamArgs {
             pixel_samples: self.beam_pixel_samples,
             surface_samples: self.beam_surface_samples,
             reflection: true,
+            residual: self.beam_residual,
             footprint: self.beam_footprint,
             footprint_lines: self.beam_footprint_lines,
             chunk_scale: self.beam_chunk_scale,
@@ -428,6 +434,7 @@ fn flag_names(e: &mut anyhow::Error) {
         ("beams.camera_threshold", "--beam-camera-threshold"),
         ("beams.linearity_threshold", "--beam-linearity-threshold"),
         ("beams.capacity", "--beam-capacity"),
+        ("beams.residual", "--beam-residual"),
         ("beams.samples", "--beam-samples"),
         ("beams.pixel_samples", "--beam-pixel-samples"),
         ("beams.surface_samples", "--beam-surface-samples"),
@@ -701,8 +708,8 @@ fn report_gpu(out: &GpuRender, wall_ms: f64) {
     println!("photons: {} traced in {} batch(es)", out.photons_traced, out.batches);
     for (li, (b, _)) in out.beams.iter().enumerate() {
         println!(
-            "beams (light {li}): {} rendered; kept per level {:?}, traced per level {:?}; {} lost at the last level (no corner on a caustic path), {} grazing, {} over capacity",
-            b.beams, b.kept_per_level, b.visited_per_level, b.inconsistent, b.grazing, b.overflow
+            "beams (light {li}): {} rendered ({} on the residual branch); kept per level {:?}, traced per level {:?}; {} lost at the last level (no corner on a caustic path), {} grazing, {} over capacity",
+            b.beams, b.residual, b.kept_per_level, b.visited_per_level, b.inconsistent, b.grazing, b.overflow
         );
     }
     println!(

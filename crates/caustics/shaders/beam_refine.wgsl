@@ -18,7 +18,8 @@
 //     triangle's light it carries (`nonlinearity`);
 //   - kept: one beam per traced branch whose three edges took the same path (the transmitted
 //     branch; with flags bit 0 also the branch reflected at the first dielectric surface and
-//     the branch reflected once inside it),
+//     the branch reflected once inside it, the two at a second dielectric, and the residual
+//     branch, whose Fresnel choices are drawn at random per triangle: beam_trace's `trace_edge`),
 //     appended to the beam buffer (overflow counted, never written out of bounds) and entered
 //     in its slot of the hierarchy (beam_order lists the slots in order, so the image does not
 //     depend on the order of the atomics). At the last level, a triangle whose edges still
@@ -179,16 +180,21 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         tri = work[lv.offset + i];
     }
     atomicAdd(&stats[1u + BS_VISITED + min(level, 7u)], 1u);
-    // (branches 3 and 4, at a second dielectric, where light can meet one: BEAM_FLAG_CHAINS)
-    let branches = select(1u, select(3u, BEAM_BRANCHES, (bp.flags & BEAM_FLAG_CHAINS) != 0u), (bp.flags & BEAM_FLAG_REFLECTION) != 0u);
-    // The corners' edges on every branch (es[3 br + corner]), traced at one call site (a
-    // GPU's compiler inlines every call of `trace_edge` with the whole BVH traversal in it:
-    // docs/benchmarks.md, the first NVIDIA figures); the reflected branches only where a
-    // corner's light meets a caster.
-    var es: array<Edge, 15>;
-    for (var k = 0u; k < 3u * branches; k++) {
+    let slot = lv.offset + tri.id;
+    beam_key = slot;
+    // The fixed branches (3 and 4, at a second dielectric, where light can meet one:
+    // BEAM_FLAG_CHAINS), and after them the residual branch where it is on (its triangles are
+    // kept or split by the fixed branches alone: its light is faint and its paths random).
+    let branches = fixed_branches();
+    let traced = traced_branches();
+    // The corners' edges on every traced branch (es[3 j + corner], branch traced_branch(j)),
+    // traced at one call site (a GPU's compiler inlines every call of `trace_edge` with the
+    // whole BVH traversal in it: docs/benchmarks.md, the first NVIDIA figures); the reflected
+    // branches only where a corner's light meets a caster.
+    var es: array<Edge, 18>;
+    for (var k = 0u; k < 3u * traced; k++) {
         let p = select(select(tri.c, tri.b, k % 3u == 1u), tri.a, k % 3u == 0u);
-        es[k] = trace_edge(tri.face, p, k / 3u);
+        es[k] = trace_edge(tri.face, p, traced_branch(k / 3u));
         if (k == 2u && u32(es[0].caster) + u32(es[1].caster) + u32(es[2].caster) == 0u) { return; }
     }
     let e0 = es[0];
@@ -283,7 +289,6 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         work[base + 3u] = BeamTri(bc, ca, ab, tri.id * 4u + 3u, tri.face);
         return;
     }
-    let slot = lv.offset + tri.id;
     // Branch 1: reflected at the first surface; branch 2: refracted in, reflected once inside,
     // then refracted out (the light a sphere sends back toward the light's side); 3 and 4 the
     // same at a second dielectric (trace_edge). Their Fresnel
@@ -293,12 +298,15 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     // disagree are split into their corners' paths' parts as the transmitted branch's. Each branch
     // gives a beam on each layer its path has (at_layer: its last segment, and the one between
     // its last two specular objects).
+    // The residual branch's triangles whose corners disagree are split into parts at whatever
+    // level the fixed branches keep them.
     let centroid = (tri.a + tri.b + tri.c) / 3.0;
     for (var layer = 0u; layer < BEAM_LAYERS; layer++) {
-        for (var br = 0u; br < branches; br++) {
-            let r0 = at_layer(es[3u * br], layer);
-            let r1 = at_layer(es[3u * br + 1u], layer);
-            let r2 = at_layer(es[3u * br + 2u], layer);
+        for (var j = 0u; j < traced; j++) {
+            let br = traced_branch(j);
+            let r0 = at_layer(es[3u * j], layer);
+            let r1 = at_layer(es[3u * j + 1u], layer);
+            let r2 = at_layer(es[3u * j + 2u], layer);
             if (consistent(r0, r1, r2)) {
                 var b = make_beam(r0, r1, r2, omega, level);
                 if (br > 0u) {
@@ -306,9 +314,16 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
                     b.flux = vec4f(omega * part_weight(tri.face, centroid, br, layer, r0, wc), b.flux.w);
                 }
                 emit(b, slot, br, layer, 0u);
-            } else if ((br == 0u && layer == 0u) || r0.ok || r1.ok || r2.ok) {
-                // The last level: the parts of the triangle on its corners' paths, queued for
-                // beam_shrink (parts 0, 1, 2 of its place, in the order of their cases), else lost.
+            } else {
+                // The last level (the residual branch, and a branch none of whose corners is on
+                // a caustic path: any level): the parts of the triangle on its corners' paths,
+                // queued for beam_shrink (parts 0, 1, 2 of its place, in the order of their
+                // cases). Where no corner is on one but their paths differ (the deeper branches
+                // on a mesh caster: light that crosses it more often inside the triangle than at
+                // its corners), the triangle's orphans' beam alone (PART_ORPHANS; on the glass
+                // dragon 10 to 25 % of the light of the branches reflected at the third and
+                // fourth interactions and of the residual branch was lost without it). Layer 0
+                // only: the light between two specular objects of such triangles is not drawn.
                 let es3 = array<Edge, 3>(r0, r1, r2);
                 var part = 0u;
                 for (var c = 0u; c < 6u; c++) {
@@ -317,8 +332,11 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
                         part++;
                     }
                 }
-                if (part == 0u) {
+                if (part == 0u && br == 0u && layer == 0u) {
                     atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
+                }
+                if (part == 0u && layer == 0u && paths_differ(r0, r1, r2)) {
+                    queue_part(BeamPart(tri.a, tri.b, tri.c, tri.face, slot, level, br | (PART_ORPHANS << 8u)));
                 }
             }
         }

@@ -11,7 +11,7 @@
 // (beam_order); part 0's also the triangle's orphans' beam (`orphan_beam`).
 //
 // Its own pass, not beam_refine's: a part traces some fifty edges, and one triangle has up to
-// three parts on each of five branches and two layers. In one invocation that is more loop
+// three parts on each of six branches and two layers. In one invocation that is more loop
 // iterations than lavapipe lets a shader run (some 65536 in all; past them its loops end early)
 // where the casters are meshes with deep BVHs: a quarter of the glass dragon's last-level
 // triangles lost their light in beam_refine, and half of its silhouette light was lost with one
@@ -369,11 +369,16 @@ fn main(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: ve
     let live = index < n;
     var p: BeamPart;
     if (live) { p = parts[index]; }
+    // (the residual branch's choices: those beam_refine drew for the triangle)
+    beam_key = p.slot;
     let br = p.kind & 15u;
     let layer = (p.kind >> 4u) & 15u;
     let c = (p.kind >> 8u) & 15u;
     let part = p.kind >> 12u;
     let cs = part_case(c);
+    // (a triangle none of whose corners is on a caustic path of the branch: its orphans' beam
+    // alone, no bisection, no region)
+    let orphans_only = c == PART_ORPHANS;
     // The triangle's sample, and (threads 0..2) the corner's edge: the corners' edges on the
     // part's branch and layer as beam_refine traced them.
     var mine: Edge;
@@ -396,7 +401,7 @@ fn main(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: ve
     // the first orphan (its edge is written after the next barrier).
     let xs = samples[g][s];
     if (live && is_orphan(xs, es)) { atomicMin(&orphan_s[g], s + select(SAMPLES, 0u, foreign(xs, es))); }
-    if (live && s < 2u) {
+    if (live && s < 2u && !orphans_only) {
         let ps = array<vec2f, 3>(p.a, p.b, p.c);
         let good = select(ps[cs.k], select(ps[cs.j], ps[cs.i], s == 0u), cs.quad);
         let bad = select(select(ps[cs.j], ps[cs.i], s == 0u), ps[cs.k], cs.quad);
@@ -408,7 +413,7 @@ fn main(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: ve
     let rg = part_region(p, cs, bounds[g][0].ndc, bounds[g][1].ndc);
     for (var t = 0u; t < 2u; t++) {
         var m = vec4f(0.0);
-        if (live && (t == 0u || cs.quad)) {
+        if (live && !orphans_only && (t == 0u || cs.quad)) {
             let tr = rg.t[t];
             let e = at_layer(trace_edge(p.face, sample_point(tr[0], tr[1], tr[2], s), br), layer);
             if (same_path(e, es[cs.path])) { m = vec4f(e.weight, 1.0); }
@@ -424,7 +429,10 @@ fn main(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: ve
     if (live && is_orphan(xs, es)) { to = nearest_part(es, xs, ax); }
     assign[g][s] = to;
     workgroupBarrier();
-    if (live && s == 0u) {
+    if (live && s == 0u && !orphans_only) {
         shrink_part(p, g, es, br, layer, cs, part, ax);
+    }
+    if (live && s == 0u && orphans_only && ax.has) {
+        emit(orphan_beam(g, omega, p.level, layer), p.slot, br, layer, ax.part);
     }
 }

@@ -166,7 +166,8 @@ fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, 
             | if chains(scene) { BEAM_FLAG_CHAINS } else { 0 },
         pixel_samples: b.pixel_samples,
         linearity: b.linearity_threshold,
-        _pad: [0; 3],
+        residual: if b.reflection { b.residual } else { 0.0 },
+        _pad: [0; 2],
     }
 }
 
@@ -456,11 +457,11 @@ fn chains(scene: &Scene) -> bool {
 }
 
 /// The beams a slot of the hierarchy can hold under beam flags `flags`: [`KINDS`], or without
-/// [`BEAM_FLAG_CHAINS`] ([`chains`]) the parts of the first three branches' last segments
-/// alone. Only the number of gather and surface chunks recorded depends on it (those past the
-/// beams kept are empty dispatches).
+/// [`BEAM_FLAG_CHAINS`] ([`chains`]) the parts of the last segments of the first three branches
+/// and the residual branch alone. Only the number of gather and surface chunks recorded depends
+/// on it (those past the beams kept are empty dispatches).
 fn kinds(flags: u32) -> u64 {
-    if flags & BEAM_FLAG_CHAINS != 0 { KINDS } else { 3 * u64::from(BEAM_PARTS) }
+    if flags & BEAM_FLAG_CHAINS != 0 { KINDS } else { 4 * u64::from(BEAM_PARTS) }
 }
 
 /// The surface caustic of one light's beams, added into the eye's diffuse radiance and caustic
@@ -788,8 +789,9 @@ fn chunk_scale(ctx: &GpuContext, b: &BeamSettings) -> u32 {
 /// case, the capacity of 131 072 beams, 64 recorded dispatches instead of 1024).
 const GPU_CHUNK_SCALE: u32 = 16;
 
-/// Beams per slot of the hierarchy ([`BEAM_KINDS`]): five branches (transmitted, reflected at
-/// the first surface, reflected once inside, the same two at a second dielectric) times two
+/// Beams per slot of the hierarchy ([`BEAM_KINDS`]): six branches (transmitted, reflected at
+/// the first surface, reflected once inside, the same two at a second dielectric, the residual
+/// branch) times two
 /// layers (the path's last segment, and the one between its last two specular objects) times
 /// four parts (a last-level triangle whose corners take different paths: one beam per path,
 /// and one for its orphans, the light on paths none of its corners takes).
@@ -822,6 +824,7 @@ pub(crate) fn read_frame(ctx: &GpuContext, f: &BeamFrame) -> Result<(BeamStats, 
         grazing: w(19),
         between_casters: w(20),
         hull_fragments: w(21),
+        residual: w(22),
     };
     let count = stats.beams as u64;
     if count == 0 {

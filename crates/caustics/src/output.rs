@@ -86,7 +86,9 @@ pub struct Beam {
     pub land: u32,
     /// The traced branch (`beam_refine`): 0 transmitted at every dielectric interface, 1
     /// reflected at the first surface, 2 reflected once inside the first dielectric, 3 and 4 the
-    /// same at a second dielectric the light crosses the medium into.
+    /// same at a second dielectric the light crosses the medium into, 5 the residual branch
+    /// (partial reflections elsewhere, drawn at random per triangle:
+    /// [`crate::settings::BeamSettings::residual`]).
     pub branch: u32,
     /// The segment of its path it lights: 0 the last (it ends on a diffuse surface or leaves
     /// the scene), 1 the one before, from one specular object to the next (it ends on that
@@ -204,7 +206,8 @@ pub struct BeamStats {
     /// Beams that did not fit the beam buffer (`BeamSettings::capacity`): an overflow.
     pub overflow: u32,
     /// Triangles at the last level whose edges still took different paths and none of whose
-    /// corners takes a caustic path (their light is lost; the others are split into parts).
+    /// corners takes a caustic path on the transmitted branch (their light goes only to an
+    /// orphans' beam, where their samples find it; the others are split into parts).
     pub inconsistent: u32,
     /// Beams dropped for a degenerate or grazing base.
     pub grazing: u32,
@@ -214,4 +217,7 @@ pub struct BeamStats {
     /// Fragments the beams' hulls shaded (`BeamVolume::Hulls`: one per pixel a hull covers; 0
     /// with the gather).
     pub hull_fragments: u32,
+    /// Beams kept on the residual branch ([`crate::settings::BeamSettings::residual`]),
+    /// included in `kept_per_level`.
+    pub residual: u32,
 }

@@ -422,6 +422,9 @@ fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
     if ui.checkbox(&mut reflection, "light reflected at glass").changed() {
         let mut s2 = s.clone();
         s2.dielectric_reflection = reflection;
+        // (every technique: the beams' reflected and residual branches too, as the CLI's
+        // --no-glass-reflection)
+        s2.beams.reflection = reflection;
         act(session, Action::SetSettings(Box::new(s2)));
     }
     let mut temporal = session.temporal();
@@ -546,6 +549,8 @@ fn beam_controls(ui: &mut egui::Ui, session: &mut Session) {
             ui.add(egui::Slider::new(&mut b.energy_threshold, 0.001..=1.0).logarithmic(true).text("energy threshold")),
             ui.add(egui::Slider::new(&mut b.camera_threshold, 0.01..=1.0).logarithmic(true).text("camera threshold")),
             ui.add(egui::Slider::new(&mut b.linearity_threshold, 0.0..=1.0).text("linearity threshold")),
+            ui.add(egui::Slider::new(&mut b.residual, 0.0..=0.9).text("residual branch p"))
+                .on_hover_text("the residual branch's probability of reflecting at each interface (0: off)"),
             ui.add(egui::Slider::new(&mut b.pixel_samples, 1..=4).text("rays per pixel side")),
             ui.add(egui::Slider::new(&mut b.surface_samples, 1..=8).text("surface points per pixel side")),
         ];

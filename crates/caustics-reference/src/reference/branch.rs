@@ -105,3 +105,115 @@ pub fn trace(scene: &Scene, accel: &Accel, o0: Vec3, d0: Vec3, max_depth: u32) -
         depth += 1;
     }
 }
+
+/// A leaf of a light ray's full path tree ([`tree`]): a caustic path (it ends on a diffuse
+/// surface or leaves the scene, outside dielectrics), where it reflected partially (`chosen`,
+/// bit k: at interaction k; `count` times in all, interactions past 31 counted but without a
+/// bit), its weight (the Fresnel and mirror factors, first channel) and the object it lands on
+/// (`u32::MAX`: out of the scene).
+#[derive(Clone, Copy, Debug)]
+pub struct Leaf {
+    pub chosen: u32,
+    pub count: u32,
+    pub weight: f64,
+    pub land: u32,
+}
+
+/// Every caustic path of the ray from `o0` along unit `d0` with at most `max_depth` specular
+/// interactions, each partial reflection at a dielectric followed as well as the transmission
+/// (total internal reflection followed, mirrors and conductors reflecting with their
+/// reflectance, as [`trace`]); branches whose weight falls below `min_weight` are dropped.
+/// `leaf` gets each path's [`Leaf`]. Ground truth for the beams' branches together, the
+/// residual branch's light (`tests/gpu_beams.rs`).
+pub fn tree(
+    scene: &Scene,
+    accel: &Accel,
+    o0: Vec3,
+    d0: Vec3,
+    max_depth: u32,
+    min_weight: f64,
+    leaf: &mut impl FnMut(Leaf),
+) {
+    struct Walk<'a, F> {
+        scene: &'a Scene,
+        accel: &'a Accel,
+        max_depth: u32,
+        min_weight: f64,
+        leaf: &'a mut F,
+    }
+    impl<F: FnMut(Leaf)> Walk<'_, F> {
+        #[allow(clippy::too_many_arguments)]
+        fn step(&mut self, o: Vec3, d: Vec3, w: f64, depth: u32, inside: bool, chosen: u32, count: u32) {
+            if w < self.min_weight {
+                return;
+            }
+            let sc = self.scene;
+            let hit = self.accel.intersect(o, d, 1e30);
+            let specular = hit.filter(|h| sc.materials[sc.objects[h.object as usize].material].is_specular());
+            let Some(h) = specular else {
+                if depth > 0 && !inside {
+                    (self.leaf)(Leaf { chosen, count, weight: w, land: hit.map_or(u32::MAX, |h| h.object) });
+                }
+                return;
+            };
+            if (depth == 0 && !sc.objects[h.object as usize].caustic_caster) || depth >= self.max_depth {
+                return;
+            }
+            let front = d.dot(h.ng) < 0.0;
+            let ng = if front { h.ng } else { -h.ng };
+            let mut ns = if front { h.ns } else { -h.ns };
+            if -d.dot(ns) <= 0.0 {
+                ns = ng;
+            }
+            let mut rd = reflect(d, ns);
+            if rd.dot(ng) <= 0.0 {
+                rd = reflect(d, ng);
+            }
+            let (ro, next) = (spawn(h.p, h.ng, rd), depth + 1);
+            match sc.materials[sc.objects[h.object as usize].material] {
+                Material::Dielectric { ior, ext_ior } => {
+                    let eta = if front { ior / ext_ior } else { ext_ior / ior };
+                    let (f, cos_t) = fresnel_dielectric(-d.dot(ns), eta);
+                    let mut tir = f >= 1.0;
+                    let mut td = Vec3::ZERO;
+                    if !tir {
+                        td = refract(d, ns, eta, cos_t);
+                        if td.dot(ng) >= 0.0 {
+                            let (f2, c2) = fresnel_dielectric(-d.dot(ng), eta);
+                            if f2 >= 1.0 {
+                                tir = true;
+                            } else {
+                                td = refract(d, ng, eta, c2);
+                            }
+                        }
+                    }
+                    if tir {
+                        self.step(ro, rd, w, next, inside, chosen, count);
+                    } else {
+                        let f = f64::from(f);
+                        self.step(spawn(h.p, h.ng, td), td, w * (1.0 - f), next, front, chosen, count);
+                        let bit = if depth < 32 { 1 << depth } else { 0 };
+                        self.step(ro, rd, w * f, next, inside, chosen | bit, count + 1);
+                    }
+                }
+                Material::Mirror { reflectance } => {
+                    self.step(ro, rd, w * f64::from(reflectance.x), next, inside, chosen, count)
+                }
+                Material::Conductor { eta, k } => {
+                    let r = fresnel_conductor((-d.dot(ns)).clamp(0.0, 1.0), eta, k).x;
+                    self.step(ro, rd, w * f64::from(r), next, inside, chosen, count);
+                }
+                Material::Diffuse { .. } => {} // (not specular: ended above)
+            }
+        }
+    }
+    Walk { scene, accel, max_depth, min_weight, leaf }.step(o0, d0, 1.0, 0, false, 0, 0);
+}
+
+/// Whether a path that reflected partially `count` times (bit k of `chosen`: at interaction
+/// k) is the beams' residual branch's: no branch with fixed reflections follows it, of the
+/// `fixed` traced (the transmitted branch none; branch k + 1 one reflection at interaction k).
+/// As `residual_owns` in `shaders/shared/beam_trace.wgsl`.
+pub fn residual_owns(chosen: u32, count: u32, fixed: u32) -> bool {
+    count >= 2 || (count == 1 && (chosen == 0 || chosen.trailing_zeros() + 1 >= fixed))
+}

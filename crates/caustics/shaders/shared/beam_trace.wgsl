@@ -60,6 +60,44 @@ fn at_layer(e: Edge, layer: u32) -> Edge {
     return r;
 }
 
+// The triangle of the grid whose edges are traced (its slot of the hierarchy: beam_refine and
+// beam_shrink set it before tracing): the key of the residual branch's random choices, so that
+// all the triangle's edges make the same ones, in every run.
+var<private> beam_key: u32 = 0u;
+
+// The branches with fixed reflections traced (0, 1 and 2; 3 and 4 too where light crosses
+// the medium from one specular object to another: BEAM_FLAG_CHAINS), the transmitted alone
+// without BEAM_FLAG_REFLECTION.
+fn fixed_branches() -> u32 {
+    let chains = (bp.flags & BEAM_FLAG_CHAINS) != 0u;
+    return select(1u, select(3u, 5u, chains), (bp.flags & BEAM_FLAG_REFLECTION) != 0u);
+}
+// Branches traced: the fixed ones, and the residual branch where it is on.
+fn traced_branches() -> u32 {
+    return fixed_branches() + u32(fixed_branches() > 1u && bp.residual > 0.0);
+}
+// The j-th traced branch (j < traced_branches()): the fixed ones in order, then the residual.
+fn traced_branch(j: u32) -> u32 {
+    return select(j, BEAM_RESIDUAL, j >= fixed_branches());
+}
+
+// A uniform number in [0, 1) from the triangle's key and the interaction's depth (PCG hash, as
+// the photon tracer's residual pass: shared/trace.wgsl).
+fn beam_random(key: u32, depth: u32) -> f32 {
+    var s = key ^ (depth * 2891336453u + 12345u);
+    s = s * 747796405u + 2891336453u;
+    s = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
+    s = (s >> 22u) ^ s;
+    return f32(s >> 8u) * (1.0 / 16777216.0);
+}
+
+// Whether the residual branch's light, having reflected partially `count` times (bit k of
+// `chosen`: at interaction k), is its own: no fixed branch follows that path (the transmitted
+// branch none, branch k + 1 the one at interaction k).
+fn residual_owns(chosen: u32, count: u32) -> bool {
+    return count >= 2u || (count == 1u && (chosen == 0u || firstTrailingBit(chosen) + 1u >= fixed_branches()));
+}
+
 fn light_dir(face: Face, ndc: vec2f) -> vec3f {
     let a4 = face.clip_to_world * vec4f(ndc, 0.0, 1.0);
     let b4 = face.clip_to_world * vec4f(ndc, 1.0, 1.0);
@@ -73,8 +111,19 @@ fn light_dir(face: Face, ndc: vec2f) -> vec3f {
 // the medium from one glass object into another). The branch's mask (`branch`, bit k: reflect
 // at interaction k, as the photon tracer's branch masks) needs a dielectric interface there
 // that does not reflect totally (there the light is branch 0's), and a path that reaches it.
+// The residual branch (BEAM_RESIDUAL, where BeamParams.residual = p > 0) draws its choice at
+// each dielectric interface that does not reflect totally (`beam_random` of the triangle's
+// `beam_key` and the depth, so the triangle's edges all choose alike): reflect with probability
+// p and weight F / p, else transmit with weight (1 - F) / (1 - p), the expected weight of every
+// path its Fresnel factors' product. Its path is whole only where no fixed branch follows it
+// (`residual_owns`): the light of two or more partial reflections, or of one at an interaction
+// no reflected branch reflects at, on a mesh whose light crosses it several times.
 fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
-    let branch = select(0u, 1u << (br - 1u), br > 0u);
+    let residual = br == BEAM_RESIDUAL;
+    let branch = select(0u, 1u << (br - 1u), br > 0u && !residual);
+    // (the residual branch: where it reflected partially, bit k at interaction k, and how often)
+    var chosen = 0u;
+    var count = 0u;
     var e: Edge;
     e.caster = false;
     e.ok = false;
@@ -97,7 +146,7 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
         if (h.object == INVALID) {
             if (depth == 0u) { return e; }
             // Leaves the scene: the beam runs to the far side of the medium's box.
-            e.ok = !inside && (depth >= 32u || (branch >> depth) == 0u);
+            e.ok = !inside && (depth >= 32u || (branch >> depth) == 0u) && (!residual || residual_owns(chosen, count));
             e.land = INVALID;
             e.o = seg_o;
             e.d = dir;
@@ -117,7 +166,7 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
         let reflect_here = depth < 32u && ((branch >> depth) & 1u) == 1u;
         if (reflect_here && mat.kind.x != KIND_DIELECTRIC) { return e; }
         if (mat.kind.x == KIND_DIFFUSE) {
-            e.ok = !inside && (depth >= 32u || (branch >> depth) == 0u);
+            e.ok = !inside && (depth >= 32u || (branch >> depth) == 0u) && (!residual || residual_owns(chosen, count));
             e.land = h.object;
             e.o = seg_o;
             e.d = dir;
@@ -130,8 +179,9 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
             // A segment after a specular interaction, outside dielectrics, ends on another
             // specular surface: the latest such is layer 1. Only where the branch reflected
             // before it (or is branch 0): otherwise the segment's light is the transmitted
-            // branch's, whose layer 1 it is.
-            e.has1 = br == 0u || br - 1u < depth;
+            // branch's, whose layer 1 it is (for the residual branch: until its choices so far
+            // are its own).
+            e.has1 = select(br == 0u || br - 1u < depth, residual_owns(chosen, count), residual);
             e.o1 = seg_o;
             e.d1 = dir;
             e.n1 = seg_n;
@@ -156,7 +206,17 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
             let fr = fz.f;
             if (reflect_here && fr >= 1.0) { return e; }
             reflect_it = reflect_here || fr >= 1.0;
-            w *= select(1.0 - fr, select(fr, 1.0, fr >= 1.0), reflect_it);
+            if (residual && fr < 1.0) {
+                let p = bp.residual;
+                reflect_it = beam_random(beam_key, depth) < p;
+                if (reflect_it) {
+                    chosen |= select(0u, 1u << depth, depth < 32u);
+                    count++;
+                }
+                w *= select((1.0 - fr) / (1.0 - p), fr / p, reflect_it);
+            } else {
+                w *= select(1.0 - fr, select(fr, 1.0, fr >= 1.0), reflect_it);
+            }
         }
         let bz = rt_bounce(dir, n, ng, eta, reflect_it);
         let reflected = bz.reflected;
@@ -282,6 +342,16 @@ fn consistent(e0: Edge, e1: Edge, e2: Edge) -> bool {
     return e0.ok && e1.ok && e2.ok && e0.sig == e1.sig && e1.sig == e2.sig && e0.land == e1.land && e1.land == e2.land;
 }
 
+// Whether the three edges' paths differ (objects, reflected or refracted, side, where they
+// land, whether they end on a caustic path of the branch): then a triangle none of whose
+// corners is on a caustic path may still hold such light inside (beam_refine's orphans-only
+// parts).
+fn paths_differ(e0: Edge, e1: Edge, e2: Edge) -> bool {
+    let same = e0.caster == e1.caster && e1.caster == e2.caster && e0.ok == e1.ok && e1.ok == e2.ok
+        && e0.sig == e1.sig && e1.sig == e2.sig && e0.land == e1.land && e1.land == e2.land;
+    return !same;
+}
+
 // Whether edge e took the path of `r` (and meets a caster first).
 fn same_path(e: Edge, r: Edge) -> bool {
     return e.ok && e.caster && e.sig == r.sig && e.land == r.land;
@@ -319,6 +389,7 @@ fn emit(b: BeamGpu, slot: u32, br: u32, layer: u32, part: u32) {
         atomicAdd(&stats[1u + BS_LAYER1], 1u);
     }
     beams[i] = out;
+    if (br == BEAM_RESIDUAL) { atomicAdd(&stats[1u + BS_RESIDUAL], 1u); }
     slots[BEAM_KINDS * slot + BEAM_PARTS * (BEAM_LAYERS * br + layer) + part] = i + 1u;
     atomicAdd(&stats[1u + BS_KEPT + min(u32(b.flux.w), 7u)], 1u);
 }

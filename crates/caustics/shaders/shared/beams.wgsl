@@ -40,7 +40,9 @@ struct BeamParams {
     // Split threshold (BeamSettings::linearity_threshold): the centroid's light off the beam's
     // line, over the beam's width (beam_refine's nonlinearity); 0: off.
     linearity: f32,
-    _pad0: u32,
+    // The residual branch's probability of reflecting at a dielectric interface
+    // (BeamSettings::residual; 0: no residual branch).
+    residual: f32,
     _pad1: u32,
     _pad2: u32,
     // The inverse of clip_to_world (beam_surface: a beam's end in the image).
@@ -48,9 +50,13 @@ struct BeamParams {
 }
 
 // Beams per slot of the hierarchy: transmitted, reflected at the first surface, reflected once
-// inside, reflected at the second dielectric's surface, reflected once inside it
-// (beam_refine.wgsl, `trace_edge`).
-const BEAM_BRANCHES: u32 = 5u;
+// inside, reflected at the second dielectric's surface, reflected once inside it, and the
+// residual branch (beam_trace.wgsl, `trace_edge`).
+const BEAM_BRANCHES: u32 = 6u;
+// The residual branch: the light reflected partially at an interface no other branch reflects
+// at (the fifth or later, or at two or more), its Fresnel choices drawn at random per triangle
+// of the grid (beam_trace.wgsl, `trace_edge`).
+const BEAM_RESIDUAL: u32 = 5u;
 // Beams per branch: layer 0 the path's last segment, layer 1 the segment before it where the
 // light crossed the medium between two specular objects (beam_refine.wgsl, `at_layer`).
 const BEAM_LAYERS: u32 = 2u;
@@ -60,7 +66,7 @@ const BEAM_LAYERS: u32 = 2u;
 const BEAM_PARTS: u32 = 4u;
 // Beams per slot (their places: slot x BEAM_KINDS + (branch x BEAM_LAYERS + layer) x
 // BEAM_PARTS + part).
-const BEAM_KINDS: u32 = 40u;
+const BEAM_KINDS: u32 = 48u;
 
 // A beam's hull on the image (beam_hull, drawn by beam_raster): info.x its vertices (a convex
 // polygon, 4 to BEAM_HULL_MAX), info.y the beam's index in the beam buffer; p the vertices in
@@ -98,7 +104,9 @@ struct BeamTri {
 // A part of a last-level triangle whose corners' edges take different paths on one branch and
 // layer (beam_refine queues it, beam_shrink makes its beam): the triangle's corners a, b, c
 // (light NDC on light face `face`), its slot of the hierarchy and its level, and
-// kind = branch | layer << 4 | case << 8 | part << 12 (beam_refine's `part_applies`).
+// kind = branch | layer << 4 | case << 8 | part << 12 (beam_refine's `part_applies`; case
+// PART_ORPHANS: a triangle none of whose corners takes a caustic path on the branch while
+// their paths differ, whose light inside, if any, goes to its orphans' beam alone).
 struct BeamPart {
     a: vec2f,
     b: vec2f,
@@ -108,6 +116,8 @@ struct BeamPart {
     level: u32,
     kind: u32,
 }
+
+const PART_ORPHANS: u32 = 6u;
 
 // The entry of beam_refine's indirect arguments (4 words each; entries 0..6 the levels) that
 // holds beam_shrink's dispatch size (words 0 and 1) and the parts queued (word 3).
@@ -121,7 +131,8 @@ const SHRINK_GROUP_PARTS: u32 = 4u;
 // object its three edges land on (INVALID: they leave the scene or, on layer 1, end on a
 // specular surface; beam_surface lights only that object's points), info.y its branch (0
 // transmitted, 1 reflected at the first surface, 2 reflected once inside, 3 and 4 the same at a
-// second dielectric: beam_refine), info.z its layer, info.w its part (beam_shrink).
+// second dielectric, 5 the residual branch: beam_trace), info.z its layer, info.w its part
+// (beam_shrink).
 struct BeamGpu {
     v0: vec4f,
     v1: vec4f,
@@ -138,7 +149,8 @@ struct BeamGpu {
 // 16 beams over the capacity (dropped: an overflow, reported), 17 triangles at the last level
 // whose edges disagree and none of whose corners takes a caustic path (their light is lost),
 // 18 beams in the ordered list, 19 beams discarded for grazing bases, 20 beams kept on layer 1
-// (between two specular objects), 21 fragments beam_raster shaded.
+// (between two specular objects), 21 fragments beam_raster shaded, 22 beams kept on the
+// residual branch.
 const BS_KEPT: u32 = 0u;
 const BS_VISITED: u32 = 8u;
 const BS_OVERFLOW: u32 = 16u;
@@ -147,6 +159,7 @@ const BS_ORDERED: u32 = 18u;
 const BS_GRAZING: u32 = 19u;
 const BS_LAYER1: u32 = 20u;
 const BS_FRAGMENTS: u32 = 21u;
+const BS_RESIDUAL: u32 = 22u;
 const BS_WORDS: u32 = 32u;
 
 fn bm_phase(cos_t: f32, g: f32) -> f32 {

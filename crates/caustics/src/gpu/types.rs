@@ -263,7 +263,10 @@ pub struct BeamParams {
     /// Split where the centroid's light is farther than this fraction of the beam's width off
     /// the beam's line (`beam_refine`'s `nonlinearity`); 0: off.
     pub linearity: f32,
-    pub _pad: [u32; 3],
+    /// The residual branch's probability of reflecting at a dielectric interface
+    /// (`BeamSettings::residual`; 0: no residual branch).
+    pub residual: f32,
+    pub _pad: [u32; 2],
     /// Inverse of `clip_to_world`: where `beam_surface` finds a beam's end in the image.
     pub world_to_clip: [[f32; 4]; 4],
 }
@@ -545,9 +548,13 @@ pub const BEAM_FLAG_GRID: u32 = 2;
 /// than one, or one that is neither a sphere nor a rectangle): with reflection, trace the branches
 /// reflected at the second dielectric too (beams.rs `chains`).
 pub const BEAM_FLAG_CHAINS: u32 = 4;
-/// Beam branches (beam_refine.wgsl `trace_edge`): transmitted; reflected at the first, second,
-/// third or fourth interaction (the first dielectric's surface and inside it, the second's).
-pub const BEAM_BRANCHES: u32 = 5;
+/// Beam branches (beam_trace.wgsl `trace_edge`): transmitted; reflected at the first, second,
+/// third or fourth interaction (the first dielectric's surface and inside it, the second's); the
+/// residual branch ([`BEAM_RESIDUAL`]).
+pub const BEAM_BRANCHES: u32 = 6;
+/// The residual branch: light reflected partially where no other branch reflects (at the fifth
+/// interaction or later, or at two or more), its Fresnel choices drawn at random per triangle.
+pub const BEAM_RESIDUAL: u32 = 5;
 /// Beam layers per branch: the path's last segment, and the one before it from one specular
 /// object to the next.
 pub const BEAM_LAYERS: u32 = 2;
@@ -579,6 +586,7 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("BEAM_FLAG_GRID", BEAM_FLAG_GRID),
     ("BEAM_FLAG_CHAINS", BEAM_FLAG_CHAINS),
     ("BEAM_BRANCHES", BEAM_BRANCHES),
+    ("BEAM_RESIDUAL", BEAM_RESIDUAL),
     ("BEAM_LAYERS", BEAM_LAYERS),
     ("BEAM_PARTS", BEAM_PARTS),
     ("BEAM_KINDS", BEAM_KINDS),
