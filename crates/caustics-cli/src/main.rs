@@ -351,9 +351,9 @@ pub struct BeamArgs {
     /// exactly traced light of the triangle's centroid against the beam's); 0 turns it off.
     #[arg(long, default_value_t = 0.05)]
     beam_linearity_threshold: f32,
-    /// Beams: the residual branch's probability of reflecting at each dielectric interface (the
-    /// light reflected partially where no other branch follows it, drawn at random per
-    /// triangle); 0 turns it off, below 1.
+    /// Beams: the residual branch's least probability of reflecting at a dielectric interface
+    /// (it reflects with max(F, p): the light reflected partially where no other branch follows
+    /// it, drawn at random per triangle); 0 turns it off, below 1.
     #[arg(long, default_value_t = 0.3)]
     beam_residual: f32,
     /// Beams held per light (more is an overflow, reported as an error).

@@ -569,10 +569,10 @@ pub struct BeamSettings {
     /// reflected branches do not follow (the fifth interaction or later, or two partial
     /// reflections or more: on a mesh caster whose light enters and leaves it several times,
     /// some 8 % of the in-medium light). Its Fresnel choices are drawn at random, the same for a
-    /// whole triangle of the grid: at each dielectric interface it reflects with this
-    /// probability (weight F / p, else transmits with (1 − F) / (1 − p)), and the triangle's
-    /// beam is kept only where the path so drawn is not another branch's. Unbiased; a larger
-    /// probability gives more beams and less noise. 0 turns it off; below 1.
+    /// whole triangle of the grid: at each dielectric interface it reflects with probability
+    /// p = max(F, this) (weight F / p, else transmits with (1 − F) / (1 − p)), and the
+    /// triangle's beam is kept only where the path so drawn is not another branch's. Unbiased;
+    /// deterministic (the draws are keyed by the triangle). 0 turns it off; below 1.
     pub residual: f32,
     /// The footprint integral of the volume caustic (`beam_gather`): where a beam's
     /// cross-section, seen from the camera, is narrower than this many pixels (near a focus, the

@@ -783,7 +783,7 @@ fn second_caster_layer_carries_the_light_between_two_balls() {
 // some 70 s on two cores; the beams some 25 s on lavapipe); run it with `--ignored` (it prints
 // the figures; BEAM_DUMP=DIR writes the images).
 #[test]
-#[ignore = "slow (a 2^27-photon CPU reference): volume caustic against the reference, HDR-FLIP 0.072, energy -0.4 % (target 0.1, 5 %)"]
+#[ignore = "slow (a 2^27-photon CPU reference): volume caustic against the reference, HDR-FLIP 0.066, energy -0.4 % (target 0.1, 5 %)"]
 fn gpu_beams_match_the_cpu_reference_in_fog() {
     use caustics_reference::metrics::{energy, hdr_flip};
     use caustics_reference::reference;
@@ -2057,8 +2057,8 @@ fn a_mesh_casters_silhouette_triangles_all_get_their_parts() {
     // (at the fifth interaction or later, or twice or more; 6 % of the dragon's caustic light),
     // its Fresnel choices drawn at random per triangle. Against the CPU, within three standard
     // deviations of its estimate (`residual_sigma`), which must be below a third of the light
-    // (so that a missing residual branch fails). Measured (2026-12-05, lavapipe): 0.2073 W of
-    // 0.1958 W (1.059), sigma 0.0143 W; without the orphans-only parts 0.753 (failing).
+    // (so that a missing residual branch fails). Measured (2026-12-05, lavapipe): 0.2033 W of
+    // 0.1958 W (1.039), sigma 0.0118 W; without the orphans-only parts 0.753 (failing).
     let sigma = residual_sigma(list);
     let (gpu_res, cpu_res) = (got[5], cpu[5]);
     let cpu_all: f64 = cpu.iter().sum();

@@ -111,11 +111,13 @@ fn light_dir(face: Face, ndc: vec2f) -> vec3f {
 // the medium from one glass object into another). The branch's mask (`branch`, bit k: reflect
 // at interaction k, as the photon tracer's branch masks) needs a dielectric interface there
 // that does not reflect totally (there the light is branch 0's), and a path that reaches it.
-// The residual branch (BEAM_RESIDUAL, where BeamParams.residual = p > 0) draws its choice at
+// The residual branch (BEAM_RESIDUAL, where BeamParams.residual > 0) draws its choice at
 // each dielectric interface that does not reflect totally (`beam_random` of the triangle's
 // `beam_key` and the depth, so the triangle's edges all choose alike): reflect with probability
-// p and weight F / p, else transmit with weight (1 - F) / (1 - p), the expected weight of every
-// path its Fresnel factors' product. Its path is whole only where no fixed branch follows it
+// p = max(F, BeamParams.residual) and weight F / p, else transmit with weight (1 - F) / (1 - p),
+// the expected weight of every path its Fresnel factors' product. (p = F would make every weight
+// 1; the floor keeps the rare reflections at normal incidence from being too rare. A fixed p
+// gave weights up to (F / p)² near a silhouette, where F runs to 1.) Its path is whole only where no fixed branch follows it
 // (`residual_owns`): the light of two or more partial reflections, or of one at an interaction
 // no reflected branch reflects at, on a mesh whose light crosses it several times.
 fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
@@ -207,7 +209,7 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
             if (reflect_here && fr >= 1.0) { return e; }
             reflect_it = reflect_here || fr >= 1.0;
             if (residual && fr < 1.0) {
-                let p = bp.residual;
+                let p = max(fr, bp.residual);
                 reflect_it = beam_random(beam_key, depth) < p;
                 if (reflect_it) {
                     chosen |= select(0u, 1u << depth, depth < 32u);

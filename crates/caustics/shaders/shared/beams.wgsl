@@ -40,8 +40,8 @@ struct BeamParams {
     // Split threshold (BeamSettings::linearity_threshold): the centroid's light off the beam's
     // line, over the beam's width (beam_refine's nonlinearity); 0: off.
     linearity: f32,
-    // The residual branch's probability of reflecting at a dielectric interface
-    // (BeamSettings::residual; 0: no residual branch).
+    // The residual branch's least probability of reflecting at a dielectric interface (it
+    // reflects with max(F, residual): BeamSettings::residual; 0: no residual branch).
     residual: f32,
     _pad1: u32,
     _pad2: u32,

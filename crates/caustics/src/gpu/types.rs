@@ -263,8 +263,8 @@ pub struct BeamParams {
     /// Split where the centroid's light is farther than this fraction of the beam's width off
     /// the beam's line (`beam_refine`'s `nonlinearity`); 0: off.
     pub linearity: f32,
-    /// The residual branch's probability of reflecting at a dielectric interface
-    /// (`BeamSettings::residual`; 0: no residual branch).
+    /// The residual branch's least probability of reflecting at a dielectric interface (it
+    /// reflects with max(F, residual): `BeamSettings::residual`; 0: no residual branch).
     pub residual: f32,
     pub _pad: [u32; 2],
     /// Inverse of `clip_to_world`: where `beam_surface` finds a beam's end in the image.
