@@ -36,6 +36,24 @@ pub struct Path {
     pub layer1: bool,
 }
 
+/// A dielectric interface met along unit `d` (shading normal `ns` and geometric normal `ng` on
+/// the incident side, `eta` the ratio of the indices): its Fresnel reflectance (1: total
+/// internal reflection) and the refracted direction, `None` where the light reflects totally
+/// (also where refraction about `ns` would cross the geometric surface and about `ng` reflects
+/// totally).
+fn interface(d: Vec3, ns: Vec3, ng: Vec3, eta: f32) -> (f32, Option<Vec3>) {
+    let (f, cos_t) = fresnel_dielectric(-d.dot(ns), eta);
+    if f >= 1.0 {
+        return (f, None);
+    }
+    let td = refract(d, ns, eta, cos_t);
+    if td.dot(ng) < 0.0 {
+        return (f, Some(td));
+    }
+    let (f2, c2) = fresnel_dielectric(-d.dot(ng), eta);
+    (f, (f2 < 1.0).then(|| refract(d, ng, eta, c2)))
+}
+
 /// The transmitted branch of the ray from `o0` along unit `d0` (`Path`).
 pub fn trace(scene: &Scene, accel: &Accel, o0: Vec3, d0: Vec3, max_depth: u32) -> Path {
     let (mut o, mut d) = (o0, d0);
@@ -72,18 +90,12 @@ pub fn trace(scene: &Scene, accel: &Accel, o0: Vec3, d0: Vec3, max_depth: u32) -
         match scene.materials[scene.objects[h.object as usize].material] {
             Material::Dielectric { ior, ext_ior } => {
                 let eta = if front { ior / ext_ior } else { ext_ior / ior };
-                let (f, cos_t) = fresnel_dielectric(-d.dot(ns), eta);
-                refl = f >= 1.0;
-                if !refl {
-                    nd = refract(d, ns, eta, cos_t);
-                    if nd.dot(ng) >= 0.0 {
-                        let (f2, c2) = fresnel_dielectric(-d.dot(ng), eta);
-                        if f2 >= 1.0 {
-                            refl = true;
-                        } else {
-                            nd = refract(d, ng, eta, c2);
-                        }
-                    }
+                let (f, td) = interface(d, ns, ng, eta);
+                if let Some(td) = td {
+                    refl = false;
+                    nd = td;
+                }
+                if f < 1.0 {
                     p.weight *= 1.0 - f;
                 }
             }
@@ -173,27 +185,14 @@ pub fn tree(
             match sc.materials[sc.objects[h.object as usize].material] {
                 Material::Dielectric { ior, ext_ior } => {
                     let eta = if front { ior / ext_ior } else { ext_ior / ior };
-                    let (f, cos_t) = fresnel_dielectric(-d.dot(ns), eta);
-                    let mut tir = f >= 1.0;
-                    let mut td = Vec3::ZERO;
-                    if !tir {
-                        td = refract(d, ns, eta, cos_t);
-                        if td.dot(ng) >= 0.0 {
-                            let (f2, c2) = fresnel_dielectric(-d.dot(ng), eta);
-                            if f2 >= 1.0 {
-                                tir = true;
-                            } else {
-                                td = refract(d, ng, eta, c2);
-                            }
-                        }
-                    }
-                    if tir {
-                        self.step(ro, rd, w, next, inside, chosen, count);
-                    } else {
+                    let (f, td) = interface(d, ns, ng, eta);
+                    if let Some(td) = td {
                         let f = f64::from(f);
                         self.step(spawn(h.p, h.ng, td), td, w * (1.0 - f), next, front, chosen, count);
                         let bit = if depth < 32 { 1 << depth } else { 0 };
                         self.step(ro, rd, w * f, next, inside, chosen | bit, count + 1);
+                    } else {
+                        self.step(ro, rd, w, next, inside, chosen, count);
                     }
                 }
                 Material::Mirror { reflectance } => {

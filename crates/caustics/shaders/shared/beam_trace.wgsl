@@ -81,14 +81,10 @@ fn traced_branch(j: u32) -> u32 {
     return select(j, BEAM_RESIDUAL, j >= fixed_branches());
 }
 
-// A uniform number in [0, 1) from the triangle's key and the interaction's depth (PCG hash, as
-// the photon tracer's residual pass: shared/trace.wgsl).
+// A uniform number in [0, 1) from the triangle's key and the interaction's depth (common.wgsl
+// `hash_uniform`, as the photon tracer's residual pass: shared/trace.wgsl).
 fn beam_random(key: u32, depth: u32) -> f32 {
-    var s = key ^ (depth * 2891336453u + 12345u);
-    s = s * 747796405u + 2891336453u;
-    s = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
-    s = (s >> 22u) ^ s;
-    return f32(s >> 8u) * (1.0 / 16777216.0);
+    return hash_uniform(key, depth);
 }
 
 // Whether the residual branch's light, having reflected partially `count` times (bit k of

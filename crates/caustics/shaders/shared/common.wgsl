@@ -217,3 +217,14 @@ fn texel_area(face: Face, p: vec3f, n: vec3f, m: f32) -> f32 {
     let perp = abs(dot(cross(px - p0, py - p0), tl));
     return perp / max(abs(dot(n, tl)), 1e-4);
 }
+
+// A uniform number in [0, 1) from a key and a second number (a PCG hash of both): the random
+// Fresnel choices of the photon tracer's residual pass (shared/trace.wgsl) and of the beams'
+// residual branch (shared/beam_trace.wgsl), the same in every run.
+fn hash_uniform(key: u32, n: u32) -> f32 {
+    var s = key ^ (n * 2891336453u + 12345u);
+    s = s * 747796405u + 2891336453u;
+    s = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
+    s = (s >> 22u) ^ s;
+    return f32(s >> 8u) * (1.0 / 16777216.0);
+}

@@ -68,14 +68,10 @@ var<private> residual_prob: f32 = 1.0;
 override trace_covered: u32 = 1u;
 override trace_residual_pass: bool = false;
 
-// A uniform number in [0, 1) from the photon's key and the interaction's depth (PCG hash):
-// the same photon makes the same choices in every run.
+// A uniform number in [0, 1) from the photon's key and the interaction's depth
+// (common.wgsl `hash_uniform`): the same photon makes the same choices in every run.
 fn residual_random(key: u32, depth: u32) -> f32 {
-    var s = key ^ (depth * 2891336453u + 12345u);
-    s = s * 747796405u + 2891336453u;
-    s = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
-    s = (s >> 22u) ^ s;
-    return f32(s >> 8u) * (1.0 / 16777216.0);
+    return hash_uniform(key, depth);
 }
 
 // Whether the residual pass drops a path whose Fresnel choices reflected at the depths in
