@@ -199,13 +199,14 @@ fn foreign(x: Sample, es: array<Edge, 3>) -> bool {
     return f;
 }
 
-// The axis of a triangle's orphans' beam (`orphan_beam`), where it has one, and its part (its
-// place after the triangle's parts').
+// The axis of a triangle's orphans' beam (`orphan_beam`), where it has one, its part (its
+// place after the triangle's parts') and its shape (`orphan_shape`).
 struct OrphanAxis {
     has: bool,
     d: vec3f,
     land: u32,
     part: u32,
+    shape: BeamGpu,
 }
 
 // The orphans' axis of workgroup part g (once `orphan` is written): the triangle has an
@@ -214,8 +215,10 @@ struct OrphanAxis {
 fn orphan_axis(g: u32, es: array<Edge, 3>, omega: f32, level: u32, layer: u32) -> OrphanAxis {
     var parts = 0u;
     for (var cc = 0u; cc < 6u; cc++) { parts += u32(part_applies(es, cc)); }
-    let has = atomicLoad(&orphan_s[g]) < 2u * SAMPLES && parts < BEAM_PARTS && orphan_shape(g, omega, level, layer).flux.w >= 0.0;
-    return OrphanAxis(has, orphan[g].d, orphan[g].land, parts);
+    var shape: BeamGpu;
+    shape.flux.w = -1.0;
+    if (atomicLoad(&orphan_s[g]) < 2u * SAMPLES && parts < BEAM_PARTS) { shape = orphan_shape(g, omega, level, layer); }
+    return OrphanAxis(shape.flux.w >= 0.0, orphan[g].d, orphan[g].land, parts, shape);
 }
 
 // Which beam of the triangle whose corners' edges are `es` carries orphan sample x: of its
@@ -328,7 +331,7 @@ fn shrink_part(p: BeamPart, g: u32, es: array<Edge, 3>, br: u32, layer: u32, cs:
     emit(b, p.slot, br, layer, part);
     // The orphans' beam, where the triangle has one (its place after the parts'): made by part 0.
     if (part == 0u && ax.has) {
-        emit(orphan_beam(g, omega, p.level, layer), p.slot, br, layer, ax.part);
+        emit(orphan_beam(g, omega, ax), p.slot, br, layer, ax.part);
     }
 }
 
@@ -338,12 +341,12 @@ fn shrink_part(p: BeamPart, g: u32, es: array<Edge, 3>, br: u32, layer: u32, cs:
 // lands where no corner's path does, else the first), as wide as a part's thin beam, carrying
 // the orphans assigned to it (`nearest_part`). Without it their light went to the corners'
 // parts: 4.8 % too much of the dragon's transmitted light on the floor.
-fn orphan_beam(g: u32, omega: f32, level: u32, layer: u32) -> BeamGpu {
+fn orphan_beam(g: u32, omega: f32, ax: OrphanAxis) -> BeamGpu {
     var sum = vec3f(0.0);
     for (var s = 0u; s < SAMPLES; s++) {
         if (assign[g][s] == 6u) { sum += samples[g][s].weight; }
     }
-    var b = orphan_shape(g, omega, level, layer);
+    var b = ax.shape;
     b.flux = vec4f(omega / f32(SAMPLES) * sum, b.flux.w);
     return b;
 }
@@ -433,6 +436,6 @@ fn main(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: ve
         shrink_part(p, g, es, br, layer, cs, part, ax);
     }
     if (live && s == 0u && orphans_only && ax.has) {
-        emit(orphan_beam(g, omega, p.level, layer), p.slot, br, layer, ax.part);
+        emit(orphan_beam(g, omega, ax), p.slot, br, layer, ax.part);
     }
 }

@@ -342,7 +342,7 @@ fn record_light_beams(
     }
     let shrink_inputs = (light_buf, &params, &density);
     record_shrink(ctx, geo, shrink_inputs, (&parts, &args, &indirect), (&slot_buf, &beams, &stats), enc, timer);
-    let chunks = Chunks::new(bp, &footprint, (kinds(bp.flags), scale));
+    let chunks = Chunks::new(bp, &footprint, (kinds(bp), scale));
     let dispatch = chunks.dispatch_buffer(ctx);
     record_order(ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
     let size = (bp.width, bp.height);
@@ -456,12 +456,12 @@ fn chains(scene: &Scene) -> bool {
     }
 }
 
-/// The beams a slot of the hierarchy can hold under beam flags `flags`: [`KINDS`], or without
+/// The beams a slot of the hierarchy can hold under beam parameters `bp`: [`KINDS`], or without
 /// [`BEAM_FLAG_CHAINS`] ([`chains`]) the parts of the last segments of the first three branches
-/// and the residual branch alone. Only the number of gather and surface chunks recorded depends
-/// on it (those past the beams kept are empty dispatches).
-fn kinds(flags: u32) -> u64 {
-    if flags & BEAM_FLAG_CHAINS != 0 { KINDS } else { 4 * u64::from(BEAM_PARTS) }
+/// and, where it is on, the residual branch alone. Only the number of gather and surface chunks
+/// recorded depends on it (those past the beams kept are empty dispatches).
+fn kinds(bp: &BeamParams) -> u64 {
+    if bp.flags & BEAM_FLAG_CHAINS != 0 { KINDS } else { (3 + u64::from(bp.residual > 0.0)) * u64::from(BEAM_PARTS) }
 }
 
 /// The surface caustic of one light's beams, added into the eye's diffuse radiance and caustic

@@ -1961,6 +1961,26 @@ fn beams_in_a_density_grid_match_the_equivalent_homogeneous_media() {
 /// stratified directions of the light's cone.
 fn transmitted_flux(sc: &Scene, n: u32, max_depth: u32, land: u32) -> (f64, f64) {
     use caustics_reference::reference::branch::{Fate, trace};
+    let [all, on] = over_spot(sc, n, |accel, o, d, w, acc: &mut [f64; 2]| {
+        let p = trace(sc, accel, o, d, max_depth);
+        if p.fate == Fate::Caustic {
+            acc[0] += w * f64::from(p.weight);
+            if p.land == land {
+                acc[1] += w * f64::from(p.weight);
+            }
+        }
+    });
+    (all, on)
+}
+
+/// Sums over `n`² stratified directions of the cone of `sc`'s first light: `ray` gets the
+/// scene's BVH, each direction's origin and unit direction, its share of the light's flux (W,
+/// first channel) and the accumulators.
+fn over_spot<const K: usize>(
+    sc: &Scene,
+    n: u32,
+    ray: impl Fn(&caustics_reference::reference::geometry::Accel, Vec3, Vec3, f64, &mut [f64; K]) + Sync,
+) -> [f64; K] {
     use caustics_reference::reference::emit::Emitter;
     use caustics_reference::reference::geometry::Accel;
     use rayon::prelude::*;
@@ -1969,22 +1989,15 @@ fn transmitted_flux(sc: &Scene, n: u32, max_depth: u32, land: u32) -> (f64, f64)
     (0..n)
         .into_par_iter()
         .map(|j| {
-            let mut acc = (0.0f64, 0.0f64);
+            let mut acc = [0.0f64; K];
             for i in 0..n {
                 let u = glam::Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
                 let Some(e) = em.sample(u) else { continue };
-                let p = trace(sc, &accel, e.origin, e.dir, max_depth);
-                if p.fate == Fate::Caustic {
-                    let w = f64::from(e.flux_n.x) * f64::from(p.weight) / f64::from(n * n);
-                    acc.0 += w;
-                    if p.land == land {
-                        acc.1 += w;
-                    }
-                }
+                ray(&accel, e.origin, e.dir, f64::from(e.flux_n.x) / f64::from(n * n), &mut acc);
             }
             acc
         })
-        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1))
+        .reduce(|| [0.0; K], |a, b| std::array::from_fn(|k| a[k] + b[k]))
 }
 
 /// A mesh caster (`scenes/glass_dragon_fog.json`: the glass dragon, 100k triangles, in fog) at
@@ -2081,31 +2094,16 @@ fn a_mesh_casters_silhouette_triangles_all_get_their_parts() {
 /// five fixed branches of a scene whose light crosses the medium between specular objects).
 fn branch_flux(sc: &Scene, n: u32, max_depth: u32) -> [f64; 6] {
     use caustics_reference::reference::branch::{residual_owns, tree};
-    use caustics_reference::reference::emit::Emitter;
-    use caustics_reference::reference::geometry::Accel;
-    use rayon::prelude::*;
-    let accel = Accel::new(sc);
-    let em = Emitter::full(&sc.lights[0], Vec3::ZERO, 10.0);
-    (0..n)
-        .into_par_iter()
-        .map(|j| {
-            let mut acc = [0.0f64; 6];
-            for i in 0..n {
-                let u = glam::Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-                let Some(e) = em.sample(u) else { continue };
-                let w = f64::from(e.flux_n.x) / f64::from(n * n);
-                tree(sc, &accel, e.origin, e.dir, max_depth, 1e-7, &mut |l| {
-                    let k = if residual_owns(l.chosen, l.count, 5) {
-                        5
-                    } else if l.count == 0 {
-                        0
-                    } else {
-                        1 + l.chosen.trailing_zeros() as usize
-                    };
-                    acc[k] += w * l.weight;
-                });
-            }
-            acc
-        })
-        .reduce(|| [0.0; 6], |a, b| std::array::from_fn(|k| a[k] + b[k]))
+    over_spot(sc, n, |accel, o, d, w, acc: &mut [f64; 6]| {
+        tree(sc, accel, o, d, max_depth, 1e-7, &mut |l| {
+            let k = if residual_owns(l.chosen, l.count, 5) {
+                5
+            } else if l.count == 0 {
+                0
+            } else {
+                1 + l.chosen.trailing_zeros() as usize
+            };
+            acc[k] += w * l.weight;
+        });
+    })
 }

@@ -72,9 +72,10 @@ fn fixed_branches() -> u32 {
     let chains = (bp.flags & BEAM_FLAG_CHAINS) != 0u;
     return select(1u, select(3u, 5u, chains), (bp.flags & BEAM_FLAG_REFLECTION) != 0u);
 }
-// Branches traced: the fixed ones, and the residual branch where it is on.
+// Branches traced: the fixed ones, and the residual branch where it is on (the host sets
+// BeamParams.residual to 0 without BEAM_FLAG_REFLECTION).
 fn traced_branches() -> u32 {
-    return fixed_branches() + u32(fixed_branches() > 1u && bp.residual > 0.0);
+    return fixed_branches() + u32(bp.residual > 0.0);
 }
 // The j-th traced branch (j < traced_branches()): the fixed ones in order, then the residual.
 fn traced_branch(j: u32) -> u32 {
