@@ -203,8 +203,12 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let casters = u32(e0.caster) + u32(e1.caster) + u32(e2.caster);
     let face = light.faces[tri.face];
     let omega = solid_angle(light_dir(face, tri.a), light_dir(face, tri.b), light_dir(face, tri.c));
-    var split = casters < 3u || !consistent(e0, e1, e2);
-    if (!split) {
+    // A triangle whose corners all take one path that is not a caustic path of the transmitted
+    // branch (light that leaves the scene where no medium lies along it) has no light of that
+    // branch to refine: the other branches decide.
+    let none0 = !e0.ok && !e1.ok && !e2.ok && !paths_differ(e0, e1, e2);
+    var split = casters < 3u || (!consistent(e0, e1, e2) && !none0);
+    if (!split && !none0) {
         // Discontinuities of the specular surface.
         let same_obj = e0.first_obj == e1.first_obj && e1.first_obj == e2.first_obj;
         let ncos = min(min(dot(e0.first_n, e1.first_n), dot(e1.first_n, e2.first_n)), dot(e2.first_n, e0.first_n));
@@ -212,7 +216,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         let dt = max(max(e0.first_t, e1.first_t), e2.first_t) - min(min(e0.first_t, e1.first_t), e2.first_t);
         split = !same_obj || ncos < bp.normal_cos || dt > bp.depth_rel * tm;
     }
-    if (!split) {
+    if (!split && !none0) {
         // Energy and convergence.
         let w = (e0.weight + e1.weight + e2.weight) / 3.0;
         let phi = omega * (w.r + w.g + w.b) / 3.0;
@@ -332,7 +336,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
                         part++;
                     }
                 }
-                if (part == 0u && br == 0u && layer == 0u) {
+                if (part == 0u && br == 0u && layer == 0u && paths_differ(r0, r1, r2)) {
                     atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
                 }
                 if (part == 0u && layer == 0u && paths_differ(r0, r1, r2)) {

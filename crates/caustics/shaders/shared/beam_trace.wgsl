@@ -144,14 +144,18 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
         let h = scene_hit(o, dir, 1e30);
         if (h.object == INVALID) {
             if (depth == 0u) { return e; }
-            // Leaves the scene: the beam runs to the far side of the medium's box.
+            // Leaves the scene: the beam runs to the far side of the medium's box. Where no
+            // medium lies along it (none in the scene, or the box behind), its light meets
+            // nothing: not a caustic path (no beam to draw; before, such beams were made with
+            // no length and dropped as grazing).
+            let c = box_clip(seg_o, dir, 1e30, bp.lo.xyz, bp.hi.xyz);
+            if (c.y <= max(c.x, 0.0)) { return e; }
             e.ok = !inside && (depth >= 32u || (branch >> depth) == 0u) && (!residual || residual_owns(chosen, count));
             e.land = INVALID;
             e.o = seg_o;
             e.d = dir;
             e.n = seg_n;
-            let c = box_clip(seg_o, dir, 1e30, bp.lo.xyz, bp.hi.xyz);
-            e.t_end = max(c.y, 0.0);
+            e.t_end = c.y;
             break;
         }
         let mat = materials[h.object];

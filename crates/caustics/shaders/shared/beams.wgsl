@@ -147,7 +147,8 @@ struct BeamGpu {
 
 // Statistics words (u32): 0..7 beams kept per level, 8..15 triangles visited per level,
 // 16 beams over the capacity (dropped: an overflow, reported), 17 triangles at the last level
-// whose edges disagree and none of whose corners takes a caustic path (their light is lost),
+// whose edges disagree and none of whose corners takes a caustic path of the transmitted branch
+// (only an orphans-only part's samples find their light),
 // 18 beams in the ordered list, 19 beams discarded for grazing bases, 20 beams kept on layer 1
 // (between two specular objects), 21 fragments beam_raster shaded, 22 beams kept on the
 // residual branch.
