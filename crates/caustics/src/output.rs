@@ -97,6 +97,11 @@ pub struct Beam {
     /// 0, or for the parts of a last-level triangle whose corners took different paths, 1 or 2
     /// (its other paths' beams: `beam_shrink`).
     pub part: u32,
+    /// Heights over the base plane where the edges leave the specular surface, for a beam whose
+    /// oblique base `beam_refine` rebased behind that surface (all 0 otherwise): only the
+    /// points beyond the plane through those three points are in the beam (the edges run
+    /// inside the object before it).
+    pub clip: [f32; 3],
 }
 
 impl Beam {
@@ -139,10 +144,12 @@ impl Beam {
                 d.normalize(),
                 // The end height interpolated along the edge.
                 0.5 * (self.ends[i] * n.dot(self.dirs[i]) + self.ends[j] * n.dot(self.dirs[j])) / n.dot(d.normalize()),
+                // (the clip plane's height there: it is a plane)
+                0.5 * (self.clip[i] + self.clip[j]),
             )
         };
-        let corner = |i: usize| (self.vertices[i], self.pre[i], self.dirs[i], self.ends[i]);
-        let make = |p: [(Vec3, f32, Vec3, f32); 3]| Beam {
+        let corner = |i: usize| (self.vertices[i], self.pre[i], self.dirs[i], self.ends[i], self.clip[i]);
+        let make = |p: [(Vec3, f32, Vec3, f32, f32); 3]| Beam {
             vertices: p.map(|q| q.0),
             pre: p.map(|q| q.1),
             dirs: p.map(|q| q.2),
@@ -153,13 +160,34 @@ impl Beam {
             branch: self.branch,
             layer: self.layer,
             part: self.part,
+            clip: p.map(|q| q.4),
         };
         let (ab, bc, ca) = (mid(0, 1), mid(1, 2), mid(2, 0));
         [make([corner(0), ab, ca]), make([ab, corner(1), bc]), make([ca, bc, corner(2)]), make([bc, ca, ab])]
     }
 
-    /// The GPU record (with its bounding sphere).
+    /// The GPU record (with its bounding sphere). The record keeps two clip heights: its
+    /// vertices are rotated to put the lowest first, and a beam whose clip heights are all above
+    /// its base (a piece of a split clipped beam) starts at the lowest (no point below it is in
+    /// the beam; the in-medium length before the base grows by the edges' lengths up to it).
     pub fn to_gpu(&self) -> crate::gpu::types::BeamGpu {
+        let k = (0..3).fold(0, |k, i| if self.clip[i] < self.clip[k] { i } else { k });
+        let r = |i: usize| (i + k) % 3;
+        let lift = self.clip[k].max(0.0);
+        let cs = self.dirs.map(|d| self.normal().dot(d));
+        let raise = |i: usize| if lift > 0.0 { lift / cs[i] } else { 0.0 };
+        let b = Beam {
+            vertices: [0, 1, 2].map(|i| self.vertices[r(i)] + self.dirs[r(i)] * raise(r(i))),
+            pre: [0, 1, 2].map(|i| self.pre[r(i)] + raise(r(i))),
+            dirs: [0, 1, 2].map(|i| self.dirs[r(i)]),
+            ends: [0, 1, 2].map(|i| self.ends[r(i)] - raise(r(i))),
+            clip: [0, 1, 2].map(|i| (self.clip[r(i)] - lift).max(0.0)),
+            ..*self
+        };
+        b.record()
+    }
+
+    fn record(&self) -> crate::gpu::types::BeamGpu {
         let n = self.normal();
         let ym = (0..3).map(|i| self.ends[i] * n.dot(self.dirs[i])).fold(0.0f32, f32::max);
         let s = self.scaled();
@@ -173,7 +201,7 @@ impl Beam {
             d: [0, 1, 2].map(|i| self.dirs[i].extend(self.ends[i]).to_array()),
             flux: self.flux.extend(self.level as f32).to_array(),
             bound: c.extend(r * 1.0001 + 1e-6).to_array(),
-            info: [self.land, self.branch, self.layer, self.part],
+            info: [self.land, self.branch | (self.layer << 4) | (self.part << 8), self.clip[1].to_bits(), self.clip[2].to_bits()],
         }
     }
 
@@ -187,9 +215,10 @@ impl Beam {
             flux: v3(b.flux),
             level: b.flux[3] as u32,
             land: b.info[0],
-            branch: b.info[1],
-            layer: b.info[2],
-            part: b.info[3],
+            branch: b.info[1] & 0xf,
+            layer: (b.info[1] >> 4) & 0xf,
+            part: b.info[1] >> 8,
+            clip: [0.0, f32::from_bits(b.info[2]), f32::from_bits(b.info[3])],
         }
     }
 }

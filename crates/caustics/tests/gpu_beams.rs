@@ -57,6 +57,7 @@ fn vertical_beam(r: f32, focus: Option<f32>, flux: f32, length: f32) -> Beam {
         branch: 0,
         layer: 0,
         part: 0,
+        clip: [0.0; 3],
     }
 }
 
@@ -727,16 +728,20 @@ fn second_caster_layer_carries_the_light_between_two_balls() {
         }
     }
     println!("two balls, adaptive 16² + 3: {}; triangles lost {}", lines.join("; "), stats.inconsistent);
-    // Layer-1 beams run from one ball to the other (their bases on a ball's surface, or moved
-    // along their edges off an oblique one: outside both), end on a ball, and light nothing.
+    // Layer-1 beams run from one ball to the other (their light starts on a ball's surface:
+    // their bases there, or moved along their edges off an oblique one, outside both, or back
+    // inside the ball they leave with the surface points' clip heights), end on a ball, and
+    // light nothing.
     let balls = [(Vec3::new(0.0, 1.5, 0.0), 0.5f32), (Vec3::new(0.0, 0.35, 0.0), 0.3f32)];
     let on_ball = |p: Vec3| balls.iter().any(|(c, r)| ((p - *c).length() - r).abs() < 2e-3);
     let outside = |p: Vec3| balls.iter().all(|(c, r)| (p - *c).length() > r - 2e-3);
     for b in list.iter().filter(|b| b.layer == 1) {
         assert_eq!(b.land, u32::MAX, "a layer-1 beam lights no surface");
+        let n = b.normal();
         for k in 0..3 {
+            let start = b.vertices[k] + b.dirs[k] * (b.clip[k] / n.dot(b.dirs[k]));
             let end = b.vertices[k] + b.dirs[k] * b.ends[k];
-            assert!(outside(b.vertices[k]) && on_ball(end), "layer-1 edge from {} to {end}", b.vertices[k]);
+            assert!(outside(start) && on_ball(end), "layer-1 edge from {start} to {end}");
         }
     }
     // Every branch and layer within the bounds of the one-ball test (no light added, 0.5 % for
@@ -1044,6 +1049,67 @@ fn resident_mb() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let kb = status.lines().find_map(|l| l.strip_prefix("VmRSS:"))?.trim().trim_end_matches("kB").trim();
     Some(kb.parse::<u64>().ok()? / 1024)
+}
+
+/// A beam whose base is oblique to its edges is rebased across them (`make_beam`): its edges
+/// extended back behind the surface it leaves, with the heights of the surface points
+/// (`Beam::clip`). A prism falling from a tilted base (parallel edges: its sections parallel to
+/// the base and across the edges hold the same light) against the same prism rebased to a
+/// horizontal base through its highest vertex: the clipped beam draws the same image, by the
+/// pixels' rays and by the footprint integral; without its clip heights it also lights the
+/// wedge above the tilted surface (the test fails if the clip is ignored).
+#[test]
+fn a_rebased_beam_keeps_the_light_at_the_surface_it_leaves() {
+    let Some(ctx) = gpu() else { return };
+    // (the camera sees the beam from its base at heights 0.88 to 1.12 down to 0.4)
+    let sc = side_view(0.9, 24, 24, 20.0, SIGMA_S, 0.1);
+    let r = 0.15f32;
+    // (base tilted about z: height 1 - 0.8 x; its highest vertex is not the first, so the
+    // record rotates its vertices: `Beam::to_gpu`)
+    let vertices: [Vec3; 3] = std::array::from_fn(|k| {
+        let a = k as f32 * std::f32::consts::TAU / 3.0 + 0.3;
+        Vec3::new(r * a.cos(), 1.0 - 0.8 * r * a.cos(), r * a.sin())
+    });
+    let tilted = Beam {
+        vertices,
+        pre: [0.0; 3],
+        dirs: [Vec3::NEG_Y; 3],
+        ends: vertices.map(|v| v.y - 0.2),
+        flux: Vec3::ONE,
+        level: 0,
+        land: u32::MAX,
+        branch: 0,
+        layer: 0,
+        part: 0,
+        clip: [0.0; 3],
+    };
+    let top = vertices.iter().map(|v| v.y).fold(f32::MIN, f32::max);
+    // (the extension above each surface point is inside the object: not in the light's path)
+    let rebased = Beam {
+        vertices: vertices.map(|v| Vec3::new(v.x, top, v.z)),
+        pre: vertices.map(|v| -(top - v.y)),
+        ends: [top - 0.2; 3],
+        clip: vertices.map(|v| top - v.y),
+        ..tilted
+    };
+    let unclipped = Beam { clip: [0.0; 3], ..rebased };
+    for (name, s) in [("rays", settings()), ("footprint", BeamSettings { footprint: 16.0, footprint_lines: 4, ..settings() })] {
+        let a = beams::gather(&ctx, &sc, &[tilted], &s).unwrap();
+        let b = beams::gather(&ctx, &sc, &[rebased], &s).unwrap();
+        let c = beams::gather(&ctx, &sc, &[unclipped], &s).unwrap();
+        let worst = a.pixels.iter().zip(&b.pixels).map(|(p, q)| (p[0] - q[0]).abs()).fold(0.0f32, f32::max);
+        let peak = a.pixels.iter().map(|p| p[0]).fold(0.0f32, f32::max);
+        println!(
+            "{name}: rebased / tilted {:.5}, worst pixel {:.2e} of the peak; without the clip {:.4}",
+            sum(&b) / sum(&a),
+            worst / peak,
+            sum(&c) / sum(&a)
+        );
+        assert!(sum(&a) > 0.0);
+        assert!((sum(&b) / sum(&a) - 1.0).abs() < 2e-3, "{name}");
+        assert!(worst < 0.02 * peak, "{name}");
+        assert!(sum(&c) / sum(&a) > 1.03, "{name}: the wedge above the surface should be lit without the clip");
+    }
 }
 
 /// Thousands of beams over one pixel: every one is gathered (lavapipe stops a long loop of one
@@ -1456,8 +1522,11 @@ fn beam_error_decomposition() {
 /// off its true place. Against the noise-free line integral (`ball_in_fog`, 48 x 40, ball
 /// masked), the relative mean absolute error per pixel measured on lavapipe: 0.0392 without it
 /// (10838 beams), 0.0243 with the default 0.05 (12674 beams), regular 64² 0.0203 (13858).
-/// Bounds: with it below 0.03 and below 0.75 of the error without it, with no more beams than
-/// regular 64² has (13858).
+/// With every branch and the residual (13583 beams), 0.0231; since beams with an oblique base
+/// are rebased across their edges from a cosine of 0.95 (`make_beam`, 2026-12-05), 0.0169
+/// (0.0346 without the criterion; regular 64²: 0.0164).
+/// Bounds: with it below 0.02 (the old sections, 0.0231, fail it) and below 0.75 of the error
+/// without it, with no more beams than regular 64² has (13858).
 #[test]
 fn the_linearity_criterion_puts_the_rims_light_in_place() {
     let Some(ctx) = gpu() else { return };
@@ -1475,7 +1544,7 @@ fn the_linearity_criterion_puts_the_rims_light_in_place() {
     println!(
         "per-pixel error against the line integral: {e_on:.4} ({n_on} beams) with it, {e_off:.4} ({n_off} beams) without"
     );
-    assert!(e_on < 0.03 && e_on < 0.75 * e_off, "{e_on} vs {e_off}");
+    assert!(e_on < 0.02 && e_on < 0.75 * e_off, "{e_on} vs {e_off}");
     assert!(n_on > n_off && n_on <= 13858, "{n_on} beams ({n_off} without)");
 }
 

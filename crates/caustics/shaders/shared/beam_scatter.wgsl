@@ -18,7 +18,8 @@
 // plane; over cos theta, the fluence of the beam's light), l_light the in-medium length of the
 // light's path up to the base (interpolated), s the in-medium length from the base to the
 // point, t_eye from the camera's box entry to the point. A point lies in the beam up to the
-// plane through its edges' ends (the receivers). The pixel's camera ray ends at the first
+// plane through its edges' ends (the receivers), and beyond its clip plane (`beam_clip`: the
+// surface the light leaves, where make_beam extended the edges back behind it). The pixel's camera ray ends at the first
 // surface (a hard clip: the exact interval needs no soft clipping). Each pixel averages
 // `bp.pixel_samples`^2 stratified rays (the box pixel filter).
 //
@@ -113,6 +114,9 @@ struct BeamSpace {
     s: array<vec3f, 3>,
     nrm: vec3f,
     yend: vec3f,
+    // The clip plane: points x with dot(cn, x) < cd are not in the beam (`beam_clip`).
+    cn: vec3f,
+    cd: f32,
 }
 
 fn beam_space(b: BeamGpu) -> BeamSpace {
@@ -127,7 +131,31 @@ fn beam_space(b: BeamGpu) -> BeamSpace {
         r.s[i] = r.dir[i] / c;
         r.yend[i] = select(b.d0.w, select(b.d1.w, b.d2.w, i == 2), i >= 1) * c;
     }
+    let cp = beam_clip(b, r.v, r.s, nrm);
+    r.cn = cp.xyz;
+    r.cd = cp.w;
     return r;
+}
+
+// The plane a beam's points lie beyond (normal, offset): the base's, or for a beam whose edges
+// make_beam extended back behind the surface the light leaves (an oblique base, rebased), the
+// plane through the surface points, at clip heights 0, info.z and info.w (f32 bits) along
+// edges 0, 1 and 2. Between that plane and the base the edges run inside the object: no light.
+fn beam_clip(b: BeamGpu, v: array<vec3f, 3>, s: array<vec3f, 3>, nrm: vec3f) -> vec4f {
+    let h1 = bitcast<f32>(b.info.z);
+    let h2 = bitcast<f32>(b.info.w);
+    if (h1 > 0.0 || h2 > 0.0) {
+        let q1 = v[1] + s[1] * h1 - v[0];
+        let q2 = v[2] + s[2] * h2 - v[0];
+        var cn = cross(q1, q2);
+        let l = length(cn);
+        if (l > 0.0) {
+            cn /= l;
+            if (dot(cn, s[0] + s[1] + s[2]) < 0.0) { cn = -cn; }
+            return vec4f(cn, dot(cn, v[0]));
+        }
+    }
+    return vec4f(nrm, dot(nrm, v[0]));
 }
 
 // The heights y (an interval; empty: x >= y) where the beam's cross-section, projected across
@@ -216,6 +244,13 @@ fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, o: vec3f, d: vec3f, len
     let kd = s[2] - s[0];
     let kq = vec3f(dot(nrm, cross(ka, kc)), dot(nrm, cross(ka, kd) + cross(kb, kc)), dot(nrm, cross(kb, kd)));
     add_roots(vec3f(kq.x + y0 * (kq.y + y0 * kq.z), yr * (kq.y + 2.0 * kq.z * y0), kq.z * yr * yr), len, &cuts, &n);
+    // The clip plane (beam_clip): a cut where the ray crosses it.
+    let f0 = dot(bs.cn, o) - bs.cd;
+    let f1 = dot(bs.cn, d);
+    if (f1 != 0.0) {
+        let u = -f0 / f1;
+        if (u > 0.0 && u < len) { cuts[n] = u; n++; }
+    }
     if (yr != 0.0) {
         let u = -y0 / yr;
         if (u > 0.0 && u < len) { cuts[n] = u; n++; }
@@ -228,7 +263,7 @@ fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, o: vec3f, d: vec3f, len
     }
     cuts[n] = len;
     n++;
-    // Sort the cuts (insertion sort; at most 11).
+    // Sort the cuts (insertion sort; at most 14).
     for (var a = 1u; a < n; a++) {
         let x = cuts[a];
         var c = a;
@@ -249,7 +284,7 @@ fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, o: vec3f, d: vec3f, len
         let um = 0.5 * (ua + ub);
         let em = edge_fns(v, s, nrm, o + d * um, y0 + um * yr);
         let ym = y0 + um * yr;
-        if (!same_sign(em) || ym < 0.0 || (ym >= thin.x && ym <= thin.y)) { continue; }
+        if (!same_sign(em) || ym < 0.0 || (ym >= thin.x && ym <= thin.y) || f0 + um * f1 < 0.0) { continue; }
         let du = (ub - ua) / f32(m);
         for (var q = 0u; q < m; q++) {
             let u0 = ua + f32(q) * du;
@@ -359,7 +394,9 @@ fn beam_footprint(b: BeamGpu, bs: BeamSpace, thin: vec2f, px: vec2f, depth: f32,
         clip_lin(&r, x1 * c0.w - c0.x, x1 * c1.w - c1.x);
         clip_lin(&r, c0.y - yb * c0.w, c1.y - yb * c1.w);
         clip_lin(&r, yt * c0.w - c0.y, yt * c1.w - c1.y);
-        // Before the first surface (the plane the pixel's rays end at), inside the medium.
+        // Beyond the clip plane (beam_clip), before the first surface (the plane the pixel's
+        // rays end at), inside the medium.
+        clip_lin(&r, dot(bs.cn, o) - bs.cd, dot(bs.cn, sd));
         clip_lin(&r, depth - dot(o - cam, centre), -dot(sd, centre));
         clip_lin(&r, o.x - bp.lo.x, sd.x);
         clip_lin(&r, bp.hi.x - o.x, -sd.x);

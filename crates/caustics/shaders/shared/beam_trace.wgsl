@@ -237,8 +237,11 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
     return e;
 }
 
-// Beams whose edges meet their base at a cosine below this are rebased (make_beam).
-const REBASE_COS: f32 = 0.25;
+// Beams whose edges meet their base at a cosine below this are rebased (make_beam), back
+// behind the surface (with clip heights) where every edge meets it at a cosine above
+// CLIP_MIN_COS.
+const REBASE_COS: f32 = 0.95;
+const CLIP_MIN_COS: f32 = 0.05;
 
 // Solid angle of the spherical triangle of unit directions a, b, c (Van Oosterom & Strackee).
 fn solid_angle(a: vec3f, b: vec3f, c: vec3f) -> f32 {
@@ -260,24 +263,41 @@ fn make_beam(e0_in: Edge, e1_in: Edge, e2_in: Edge, omega: f32, level: u32) -> B
     if (len <= 0.0) { b.flux.w = -1.0; return b; }
     nrm /= len;
     if (dot(nrm, e0.d + e1.d + e2.d) < 0.0) { nrm = -nrm; }
-    if (min(min(dot(nrm, e0.d), dot(nrm, e1.d)), dot(nrm, e2.d)) < REBASE_COS) {
-        // An oblique base (light reflected or refracted near a silhouette, where Fresnel
-        // reflection is strongest): each edge's start moved along it to the plane across the
-        // mean direction through the most advanced start, so the beam's sections are not
-        // degenerate. The sliver between the surface and that plane is dropped (its light
-        // has not travelled yet: a short wedge at the surface).
+    var clip = vec3f(0.0);
+    let cos_base = vec3f(dot(nrm, e0.d), dot(nrm, e1.d), dot(nrm, e2.d));
+    if (min(min(cos_base.x, cos_base.y), cos_base.z) < REBASE_COS) {
+        // A base oblique to the edges (light leaving a curved surface at an angle, near a
+        // silhouette above all): the beam's sections parallel to it would spread its flux
+        // unevenly over its directions (uniform per area of a plane the edges cross obliquely,
+        // the far side of a section gets less light per solid angle than the near side: on a
+        // floor lit at a grazing angle, bands across every beam's footprint). Its edges are
+        // rebased to the plane across their mean direction. Where every edge leaves the
+        // surface's plane forward, the plane goes through the least advanced start: the edges
+        // are extended back behind the surface (inside the object the light leaves, where no
+        // medium is), and the beam keeps the clip heights of the surface points (`clip`:
+        // beam_scatter's `beam_clip` keeps only the points beyond their plane), so no light
+        // of the wedge between the surface and the plane is lost. Otherwise the plane goes
+        // through the most advanced start and that wedge is dropped (its light has not
+        // travelled yet).
         let m = normalize(e0.d + e1.d + e2.d);
-        let c = max(max(dot(e0.o, m), dot(e1.o, m)), dot(e2.o, m));
         let dm = vec3f(dot(e0.d, m), dot(e1.d, m), dot(e2.d, m));
         if (min(min(dm.x, dm.y), dm.z) < 1e-3) { b.flux.w = -1.0; return b; }
-        let t = vec3f(c - dot(e0.o, m), c - dot(e1.o, m), c - dot(e2.o, m)) / dm;
+        let om = vec3f(dot(e0.o, m), dot(e1.o, m), dot(e2.o, m));
+        let back = min(min(cos_base.x, cos_base.y), cos_base.z) > CLIP_MIN_COS;
+        let c = select(max(max(om.x, om.y), om.z), min(min(om.x, om.y), om.z), back);
+        let t = (vec3f(c) - om) / dm;
         if (any(t > vec3f(e0.t_end, e1.t_end, e2.t_end))) { b.flux.w = -1.0; return b; }
+        let o0 = e0.o;
+        let o1 = e1.o;
+        let o2 = e2.o;
         let p0 = e0.o + e0.d * t.x;
         let p1 = e1.o + e1.d * t.y;
         let p2 = e2.o + e2.d * t.z;
-        e0.pre += beam_depth(e0.o, p0);
-        e1.pre += beam_depth(e1.o, p1);
-        e2.pre += beam_depth(e2.o, p2);
+        // (the in-medium length of the light's path up to the new start: longer forward,
+        // shorter back, by the same measure beam_scatter uses from the base)
+        e0.pre += select(beam_depth(e0.o, p0), -beam_depth(p0, e0.o), back);
+        e1.pre += select(beam_depth(e1.o, p1), -beam_depth(p1, e1.o), back);
+        e2.pre += select(beam_depth(e2.o, p2), -beam_depth(p2, e2.o), back);
         e0.o = p0;
         e1.o = p1;
         e2.o = p2;
@@ -289,6 +309,24 @@ fn make_beam(e0_in: Edge, e1_in: Edge, e2_in: Edge, omega: f32, level: u32) -> B
         if (len <= 0.0) { b.flux.w = -1.0; return b; }
         nrm /= len;
         if (dot(nrm, m) < 0.0) { nrm = -nrm; }
+        if (back) {
+            clip = max(vec3f(dot(o0 - p0, nrm), dot(o1 - p0, nrm), dot(o2 - p0, nrm)), vec3f(0.0));
+        }
+    }
+    // The edge whose surface point is the base's first (clip height 0: the record keeps the
+    // other two).
+    if (clip.y < clip.x && clip.y <= clip.z) {
+        let e = e0;
+        e0 = e1;
+        e1 = e2;
+        e2 = e;
+        clip = clip.yzx;
+    } else if (clip.z < clip.x && clip.z < clip.y) {
+        let e = e2;
+        e2 = e1;
+        e1 = e0;
+        e0 = e;
+        clip = clip.zxy;
     }
     b.v0 = vec4f(e0.o, e0.pre);
     b.v1 = vec4f(e1.o, e1.pre);
@@ -313,7 +351,7 @@ fn make_beam(e0_in: Edge, e1_in: Edge, e2_in: Edge, omega: f32, level: u32) -> B
     for (var k = 0; k < 6; k++) { r = max(r, length(p[k] - c)); }
     b.bound = vec4f(c, r * 1.0001 + 1e-6);
     // (consistent edges: all three land on the same object)
-    b.info = vec4u(e0.land, 0u, 0u, 0u);
+    b.info = vec4u(e0.land, 0u, bitcast<u32>(clip.y), bitcast<u32>(clip.z));
     return b;
 }
 
@@ -384,9 +422,7 @@ fn emit(b: BeamGpu, slot: u32, br: u32, layer: u32, part: u32) {
     let i = atomicAdd(&stats[0], 1u);
     if (i >= bp.capacity) { atomicAdd(&stats[1u + BS_OVERFLOW], 1u); return; }
     var out = b;
-    out.info.y = br;
-    out.info.z = layer;
-    out.info.w = part;
+    out.info.y = br | (layer << 4u) | (part << 8u);
     if (layer > 0u) {
         out.info.x = INVALID;
         atomicAdd(&stats[1u + BS_LAYER1], 1u);

@@ -129,10 +129,11 @@ const SHRINK_GROUP_PARTS: u32 = 4u;
 // edge directions d_i (w: distance from v_i to the edge's end on a surface), flux (W, rgb;
 // w: the hierarchy level), a bounding sphere of the beam (centre, radius), and info.x the
 // object its three edges land on (INVALID: they leave the scene or, on layer 1, end on a
-// specular surface; beam_surface lights only that object's points), info.y its branch (0
-// transmitted, 1 reflected at the first surface, 2 reflected once inside, 3 and 4 the same at a
-// second dielectric, 5 the residual branch: beam_trace), info.z its layer, info.w its part
-// (beam_shrink).
+// specular surface; beam_surface lights only that object's points), info.y its branch (bits
+// 0-3: 0 transmitted, 1 reflected at the first surface, 2 reflected once inside, 3 and 4 the
+// same at a second dielectric, 5 the residual branch: beam_trace), its layer (bits 4-7) and its
+// part (beam_shrink; bits 8 up), info.z and info.w the clip heights of edges 1 and 2 (f32 bits;
+// edge 0's is 0: beam_scatter's `beam_clip`).
 struct BeamGpu {
     v0: vec4f,
     v1: vec4f,

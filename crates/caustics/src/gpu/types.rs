@@ -308,8 +308,9 @@ pub struct BeamPart {
 }
 
 /// A beam (WGSL `BeamGpu`): base vertices (w: in-medium light path before them), unit edge
-/// directions (w: length to the edge's end), flux (W; w: level), bounding sphere, and
-/// `info.x` the object its edges land on (`u32::MAX`: they leave the scene).
+/// directions (w: length to the edge's end), flux (W; w: level), bounding sphere, `info.x`
+/// the object its edges land on (`u32::MAX`: they leave the scene), `info.y` branch | layer << 4
+/// | part << 8, `info.z`, `info.w` the clip heights of edges 1 and 2 (f32 bits; `Beam::clip`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct BeamGpu {
