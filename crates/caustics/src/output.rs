@@ -201,7 +201,12 @@ impl Beam {
             d: [0, 1, 2].map(|i| self.dirs[i].extend(self.ends[i]).to_array()),
             flux: self.flux.extend(self.level as f32).to_array(),
             bound: c.extend(r * 1.0001 + 1e-6).to_array(),
-            info: [self.land, self.branch | (self.layer << 4) | (self.part << 8), self.clip[1].to_bits(), self.clip[2].to_bits()],
+            info: [
+                self.land,
+                self.branch | (self.layer << 4) | (self.part << 8),
+                self.clip[1].to_bits(),
+                self.clip[2].to_bits(),
+            ],
         }
     }
 

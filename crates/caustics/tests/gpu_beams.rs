@@ -1093,7 +1093,9 @@ fn a_rebased_beam_keeps_the_light_at_the_surface_it_leaves() {
         ..tilted
     };
     let unclipped = Beam { clip: [0.0; 3], ..rebased };
-    for (name, s) in [("rays", settings()), ("footprint", BeamSettings { footprint: 16.0, footprint_lines: 4, ..settings() })] {
+    for (name, s) in
+        [("rays", settings()), ("footprint", BeamSettings { footprint: 16.0, footprint_lines: 4, ..settings() })]
+    {
         let a = beams::gather(&ctx, &sc, &[tilted], &s).unwrap();
         let b = beams::gather(&ctx, &sc, &[rebased], &s).unwrap();
         let c = beams::gather(&ctx, &sc, &[unclipped], &s).unwrap();

@@ -158,6 +158,9 @@ fn beam_irradiance(b: BeamGpu, x: vec3f, n: vec3f) -> vec3f {
     let c = vec3f(dot(nrm, dir[0]), dot(nrm, dir[1]), dot(nrm, dir[2]));
     if (any(c <= vec3f(0.0))) { return vec3f(0.0); }
     let s = array<vec3f, 3>(dir[0] / c.x, dir[1] / c.y, dir[2] / c.z);
+    // (behind the surface the light leaves: a rebased beam's edges run inside the object there)
+    let cp = beam_clip(b, v, s, nrm);
+    if (dot(cp.xyz, x) < cp.w) { return vec3f(0.0); }
     let y = dot(x - v[0], nrm);
     // Near the end: within the edges' end heights, widened by half the end triangle's size.
     let yend = t_end * c;

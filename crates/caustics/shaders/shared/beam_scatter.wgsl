@@ -137,27 +137,6 @@ fn beam_space(b: BeamGpu) -> BeamSpace {
     return r;
 }
 
-// The plane a beam's points lie beyond (normal, offset): the base's, or for a beam whose edges
-// make_beam extended back behind the surface the light leaves (an oblique base, rebased), the
-// plane through the surface points, at clip heights 0, info.z and info.w (f32 bits) along
-// edges 0, 1 and 2. Between that plane and the base the edges run inside the object: no light.
-fn beam_clip(b: BeamGpu, v: array<vec3f, 3>, s: array<vec3f, 3>, nrm: vec3f) -> vec4f {
-    let h1 = bitcast<f32>(b.info.z);
-    let h2 = bitcast<f32>(b.info.w);
-    if (h1 > 0.0 || h2 > 0.0) {
-        let q1 = v[1] + s[1] * h1 - v[0];
-        let q2 = v[2] + s[2] * h2 - v[0];
-        var cn = cross(q1, q2);
-        let l = length(cn);
-        if (l > 0.0) {
-            cn /= l;
-            if (dot(cn, s[0] + s[1] + s[2]) < 0.0) { cn = -cn; }
-            return vec4f(cn, dot(cn, v[0]));
-        }
-    }
-    return vec4f(nrm, dot(nrm, v[0]));
-}
-
 // The heights y (an interval; empty: x >= y) where the beam's cross-section, projected across
 // the direction from the camera, has every side shorter than foot.x pixels at the distance of
 // the beam's centroid line nearest the camera (`tan_pix`: a pixel's width at unit distance).

@@ -275,7 +275,7 @@ fn make_beam(e0_in: Edge, e1_in: Edge, e2_in: Edge, omega: f32, level: u32) -> B
         // surface's plane forward, the plane goes through the least advanced start: the edges
         // are extended back behind the surface (inside the object the light leaves, where no
         // medium is), and the beam keeps the clip heights of the surface points (`clip`:
-        // beam_scatter's `beam_clip` keeps only the points beyond their plane), so no light
+        // beams.wgsl's `beam_clip`: only the points beyond their plane are lit), so no light
         // of the wedge between the surface and the plane is lost. Otherwise the plane goes
         // through the most advanced start and that wedge is dropped (its light has not
         // travelled yet).

@@ -133,7 +133,7 @@ const SHRINK_GROUP_PARTS: u32 = 4u;
 // 0-3: 0 transmitted, 1 reflected at the first surface, 2 reflected once inside, 3 and 4 the
 // same at a second dielectric, 5 the residual branch: beam_trace), its layer (bits 4-7) and its
 // part (beam_shrink; bits 8 up), info.z and info.w the clip heights of edges 1 and 2 (f32 bits;
-// edge 0's is 0: beam_scatter's `beam_clip`).
+// edge 0's is 0: `beam_clip`).
 struct BeamGpu {
     v0: vec4f,
     v1: vec4f,
@@ -163,6 +163,27 @@ const BS_LAYER1: u32 = 20u;
 const BS_FRAGMENTS: u32 = 21u;
 const BS_RESIDUAL: u32 = 22u;
 const BS_WORDS: u32 = 32u;
+
+// The plane a beam's points lie beyond (normal, offset): the base's, or for a beam whose edges
+// make_beam extended back behind the surface the light leaves (an oblique base, rebased), the
+// plane through the surface points, at clip heights 0, info.z and info.w (f32 bits) along
+// edges 0, 1 and 2. Between that plane and the base the edges run inside the object: no light.
+fn beam_clip(b: BeamGpu, v: array<vec3f, 3>, s: array<vec3f, 3>, nrm: vec3f) -> vec4f {
+    let h1 = bitcast<f32>(b.info.z);
+    let h2 = bitcast<f32>(b.info.w);
+    if (h1 > 0.0 || h2 > 0.0) {
+        let q1 = v[1] + s[1] * h1 - v[0];
+        let q2 = v[2] + s[2] * h2 - v[0];
+        var cn = cross(q1, q2);
+        let l = length(cn);
+        if (l > 0.0) {
+            cn /= l;
+            if (dot(cn, s[0] + s[1] + s[2]) < 0.0) { cn = -cn; }
+            return vec4f(cn, dot(cn, v[0]));
+        }
+    }
+    return vec4f(nrm, dot(nrm, v[0]));
+}
 
 fn bm_phase(cos_t: f32, g: f32) -> f32 {
     if (g == 0.0) { return 0.25 / PI; }
