@@ -1070,19 +1070,8 @@ fn a_rebased_beam_keeps_the_light_at_the_surface_it_leaves() {
         let a = k as f32 * std::f32::consts::TAU / 3.0 + 0.3;
         Vec3::new(r * a.cos(), 1.0 - 0.8 * r * a.cos(), r * a.sin())
     });
-    let tilted = Beam {
-        vertices,
-        pre: [0.0; 3],
-        dirs: [Vec3::NEG_Y; 3],
-        ends: vertices.map(|v| v.y - 0.2),
-        flux: Vec3::ONE,
-        level: 0,
-        land: u32::MAX,
-        branch: 0,
-        layer: 0,
-        part: 0,
-        clip: [0.0; 3],
-    };
+    // (a parallel vertical beam of flux 1 W, its base tilted, its edges ending at height 0.2)
+    let tilted = Beam { vertices, ends: vertices.map(|v| v.y - 0.2), ..vertical_beam(r, None, 1.0, 1.0) };
     let top = vertices.iter().map(|v| v.y).fold(f32::MIN, f32::max);
     // (the extension above each surface point is inside the object: not in the light's path)
     let rebased = Beam {
