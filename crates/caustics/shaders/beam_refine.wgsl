@@ -336,10 +336,11 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
                         part++;
                     }
                 }
-                if (part == 0u && br == 0u && layer == 0u && paths_differ(r0, r1, r2)) {
+                let orphans_only = part == 0u && layer == 0u && paths_differ(r0, r1, r2);
+                if (orphans_only && br == 0u) {
                     atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
                 }
-                if (part == 0u && layer == 0u && paths_differ(r0, r1, r2)) {
+                if (orphans_only) {
                     queue_part(BeamPart(tri.a, tri.b, tri.c, tri.face, slot, level, br | (PART_ORPHANS << 8u)));
                 }
             }

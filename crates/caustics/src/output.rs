@@ -174,13 +174,13 @@ impl Beam {
         let k = (0..3).fold(0, |k, i| if self.clip[i] < self.clip[k] { i } else { k });
         let r = |i: usize| (i + k) % 3;
         let lift = self.clip[k].max(0.0);
-        let cs = self.dirs.map(|d| self.normal().dot(d));
-        let raise = |i: usize| if lift > 0.0 { lift / cs[i] } else { 0.0 };
+        // (edge i reaches height `lift` after lift |s_i| along it)
+        let s = self.scaled();
         let b = Beam {
-            vertices: [0, 1, 2].map(|i| self.vertices[r(i)] + self.dirs[r(i)] * raise(r(i))),
-            pre: [0, 1, 2].map(|i| self.pre[r(i)] + raise(r(i))),
+            vertices: [0, 1, 2].map(|i| self.vertices[r(i)] + s[r(i)] * lift),
+            pre: [0, 1, 2].map(|i| self.pre[r(i)] + s[r(i)].length() * lift),
             dirs: [0, 1, 2].map(|i| self.dirs[r(i)]),
-            ends: [0, 1, 2].map(|i| self.ends[r(i)] - raise(r(i))),
+            ends: [0, 1, 2].map(|i| self.ends[r(i)] - s[r(i)].length() * lift),
             clip: [0, 1, 2].map(|i| (self.clip[r(i)] - lift).max(0.0)),
             ..*self
         };
