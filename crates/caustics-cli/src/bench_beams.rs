@@ -28,7 +28,7 @@ pub fn markdown<'a>(runs: impl Iterator<Item = (String, &'a GpuRender)>) -> Stri
                 let heads: Vec<String> = PASSES.iter().map(|p| format!(" {p} ms |")).collect();
                 let _ = writeln!(
                     s,
-                    "\n## Volume caustics (beams)\n\nBeams kept per refinement level (all branches), beams rendered, fragments their hulls shaded (`--beam-volume hulls`), and GPU ms per beam pass (timestamp queries; \"-\": not timed or not run).\n\n| run | light | kept per level | beams | hull fragments |{}\n| --- | ---: | --- | ---: | ---: |{}",
+                    "\n## Volume caustics (beams)\n\nBeams kept per refinement level (all branches), beams rendered, fragments their hulls shaded (`--beam-volume hulls`) and those of them that added light, and GPU ms per beam pass (timestamp queries; \"-\": not timed or not run).\n\n| run | light | kept per level | beams | hull fragments | of them lit |{}\n| --- | ---: | --- | ---: | ---: | ---: |{}",
                     heads.concat(),
                     " ---: |".repeat(PASSES.len())
                 );
@@ -38,10 +38,11 @@ pub fn markdown<'a>(runs: impl Iterator<Item = (String, &'a GpuRender)>) -> Stri
                 PASSES.iter().map(|p| pass_ms(out, p).map_or(" - |".into(), |v| format!(" {v:.2} |"))).collect();
             let _ = writeln!(
                 s,
-                "| {label} | {li} | {} | {} | {} |{}",
+                "| {label} | {li} | {} | {} | {} | {} |{}",
                 levels.join(" / "),
                 stats.beams,
                 stats.hull_fragments,
+                stats.hull_lit_fragments,
                 ms.concat()
             );
         }

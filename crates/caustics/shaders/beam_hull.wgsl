@@ -1,22 +1,42 @@
-// Stage: beam_hull. Each ordered beam's hull on the image, for beam_raster to draw (Liktor &
-// Dachsbacher 2011, section 4.3: a bounding volume per beam, rasterized so that only the pixels
-// a beam can reach run its scattering integral). One thread per entry of the ordered list
-// (beam_order), an indirect dispatch sized by beam_order.
+// Stage: beam_hull. Each ordered beam's hull on the image, for beam_raster (the volume caustic)
+// or beam_surface_raster (the surface caustic) to draw (Liktor & Dachsbacher 2011, section 4.3:
+// a bounding volume per beam, rasterized so that only the pixels a beam can reach run its
+// integral). One thread per entry of the ordered list (beam_order), an indirect dispatch sized
+// by beam_order; run before each of the two draws.
 //
-// The beam's points lie in the convex hull of its six corners: its base v_i and its section
-// at a height yt, v_i + yt s_i (the sections are linear in the height), yt the farthest end
-// height plus the tolerance the surface caustic's point test allows past the ends
-// (beam_irradiance in shared/beam_receive.wgsl: half the end triangle's longest side). The projection of a convex hull is the convex hull
-// of the projected corners, so the tightest convex bound's silhouette is a 2-D hull of six
-// points, and a triangle fan over it covers each pixel once (no faces to choose, no watertight
-// seams, the camera's side of the hull does not matter). The paper's six-triangle hull and its
-// prism fallback bound the same convex hull from outside, looser. A pixel's rays and footprint
-// reach its whole square, so the polygon is the hull grown by the pixel's square (the hull of
-// the 24 points corner +- (m, m), m = BEAM_HULL_MARGIN half pixels: the rasterizer's snapping
-// of vertices to its sub-pixel grid stays inside the margin). Gift wrapping over the 24 points;
-// a polygon of more than BEAM_HULL_MAX vertices (rounding on near-collinear points) becomes
-// their bounding rectangle. A beam that reaches behind the camera (or so near it that the
-// projection's scale varies a thousandfold across the beam) gets the whole image.
+// The beam's points between two heights y0 and y1 over its base lie in the convex hull of its
+// sections there, v_i + y s_i (the sections are linear in the height): six corners. For the
+// volume caustic (`mode.x` 0) the heights from the base to the farthest end; for the surface
+// caustic (`mode.x` 1) those of the points beam_irradiance (shared/beam_receive.wgsl) lights,
+// the ends' heights widened by its tolerance (half the end triangle's longest side): the
+// beam's end, not its length (on the tests' floors a half to two thirds of the fragments of
+// the whole beam's hull). The projection of a convex hull in front of the camera is the convex
+// hull of the projected corners, so the tightest convex bound's silhouette is a 2-D hull of
+// six points, and a triangle fan over it covers each pixel once (no faces to choose, no
+// watertight seams, the camera's side of the hull does not matter). The paper's six-triangle
+// hull and its prism fallback bound the same convex hull from outside, looser. A pixel's rays
+// and footprint reach its whole square, so the polygon is the hull grown by the pixel's square
+// (the hull of the points corner +- (m, m), m = BEAM_HULL_MARGIN half pixels: the rasterizer's
+// snapping of vertices to its sub-pixel grid stays inside the margin).
+//
+// Only the part of the hull in front of the camera matters (the rays start at the camera). A
+// hull that reaches behind it (the camera in the fog, beams passing it) is cut at the plane
+// w = eps just in front of the camera (w the depth along the view axis, eps = HULL_NEAR times
+// the farthest corner's depth): its part beyond is the convex hull of the corners beyond and
+// of the points where the segments between corners cross the plane (the hull's edges among
+// them), projected (up to some 1 / HULL_NEAR image sizes out; the rasterizer clips the polygon
+// to the image). The part between the camera and the plane is seen only if it meets the
+// view's frustum there: then the whole image (a beam that holds the camera lights every pixel;
+// so does the convex hull of a beam through a focus with the camera near that focus, though
+// the beam lights only some of the pixels). Before this cut (2026-12-05) every hull reaching
+// behind the camera got the whole image: on volume_caustic_fog 79 % of the hulls' fragments,
+// none of them lit; the cut draws the same bits. (A cut at 1e-4 of the depth put the points
+// 10^4 image sizes out, and rounding lost some light at the polygons' edges, also with the
+// polygon in homogeneous clip coordinates and 3x3 determinants as the orientation test; it
+// saved no fragments on the tests' views.)
+//
+// Gift wrapping over the points; a polygon of more than BEAM_HULL_MAX vertices (rounding on
+// near-collinear points) becomes their bounding rectangle.
 
 #import beams
 
@@ -25,12 +45,37 @@
 @group(0) @binding(2) var<storage, read> order: array<u32>;
 @group(0) @binding(3) var<storage, read> stats: array<u32>;
 @group(0) @binding(4) var<storage, read_write> hulls: array<BeamHull>;
+// x: 0 the hulls of the whole beams (beam_raster), 1 of their ends (beam_surface_raster).
+@group(0) @binding(5) var<storage, read> mode: vec4u;
 
 // Half the side of the square each corner is grown by (pixels): half a pixel, and an eighth for
 // the rasterizer's vertex snapping (Vulkan guarantees at least 4 sub-pixel bits).
 const BEAM_HULL_MARGIN: f32 = 0.625;
+// The cut in front of the camera, as a fraction of the hull's farthest corner's depth.
+const HULL_NEAR: f32 = 0.01;
 
-var<private> pts: array<vec2f, 24>;
+// The points the polygon wraps (pixels), each grown by the margin (4 each): the corners beyond
+// the plane w = eps and the points where segments between corners cross it (at most 9).
+var<private> pts: array<vec2f, 60>;
+
+// Point c (clip-space x, y, w; w > 0) projected to pixels, as the four corners of its square
+// of half side m.
+fn add_point(n: ptr<function, u32>, c: vec3f, m: f32) {
+    let p = vec2f((c.x / c.z + 1.0) * 0.5 * f32(bp.width), (1.0 - c.y / c.z) * 0.5 * f32(bp.height));
+    for (var q = 0u; q < 4u; q++) {
+        pts[*n] = p + vec2f(select(-m, m, (q & 1u) != 0u), select(-m, m, (q & 2u) != 0u));
+        *n += 1u;
+    }
+}
+
+// A vertex of the hull's part nearer than the plane: is it outside each of the frustum's side
+// planes (x > w, x < -w, y > w, y < -w, a little beyond the image's edges)? (Every vertex
+// outside one of them: the part is outside the frustum.)
+fn near_vertex(c: vec3f, out: ptr<function, vec4<bool>>) {
+    let w = 1.01 * c.z;
+    let o = vec4f(c.x - w, -w - c.x, c.y - w, -w - c.y) > vec4f(0.0);
+    *out = *out & o;
+}
 
 fn set_vertex(h: ptr<function, BeamHull>, i: u32, p: vec2f) {
     if ((i & 1u) == 0u) {
@@ -47,6 +92,10 @@ fn rectangle(h: ptr<function, BeamHull>, lo: vec2f, hi: vec2f) {
     (*h).p[1] = vec4f(hi, lo.x, hi.y);
 }
 
+fn whole_image(h: ptr<function, BeamHull>) {
+    rectangle(h, vec2f(-1.0), vec2f(f32(bp.width) + 1.0, f32(bp.height) + 1.0));
+}
+
 fn cross2(a: vec2f, b: vec2f) -> f32 {
     return a.x * b.y - a.y * b.x;
 }
@@ -60,8 +109,6 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let b = beams[bi];
     var h: BeamHull;
     h.info = vec4u(0u, bi, 0u, 0u);
-    let wf = f32(bp.width);
-    let hf = f32(bp.height);
     // The six corners (as beam_refine's bounding sphere).
     let v = array<vec3f, 3>(b.v0.xyz, b.v1.xyz, b.v2.xyz);
     let d = array<vec3f, 3>(b.d0.xyz, b.d1.xyz, b.d2.xyz);
@@ -74,37 +121,68 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let e0 = v[0] + d[0] * len.x;
     let e1 = v[1] + d[1] * len.y;
     let e2 = v[2] + d[2] * len.z;
-    let tol = 0.5 * max(max(length(e1 - e0), length(e2 - e1)), length(e0 - e2)) + 1e-4 * ym;
-    let yt = ym + tol;
-    var zmin = 1e30;
-    var zmax = 0.0;
-    var far = 0.0;
-    var corners: array<vec2f, 6>;
+    var y0 = 0.0;
+    var y1 = ym * (1.0 + 1e-4);
+    if (mode.x == 1u) {
+        // (beam_irradiance's range)
+        let tol = 0.5 * max(max(length(e1 - e0), length(e2 - e1)), length(e0 - e2)) + 1e-4 * ym;
+        y0 = max(min(min(ys.x, ys.y), ys.z) - tol, 0.0);
+        y1 = ym + tol;
+    }
+    // The corners in clip space (x, y, w).
+    var cc: array<vec3f, 6>;
+    var zmax = -1e30;
+    var fin = true;
     for (var i = 0u; i < 6u; i++) {
         let j = i % 3u;
-        var x = v[j];
-        if (i >= 3u) { x += d[j] * (yt / cs[j]); }
+        let x = v[j] + d[j] * (select(y0, y1, i >= 3u) / cs[j]);
         let c = bp.world_to_clip * vec4f(x, 1.0);
-        zmin = min(zmin, c.w);
+        cc[i] = c.xyw;
         zmax = max(zmax, c.w);
-        corners[i] = vec2f((c.x / c.w + 1.0) * 0.5 * wf, (1.0 - c.y / c.w) * 0.5 * hf);
-        far = max(far, max(abs(corners[i].x), abs(corners[i].y)));
+        fin = fin && all(abs(c.xyw) < vec3f(1e30));
     }
-    // (NaN fails every test: the whole image too)
-    if (!(zmin > 1e-3 * zmax) || !(far < 1e7)) {
-        rectangle(&h, vec2f(-1.0), vec2f(wf + 1.0, hf + 1.0));
+    // (NaN fails every test: the whole image)
+    if (!fin) {
+        whole_image(&h);
         hulls[k] = h;
         return;
     }
+    // Wholly behind the camera: no ray reaches it.
+    if (zmax <= 0.0) {
+        hulls[k] = h;
+        return;
+    }
+    let eps = HULL_NEAR * zmax;
     let m = BEAM_HULL_MARGIN;
+    var n_pts = 0u;
+    var out_of_view = vec4<bool>(true);
+    var near = false;
+    for (var i = 0u; i < 6u; i++) {
+        let c = cc[i];
+        if (c.z >= eps) {
+            add_point(&n_pts, c, m);
+            continue;
+        }
+        near = true;
+        near_vertex(c, &out_of_view);
+        for (var j = 0u; j < 6u; j++) {
+            let e = cc[j];
+            if (e.z < eps) { continue; }
+            let x = vec3f(mix(c.xy, e.xy, (eps - c.z) / (e.z - c.z)), eps);
+            near_vertex(x, &out_of_view);
+            add_point(&n_pts, x, m);
+        }
+    }
+    if (near && !any(out_of_view)) {
+        whole_image(&h);
+        hulls[k] = h;
+        return;
+    }
     var lo = vec2f(1e30);
     var hi = vec2f(-1e30);
     var start = 0u;
-    for (var i = 0u; i < 24u; i++) {
-        let sx = select(-m, m, (i & 1u) != 0u);
-        let sy = select(-m, m, (i & 2u) != 0u);
-        let p = corners[i / 4u] + vec2f(sx, sy);
-        pts[i] = p;
+    for (var i = 0u; i < n_pts; i++) {
+        let p = pts[i];
         lo = min(lo, p);
         hi = max(hi, p);
         let s = pts[start];
@@ -118,8 +196,8 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     for (var step = 0u; step < BEAM_HULL_MAX; step++) {
         set_vertex(&h, n, pts[cur]);
         n++;
-        var nxt = (cur + 1u) % 24u;
-        for (var j = 0u; j < 24u; j++) {
+        var nxt = (cur + 1u) % n_pts;
+        for (var j = 0u; j < n_pts; j++) {
             if (j == cur) { continue; }
             let a = pts[nxt] - pts[cur];
             let c = pts[j] - pts[cur];

@@ -37,5 +37,6 @@ fn fs_main(in: HullVertex) -> @location(0) vec4f {
     var acc = vec3f(0.0);
     var splat = vec3f(0.0);
     surface_beam(in.beam, px, &sp, &acc, &splat);
+    if (any(acc != vec3f(0.0)) || any(splat != vec3f(0.0))) { atomicAdd(&stats[1u + BS_LIT], 1u); }
     return vec4f(surface_radiance(&sp, acc, splat), 0.0);
 }

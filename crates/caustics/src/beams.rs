@@ -209,7 +209,8 @@ pub(crate) fn record_beams(
         let mut frame =
             record_light_beams(ctx, dc, &lf.light_buf, &bp, (footprint(b), chunk_scale(ctx, b)), enc, timer);
         if hulls {
-            frame.hulls = Some(record_hull_polygons(ctx, &frame, enc, timer));
+            let size = u64::from(frame.capacity) * std::mem::size_of::<BeamHull>() as u64;
+            frame.hulls = Some(crate::gpu::storage(ctx, "beam_hulls", size, wgpu::BufferUsages::empty()));
         }
         if surface {
             let views = (&wgpu::BindingResource::TextureView(&rp), &wgpu::BindingResource::TextureView(&rn));
@@ -478,6 +479,7 @@ fn record_surface(
     timer: &mut PassTimer,
 ) {
     if let Some(hulls) = &f.hulls {
+        record_hull_polygons(ctx, f, hulls, HullsOf::Ends, enc, timer);
         let density = density_view(ctx, &dc.geo.density);
         let resources = [
             f.params.as_entire_binding(),
@@ -524,16 +526,26 @@ fn record_surface(
     }
 }
 
-/// `beam_hull`: each ordered beam's hull polygon on the image (an indirect dispatch, a thread
-/// per listed beam), for the hull draws of the surface and volume caustics.
+/// What a hull polygon bounds: the whole beam (the volume caustic) or its end (the points the
+/// surface caustic lights).
+#[derive(Clone, Copy)]
+enum HullsOf {
+    Beams = 0,
+    Ends = 1,
+}
+
+/// `beam_hull`: each ordered beam's hull polygon on the image into `hulls` (an indirect
+/// dispatch, a thread per listed beam), for the hull draws of the surface (`HullsOf::Ends`) and
+/// volume caustics (`HullsOf::Beams`); run before each draw, which then reads them.
 fn record_hull_polygons(
     ctx: &GpuContext,
     f: &BeamFrame,
+    hulls: &wgpu::Buffer,
+    of: HullsOf,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
-) -> wgpu::Buffer {
-    let size = u64::from(f.capacity) * std::mem::size_of::<BeamHull>() as u64;
-    let hulls = crate::gpu::storage(ctx, "beam_hulls", size, wgpu::BufferUsages::empty());
+) {
+    let mode = ctx.constants("beam_hull_mode", bytemuck::cast_slice(&[of as u32, 0, 0, 0]));
     let hpl = ctx.compute_pipeline("beam_hull");
     let hbg = bind(
         ctx,
@@ -545,6 +557,7 @@ fn record_hull_polygons(
             f.order.as_entire_binding(),
             f.stats.as_entire_binding(),
             hulls.as_entire_binding(),
+            mode.as_entire_binding(),
         ],
     );
     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -554,7 +567,6 @@ fn record_hull_polygons(
     cp.set_pipeline(&hpl);
     cp.set_bind_group(0, &hbg, &[]);
     cp.dispatch_workgroups_indirect(&f.dispatch, f.chunks.hull_args());
-    hulls
 }
 
 /// The hulls of one light's beams drawn by render stage `stage` (`beam_raster`: the volume
@@ -619,8 +631,8 @@ fn draw_hulls(
     cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
 }
 
-/// The volume caustic of one light's beams drawn as their hulls (`beam_raster`, the frame's hull
-/// polygons), added to both frame images.
+/// The volume caustic of one light's beams drawn as their hulls (`beam_hull` into `hulls`, then
+/// `beam_raster`), added to both frame images.
 #[expect(clippy::too_many_arguments, reason = "the volume draw's resources")]
 fn record_volume_hulls(
     ctx: &GpuContext,
@@ -632,6 +644,7 @@ fn record_volume_hulls(
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
+    record_hull_polygons(ctx, f, hulls, HullsOf::Beams, enc, timer);
     let foot = ctx.constants("beam_footprint", bytemuck::cast_slice(&f.footprint));
     let resources = [
         f.params.as_entire_binding(),
@@ -824,6 +837,7 @@ pub(crate) fn read_frame(ctx: &GpuContext, f: &BeamFrame) -> Result<(BeamStats, 
         grazing: w(19),
         between_casters: w(20),
         hull_fragments: w(21),
+        hull_lit_fragments: w(23),
         residual: w(22),
     };
     let count = stats.beams as u64;
@@ -918,7 +932,8 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
             size: (w, h),
             hulls: None,
         };
-        let hulls = record_hull_polygons(&ctx, &f, &mut enc, &mut timer);
+        let size = u64::from(f.capacity) * std::mem::size_of::<BeamHull>() as u64;
+        let hulls = crate::gpu::storage(&ctx, "beam_hulls", size, wgpu::BufferUsages::empty());
         record_volume_hulls(&ctx, &f, &hulls, (&tv, &tv), (&full, &caustic), &dv, &mut enc, &mut timer);
     } else {
         record_gather_chunks(

@@ -251,6 +251,9 @@ pub struct BeamStats {
     /// Fragments the beams' hulls shaded (`BeamVolume::Hulls`: one per pixel a hull covers; 0
     /// with the gather).
     pub hull_fragments: u32,
+    /// Of `hull_fragments`, those that added light (a beam's light reached the pixel): the rest
+    /// is the hulls' fill beyond the beams.
+    pub hull_lit_fragments: u32,
     /// Beams kept on the residual branch ([`crate::settings::BeamSettings::residual`]),
     /// included in `kept_per_level`.
     pub residual: u32,

@@ -68,9 +68,9 @@ const BEAM_PARTS: u32 = 4u;
 // BEAM_PARTS + part).
 const BEAM_KINDS: u32 = 48u;
 
-// A beam's hull on the image (beam_hull, drawn by beam_raster): info.x its vertices (a convex
-// polygon, 4 to BEAM_HULL_MAX), info.y the beam's index in the beam buffer; p the vertices in
-// pixels (two per vec4: p[i / 2].xy, .zw).
+// A beam's hull on the image (beam_hull, drawn by beam_raster and beam_surface_raster): info.x
+// its vertices (a convex polygon, 3 to BEAM_HULL_MAX; 0: nothing to draw), info.y the beam's
+// index in the beam buffer; p the vertices in pixels (two per vec4: p[i / 2].xy, .zw).
 struct BeamHull {
     info: vec4u,
     p: array<vec4f, 6>,
@@ -152,7 +152,7 @@ struct BeamGpu {
 // (only an orphans-only part's samples find their light),
 // 18 beams in the ordered list, 19 beams discarded for grazing bases, 20 beams kept on layer 1
 // (between two specular objects), 21 fragments beam_raster shaded, 22 beams kept on the
-// residual branch.
+// residual branch, 23 fragments that added light (the hulls' fill that was needed).
 const BS_KEPT: u32 = 0u;
 const BS_VISITED: u32 = 8u;
 const BS_OVERFLOW: u32 = 16u;
@@ -162,6 +162,7 @@ const BS_GRAZING: u32 = 19u;
 const BS_LAYER1: u32 = 20u;
 const BS_FRAGMENTS: u32 = 21u;
 const BS_RESIDUAL: u32 = 22u;
+const BS_LIT: u32 = 23u;
 const BS_WORDS: u32 = 32u;
 
 // The plane a beam's points lie beyond (normal, offset): the base's, or for a beam whose edges
