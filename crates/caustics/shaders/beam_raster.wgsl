@@ -23,7 +23,8 @@
 @group(0) @binding(5) var<storage, read> foot: vec4f;
 @group(0) @binding(6) var density_grid: texture_3d<f32>;
 // The beam statistics (shared/beams.wgsl): the fragments shaded are counted for `caustics
-// bench` (one atomic per fragment; the hulls' fill is what they cost), and those that added light.
+// bench` (one atomic per fragment; the hulls' fill is what they cost), and those that added
+// light, in one-shot renders (BEAM_FLAG_FRAGMENTS).
 @group(0) @binding(7) var<storage, read_write> stats: array<atomic<u32>>;
 
 @vertex
@@ -34,9 +35,11 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) k: u32) -> H
 @fragment
 fn fs_main(in: HullVertex) -> @location(0) vec4f {
     let px = vec2u(in.pos.xy);
-    atomicAdd(&stats[1u + BS_FRAGMENTS], 1u);
     var acc = vec3f(0.0);
     beam_pixel(in.beam, px, pixel_view(px), &acc);
-    if (any(acc != vec3f(0.0))) { atomicAdd(&stats[1u + BS_LIT], 1u); }
+    if ((bp.flags & BEAM_FLAG_FRAGMENTS) != 0u) {
+        atomicAdd(&stats[1u + BS_FRAGMENTS], 1u);
+        if (any(acc != vec3f(0.0))) { atomicAdd(&stats[1u + BS_LIT], 1u); }
+    }
     return vec4f(acc, 0.0);
 }

@@ -31,12 +31,14 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) k: u32) -> H
 @fragment
 fn fs_main(in: HullVertex) -> @location(0) vec4f {
     let px = vec2u(in.pos.xy);
-    atomicAdd(&stats[1u + BS_FRAGMENTS], 1u);
+    // (the fragments counted in one-shot renders, as beam_raster's)
+    let count = (bp.flags & BEAM_FLAG_FRAGMENTS) != 0u;
+    if (count) { atomicAdd(&stats[1u + BS_FRAGMENTS], 1u); }
     var sp = surface_pixel(px);
     if (!sp.lit) { return vec4f(0.0); }
     var acc = vec3f(0.0);
     var splat = vec3f(0.0);
     surface_beam(in.beam, px, &sp, &acc, &splat);
-    if (any(acc != vec3f(0.0)) || any(splat != vec3f(0.0))) { atomicAdd(&stats[1u + BS_LIT], 1u); }
+    if (count && (any(acc != vec3f(0.0)) || any(splat != vec3f(0.0)))) { atomicAdd(&stats[1u + BS_LIT], 1u); }
     return vec4f(surface_radiance(&sp, acc, splat), 0.0);
 }

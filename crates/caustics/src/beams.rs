@@ -28,8 +28,8 @@
 
 use crate::error::{Error, Result};
 use crate::gpu::types::{
-    BEAM_FLAG_CHAINS, BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BEAM_KINDS, BEAM_PARTS, BeamGpu, BeamHull, BeamLevel,
-    BeamParams, BeamPart, BeamTri,
+    BEAM_FLAG_CHAINS, BEAM_FLAG_FRAGMENTS, BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BEAM_KINDS, BEAM_PARTS, BeamGpu,
+    BeamHull, BeamLevel, BeamParams, BeamPart, BeamTri,
 };
 use crate::gpu::{GpuContext, PassTimer, bind};
 use crate::image_io::Image;
@@ -182,6 +182,7 @@ pub(crate) fn record_beams(
     eye: &EyeFrame,
     lights: &[&LightFrame],
     s: &RenderSettings,
+    count_fragments: bool,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) -> Vec<BeamFrame> {
@@ -205,7 +206,10 @@ pub(crate) fn record_beams(
         // range keeps them exact in f32 (the eye passes' near plane can be very close).
         let cam = &dc.scene.camera;
         let rays = (cam.view_to_clip(0.1, 100.0) * cam.world_to_view()).inverse();
-        let bp = params(dc.scene, rays, b, s.max_depth, faces, slots);
+        let mut bp = params(dc.scene, rays, b, s.max_depth, faces, slots);
+        if count_fragments {
+            bp.flags |= BEAM_FLAG_FRAGMENTS;
+        }
         let mut frame =
             record_light_beams(ctx, dc, &lf.light_buf, &bp, (footprint(b), chunk_scale(ctx, b)), enc, timer);
         if hulls {
@@ -871,6 +875,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     let (w, h) = (cam.width, cam.height);
     let clip = cam.view_to_clip(0.01, 100.0) * cam.world_to_view();
     let mut bp = params(scene, clip.inverse(), b, 0, 1, 1);
+    bp.flags |= BEAM_FLAG_FRAGMENTS;
     bp.slots = beams.len().max(1) as u32;
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     ctx.begin_scope("beam_gather", &mut enc);

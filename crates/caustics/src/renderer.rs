@@ -158,6 +158,9 @@ pub struct Renderer {
     outputs: Option<(wgpu::Buffer, wgpu::Buffer, wgpu::Texture)>,
     /// The last frame's beam buffers per light with beams (`crate::beams`).
     beam_frames: Vec<crate::beams::BeamFrame>,
+    /// Count the beam hulls' fragments in the frame being encoded (`render_once`, which reads
+    /// the beam statistics; `BEAM_FLAG_FRAGMENTS`).
+    count_fragments: bool,
     ring: Vec<StatsSlot>,
     latest: Option<FrameStats>,
     last_error: Option<String>,
@@ -203,6 +206,7 @@ impl Renderer {
             frame: 0,
             outputs: None,
             beam_frames: Vec::new(),
+            count_fragments: false,
             ring: Vec::new(),
             latest: None,
             last_error: None,
@@ -798,7 +802,7 @@ impl Renderer {
         // The beams (volume caustics, and with `SurfaceCaustics::Beams` the surface caustic,
         // added to the eye's accumulators before the composite shows them through glass).
         ctx.begin_scope("beams", enc);
-        let beams = crate::beams::record_beams(&dc, &eye, &light_frames, &s, enc, &mut timer);
+        let beams = crate::beams::record_beams(&dc, &eye, &light_frames, &s, self.count_fragments, enc, &mut timer);
         ctx.end_scope();
         ctx.begin_scope("composite", enc);
         let (full, caustic) = crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
@@ -1098,7 +1102,10 @@ impl Renderer {
         let val_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let oom_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        // (its beam statistics are read: the hulls' fragments counted too)
+        self.count_fragments = true;
         let recorded = self.encode(&mut enc, FrameRequest { stats: true }).map(|_| ());
+        self.count_fragments = false;
         let submitted = std::time::Instant::now();
         let polled = if recorded.is_ok() {
             ctx.queue.submit([enc.finish()]);

@@ -112,10 +112,12 @@ const LIGHT_DIRECTIONAL: u32 = 2u;
 // LightGpu.splat.y: the light's last face is a spill face (lightspace::spill_face).
 const SPILL_FACE_PRESENT: u32 = 1u;
 // BeamParams.flags (src/gpu/types.rs): trace the reflected branches; the medium has a density
-// grid; light can cross the medium from one specular object to another.
+// grid; light can cross the medium from one specular object to another; count the hull draws'
+// fragments (one-shot renders).
 const BEAM_FLAG_REFLECTION: u32 = 1u;
 const BEAM_FLAG_GRID: u32 = 2u;
 const BEAM_FLAG_CHAINS: u32 = 4u;
+const BEAM_FLAG_FRAGMENTS: u32 = 8u;
 const INVALID: u32 = 0xffffffffu;
 const PI: f32 = 3.14159265358979;
 

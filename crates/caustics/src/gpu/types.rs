@@ -549,6 +549,10 @@ pub const BEAM_FLAG_GRID: u32 = 2;
 /// than one, or one that is neither a sphere nor a rectangle): with reflection, trace the branches
 /// reflected at the second dielectric too (beams.rs `chains`).
 pub const BEAM_FLAG_CHAINS: u32 = 4;
+/// `BeamParams::flags`: count the hull draws' fragments (`BeamStats::hull_fragments`,
+/// `hull_lit_fragments`): one-shot renders only, whose statistics are read (a global atomic
+/// per fragment is not for the frame loop).
+pub const BEAM_FLAG_FRAGMENTS: u32 = 8;
 /// Beam branches (beam_trace.wgsl `trace_edge`): transmitted; reflected at the first, second,
 /// third or fourth interaction (the first dielectric's surface and inside it, the second's); the
 /// residual branch ([`BEAM_RESIDUAL`]).
@@ -586,6 +590,7 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("BEAM_FLAG_REFLECTION", BEAM_FLAG_REFLECTION),
     ("BEAM_FLAG_GRID", BEAM_FLAG_GRID),
     ("BEAM_FLAG_CHAINS", BEAM_FLAG_CHAINS),
+    ("BEAM_FLAG_FRAGMENTS", BEAM_FLAG_FRAGMENTS),
     ("BEAM_BRANCHES", BEAM_BRANCHES),
     ("BEAM_RESIDUAL", BEAM_RESIDUAL),
     ("BEAM_LAYERS", BEAM_LAYERS),
