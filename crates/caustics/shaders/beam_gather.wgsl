@@ -43,7 +43,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     var acc = vec3f(0.0);
     let end = min(count, chunk.offset + chunk.base_count);
     for (var k = chunk.offset; k < end; k++) {
-        beam_pixel(order[k], gid.xy, view, &acc);
+        beam_pixel(order[k], gid.xy, view, vec2f(0.0, 3.0e38), &acc);
     }
     if (all(acc == vec3f(0.0))) { return; }
     out_full[idx] += vec4f(acc, 0.0);

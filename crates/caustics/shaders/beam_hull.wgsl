@@ -1,4 +1,4 @@
-// Stage: beam_hull. Each ordered beam's hull on the image, for beam_raster (the volume caustic)
+// Stage: beam_hull. Each ordered beam's hulls on the image, for beam_raster (the volume caustic)
 // or beam_surface_raster (the surface caustic) to draw (Liktor & Dachsbacher 2011, section 4.3:
 // a bounding volume per beam, rasterized so that only the pixels a beam can reach run its
 // integral). One thread per entry of the ordered list (beam_order), an indirect dispatch sized
@@ -6,7 +6,13 @@
 //
 // The beam's points between two heights y0 and y1 over its base lie in the convex hull of its
 // sections there, v_i + y s_i (the sections are linear in the height): six corners. For the
-// volume caustic (`mode.x` 0) the heights from the base to the farthest end; for the surface
+// volume caustic (`mode.x` 0) the heights from the base to the farthest end, split at the
+// beam's foci between where that hull would cover the whole image (up to BEAM_HULL_PARTS
+// parts, each its own polygon and instance; the fragment integrates only its part's heights,
+// `HullVertex::heights`): across a focus the convex hull of the end sections holds the whole
+// waist region, and a camera near a focus sat inside the hulls of every beam through it (the
+// test's camera in the cone: 0.14 of the fragments lit with one hull per beam, 0.43 split);
+// for the surface
 // caustic (`mode.x` 1) those of the points beam_irradiance (shared/beam_receive.wgsl) lights,
 // the ends' heights widened by its tolerance (half the end triangle's longest side): the
 // beam's end, not its length (on the tests' floors a half to two thirds of the fragments of
@@ -48,9 +54,10 @@
 // x: 0 the hulls of the whole beams (beam_raster), 1 of their ends (beam_surface_raster).
 @group(0) @binding(5) var<storage, read> mode: vec4u;
 
-// Half the side of the square each corner is grown by (pixels): half a pixel, and an eighth for
-// the rasterizer's vertex snapping (Vulkan guarantees at least 4 sub-pixel bits).
-const BEAM_HULL_MARGIN: f32 = 0.625;
+// Half the side of the square each corner is grown by (pixels): half a pixel, an eighth for the
+// rasterizer's vertex snapping (Vulkan guarantees at least 4 sub-pixel bits) and 1/128 for the
+// rounding of the corners (add_point).
+const BEAM_HULL_MARGIN: f32 = 0.6328125;
 // The cut in front of the camera, as a fraction of the hull's farthest corner's depth.
 const HULL_NEAR: f32 = 0.01;
 
@@ -59,9 +66,13 @@ const HULL_NEAR: f32 = 0.01;
 var<private> pts: array<vec2f, 60>;
 
 // Point c (clip-space x, y, w; w > 0) projected to pixels, as the four corners of its square
-// of half side m.
+// of half side m. The projection is rounded to 1/64 pixel: corners that nearly coincide (a
+// section at a focus, where beam_hull splits a beam) become the same point, which the gift
+// wrapping handles exactly, where points a millionth of a pixel apart gave its orientation tests
+// a random direction and wrong polygons (the margin carries the rounding).
 fn add_point(n: ptr<function, u32>, c: vec3f, m: f32) {
-    let p = vec2f((c.x / c.z + 1.0) * 0.5 * f32(bp.width), (1.0 - c.y / c.z) * 0.5 * f32(bp.height));
+    let exact = vec2f((c.x / c.z + 1.0) * 0.5 * f32(bp.width), (1.0 - c.y / c.z) * 0.5 * f32(bp.height));
+    let p = round(exact * 64.0) / 64.0;
     for (var q = 0u; q < 4u; q++) {
         pts[*n] = p + vec2f(select(-m, m, (q & 1u) != 0u), select(-m, m, (q & 2u) != 0u));
         *n += 1u;
@@ -107,9 +118,6 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (k >= count) { return; }
     let bi = order[k];
     let b = beams[bi];
-    var h: BeamHull;
-    h.info = vec4u(0u, bi, 0u, 0u);
-    // The six corners (as beam_refine's bounding sphere).
     let v = array<vec3f, 3>(b.v0.xyz, b.v1.xyz, b.v2.xyz);
     let d = array<vec3f, 3>(b.d0.xyz, b.d1.xyz, b.d2.xyz);
     let len = vec3f(b.d0.w, b.d1.w, b.d2.w);
@@ -121,14 +129,63 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let e0 = v[0] + d[0] * len.x;
     let e1 = v[1] + d[1] * len.y;
     let e2 = v[2] + d[2] * len.z;
-    var y0 = 0.0;
-    var y1 = ym * (1.0 + 1e-4);
+    // The heights the parts split: from y0 to y1, at the foci between.
+    var cut = array<f32, 4>(0.0, ym * (1.0 + 1e-4), 0.0, 0.0);
+    var n_parts = 1u;
     if (mode.x == 1u) {
-        // (beam_irradiance's range)
+        // (beam_irradiance's range; one part)
         let tol = 0.5 * max(max(length(e1 - e0), length(e2 - e1)), length(e0 - e2)) + 1e-4 * ym;
-        y0 = max(min(min(ys.x, ys.y), ys.z) - tol, 0.0);
-        y1 = ym + tol;
+        cut[0] = max(min(min(ys.x, ys.y), ys.z) - tol, 0.0);
+        cut[1] = ym + tol;
+    } else {
+        // Split at the foci only where the whole beam's hull would cover the whole image (its
+        // part near the camera meets the view): elsewhere a split costs more than it saves (the
+        // fragments near a focus, where the footprint integral runs, twice; +17 % beam_raster
+        // time on volume_caustic_fog).
+        var whole: BeamHull;
+        if (part_polygon(&whole, v, d, cs, cut[0], cut[1])) {
+            n_parts = focus_cuts(v, d, cs, nrm, &cut);
+        }
     }
+    for (var p = 0u; p < BEAM_HULL_PARTS; p++) {
+        var h: BeamHull;
+        h.info = vec4u(0u, bi, 0u, 0u);
+        if (p < n_parts) {
+            h.info.z = bitcast<u32>(cut[p]);
+            h.info.w = bitcast<u32>(cut[p + 1u]);
+            _ = part_polygon(&h, v, d, cs, cut[p], cut[p + 1u]);
+        }
+        hulls[k * BEAM_HULL_PARTS + p] = h;
+    }
+}
+
+// The foci strictly between cut[0] and cut[1] (beam_foci, away from the ends by a thousandth of
+// the range), inserted in order; the number of parts. Between foci the beam is a truncated
+// cone or pyramid whose end sections' convex hull is tight; across one, the convex hull of the
+// two end sections holds the whole waist region (a camera near a focus sits inside the hulls
+// of every beam through it).
+fn focus_cuts(v: array<vec3f, 3>, d: array<vec3f, 3>, cs: vec3f, nrm: vec3f, cut: ptr<function, array<f32, 4>>) -> u32 {
+    // (as beam_space in shared/beam_scatter.wgsl: the same bits)
+    let s = array<vec3f, 3>(d[0] / cs.x, d[1] / cs.y, d[2] / cs.z);
+    let lo = (*cut)[0];
+    let hi = (*cut)[1];
+    let r = beam_foci(section_area(v, s, nrm), hi);
+    let margin = 1e-3 * (hi - lo);
+    var n = 1u;
+    for (var i = 0u; i < 2u; i++) {
+        if (r[i] > lo + margin && r[i] < hi - margin && r[i] > (*cut)[n - 1u] + margin) {
+            (*cut)[n + 1u] = (*cut)[n];
+            (*cut)[n] = r[i];
+            n++;
+        }
+    }
+    return n;
+}
+
+// The hull polygon of the beam's points at heights y0 to y1 into h (none where the camera
+// cannot see them); true where it is the whole image (the part near the camera meets the
+// view, or the corners are not finite).
+fn part_polygon(h: ptr<function, BeamHull>, v: array<vec3f, 3>, d: array<vec3f, 3>, cs: vec3f, y0: f32, y1: f32) -> bool {
     // The corners in clip space (x, y, w).
     var cc: array<vec3f, 6>;
     var zmax = -1e30;
@@ -143,14 +200,12 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     }
     // (NaN fails every test: the whole image)
     if (!fin) {
-        whole_image(&h);
-        hulls[k] = h;
-        return;
+        whole_image(h);
+        return true;
     }
     // Wholly behind the camera: no ray reaches it.
     if (zmax <= 0.0) {
-        hulls[k] = h;
-        return;
+        return false;
     }
     let eps = HULL_NEAR * zmax;
     let m = BEAM_HULL_MARGIN;
@@ -174,9 +229,8 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         }
     }
     if (near && !any(out_of_view)) {
-        whole_image(&h);
-        hulls[k] = h;
-        return;
+        whole_image(h);
+        return true;
     }
     var lo = vec2f(1e30);
     var hi = vec2f(-1e30);
@@ -194,7 +248,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     var n = 0u;
     var closed = false;
     for (var step = 0u; step < BEAM_HULL_MAX; step++) {
-        set_vertex(&h, n, pts[cur]);
+        set_vertex(h, n, pts[cur]);
         n++;
         var nxt = (cur + 1u) % n_pts;
         for (var j = 0u; j < n_pts; j++) {
@@ -211,9 +265,9 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         }
     }
     if (closed && n >= 3u) {
-        h.info.x = n;
+        (*h).info.x = n;
     } else {
-        rectangle(&h, lo, hi);
+        rectangle(h, lo, hi);
     }
-    hulls[k] = h;
+    return false;
 }

@@ -7,7 +7,7 @@
 // for a chunk that holds beams, none for one past the count (the host records a dispatch per
 // chunk of the most beams the hierarchy can keep, far more than an adaptive hierarchy keeps:
 // on lavapipe each empty dispatch cost some milliseconds); and the sizes of beam_hull's
-// dispatch and beam_raster's draw (a thread and an instance per listed beam).
+// dispatch and beam_raster's draw (a thread and BEAM_HULL_PARTS instances per listed beam).
 
 #import beams
 
@@ -51,7 +51,7 @@ fn main(@builtin(local_invocation_index) t: u32) {
         dispatch[at + 1u] = 1u;
         dispatch[at + 2u] = 1u;
         dispatch[at + 3u] = BEAM_HULL_VERTICES;
-        dispatch[at + 4u] = n;
+        dispatch[at + 4u] = n * BEAM_HULL_PARTS;
         dispatch[at + 5u] = 0u;
         dispatch[at + 6u] = 0u;
     }

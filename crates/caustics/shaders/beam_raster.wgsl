@@ -36,7 +36,7 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) k: u32) -> H
 fn fs_main(in: HullVertex) -> @location(0) vec4f {
     let px = vec2u(in.pos.xy);
     var acc = vec3f(0.0);
-    beam_pixel(in.beam, px, pixel_view(px), &acc);
+    beam_pixel(in.beam, px, pixel_view(px), in.heights, &acc);
     if ((bp.flags & BEAM_FLAG_FRAGMENTS) != 0u) {
         atomicAdd(&stats[1u + BS_FRAGMENTS], 1u);
         if (any(acc != vec3f(0.0))) { atomicAdd(&stats[1u + BS_LIT], 1u); }

@@ -28,8 +28,8 @@
 
 use crate::error::{Error, Result};
 use crate::gpu::types::{
-    BEAM_FLAG_CHAINS, BEAM_FLAG_FRAGMENTS, BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BEAM_KINDS, BEAM_PARTS, BeamGpu,
-    BeamHull, BeamLevel, BeamParams, BeamPart, BeamTri,
+    BEAM_FLAG_CHAINS, BEAM_FLAG_FRAGMENTS, BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BEAM_HULL_PARTS, BEAM_KINDS,
+    BEAM_PARTS, BeamGpu, BeamHull, BeamLevel, BeamParams, BeamPart, BeamTri,
 };
 use crate::gpu::{GpuContext, PassTimer, bind};
 use crate::image_io::Image;
@@ -213,7 +213,7 @@ pub(crate) fn record_beams(
         let mut frame =
             record_light_beams(ctx, dc, &lf.light_buf, &bp, (footprint(b), chunk_scale(ctx, b)), enc, timer);
         if hulls {
-            let size = u64::from(frame.capacity) * std::mem::size_of::<BeamHull>() as u64;
+            let size = u64::from(frame.capacity) * u64::from(BEAM_HULL_PARTS) * std::mem::size_of::<BeamHull>() as u64;
             frame.hulls = Some(crate::gpu::storage(ctx, "beam_hulls", size, wgpu::BufferUsages::empty()));
         }
         if surface {
@@ -937,7 +937,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
             size: (w, h),
             hulls: None,
         };
-        let size = u64::from(f.capacity) * std::mem::size_of::<BeamHull>() as u64;
+        let size = u64::from(f.capacity) * u64::from(BEAM_HULL_PARTS) * std::mem::size_of::<BeamHull>() as u64;
         let hulls = crate::gpu::storage(&ctx, "beam_hulls", size, wgpu::BufferUsages::empty());
         record_volume_hulls(&ctx, &f, &hulls, (&tv, &tv), (&full, &caustic), &dv, &mut enc, &mut timer);
     } else {

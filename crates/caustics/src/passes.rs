@@ -667,8 +667,9 @@ impl RenderSettings {
         if let Err((field, msg)) = self.beams.validate() {
             return cl(field, msg);
         }
-        let beam_record =
-            std::mem::size_of::<crate::gpu::types::BeamGpu>().max(std::mem::size_of::<crate::gpu::types::BeamHull>());
+        let hull_parts = crate::gpu::types::BEAM_HULL_PARTS as usize;
+        let beam_record = std::mem::size_of::<crate::gpu::types::BeamGpu>()
+            .max(hull_parts * std::mem::size_of::<crate::gpu::types::BeamHull>());
         let beam_bytes = u64::from(self.beams.capacity) * beam_record as u64;
         let max_bind = ctx.device.limits().max_storage_buffer_binding_size;
         if beam_bytes > max_bind {

@@ -942,8 +942,8 @@ fn larger_chunks_change_only_the_order_of_the_sums() {
 /// the gather adds: the same images to the rounding of the sums' order, from the side (the
 /// footprint integral of thin beams, several rays per pixel), with the camera inside the cone
 /// under the ball (beams reaching behind the camera: their hulls cut in front of it, or the
-/// whole image), and close up (beams crossing the image's edges); and enough of the hulls'
-/// fragments add light. A hull missing a pixel a beam reaches, or covering one twice, would
+/// whole image; beams through the focus near the camera: their hulls split there), and close
+/// up (beams crossing the image's edges); and enough of the hulls' fragments add light. A hull missing a pixel a beam reaches, or covering one twice, would
 /// differ by that beam's light there. The surface caustic from beams likewise (beam_surface
 /// against beam_surface_raster). The same bits from run to run, and nothing created after a
 /// renderer's first frame.
@@ -973,12 +973,13 @@ fn hulls_draw_what_the_gather_adds() {
     close.camera.position = Vec3::new(0.0, 0.7, 0.8);
     close.camera.look_at = Vec3::new(0.0, 0.6, 0.0);
     // The least fraction of the hulls' fragments that must add light (the hulls' tightness:
-    // before hulls reaching behind the camera were cut at it, 0.21, 0.022 and 0.071; now 0.64,
-    // 0.14 and 0.60; inside the cone the convex hulls of the beams through the focus hold the
-    // camera and get the whole image).
+    // before hulls reaching behind the camera were cut at it, 0.21, 0.022 and 0.071; with the
+    // cut 0.64, 0.14 and 0.60; with the hulls that would still cover the whole image split at
+    // the beams' foci 0.64, 0.43 and 0.59: inside the cone the convex hulls of the beams
+    // through the focus held the camera).
     for (name, sc, b, lit_fill) in [
         ("side, 2x2 rays", &side, BeamSettings { levels: 2, pixel_samples: 2, ..Default::default() }, 0.4),
-        ("inside the cone", &inside, BeamSettings { levels: 1, ..Default::default() }, 0.1),
+        ("inside the cone", &inside, BeamSettings { levels: 1, ..Default::default() }, 0.3),
         ("close up", &close, BeamSettings { levels: 1, ..Default::default() }, 0.4),
     ] {
         let gather = render(&ctx, sc, &render_settings(BeamSettings { volume: BeamVolume::Gather, ..b })).unwrap();

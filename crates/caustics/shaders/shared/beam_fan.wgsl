@@ -1,12 +1,15 @@
 // Shared WGSL (`#import beam_fan`, after `#import beams`): the vertex stage of the beams' hull
-// draws (beam_raster, beam_surface_raster). Instance k is the ordered list's k-th beam, its
-// vertices a triangle fan over the hull polygon beam_hull made (BEAM_HULL_VERTICES per
-// instance: the triangles past the hull's vertex count are degenerate and draw nothing). A stage
+// draws (beam_raster, beam_surface_raster). Instance k is part k % BEAM_HULL_PARTS of the
+// ordered list's (k / BEAM_HULL_PARTS)-th beam, its vertices a triangle fan over the hull
+// polygon beam_hull made for that part (BEAM_HULL_VERTICES per instance: the triangles past the
+// hull's vertex count are degenerate and draw nothing; an empty part draws none). A stage
 // importing it declares `bp` (BeamParams) and `hulls` (array<BeamHull>).
 
 struct HullVertex {
     @builtin(position) pos: vec4f,
     @location(0) @interpolate(flat) beam: u32,
+    // The heights over the beam's base the part holds (beam_hull: split at foci).
+    @location(1) @interpolate(flat) heights: vec2f,
 }
 
 fn hull_vertex(vi: u32, k: u32) -> HullVertex {
@@ -20,5 +23,6 @@ fn hull_vertex(vi: u32, k: u32) -> HullVertex {
     var out: HullVertex;
     out.pos = vec4f(p.x / f32(bp.width) * 2.0 - 1.0, 1.0 - p.y / f32(bp.height) * 2.0, 0.0, 1.0);
     out.beam = h.info.y;
+    out.heights = bitcast<vec2f>(h.info.zw);
     return out;
 }

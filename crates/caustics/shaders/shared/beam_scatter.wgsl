@@ -117,6 +117,10 @@ struct BeamSpace {
     // The clip plane: points x with dot(cn, x) < cd are not in the beam (`beam_clip`).
     cn: vec3f,
     cd: f32,
+    // Twice the signed section area as a quadratic in the height (section_area), and the
+    // heights where it is zero (beam_foci).
+    kq: vec3f,
+    foci: vec2f,
 }
 
 fn beam_space(b: BeamGpu) -> BeamSpace {
@@ -134,6 +138,9 @@ fn beam_space(b: BeamGpu) -> BeamSpace {
     let cp = beam_clip(b, r.v, r.s, nrm);
     r.cn = cp.xyz;
     r.cd = cp.w;
+    r.kq = section_area(r.v, r.s, nrm);
+    // (beam_hull's heights: the same bits)
+    r.foci = beam_foci(r.kq, max(max(r.yend.x, r.yend.y), r.yend.z) * (1.0 + 1e-4));
     return r;
 }
 
@@ -184,10 +191,10 @@ fn side_range(r: ptr<function, vec2f>, a: vec3f, b: vec3f, u: vec3f, rr: f32) {
     (*r).y = min((*r).y, (-qb + sq) / qa);
 }
 
-// The radiance the beam scatters toward the camera along o + u d, 0 <= u <= len, outside the
-// heights `thin` (those the footprint integral takes); the camera's box entry is at u = -eye_in
-// (the transmittance toward the camera starts there).
-fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, o: vec3f, d: vec3f, len: f32, eye_in: f32) -> vec3f {
+// The radiance the beam scatters toward the camera along o + u d, 0 <= u <= len, at heights
+// within `hr` and outside `thin` (those the footprint integral takes); the camera's box entry
+// is at u = -eye_in (the transmittance toward the camera starts there).
+fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, hr: vec2f, o: vec3f, d: vec3f, len: f32, eye_in: f32) -> vec3f {
     let v = bs.v;
     let dir = bs.dir;
     let nrm = bs.nrm;
@@ -212,17 +219,13 @@ fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, o: vec3f, d: vec3f, len
     n = 1u;
     for (var k = 0; k < 3; k++) { add_roots(ek[k], len, &cuts, &n); }
     // Where the cross-section's area passes through zero (a focus) the barycentrics change
-    // sign without any edge function doing so: a cut too.
-    // Twice the signed section area at height y: S(y) = kq.x + y kq.y + y^2 kq.z (Ernst et al.
-    // 2005), from the base (well conditioned near a focus, unlike the sum of the edge
-    // functions' quadratics in the ray parameter, whose coefficients are those of the ray's
-    // whole length); along the ray, a quadratic in u.
-    let ka = v[1] - v[0];
-    let kb = s[1] - s[0];
-    let kc = v[2] - v[0];
-    let kd = s[2] - s[0];
-    let kq = vec3f(dot(nrm, cross(ka, kc)), dot(nrm, cross(ka, kd) + cross(kb, kc)), dot(nrm, cross(kb, kd)));
-    add_roots(vec3f(kq.x + y0 * (kq.y + y0 * kq.z), yr * (kq.y + 2.0 * kq.z * y0), kq.z * yr * yr), len, &cuts, &n);
+    // sign without any edge function doing so: a cut too. Twice the signed section area at
+    // height y, S(y) (section_area), is zero at the foci's heights (beam_foci: from the base,
+    // well conditioned near a focus, unlike the sum of the edge functions' quadratics in the
+    // ray parameter, whose coefficients are those of the ray's whole length); the ray crosses
+    // them at u = (f - y0) / yr. (beam_hull splits a beam's hull at the same heights: the
+    // pieces of a ray end there exactly, each in one part.)
+    let kq = bs.kq;
     // The clip plane (beam_clip): a cut where the ray crosses it.
     let f0 = dot(bs.cn, o) - bs.cd;
     let f1 = dot(bs.cn, d);
@@ -233,6 +236,9 @@ fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, o: vec3f, d: vec3f, len
     if (yr != 0.0) {
         let u = -y0 / yr;
         if (u > 0.0 && u < len) { cuts[n] = u; n++; }
+        let uf = (bs.foci - y0) / yr;
+        if (uf.x > 0.0 && uf.x < len) { cuts[n] = uf.x; n++; }
+        if (uf.y > 0.0 && uf.y < len) { cuts[n] = uf.y; n++; }
         if (thin.y > thin.x) {
             let ua = (thin.x - y0) / yr;
             let ub = (thin.y - y0) / yr;
@@ -263,7 +269,8 @@ fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, o: vec3f, d: vec3f, len
         let um = 0.5 * (ua + ub);
         let em = edge_fns(v, s, nrm, o + d * um, y0 + um * yr);
         let ym = y0 + um * yr;
-        if (!same_sign(em) || ym < 0.0 || (ym >= thin.x && ym <= thin.y) || f0 + um * f1 < 0.0) { continue; }
+        // (hr: the heights of the hull's part, from its lower focus to the next, half open)
+        if (!same_sign(em) || ym < max(hr.x, 0.0) || ym >= hr.y || (ym >= thin.x && ym <= thin.y) || f0 + um * f1 < 0.0) { continue; }
         let du = (ub - ua) / f32(m);
         for (var q = 0u; q < m; q++) {
             let u0 = ua + f32(q) * du;
@@ -346,6 +353,7 @@ const LINES: array<vec2f, 30> = array<vec2f, 30>(
 // Each line's clipped piece (inside one pixel's frustum: a short, smooth integrand) by the
 // two-point Gauss rule.
 fn beam_footprint(b: BeamGpu, bs: BeamSpace, thin: vec2f, px: vec2f, depth: f32, centre: vec3f, fwd: vec3f) -> vec3f {
+    // (`thin`: the heights to integrate, within the hull part's)
     let cam = bp.camera.xyz;
     let wf = f32(bp.width);
     let hf = f32(bp.height);
@@ -387,15 +395,21 @@ fn beam_footprint(b: BeamGpu, bs: BeamSpace, thin: vec2f, px: vec2f, depth: f32,
         let dl = normalize(sd);
         let cos_t = max(dot(bs.nrm, dl), 1e-4);
         let pre = dot(w, pre3);
-        let hw = 0.5 * (r.y - r.x);
-        let mid = 0.5 * (r.x + r.y);
-        let ya = mid - 0.57735027 * hw;
-        let yb2 = mid + 0.57735027 * hw;
-        let line = footprint_point(o, sd, ya, pre, dl, g, cam, fwd) + footprint_point(o, sd, yb2, pre, dl, g, cam, fwd);
-        acc += line * (hw / cos_t);
+        acc += footprint_piece(o, sd, r.x, r.y, pre, dl, g, cam, fwd) / cos_t;
     }
     let inv_n = 1.0 / f32(nl);
     return bp.sigma_s.rgb * b.flux.rgb * acc * (inv_n * inv_n);
+}
+
+// The integral of footprint_point over the heights ya to yb of the line (the two-point Gauss
+// rule; 0 where empty).
+fn footprint_piece(o: vec3f, sd: vec3f, ya: f32, yb: f32, pre: f32, dl: vec3f, g: f32, cam: vec3f, fwd: vec3f) -> vec3f {
+    if (yb <= ya) { return vec3f(0.0); }
+    let hw = 0.5 * (yb - ya);
+    let mid = 0.5 * (ya + yb);
+    let p = footprint_point(o, sd, mid - 0.57735027 * hw, pre, dl, g, cam, fwd)
+        + footprint_point(o, sd, mid + 0.57735027 * hw, pre, dl, g, cam, fwd);
+    return p * hw;
 }
 
 // phase T / (dist^2 z^3) at height y of the line o + y sd.
@@ -460,9 +474,9 @@ fn pixel_view(px: vec2u) -> PixelView {
 // Beam `bi`'s light in pixel `px`, added to `acc`. The box pixel filter: ns x ns stratified
 // rays (a volume caustic's focal line is thinner than a pixel: the pixel centre alone would miss
 // or overweight it); where the beam is thinner than foot.x pixels, the footprint integral
-// instead. Only points of the beam count, and those lie in the convex hull of its six corners
-// (its base and its section at the farthest end height), as the hull stage bounds them.
-fn beam_pixel(bi: u32, px: vec2u, v: PixelView, acc: ptr<function, vec3f>) {
+// instead. Only points of the beam at `heights` over its base count (beam_raster: the part of
+// the beam its hull bounds, beam_hull splitting a beam at its foci; beam_gather: all).
+fn beam_pixel(bi: u32, px: vec2u, v: PixelView, heights: vec2f, acc: ptr<function, vec3f>) {
     let cam = bp.camera.xyz;
     // The bounding sphere against the pixel's cone first (only it is read for the beams the
     // pixel misses).
@@ -475,6 +489,8 @@ fn beam_pixel(bi: u32, px: vec2u, v: PixelView, acc: ptr<function, vec3f>) {
     let b = beams[bi];
     let bs = beam_space(b);
     let thin = thin_range(bs, cam, v.pw);
+    // (the footprint integral's heights within the part's)
+    let thin_part = vec2f(max(thin.x, heights.x), min(thin.y, heights.y));
     let ns = max(bp.pixel_samples, 1u);
     let inv_rays = 1.0 / f32(ns * ns);
     for (var si = 0u; si < ns * ns; si++) {
@@ -491,10 +507,10 @@ fn beam_pixel(bi: u32, px: vec2u, v: PixelView, acc: ptr<function, vec3f>) {
         let t0 = max(tc - hh, seg.x);
         let t1 = min(tc + hh, seg.y);
         if (t1 > t0) {
-            *acc += inv_rays * beam_radiance(b, bs, thin, cam + d * t0, d, t1 - t0, t0 - seg.x);
+            *acc += inv_rays * beam_radiance(b, bs, thin, heights, cam + d * t0, d, t1 - t0, t0 - seg.x);
         }
     }
-    if (thin.y > thin.x) {
-        *acc += beam_footprint(b, bs, thin, vec2f(px), v.depth, v.centre, v.fwd) / (v.pw * v.ph);
+    if (thin_part.y > thin_part.x) {
+        *acc += beam_footprint(b, bs, thin_part, vec2f(px), v.depth, v.centre, v.fwd) / (v.pw * v.ph);
     }
 }

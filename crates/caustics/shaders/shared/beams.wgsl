@@ -68,14 +68,17 @@ const BEAM_PARTS: u32 = 4u;
 // BEAM_PARTS + part).
 const BEAM_KINDS: u32 = 48u;
 
-// A beam's hull on the image (beam_hull, drawn by beam_raster and beam_surface_raster): info.x
-// its vertices (a convex polygon, 3 to BEAM_HULL_MAX; 0: nothing to draw), info.y the beam's
-// index in the beam buffer; p the vertices in pixels (two per vec4: p[i / 2].xy, .zw).
+// A beam's hull on the image (beam_hull, drawn by beam_raster and beam_surface_raster), one of
+// BEAM_HULL_PARTS per beam (the beam split at the foci between its ends): info.x its vertices
+// (a convex polygon, 3 to BEAM_HULL_MAX; 0: nothing to draw), info.y the beam's index in the
+// beam buffer, info.zw the part's heights over the beam's base (f32 bits, from and to); p the
+// vertices in pixels (two per vec4: p[i / 2].xy, .zw).
 struct BeamHull {
     info: vec4u,
     p: array<vec4f, 6>,
 }
 const BEAM_HULL_MAX: u32 = 12u;
+const BEAM_HULL_PARTS: u32 = 3u;
 // Vertices per instance of beam_raster's draw: a fan of BEAM_HULL_MAX - 2 triangles (those past
 // a hull's vertex count are degenerate and draw nothing).
 const BEAM_HULL_VERTICES: u32 = 3u * (BEAM_HULL_MAX - 2u);
@@ -164,6 +167,36 @@ const BS_FRAGMENTS: u32 = 21u;
 const BS_RESIDUAL: u32 = 22u;
 const BS_LIT: u32 = 23u;
 const BS_WORDS: u32 = 32u;
+
+// Twice the signed area of a beam's section at height y over its base, S(y) = q.x + y q.y +
+// y^2 q.z (Ernst et al. 2005), from its base vertices v, its edges scaled to unit height s and
+// the base's normal.
+fn section_area(v: array<vec3f, 3>, s: array<vec3f, 3>, nrm: vec3f) -> vec3f {
+    let ka = v[1] - v[0];
+    let kb = s[1] - s[0];
+    let kc = v[2] - v[0];
+    let kd = s[2] - s[0];
+    return vec3f(dot(nrm, cross(ka, kc)), dot(nrm, cross(ka, kd) + cross(kb, kc)), dot(nrm, cross(kb, kd)));
+}
+
+// The heights of a beam's foci, where its section degenerates (S(y) = 0 for `q` of
+// section_area: a beam has two focal lines at most), ascending; -1e30 where there is no root.
+// One function for beam_hull, which splits a beam's hull at them, and the scattering integrals,
+// which cut there: the same bits in both.
+fn beam_foci(q: vec3f, ymax: f32) -> vec2f {
+    var r = vec2f(-1e30);
+    if (abs(q.z) * ymax * ymax <= 1e-6 * (abs(q.y) * ymax + abs(q.x))) {
+        if (q.y != 0.0) { r.x = -q.x / q.y; }
+    } else {
+        let disc = q.y * q.y - 4.0 * q.z * q.x;
+        if (disc >= 0.0) {
+            let h = -0.5 * (q.y + select(-1.0, 1.0, q.y >= 0.0) * sqrt(disc));
+            r.x = h / q.z;
+            if (h != 0.0) { r.y = q.x / h; }
+        }
+    }
+    return vec2f(min(r.x, r.y), max(r.x, r.y));
+}
 
 // The plane a beam's points lie beyond (normal, offset): the base's, or for a beam whose edges
 // make_beam extended back behind the surface the light leaves (an oblique base, rebased), the

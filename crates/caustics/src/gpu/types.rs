@@ -321,8 +321,9 @@ pub struct BeamGpu {
     pub info: [u32; 4],
 }
 
-/// A beam's hull on the image (WGSL `BeamHull`, beam_hull.wgsl): `info[0]` its vertices,
-/// `info[1]` the beam's index; the vertices in pixels, two per row.
+/// A beam's hull on the image (WGSL `BeamHull`, beam_hull.wgsl), [`BEAM_HULL_PARTS`] per beam:
+/// `info[0]` its vertices, `info[1]` the beam's index, `info[2..4]` the part's heights over the
+/// base (f32 bits); the vertices in pixels, two per row.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct BeamHull {
@@ -332,6 +333,8 @@ pub struct BeamHull {
 
 /// Most vertices of a beam's hull polygon (`BeamHull`).
 pub const BEAM_HULL_MAX: u32 = 12;
+/// Hull polygons per beam (`BeamHull`): the beam split at up to two foci between its ends.
+pub const BEAM_HULL_PARTS: u32 = 3;
 
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
@@ -597,6 +600,7 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("BEAM_PARTS", BEAM_PARTS),
     ("BEAM_KINDS", BEAM_KINDS),
     ("BEAM_HULL_MAX", BEAM_HULL_MAX),
+    ("BEAM_HULL_PARTS", BEAM_HULL_PARTS),
 ];
 
 /// Parameters of `caustic_triangles` (mirrors the WGSL `TriParams`).
