@@ -137,20 +137,22 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         let tol = 0.5 * max(max(length(e1 - e0), length(e2 - e1)), length(e0 - e2)) + 1e-4 * ym;
         cut[0] = max(min(min(ys.x, ys.y), ys.z) - tol, 0.0);
         cut[1] = ym + tol;
-    } else {
-        // Split at the foci only where the whole beam's hull would cover the whole image (its
-        // part near the camera meets the view): elsewhere a split costs more than it saves (the
-        // fragments near a focus, where the footprint integral runs, twice; +17 % beam_raster
-        // time on volume_caustic_fog).
-        var whole: BeamHull;
-        if (part_polygon(&whole, v, d, cs, cut[0], cut[1])) {
-            n_parts = focus_cuts(v, d, cs, nrm, &cut);
-        }
+    }
+    var first: BeamHull;
+    first.info = vec4u(0u, bi, bitcast<u32>(cut[0]), bitcast<u32>(cut[1]));
+    // Split at the foci only where the whole beam's hull would cover the whole image (its part
+    // near the camera meets the view): elsewhere a split costs more than it saves (the
+    // fragments near a focus, where the footprint integral runs, twice; +17 % beam_raster time
+    // on volume_caustic_fog).
+    if (part_polygon(&first, v, d, cs, cut[0], cut[1]) && mode.x == 0u) {
+        n_parts = focus_cuts(v, d, cs, nrm, &cut);
     }
     for (var p = 0u; p < BEAM_HULL_PARTS; p++) {
         var h: BeamHull;
         h.info = vec4u(0u, bi, 0u, 0u);
-        if (p < n_parts) {
+        if (n_parts == 1u && p == 0u) {
+            h = first;
+        } else if (p < n_parts) {
             h.info.z = bitcast<u32>(cut[p]);
             h.info.w = bitcast<u32>(cut[p + 1u]);
             _ = part_polygon(&h, v, d, cs, cut[p], cut[p + 1u]);

@@ -213,8 +213,7 @@ pub(crate) fn record_beams(
         let mut frame =
             record_light_beams(ctx, dc, &lf.light_buf, &bp, (footprint(b), chunk_scale(ctx, b)), enc, timer);
         if hulls {
-            let size = u64::from(frame.capacity) * u64::from(BEAM_HULL_PARTS) * std::mem::size_of::<BeamHull>() as u64;
-            frame.hulls = Some(crate::gpu::storage(ctx, "beam_hulls", size, wgpu::BufferUsages::empty()));
+            frame.hulls = Some(hull_buffer(ctx, frame.capacity));
         }
         if surface {
             let views = (&wgpu::BindingResource::TextureView(&rp), &wgpu::BindingResource::TextureView(&rn));
@@ -528,6 +527,13 @@ fn record_surface(
         cp.set_bind_group(0, &bg, &[]);
         cp.dispatch_workgroups_indirect(&f.dispatch, 12 * u64::from(f.chunks.gather_n + c));
     }
+}
+
+/// The hull polygons of `capacity` beams (`BEAM_HULL_PARTS` each), written by
+/// [`record_hull_polygons`].
+fn hull_buffer(ctx: &GpuContext, capacity: u32) -> wgpu::Buffer {
+    let size = u64::from(capacity) * u64::from(BEAM_HULL_PARTS) * std::mem::size_of::<BeamHull>() as u64;
+    crate::gpu::storage(ctx, "beam_hulls", size, wgpu::BufferUsages::empty())
 }
 
 /// What a hull polygon bounds: the whole beam (the volume caustic) or its end (the points the
@@ -937,8 +943,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
             size: (w, h),
             hulls: None,
         };
-        let size = u64::from(f.capacity) * u64::from(BEAM_HULL_PARTS) * std::mem::size_of::<BeamHull>() as u64;
-        let hulls = crate::gpu::storage(&ctx, "beam_hulls", size, wgpu::BufferUsages::empty());
+        let hulls = hull_buffer(&ctx, f.capacity);
         record_volume_hulls(&ctx, &f, &hulls, (&tv, &tv), (&full, &caustic), &dv, &mut enc, &mut timer);
     } else {
         record_gather_chunks(
