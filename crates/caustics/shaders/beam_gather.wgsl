@@ -33,6 +33,9 @@
 // is the density times sigma_s, and the transmittances are the grid's optical depths along the
 // light's path (up to the base: interpolated from the edges', beam_refine) and the camera ray.
 @group(0) @binding(10) var density_grid: texture_3d<f32>;
+// The eye's receiver and specular normals (the first surface's tangent plane in each pixel).
+@group(0) @binding(11) var recv_nrm: texture_2d<f32>;
+@group(0) @binding(12) var spec_nrm: texture_2d<f32>;
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (gid.x >= bp.width || gid.y >= bp.height) { return; }

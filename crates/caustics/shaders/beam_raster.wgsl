@@ -26,6 +26,9 @@
 // bench` (one atomic per fragment; the hulls' fill is what they cost), and those that added
 // light, in one-shot renders (BEAM_FLAG_FRAGMENTS).
 @group(0) @binding(7) var<storage, read_write> stats: array<atomic<u32>>;
+// The eye's receiver and specular normals (the first surface's tangent plane in each pixel).
+@group(0) @binding(8) var recv_nrm: texture_2d<f32>;
+@group(0) @binding(9) var spec_nrm: texture_2d<f32>;
 
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) k: u32) -> HullVertex {

@@ -239,12 +239,13 @@ pub(crate) fn record_gather(
         return;
     }
     let ctx = dc.ctx;
-    let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
+    // The first surfaces: the eye's receivers and specular front (positions, normals).
+    let eye_views = [&eye.recv.pos, &eye.front.pos, &eye.recv.nrm, &eye.front.nrm].map(|t| layer_view(ctx, t, 0));
+    let views = eye_views.each_ref().map(wgpu::BindingResource::TextureView);
     let density = density_view(ctx, &dc.geo.density);
     for f in frames {
         if let Some(hulls) = &f.hulls {
-            let views = (&wgpu::BindingResource::TextureView(&rv), &wgpu::BindingResource::TextureView(&sv));
-            record_volume_hulls(ctx, f, hulls, views, images, &density, enc, timer);
+            record_volume_hulls(ctx, f, hulls, &views, images, &density, enc, timer);
             continue;
         }
         record_gather_chunks(
@@ -253,7 +254,7 @@ pub(crate) fn record_gather(
             &f.beams,
             &f.order,
             &f.stats,
-            (&wgpu::BindingResource::TextureView(&rv), &wgpu::BindingResource::TextureView(&sv)),
+            &views,
             images,
             (&f.chunks, &f.dispatch, f.footprint),
             &density,
@@ -648,7 +649,7 @@ fn record_volume_hulls(
     ctx: &GpuContext,
     f: &BeamFrame,
     hulls: &wgpu::Buffer,
-    eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
+    eye_views: &[wgpu::BindingResource; 4],
     images: (&wgpu::Buffer, &wgpu::Buffer),
     density: &wgpu::TextureView,
     enc: &mut wgpu::CommandEncoder,
@@ -658,13 +659,15 @@ fn record_volume_hulls(
     let foot = ctx.constants("beam_footprint", bytemuck::cast_slice(&f.footprint));
     let resources = [
         f.params.as_entire_binding(),
-        eye_views.0.clone(),
-        eye_views.1.clone(),
+        eye_views[0].clone(),
+        eye_views[1].clone(),
         f.beams.as_entire_binding(),
         hulls.as_entire_binding(),
         foot.as_entire_binding(),
         wgpu::BindingResource::TextureView(density),
         f.stats.as_entire_binding(),
+        eye_views[2].clone(),
+        eye_views[3].clone(),
     ];
     draw_hulls(ctx, f, "beam_raster", &resources, images, enc, timer);
 }
@@ -718,7 +721,7 @@ fn record_gather_chunks(
     beams: &wgpu::Buffer,
     order: &wgpu::Buffer,
     stats: &wgpu::Buffer,
-    eye_views: (&wgpu::BindingResource, &wgpu::BindingResource),
+    eye_views: &[wgpu::BindingResource; 4],
     images: (&wgpu::Buffer, &wgpu::Buffer),
     (chunks, dispatch, foot): (&Chunks, &wgpu::Buffer, [f32; 4]),
     density: &wgpu::TextureView,
@@ -737,8 +740,8 @@ fn record_gather_chunks(
             "beam_gather",
             &[
                 params.as_entire_binding(),
-                eye_views.0.clone(),
-                eye_views.1.clone(),
+                eye_views[0].clone(),
+                eye_views[1].clone(),
                 beams.as_entire_binding(),
                 order.as_entire_binding(),
                 stats.as_entire_binding(),
@@ -747,6 +750,8 @@ fn record_gather_chunks(
                 records.binding(c),
                 foot_buf.as_entire_binding(),
                 wgpu::BindingResource::TextureView(density),
+                eye_views[2].clone(),
+                eye_views[3].clone(),
             ],
         );
         let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -921,7 +926,8 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     );
     let nv = ctx.view(&none, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
     let density = upload_density(&ctx, scene);
-    let tv = wgpu::BindingResource::TextureView(&nv);
+    // (positions and normals: the normals are never read where no surface is)
+    let tv: [wgpu::BindingResource; 4] = std::array::from_fn(|_| wgpu::BindingResource::TextureView(&nv));
     let mut timer = PassTimer::disabled();
     let foot = footprint(b);
     // (one beam per slot here)
@@ -944,7 +950,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
             hulls: None,
         };
         let hulls = hull_buffer(&ctx, f.capacity);
-        record_volume_hulls(&ctx, &f, &hulls, (&tv, &tv), (&full, &caustic), &dv, &mut enc, &mut timer);
+        record_volume_hulls(&ctx, &f, &hulls, &tv, (&full, &caustic), &dv, &mut enc, &mut timer);
     } else {
         record_gather_chunks(
             &ctx,
@@ -952,7 +958,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
             &beam_buf,
             &order,
             &stats,
-            (&tv, &tv),
+            &tv,
             (&full, &caustic),
             (&chunks, &dispatch, foot),
             &dv,
