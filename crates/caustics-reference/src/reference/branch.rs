@@ -56,12 +56,37 @@ fn interface(d: Vec3, ns: Vec3, ng: Vec3, eta: f32) -> (f32, Option<Vec3>) {
 
 /// The transmitted branch of the ray from `o0` along unit `d0` (`Path`).
 pub fn trace(scene: &Scene, accel: &Accel, o0: Vec3, d0: Vec3, max_depth: u32) -> Path {
+    trace_segments(scene, accel, o0, d0, max_depth, &mut Vec::new())
+}
+
+/// A straight piece of a traced branch: from `o` along unit `d` for `len` (to the next surface;
+/// `f32::INFINITY`: out of the scene), carrying `weight` of the light (first channel), inside a
+/// dielectric or not.
+#[derive(Clone, Copy, Debug)]
+pub struct Segment {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub len: f32,
+    pub weight: f32,
+    pub inside: bool,
+}
+
+/// [`trace`], also appending the branch's segments (from `o0` on) to `segments`.
+pub fn trace_segments(
+    scene: &Scene,
+    accel: &Accel,
+    o0: Vec3,
+    d0: Vec3,
+    max_depth: u32,
+    segments: &mut Vec<Segment>,
+) -> Path {
     let (mut o, mut d) = (o0, d0);
     let mut p = Path { fate: Fate::Missed, weight: 1.0, sig: 0, land: u32::MAX, layer1: false };
     let mut inside = false;
     let mut depth = 0;
     loop {
         let hit = accel.intersect(o, d, 1e30);
+        segments.push(Segment { o, d, len: hit.map_or(f32::INFINITY, |h| h.t), weight: p.weight, inside });
         let specular = hit.filter(|h| scene.materials[scene.objects[h.object as usize].material].is_specular());
         let Some(h) = specular else {
             if depth > 0 {
