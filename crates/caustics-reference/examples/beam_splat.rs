@@ -78,10 +78,42 @@ fn main() {
         s.dielectric_reflection = false;
         s.beams.reflection = false;
     }
+    // (BEAM_GRID, BEAM_LEVELS: the hierarchy's base grid and levels instead of the defaults)
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<u32>().ok());
+    s.beams.grid = env("BEAM_GRID").unwrap_or(s.beams.grid);
+    s.beams.levels = env("BEAM_LEVELS").unwrap_or(s.beams.levels);
     let t = std::time::Instant::now();
     let gpu = caustics::render::render(&ctx, &scene, &s).unwrap();
     println!("GPU: {:.1} s", t.elapsed().as_secs_f64());
     let beams: Vec<caustics::beams::Beam> = gpu.beams.iter().flat_map(|(_, b)| b.iter().copied()).collect();
+    {
+        let flux: f64 = beams.iter().map(|b| f64::from(b.flux.x)).sum();
+        let mut keys: Vec<[u32; 3]> = beams
+            .iter()
+            .map(|b| [b.vertices[0].x.to_bits(), b.vertices[1].y.to_bits(), b.dirs[2].z.to_bits()])
+            .collect();
+        keys.sort_unstable();
+        let dups = keys.windows(2).filter(|w| w[0] == w[1]).count();
+        for (i, b) in beams.iter().enumerate() {
+            let k = [b.vertices[0].x.to_bits(), b.vertices[1].y.to_bits(), b.dirs[2].z.to_bits()];
+            if beams
+                .iter()
+                .filter(|c| [c.vertices[0].x.to_bits(), c.vertices[1].y.to_bits(), c.dirs[2].z.to_bits()] == k)
+                .count()
+                > 1
+            {
+                println!(
+                    "  duplicate at {i}: level {} branch {} layer {} part {} flux {:.5} v0 {:?}",
+                    b.level, b.branch, b.layer, b.part, b.flux.x, b.vertices[0]
+                );
+            }
+        }
+        println!(
+            "beams: {} (per level {:?}), flux {flux:.5} W (first channel), {dups} duplicates",
+            beams.len(),
+            gpu.beams[0].0.kept_per_level
+        );
+    }
     let m = scene.medium.clone().expect("a scene with a medium");
     assert!(m.density.is_none(), "homogeneous media only");
     let (lo, hi) = (m.bounds_min, m.bounds_max);

@@ -1,39 +1,42 @@
-// Stage: beam_order. The beams' list in hierarchy order: one workgroup walks the slots (level,
-// triangle id, branch, layer) and writes the index of every kept beam in slot order, so that
-// beam_gather sums the beams in the same order whatever order beam_refine's atomics appended
-// them in (the image is the same bits from run to run). Each of the 256 threads counts the
-// beams of its run of slots, a prefix sum over the threads places the runs. Then the indirect
-// dispatch sizes of beam_gather's and beam_surface's chunks of the list: the image's workgroups
-// for a chunk that holds beams, none for one past the count (the host records a dispatch per
-// chunk of the most beams the hierarchy can keep, far more than an adaptive hierarchy keeps:
-// on lavapipe each empty dispatch cost some milliseconds); and the sizes of beam_hull's
-// dispatch and beam_raster's draw (a thread and BEAM_HULL_PARTS instances per listed beam).
+// Stage: beam_order. The beams' list in hierarchy order: the slots (level, triangle id,
+// branch, layer, part) hold each kept beam's index, and the list takes them in slot order, so
+// that the image sums the beams in the same order whatever order beam_refine's atomics appended
+// them in (the image is the same bits from run to run). beam_order_runs counted the beams of
+// each run of BEAM_ORDER_RUN slot entries (`runs`); this one workgroup turns the counts into
+// each run's place in the list (an exclusive prefix sum: each of the 256 threads sums its
+// share of the runs, a prefix sum over the threads places the shares), and beam_order_runs
+// then writes each run's beams there. Then the indirect dispatch sizes of beam_gather's and
+// beam_surface's chunks of the list: the image's workgroups for a chunk that holds beams, none
+// for one past the count (the host records a dispatch per chunk of the most beams the
+// hierarchy can keep, far more than an adaptive hierarchy keeps: on lavapipe each empty
+// dispatch cost some milliseconds); and the sizes of beam_hull's dispatch and beam_raster's
+// draw (a thread and BEAM_HULL_PARTS instances per listed beam).
 
 #import beams
 
 @group(0) @binding(0) var<uniform> bp: BeamParams;
-@group(0) @binding(1) var<storage, read> slots: array<u32>;
-@group(0) @binding(2) var<storage, read_write> order: array<u32>;
-@group(0) @binding(3) var<storage, read_write> stats: array<u32>;
+// Per run of slot entries its beams (beam_order_runs), replaced by its place in the list.
+@group(0) @binding(1) var<storage, read_write> runs: array<u32>;
+@group(0) @binding(2) var<storage, read_write> stats: array<u32>;
 // The chunks (beams.rs `Chunks`, in a BeamLevel record): level = beams per gather chunk, offset
 // = gather chunks, next_offset = beams per surface chunk, base_count = surface chunks.
-@group(0) @binding(4) var<uniform> ch: BeamLevel;
+@group(0) @binding(3) var<uniform> ch: BeamLevel;
 // Per chunk (gather chunks, then surface chunks): workgroups x, y, z; then beam_hull's
 // workgroups (x, y, z) and beam_raster's draw (vertices, instances, first vertex, first
 // instance).
-@group(0) @binding(5) var<storage, read_write> dispatch: array<u32>;
+@group(0) @binding(4) var<storage, read_write> dispatch: array<u32>;
 
 var<workgroup> counts: array<u32, 256>;
 var<workgroup> listed: u32;
 
 @compute @workgroup_size(256)
 fn main(@builtin(local_invocation_index) t: u32) {
-    let total = BEAM_KINDS * bp.slots;
-    let run = (total + 255u) / 256u;
-    let s0 = min(t * run, total);
-    let s1 = min(s0 + run, total);
+    let n_runs = (BEAM_KINDS * bp.slots + BEAM_ORDER_RUN - 1u) / BEAM_ORDER_RUN;
+    let share = (n_runs + 255u) / 256u;
+    let r0 = min(t * share, n_runs);
+    let r1 = min(r0 + share, n_runs);
     var n = 0u;
-    for (var s = s0; s < s1; s++) { n += u32(slots[s] != 0u); }
+    for (var r = r0; r < r1; r++) { n += runs[r]; }
     counts[t] = n;
     workgroupBarrier();
     if (t == 0u) {
@@ -68,11 +71,9 @@ fn main(@builtin(local_invocation_index) t: u32) {
         dispatch[3u * c + 2u] = 1u;
     }
     var at = counts[t];
-    for (var s = s0; s < s1; s++) {
-        let b = slots[s];
-        if (b != 0u && at < bp.capacity) {
-            order[at] = b - 1u;
-            at++;
-        }
+    for (var r = r0; r < r1; r++) {
+        let c = runs[r];
+        runs[r] = at;
+        at += c;
     }
 }

@@ -29,7 +29,7 @@
 use crate::error::{Error, Result};
 use crate::gpu::types::{
     BEAM_FLAG_CHAINS, BEAM_FLAG_FRAGMENTS, BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BEAM_HULL_PARTS, BEAM_KINDS,
-    BEAM_PARTS, BeamGpu, BeamHull, BeamLevel, BeamParams, BeamPart, BeamTri,
+    BEAM_ORDER_RUN, BEAM_PARTS, BeamGpu, BeamHull, BeamLevel, BeamParams, BeamPart, BeamTri,
 };
 use crate::gpu::{GpuContext, PassTimer, bind};
 use crate::image_io::Image;
@@ -349,7 +349,7 @@ fn record_light_beams(
     record_shrink(ctx, geo, shrink_inputs, (&parts, &args, &indirect), (&slot_buf, &beams, &stats), enc, timer);
     let chunks = Chunks::new(bp, &footprint, (kinds(bp), scale));
     let dispatch = chunks.dispatch_buffer(ctx);
-    record_order(ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
+    record_order(ctx, (&params, bp.slots), (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
     let size = (bp.width, bp.height);
     BeamFrame {
         params,
@@ -409,15 +409,41 @@ fn record_shrink(
     cp.dispatch_workgroups_indirect(indirect, at);
 }
 
-/// `beam_order`: the kept beams listed in hierarchy order.
+/// `beam_order_runs` (count), `beam_order` (the runs' places, the dispatch sizes) and
+/// `beam_order_runs` (write): the kept beams listed in hierarchy order.
 fn record_order(
     ctx: &GpuContext,
-    params: &wgpu::Buffer,
+    (params, slots_n): (&wgpu::Buffer, u32),
     (slots, order, stats): (&wgpu::Buffer, &wgpu::Buffer, &wgpu::Buffer),
     (chunks, dispatch): (&Chunks, &wgpu::Buffer),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
+    let n_runs = (u64::from(BEAM_KINDS) * u64::from(slots_n)).div_ceil(u64::from(BEAM_ORDER_RUN)).max(1);
+    let runs = crate::gpu::storage(ctx, "beam_order_runs", 4 * n_runs, wgpu::BufferUsages::empty());
+    let groups = n_runs.div_ceil(64) as u32;
+    let run_pass = |write: bool, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer| {
+        let pl = ctx.compute_pipeline_with("beam_order_runs", &[("order_write", f64::from(u8::from(write)))]);
+        let bg = bind(
+            ctx,
+            &pl,
+            "beam_order_runs",
+            &[
+                params.as_entire_binding(),
+                slots.as_entire_binding(),
+                runs.as_entire_binding(),
+                order.as_entire_binding(),
+            ],
+        );
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("beam_order_runs"),
+            timestamp_writes: timer.compute("beam_order_runs"),
+        });
+        cp.set_pipeline(&pl);
+        cp.set_bind_group(0, &bg, &[]);
+        cp.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
+    };
+    run_pass(false, enc, timer);
     let opl = ctx.compute_pipeline("beam_order");
     let cu = ctx.uniform("beam_order_chunks", bytemuck::bytes_of(&chunks.gpu()));
     let obg = bind(
@@ -426,20 +452,22 @@ fn record_order(
         "beam_order",
         &[
             params.as_entire_binding(),
-            slots.as_entire_binding(),
-            order.as_entire_binding(),
+            runs.as_entire_binding(),
             stats.as_entire_binding(),
             cu.as_entire_binding(),
             dispatch.as_entire_binding(),
         ],
     );
-    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("beam_order"),
-        timestamp_writes: timer.compute("beam_order"),
-    });
-    cp.set_pipeline(&opl);
-    cp.set_bind_group(0, &obg, &[]);
-    cp.dispatch_workgroups(1, 1, 1);
+    {
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("beam_order"),
+            timestamp_writes: timer.compute("beam_order"),
+        });
+        cp.set_pipeline(&opl);
+        cp.set_bind_group(0, &obg, &[]);
+        cp.dispatch_workgroups(1, 1, 1);
+    }
+    run_pass(true, enc, timer);
 }
 
 /// The most beams a light's ordered list can hold: `capacity`, and at most `kinds` per slot of
@@ -933,7 +961,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     // (one beam per slot here)
     let chunks = Chunks::new(&bp, &foot, (1, chunk_scale(&ctx, b)));
     let dispatch = chunks.dispatch_buffer(&ctx);
-    record_order(&ctx, &params, (&slot_buf, &order, &stats), (&chunks, &dispatch), &mut enc, &mut timer);
+    record_order(&ctx, (&params, bp.slots), (&slot_buf, &order, &stats), (&chunks, &dispatch), &mut enc, &mut timer);
     let dv = density_view(&ctx, &density);
     if b.volume.on(ctx.device.features()) == BeamVolume::Hulls {
         let f = BeamFrame {

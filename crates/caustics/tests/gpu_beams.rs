@@ -843,6 +843,39 @@ fn gpu_beams_match_the_cpu_reference_in_fog() {
     }
 }
 
+/// The list of a deep hierarchy holds every kept beam once: 16² + 4 levels and 32² + 3 keep the
+/// same beams but for the first two levels' (the same finest grid), so their transmitted flux
+/// agrees. `beam_order` once walked the hierarchy's 8.4 M slot entries in one workgroup, and
+/// lavapipe's loop limit cut each thread's walk short: 16² + 4 listed one beam five times,
+/// +1.26 % flux, a bright line along the ball's axis (docs/benchmarks.md, "Beams: the list of a
+/// deep hierarchy").
+#[test]
+fn a_deep_hierarchys_list_holds_every_beam_once() {
+    let Some(ctx) = gpu() else { return };
+    let sc = ball_in_fog(14.0, 8, 8);
+    let run = |grid: u32, levels: u32| {
+        let b = BeamSettings { grid, levels, reflection: false, ..Default::default() };
+        let out = render(&ctx, &sc, &render_settings(b)).unwrap();
+        let (stats, list) = out.beams[0].clone();
+        assert_eq!(stats.overflow, 0);
+        assert_eq!(list.len() as u32, stats.kept_per_level.iter().sum::<u32>(), "{stats:?}");
+        let mut keys: Vec<[u32; 6]> = list
+            .iter()
+            .map(|b| {
+                let (v, d) = (b.vertices[0], b.dirs[1]);
+                [v.x, v.y, v.z, d.x, d.y, d.z].map(f32::to_bits)
+            })
+            .collect();
+        keys.sort_unstable();
+        let repeated = keys.windows(2).filter(|w| w[0] == w[1]).count();
+        assert_eq!(repeated, 0, "{grid}² + {levels}: a beam listed more than once");
+        list.iter().map(|b| f64::from(b.flux.x)).sum::<f64>()
+    };
+    let (deep, wide) = (run(16, 4), run(32, 3));
+    println!("transmitted flux: 16² + 4 {deep:.6} W, 32² + 3 {wide:.6} W");
+    assert!((deep / wide - 1.0).abs() < 1e-4, "{deep} vs {wide}");
+}
+
 #[test]
 fn beams_are_deterministic_create_nothing_after_the_first_frame_and_bad_settings_are_named() {
     use caustics::renderer::{FrameRequest, Renderer};

@@ -67,6 +67,8 @@ const BEAM_PARTS: u32 = 4u;
 // Beams per slot (their places: slot x BEAM_KINDS + (branch x BEAM_LAYERS + layer) x
 // BEAM_PARTS + part).
 const BEAM_KINDS: u32 = 48u;
+// Slot entries per thread of beam_order_runs (the beams' list in slot order).
+const BEAM_ORDER_RUN: u32 = 4096u;
 
 // A beam's hull on the image (beam_hull, drawn by beam_raster and beam_surface_raster), one of
 // BEAM_HULL_PARTS per beam (the beam split at the foci between its ends): info.x its vertices

@@ -42,6 +42,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("beam_refine", include_str!("../../shaders/beam_refine.wgsl")),
     ("beam_shrink", include_str!("../../shaders/beam_shrink.wgsl")),
     ("beam_order", include_str!("../../shaders/beam_order.wgsl")),
+    ("beam_order_runs", include_str!("../../shaders/beam_order_runs.wgsl")),
     ("beam_gather", include_str!("../../shaders/beam_gather.wgsl")),
     ("beam_surface", include_str!("../../shaders/beam_surface.wgsl")),
     ("beam_hull", include_str!("../../shaders/beam_hull.wgsl")),

@@ -572,6 +572,9 @@ pub const BEAM_LAYERS: u32 = 2;
 pub const BEAM_PARTS: u32 = 4;
 /// Beams per slot of the beam hierarchy (`BEAM_BRANCHES` x `BEAM_LAYERS` x `BEAM_PARTS`).
 pub const BEAM_KINDS: u32 = BEAM_BRANCHES * BEAM_LAYERS * BEAM_PARTS;
+/// Slot entries per thread of `beam_order_runs` (the beams' list in slot order: lavapipe's loop
+/// limit bounds a thread's run).
+pub const BEAM_ORDER_RUN: u32 = 4096;
 /// Side (texels) of the tiles of `caustic_mask` and `shadow_tiles`, which `shade_receivers` reads.
 pub const SHADE_TILE: u32 = 8;
 
@@ -599,6 +602,7 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("BEAM_LAYERS", BEAM_LAYERS),
     ("BEAM_PARTS", BEAM_PARTS),
     ("BEAM_KINDS", BEAM_KINDS),
+    ("BEAM_ORDER_RUN", BEAM_ORDER_RUN),
     ("BEAM_HULL_MAX", BEAM_HULL_MAX),
     ("BEAM_HULL_PARTS", BEAM_HULL_PARTS),
 ];
