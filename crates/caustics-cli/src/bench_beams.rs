@@ -1,7 +1,8 @@
 //! The beams' part of `caustics bench` (scenes with a medium, or `--surface-caustics beams`):
 //! per run, the beams kept per refinement level, the fragments their hulls shaded
 //! (`--beam-volume hulls`) and the GPU milliseconds of each beam pass (`beam_refine` summed over
-//! its levels, `beam_order`, `beam_gather` and `beam_surface` summed over their chunks,
+//! its levels, `beam_order` with its `beam_order_runs`, `beam_gather` and `beam_surface` summed
+//! over their chunks,
 //! `beam_hull`, `beam_raster` and `beam_resolve`; timestamp queries, "-" where the adapter has
 //! none or the pass did not run). Its own module so that the photon tables of `bench.rs` stay
 //! as they are.
