@@ -422,53 +422,37 @@ fn record_order(
     let n_runs = (u64::from(BEAM_KINDS) * u64::from(slots_n)).div_ceil(u64::from(BEAM_ORDER_RUN)).max(1);
     let runs = crate::gpu::storage(ctx, "beam_order_runs", 4 * n_runs, wgpu::BufferUsages::empty());
     let groups = n_runs.div_ceil(64) as u32;
-    let run_pass = |write: bool, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer| {
-        let pl = ctx.compute_pipeline_with("beam_order_runs", &[("order_write", f64::from(u8::from(write)))]);
-        let bg = bind(
-            ctx,
-            &pl,
-            "beam_order_runs",
-            &[
-                params.as_entire_binding(),
-                slots.as_entire_binding(),
-                runs.as_entire_binding(),
-                order.as_entire_binding(),
-            ],
-        );
+    // Each dispatch timed as `beam_order` (the list's three dispatches are one pass to `bench`).
+    let pass = |pl: &wgpu::ComputePipeline,
+                stage: &str,
+                resources: &[wgpu::BindingResource],
+                groups: u32,
+                enc: &mut wgpu::CommandEncoder,
+                timer: &mut PassTimer| {
+        let bg = bind(ctx, pl, stage, resources);
         let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("beam_order_runs"),
-            // (timed as `beam_order`: the list's three dispatches are one pass to `bench`)
+            label: Some(stage),
             timestamp_writes: timer.compute("beam_order"),
         });
-        cp.set_pipeline(&pl);
+        cp.set_pipeline(pl);
         cp.set_bind_group(0, &bg, &[]);
         cp.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
     };
-    run_pass(false, enc, timer);
-    let opl = ctx.compute_pipeline("beam_order");
+    let run_resources =
+        [params.as_entire_binding(), slots.as_entire_binding(), runs.as_entire_binding(), order.as_entire_binding()];
+    let runs_pl =
+        |write: bool| ctx.compute_pipeline_with("beam_order_runs", &[("order_write", f64::from(u8::from(write)))]);
+    pass(&runs_pl(false), "beam_order_runs", &run_resources, groups, enc, timer);
     let cu = ctx.uniform("beam_order_chunks", bytemuck::bytes_of(&chunks.gpu()));
-    let obg = bind(
-        ctx,
-        &opl,
-        "beam_order",
-        &[
-            params.as_entire_binding(),
-            runs.as_entire_binding(),
-            stats.as_entire_binding(),
-            cu.as_entire_binding(),
-            dispatch.as_entire_binding(),
-        ],
-    );
-    {
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("beam_order"),
-            timestamp_writes: timer.compute("beam_order"),
-        });
-        cp.set_pipeline(&opl);
-        cp.set_bind_group(0, &obg, &[]);
-        cp.dispatch_workgroups(1, 1, 1);
-    }
-    run_pass(true, enc, timer);
+    let order_resources = [
+        params.as_entire_binding(),
+        runs.as_entire_binding(),
+        stats.as_entire_binding(),
+        cu.as_entire_binding(),
+        dispatch.as_entire_binding(),
+    ];
+    pass(&ctx.compute_pipeline("beam_order"), "beam_order", &order_resources, 1, enc, timer);
+    pass(&runs_pl(true), "beam_order_runs", &run_resources, groups, enc, timer);
 }
 
 /// The most beams a light's ordered list can hold: `capacity`, and at most `kinds` per slot of
