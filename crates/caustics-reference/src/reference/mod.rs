@@ -15,6 +15,7 @@
 //!
 //! See `docs/reference-renderer.md`.
 
+pub mod beam_splat;
 pub mod branch;
 pub mod bvh;
 pub mod emit;
