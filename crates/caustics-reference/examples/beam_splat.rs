@@ -17,7 +17,7 @@ use caustics::image_io::Image;
 use caustics::scene::Scene;
 use caustics_reference::ImageIo as _;
 use caustics_reference::metrics::{energy, hdr_flip};
-use caustics_reference::reference::beam_splat::{BeamSplat, in_box, lines};
+use caustics_reference::reference::beam_splat::{BeamSplat, lines};
 use caustics_reference::reference::geometry::Accel;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -178,7 +178,7 @@ fn main() {
                             let px = &mut img[class * n..(class + 1) * n];
                             sp.segment((sg.o, sg.d, len), w0 * sg.weight, pre, (ds, jitter), px);
                         }
-                        pre += in_box(sg.o, sg.o + sg.d * len, lo, hi);
+                        pre += sp.in_medium(sg.o, sg.o + sg.d * len);
                     }
                 }
                 img

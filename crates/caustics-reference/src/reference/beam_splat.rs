@@ -14,9 +14,10 @@
 //! channel.
 
 use super::geometry::Accel;
+use super::medium::Media;
 use caustics::beams::Beam;
 use caustics::error::{Error, Result};
-use caustics::scene::{Phase, Scene};
+use caustics::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -34,29 +35,10 @@ pub struct BeamSplat {
     /// The first surface along SUB × SUB rays per pixel: its point and unit normal toward the
     /// camera.
     surface: Vec<Option<(Vec3, Vec3)>>,
+    /// The medium (the reference's: box, coefficients, phase function) and its box.
+    media: Media,
     lo: Vec3,
     hi: Vec3,
-    sigma_s: f32,
-    sigma_t: f32,
-    g: f32,
-}
-
-/// The length of segment a → b inside the box lo..hi.
-pub fn in_box(a: Vec3, b: Vec3, lo: Vec3, hi: Vec3) -> f32 {
-    let v = b - a;
-    let (mut t0, mut t1) = (0.0f32, 1.0f32);
-    for k in 0..3 {
-        if v[k].abs() < 1e-30 {
-            if a[k] < lo[k] || a[k] > hi[k] {
-                return 0.0;
-            }
-            continue;
-        }
-        let (ta, tb) = ((lo[k] - a[k]) / v[k], (hi[k] - a[k]) / v[k]);
-        t0 = t0.max(ta.min(tb));
-        t1 = t1.min(ta.max(tb));
-    }
-    (t1 - t0).max(0.0) * v.length()
 }
 
 /// The heights of line o + y s on the beam's side of the plane through q (normal along
@@ -120,6 +102,7 @@ impl BeamSplat {
         let tan_y = (cam.fov_y_deg.to_radians() * 0.5).tan();
         let tan_x = tan_y * cam.aspect();
         Ok(BeamSplat {
+            media: Media::new(m),
             width: w,
             height: h,
             cam: cam.position,
@@ -129,19 +112,16 @@ impl BeamSplat {
             surface,
             lo: m.bounds_min,
             hi: m.bounds_max,
-            sigma_s: m.sigma_s.x,
-            sigma_t: m.sigma_s.x + m.sigma_a.x,
-            g: match m.phase {
-                Phase::Isotropic => 0.0,
-                Phase::HenyeyGreenstein { g } => g,
-            },
         })
     }
 
-    fn phase(&self, c: f32) -> f32 {
-        let g = self.g;
-        let den = (1.0 + g * g - 2.0 * g * c).max(1e-12);
-        (1.0 - g * g) / (4.0 * std::f32::consts::PI * den * den.sqrt())
+    /// The length of segment a → b inside the medium's box.
+    pub fn in_medium(&self, a: Vec3, b: Vec3) -> f32 {
+        let len = a.distance(b);
+        if len <= 0.0 {
+            return 0.0;
+        }
+        self.media.length_in(a, (b - a) / len, len)
     }
 
     /// Adds to `img` (first channel, row-major) the light of a point x of the medium that
@@ -172,8 +152,9 @@ impl BeamSplat {
             return;
         }
         let (o, pre) = pre_from;
-        let tr = (-self.sigma_t * (pre + in_box(o, x, self.lo, self.hi) + in_box(self.cam, x, self.lo, self.hi))).exp();
-        let v = self.sigma_s * power * self.phase(dl.dot(-vd)) * tr / (dist * dist * z * z * z * self.pix_area);
+        let tr = (-self.media.sigma_t.x * (pre + self.in_medium(o, x) + self.in_medium(self.cam, x))).exp();
+        let v =
+            self.media.sigma_s.x * power * self.media.phase(dl, -vd) * tr / (dist * dist * z * z * z * self.pix_area);
         img[py as usize * self.width as usize + px as usize] += f64::from(v);
     }
 
