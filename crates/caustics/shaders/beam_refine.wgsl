@@ -63,8 +63,9 @@
 @group(0) @binding(13) var<storage, read_write> parts: array<BeamPart>;
 
 // Signed twice-area of the beam's cross-section at height y over its base plane (normal nrm):
-// a quadratic in y (Ernst et al. 2005), returned as its value; its smallest |value| over
-// [0, ym] is what the energy criterion's convergence uses.
+// a quadratic in y (Ernst et al. 2005): returns |2A(0)| and the smallest |2A(y)| over [0, ym]
+// (0 where the section passes through a focal line), what the energy criterion's convergence
+// uses.
 fn min_area(e0: Edge, e1: Edge, e2: Edge, ym: f32) -> vec2f {
     var nrm = normalize(cross(e1.o - e0.o, e2.o - e0.o));
     if (dot(nrm, e0.d + e1.d + e2.d) < 0.0) { nrm = -nrm; }
@@ -79,12 +80,22 @@ fn min_area(e0: Edge, e1: Edge, e2: Edge, ym: f32) -> vec2f {
     let k0 = dot(nrm, cross(a, c));
     let k1 = dot(nrm, cross(a, dd) + cross(bb, c));
     let k2 = dot(nrm, cross(bb, dd));
-    var m = min(abs(k0), abs(k0 + k1 * ym + k2 * ym * ym));
+    let a_end = k0 + k1 * ym + k2 * ym * ym;
+    var m = min(abs(k0), abs(a_end));
+    // A section that changes orientation between the base and the end passes through 0: a
+    // focal line inside the beam (two where its foci differ, an astigmatic beam: there the
+    // extremum between the roots can be as large as the base, so the ends and the extremum alone
+    // would miss the focus).
+    var crosses = sign(k0) != sign(a_end);
     if (abs(k2) > 0.0) {
         let yv = -k1 / (2.0 * k2);
-        if (yv > 0.0 && yv < ym) { m = min(m, abs(k0 + k1 * yv + k2 * yv * yv)); }
+        if (yv > 0.0 && yv < ym) {
+            let av = k0 + k1 * yv + k2 * yv * yv;
+            m = min(m, abs(av));
+            crosses = crosses || sign(av) != sign(k0);
+        }
     }
-    return vec2f(abs(k0), m);
+    return vec2f(abs(k0), select(m, 0.0, crosses));
 }
 
 // How far the beam over edges e0..e2 departs from the light it stands for (the linearity
