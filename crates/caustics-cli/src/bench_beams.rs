@@ -29,7 +29,7 @@ pub fn markdown<'a>(runs: impl Iterator<Item = (String, &'a GpuRender)>) -> Stri
                 let heads: Vec<String> = PASSES.iter().map(|p| format!(" {p} ms |")).collect();
                 let _ = writeln!(
                     s,
-                    "\n## Volume caustics (beams)\n\nBeams kept per refinement level (all branches), beams rendered, fragments their hulls shaded (`--beam-volume hulls`) and those of them that added light, and GPU ms per beam pass (timestamp queries; \"-\": not timed or not run).\n\n| run | light | kept per level | beams | hull fragments | of them lit |{}\n| --- | ---: | --- | ---: | ---: | ---: |{}",
+                    "\n## Volume caustics (beams)\n\nBeams kept per refinement level (all branches), beams rendered, beams the energy cutoff shortened or dropped (`--beam-cutoff`), fragments their hulls shaded (`--beam-volume hulls`) and those of them that added light, and GPU ms per beam pass (timestamp queries; \"-\": not timed or not run).\n\n| run | light | kept per level | beams | cut | hull fragments | of them lit |{}\n| --- | ---: | --- | ---: | ---: | ---: | ---: |{}",
                     heads.concat(),
                     " ---: |".repeat(PASSES.len())
                 );
@@ -39,9 +39,10 @@ pub fn markdown<'a>(runs: impl Iterator<Item = (String, &'a GpuRender)>) -> Stri
                 PASSES.iter().map(|p| pass_ms(out, p).map_or(" - |".into(), |v| format!(" {v:.2} |"))).collect();
             let _ = writeln!(
                 s,
-                "| {label} | {li} | {} | {} | {} | {} |{}",
+                "| {label} | {li} | {} | {} | {} | {} | {} |{}",
                 levels.join(" / "),
                 stats.beams,
+                stats.cut,
                 stats.hull_fragments,
                 stats.hull_lit_fragments,
                 ms.concat()

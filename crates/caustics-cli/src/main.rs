@@ -356,6 +356,12 @@ pub struct BeamArgs {
     /// it, drawn at random per triangle); 0 turns it off, below 1.
     #[arg(long, default_value_t = 0.3)]
     beam_residual: f32,
+    /// Beams: the energy cutoff, a radiance in W/(m² sr): a beam diverging beyond its last
+    /// focus ends where the rest of its light, seen along it, is this (per beam; shorter hulls,
+    /// fewer fragments, some of a faint glow lost; beams lighting a surface with
+    /// `--surface-caustics beams` are not cut); 0 (default) draws every beam to its end.
+    #[arg(long, default_value_t = 0.0)]
+    beam_cutoff: f32,
     /// Beams held per light (more is an overflow, reported as an error).
     #[arg(long, default_value_t = 1 << 17)]
     beam_capacity: u32,
@@ -403,6 +409,7 @@ impl BeamArgs {
             surface_samples: self.beam_surface_samples,
             reflection: true,
             residual: self.beam_residual,
+            cutoff: self.beam_cutoff,
             footprint: self.beam_footprint,
             footprint_lines: self.beam_footprint_lines,
             chunk_scale: self.beam_chunk_scale,
@@ -435,6 +442,7 @@ fn flag_names(e: &mut anyhow::Error) {
         ("beams.linearity_threshold", "--beam-linearity-threshold"),
         ("beams.capacity", "--beam-capacity"),
         ("beams.residual", "--beam-residual"),
+        ("beams.cutoff", "--beam-cutoff"),
         ("beams.samples", "--beam-samples"),
         ("beams.pixel_samples", "--beam-pixel-samples"),
         ("beams.surface_samples", "--beam-surface-samples"),
@@ -708,8 +716,8 @@ fn report_gpu(out: &GpuRender, wall_ms: f64) {
     println!("photons: {} traced in {} batch(es)", out.photons_traced, out.batches);
     for (li, (b, _)) in out.beams.iter().enumerate() {
         println!(
-            "beams (light {li}): {} rendered ({} on the residual branch); kept per level {:?}, traced per level {:?}; {} lost at the last level (no corner on a caustic path), {} grazing, {} over capacity",
-            b.beams, b.residual, b.kept_per_level, b.visited_per_level, b.inconsistent, b.grazing, b.overflow
+            "beams (light {li}): {} rendered ({} on the residual branch); kept per level {:?}, traced per level {:?}; {} lost at the last level (no corner on a caustic path), {} grazing, {} over capacity, {} cut by the energy cutoff",
+            b.beams, b.residual, b.kept_per_level, b.visited_per_level, b.inconsistent, b.grazing, b.overflow, b.cut
         );
     }
     println!(

@@ -67,6 +67,9 @@ fn bad_output_and_settings_exit_2() {
     let e = run_err(&["render", "--caustic-map", "100", "-o", out.to_str().unwrap()]);
     assert!(e.contains("--caustic-map") && e.contains("multiple of 16"), "{e}");
     assert!(!out.exists());
+    let e = run_err(&["render", "--beam-cutoff=-0.001", "-o", out.to_str().unwrap()]);
+    assert!(e.contains("--beam-cutoff") && e.contains("at least 0"), "{e}");
+    assert!(!out.exists());
 }
 
 #[test]

@@ -4,7 +4,7 @@
 //! (`beam_scatter.wgsl`: how the GPU draws them).
 //! `cargo run --release -p caustics-reference --example beam_splat -- SCENE WxH LINES STEPS OUT_DIR [REFERENCE.exr] [t]`
 //! renders SCENE on the GPU at the defaults (`t`: the transmitted branch only; `BEAM_GRID`,
-//! `BEAM_LEVELS`: another hierarchy), checks the beams' list (no beam listed twice), then splats
+//! `BEAM_LEVELS`: another hierarchy; `BEAM_CUTOFF`: the energy cutoff), checks the beams' list (no beam listed twice), then splats
 //! every beam on the CPU (`reference::beam_splat`: LINES² lines of constant barycentrics per
 //! beam, STEPS stratified points each). Prints the energies of the GPU image, the splat and the
 //! reference (caustic-only; a black floor keeps the surface caustic out), by branch, layer and
@@ -41,6 +41,7 @@ fn main() {
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<u32>().ok());
     s.beams.grid = env("BEAM_GRID").unwrap_or(s.beams.grid);
     s.beams.levels = env("BEAM_LEVELS").unwrap_or(s.beams.levels);
+    s.beams.cutoff = std::env::var("BEAM_CUTOFF").ok().and_then(|v| v.parse().ok()).unwrap_or(0.0);
     let t = std::time::Instant::now();
     let gpu = caustics::render::render(&ctx, &scene, &s).unwrap();
     println!("GPU: {:.1} s", t.elapsed().as_secs_f64());

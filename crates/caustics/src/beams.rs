@@ -28,8 +28,8 @@
 
 use crate::error::{Error, Result};
 use crate::gpu::types::{
-    BEAM_FLAG_CHAINS, BEAM_FLAG_FRAGMENTS, BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BEAM_HULL_PARTS, BEAM_KINDS,
-    BEAM_ORDER_RUN, BEAM_PARTS, BeamGpu, BeamHull, BeamLevel, BeamParams, BeamPart, BeamTri,
+    BEAM_FLAG_CHAINS, BEAM_FLAG_FRAGMENTS, BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BEAM_FLAG_SURFACE, BEAM_HULL_PARTS,
+    BEAM_KINDS, BEAM_ORDER_RUN, BEAM_PARTS, BeamGpu, BeamHull, BeamLevel, BeamParams, BeamPart, BeamTri,
 };
 use crate::gpu::{GpuContext, PassTimer, bind};
 use crate::image_io::Image;
@@ -167,8 +167,27 @@ fn params(scene: &Scene, clip_to_world: Mat4, b: &BeamSettings, max_depth: u32, 
         pixel_samples: b.pixel_samples,
         linearity: b.linearity_threshold,
         residual: if b.reflection { b.residual } else { 0.0 },
-        _pad: [0; 2],
+        cut: m.map_or(0.0, |m| cut_factor(m, b.cutoff)),
+        _pad: 0,
     }
+}
+
+/// The energy cutoff's factor (`BeamParams::cut`, `cut_tail` in shaders/shared/beam_trace.wgsl),
+/// in m/W: the largest scattering coefficient the medium has (σs's largest channel, times the
+/// density grid's largest value where it has one) times the phase function's largest value,
+/// over the cutoff radiance; 0 without a cutoff.
+fn cut_factor(m: &crate::scene::Medium, cutoff: f32) -> f32 {
+    if cutoff <= 0.0 {
+        return 0.0;
+    }
+    let g = match m.phase {
+        Phase::Isotropic => 0.0f32,
+        Phase::HenyeyGreenstein { g } => g.abs(),
+    };
+    // (Henyey-Greenstein's largest value, at 0° for g > 0: (1 + g) / (4π (1 - g)²))
+    let phase = (1.0 + g) / (4.0 * std::f32::consts::PI * (1.0 - g) * (1.0 - g));
+    let density = m.density.as_ref().map_or(1.0, |d| d.max);
+    m.sigma_s.max_element() * density * phase / cutoff
 }
 
 /// The beams of every spot and point light (`beam_refine`, `beam_order`; nothing is recorded or
@@ -210,6 +229,10 @@ pub(crate) fn record_beams(
         if count_fragments {
             bp.flags |= BEAM_FLAG_FRAGMENTS;
         }
+        if surface {
+            bp.flags |= BEAM_FLAG_SURFACE;
+        }
+
         let mut frame =
             record_light_beams(ctx, dc, &lf.light_buf, &bp, (footprint(b), chunk_scale(ctx, b)), enc, timer);
         if hulls {
@@ -867,6 +890,7 @@ pub(crate) fn read_frame(ctx: &GpuContext, f: &BeamFrame) -> Result<(BeamStats, 
         hull_fragments: w(21),
         hull_lit_fragments: w(23),
         residual: w(22),
+        cut: w(24),
     };
     let count = stats.beams as u64;
     if count == 0 {

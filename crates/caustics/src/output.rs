@@ -258,4 +258,7 @@ pub struct BeamStats {
     /// Beams kept on the residual branch ([`crate::settings::BeamSettings::residual`]),
     /// included in `kept_per_level`.
     pub residual: u32,
+    /// Beams the energy cutoff ([`crate::settings::BeamSettings::cutoff`]) shortened or, whose
+    /// light was below it all along, dropped (those are not in `kept_per_level`).
+    pub cut: u32,
 }

@@ -574,6 +574,16 @@ pub struct BeamSettings {
     /// triangle's beam is kept only where the path so drawn is not another branch's. Unbiased;
     /// deterministic (the draws are keyed by the triangle). 0 turns it off; below 1.
     pub residual: f32,
+    /// The paper's energy cutoff (section 4.3: a divergent beam is extruded only as far as its
+    /// light is not negligible), as a radiance in W/(m² sr): a beam that diverges beyond its
+    /// last focus ends where the light of the rest of it, seen along its length (the most a
+    /// camera ray through it can collect: σs · the phase function's largest value · flux ·
+    /// ∫ dl / A, bounded by the section's growth, transmittance left out), is this. The bound is
+    /// per beam: a pixel that sees many beams' tails loses up to this for each, and the light
+    /// of a faint glow made of many beams goes first (docs/benchmarks.md, "Beams: the energy
+    /// cutoff"). Beams whose ends light a surface ([`SurfaceCaustics::Beams`]) are not cut.
+    /// Shorter hulls cost fewer fragments. 0 (the default) draws every beam to its end.
+    pub cutoff: f32,
     /// The footprint integral of the volume caustic (`beam_gather`): where a beam's
     /// cross-section, seen from the camera, is narrower than this many pixels (near a focus, the
     /// caustic's singular lines), its light is integrated over each pixel's footprint in beam
@@ -608,6 +618,7 @@ impl Default for BeamSettings {
             surface_samples: 4,
             reflection: true,
             residual: 0.3,
+            cutoff: 0.0,
             footprint: 2.0,
             footprint_lines: 2,
             chunk_scale: 0,
@@ -641,6 +652,9 @@ impl BeamSettings {
                     b.slots_per_face()
                 ),
             ));
+        }
+        if !(b.cutoff >= 0.0 && b.cutoff.is_finite()) {
+            return Err(("beams.cutoff", format!("must be a radiance of at least 0 W/(m² sr) (got {})", b.cutoff)));
         }
         if !(b.residual >= 0.0 && b.residual < 1.0) {
             return Err(("beams.residual", format!("must be at least 0 and below 1 (got {})", b.residual)));

@@ -551,6 +551,13 @@ fn beam_controls(ui: &mut egui::Ui, session: &mut Session) {
             ui.add(egui::Slider::new(&mut b.linearity_threshold, 0.0..=1.0).text("linearity threshold")),
             ui.add(egui::Slider::new(&mut b.residual, 0.0..=0.9).text("residual branch p"))
                 .on_hover_text("the residual branch's probability of reflecting at each interface (0: off)"),
+            ui.add(
+                egui::Slider::new(&mut b.cutoff, 0.0..=10.0)
+                    .logarithmic(true)
+                    .smallest_positive(1e-4)
+                    .text("energy cutoff W/(m² sr)"),
+            )
+            .on_hover_text("diverging beams end where the rest of their light is below this radiance (0: off)"),
             ui.add(egui::Slider::new(&mut b.pixel_samples, 1..=4).text("rays per pixel side")),
             ui.add(egui::Slider::new(&mut b.surface_samples, 1..=8).text("surface points per pixel side")),
         ];

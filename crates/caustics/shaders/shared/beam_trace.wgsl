@@ -341,17 +341,72 @@ fn make_beam(e0_in: Edge, e1_in: Edge, e2_in: Edge, omega: f32, level: u32) -> B
     let y1 = e1.t_end * dot(nrm, e1.d);
     let y2 = e2.t_end * dot(nrm, e2.d);
     let ym = max(max(y0, y1), y2);
-    let p = array<vec3f, 6>(e0.o, e1.o, e2.o,
-        e0.o + e0.d * (ym / dot(nrm, e0.d)), e1.o + e1.d * (ym / dot(nrm, e1.d)), e2.o + e2.d * (ym / dot(nrm, e2.d)));
+    b.bound = beam_bound(array<vec3f, 3>(e0.o, e1.o, e2.o), array<vec3f, 3>(e0.d, e1.d, e2.d), nrm, ym);
+    // (consistent edges: all three land on the same object)
+    b.info = vec4u(e0.land, 0u, bitcast<u32>(clip.y), bitcast<u32>(clip.z));
+    return b;
+}
+
+// A bounding sphere (centre, radius) of the beam with base vertices v, unit edges d and base
+// normal nrm up to height ym: the six corners' (the beam between its base and that height lies
+// in their convex hull).
+fn beam_bound(v: array<vec3f, 3>, d: array<vec3f, 3>, nrm: vec3f, ym: f32) -> vec4f {
+    var p: array<vec3f, 6>;
+    for (var k = 0u; k < 3u; k++) {
+        p[k] = v[k];
+        p[k + 3u] = v[k] + d[k] * (ym / dot(nrm, d[k]));
+    }
     var lo = p[0];
     var hi = p[0];
     for (var k = 1; k < 6; k++) { lo = min(lo, p[k]); hi = max(hi, p[k]); }
     let c = 0.5 * (lo + hi);
     var r = 0.0;
     for (var k = 0; k < 6; k++) { r = max(r, length(p[k] - c)); }
-    b.bound = vec4f(c, r * 1.0001 + 1e-6);
-    // (consistent edges: all three land on the same object)
-    b.info = vec4u(e0.land, 0u, bitcast<u32>(clip.y), bitcast<u32>(clip.z));
+    return vec4f(c, r * 1.0001 + 1e-6);
+}
+
+// The energy cutoff (BeamSettings::cutoff; the paper's section 4.3: a divergent beam is extruded
+// only as far as its contribution is not negligible). A camera ray collects at most
+// σs p flux ∫ dl / A along a beam (p the phase function's largest value; transmittance left
+// out, which only lowers it); dl = dy / cos, cos at least the edges' least cosine with the
+// base's normal; and beyond the section's last focus yf (its larger root; the vertex of the
+// quadratic where it has none) twice the area is at least |q.z| (y - yf)², so the light of the
+// part beyond height yc is at most σs p flux · 2 / (cos |q.z| (yc - yf)). The beam is cut at
+// the height yc where that is the cutoff radiance (bp.cut = σs p / the cutoff: yc = yf +
+// 2 flux bp.cut / (cos |q.z|)), when all three edges end beyond it (then the new end is the
+// section at yc and only light beyond it goes); where yc is at or below its base the whole
+// beam is below the cutoff: the returned beam has flux.w = -2 (dropped).
+// Sections that grow at most linearly (a prism, the thin beams) are never cut: their light does
+// not fall off along them. The bound is per beam: a pixel that sees the tails of many beams
+// loses up to the cutoff for each (docs/benchmarks.md, "Beams: the energy cutoff").
+fn cut_tail(b_in: BeamGpu) -> BeamGpu {
+    var b = b_in;
+    let v = array<vec3f, 3>(b.v0.xyz, b.v1.xyz, b.v2.xyz);
+    let d = array<vec3f, 3>(b.d0.xyz, b.d1.xyz, b.d2.xyz);
+    var nrm = cross(v[1] - v[0], v[2] - v[0]);
+    if (length(nrm) <= 0.0) { return b; }
+    nrm = normalize(nrm);
+    if (dot(nrm, d[0] + d[1] + d[2]) < 0.0) { nrm = -nrm; }
+    let cs = vec3f(dot(nrm, d[0]), dot(nrm, d[1]), dot(nrm, d[2]));
+    let cmin = min(min(cs.x, cs.y), cs.z);
+    if (cmin < 1e-3) { return b; }
+    let q = section_area(v, array<vec3f, 3>(d[0] / cs.x, d[1] / cs.y, d[2] / cs.z), nrm);
+    let kz = abs(q.z);
+    if (kz <= 0.0) { return b; }
+    let yv = -q.y / (2.0 * q.z);
+    let yf = yv + sqrt(max(q.y * q.y - 4.0 * q.z * q.x, 0.0)) / (2.0 * kz);
+    let flux = max(max(b.flux.x, b.flux.y), b.flux.z);
+    let yc = yf + 2.0 * flux * bp.cut / (cmin * kz);
+    let ends = vec3f(b.d0.w, b.d1.w, b.d2.w) * cs;
+    if (yc >= min(min(ends.x, ends.y), ends.z)) { return b; }
+    if (yc <= 0.0) {
+        b.flux.w = -2.0;
+        return b;
+    }
+    b.d0.w = yc / cs.x;
+    b.d1.w = yc / cs.y;
+    b.d2.w = yc / cs.z;
+    b.bound = beam_bound(v, d, nrm, yc);
     return b;
 }
 
@@ -419,9 +474,15 @@ fn part_applies(es: array<Edge, 3>, c: u32) -> bool {
 // nothing (info.x INVALID: beam_surface lights no point with it).
 fn emit(b: BeamGpu, slot: u32, br: u32, layer: u32, part: u32) {
     if (b.flux.w < 0.0) { atomicAdd(&stats[1u + BS_GRAZING], 1u); return; }
+    var out = b;
+    // The energy cutoff (`cut_tail`), but for beams whose ends light the surface they land on.
+    if (bp.cut > 0.0 && (layer > 0u || b.info.x == INVALID || (bp.flags & BEAM_FLAG_SURFACE) == 0u)) {
+        out = cut_tail(b);
+        if (out.d0.w != b.d0.w || out.flux.w < 0.0) { atomicAdd(&stats[1u + BS_CUT], 1u); }
+        if (out.flux.w < 0.0) { return; }
+    }
     let i = atomicAdd(&stats[0], 1u);
     if (i >= bp.capacity) { atomicAdd(&stats[1u + BS_OVERFLOW], 1u); return; }
-    var out = b;
     out.info.y = br | (layer << 4u) | (part << 8u);
     if (layer > 0u) {
         out.info.x = INVALID;

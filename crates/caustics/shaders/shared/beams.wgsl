@@ -43,7 +43,10 @@ struct BeamParams {
     // The residual branch's least probability of reflecting at a dielectric interface (it
     // reflects with max(F, residual): BeamSettings::residual; 0: no residual branch).
     residual: f32,
-    _pad1: u32,
+    // The energy cutoff (BeamSettings::cutoff): σs · the phase function's largest value / the
+    // cutoff radiance (m/W); a diverging beam's tail is dropped where its light, seen along
+    // it, is at most the cutoff (beam_trace's `cut_tail`); 0: off.
+    cut: f32,
     _pad2: u32,
     // The inverse of clip_to_world (beam_surface: a beam's end in the image).
     world_to_clip: mat4x4f,
@@ -157,7 +160,8 @@ struct BeamGpu {
 // (only an orphans-only part's samples find their light),
 // 18 beams in the ordered list, 19 beams discarded for grazing bases, 20 beams kept on layer 1
 // (between two specular objects), 21 fragments beam_raster shaded, 22 beams kept on the
-// residual branch, 23 fragments that added light (the hulls' fill that was needed).
+// residual branch, 23 fragments that added light (the hulls' fill that was needed), 24 beams
+// whose diverging tail the energy cutoff dropped.
 const BS_KEPT: u32 = 0u;
 const BS_VISITED: u32 = 8u;
 const BS_OVERFLOW: u32 = 16u;
@@ -168,6 +172,7 @@ const BS_LAYER1: u32 = 20u;
 const BS_FRAGMENTS: u32 = 21u;
 const BS_RESIDUAL: u32 = 22u;
 const BS_LIT: u32 = 23u;
+const BS_CUT: u32 = 24u;
 const BS_WORDS: u32 = 32u;
 
 // Twice the signed area of a beam's section at height y over its base, S(y) = q.x + y q.y +

@@ -113,11 +113,13 @@ const LIGHT_DIRECTIONAL: u32 = 2u;
 const SPILL_FACE_PRESENT: u32 = 1u;
 // BeamParams.flags (src/gpu/types.rs): trace the reflected branches; the medium has a density
 // grid; light can cross the medium from one specular object to another; count the hull draws'
-// fragments (one-shot renders).
+// fragments (one-shot renders); the beams' ends light surfaces (the energy cutoff leaves the
+// beams landing on an object whole).
 const BEAM_FLAG_REFLECTION: u32 = 1u;
 const BEAM_FLAG_GRID: u32 = 2u;
 const BEAM_FLAG_CHAINS: u32 = 4u;
 const BEAM_FLAG_FRAGMENTS: u32 = 8u;
+const BEAM_FLAG_SURFACE: u32 = 16u;
 const INVALID: u32 = 0xffffffffu;
 const PI: f32 = 3.14159265358979;
 

@@ -266,7 +266,11 @@ pub struct BeamParams {
     /// The residual branch's least probability of reflecting at a dielectric interface (it
     /// reflects with max(F, residual): `BeamSettings::residual`; 0: no residual branch).
     pub residual: f32,
-    pub _pad: [u32; 2],
+    /// The energy cutoff (`BeamSettings::cutoff`) as σs (its largest channel, times the density
+    /// grid's largest value) · the phase function's largest value / the cutoff, in m/W
+    /// (`beams::cut_factor`); 0: off.
+    pub cut: f32,
+    pub _pad: u32,
     /// Inverse of `clip_to_world`: where `beam_surface` finds a beam's end in the image.
     pub world_to_clip: [[f32; 4]; 4],
 }
@@ -556,6 +560,9 @@ pub const BEAM_FLAG_CHAINS: u32 = 4;
 /// `hull_lit_fragments`): one-shot renders only, whose statistics are read (a global atomic
 /// per fragment is not for the frame loop).
 pub const BEAM_FLAG_FRAGMENTS: u32 = 8;
+/// `BeamParams::flags`: the beams' ends light surfaces (`SurfaceCaustics::Beams`): the energy
+/// cutoff leaves the beams that land on an object whole.
+pub const BEAM_FLAG_SURFACE: u32 = 16;
 /// Beam branches (beam_trace.wgsl `trace_edge`): transmitted; reflected at the first, second,
 /// third or fourth interaction (the first dielectric's surface and inside it, the second's); the
 /// residual branch ([`BEAM_RESIDUAL`]).
@@ -597,6 +604,7 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("BEAM_FLAG_GRID", BEAM_FLAG_GRID),
     ("BEAM_FLAG_CHAINS", BEAM_FLAG_CHAINS),
     ("BEAM_FLAG_FRAGMENTS", BEAM_FLAG_FRAGMENTS),
+    ("BEAM_FLAG_SURFACE", BEAM_FLAG_SURFACE),
     ("BEAM_BRANCHES", BEAM_BRANCHES),
     ("BEAM_RESIDUAL", BEAM_RESIDUAL),
     ("BEAM_LAYERS", BEAM_LAYERS),
