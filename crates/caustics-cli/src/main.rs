@@ -40,15 +40,40 @@ enum Backend {
     Cpu,
 }
 
+/// `--technique`: one of the library's photon techniques, or `beams` (adaptive beam tracing for
+/// the caustics of spot and point lights on surfaces as in the medium, no photon maps: the same
+/// as `--surface-caustics beams` with the basic technique for the lights beams do not cover).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct TechniqueChoice {
+    pub technique: caustics::render::Technique,
+    pub beams: bool,
+}
+
+impl TechniqueChoice {
+    /// The settings' technique and where the surface caustic comes from (`beams` overrides
+    /// `surface`).
+    pub fn apply(
+        self,
+        surface: caustics::render::SurfaceCaustics,
+    ) -> (caustics::render::Technique, caustics::render::SurfaceCaustics) {
+        (self.technique, if self.beams { caustics::render::SurfaceCaustics::Beams } else { surface })
+    }
+}
+
 /// `--technique`: the library's techniques, by name, with their help (a new technique needs
-/// no edit here).
-pub(crate) fn technique_parser() -> impl clap::builder::TypedValueParser<Value = caustics::render::Technique> {
+/// no edit here), and `beams`.
+pub(crate) fn technique_parser() -> impl clap::builder::TypedValueParser<Value = TechniqueChoice> {
     use caustics::render::Technique as T;
     use clap::builder::TypedValueParser;
-    clap::builder::PossibleValuesParser::new(
-        T::ALL.map(|t| clap::builder::PossibleValue::new(t.name()).help(t.describe())),
-    )
-    .map(|s| T::parse(&s).expect("a listed technique"))
+    let mut values: Vec<clap::builder::PossibleValue> =
+        T::ALL.iter().map(|t| clap::builder::PossibleValue::new(t.name()).help(t.describe())).collect();
+    values.push(clap::builder::PossibleValue::new("beams").help(
+        "Adaptive beam tracing (Liktor & Dachsbacher 2011): the caustics of spot and point lights on surfaces and in the medium from beams, no photon maps (the same as --surface-caustics beams; directional lights: basic)",
+    ));
+    clap::builder::PossibleValuesParser::new(values).map(|s| match T::parse(&s) {
+        Some(technique) => TechniqueChoice { technique, beams: false },
+        None => TechniqueChoice { technique: T::Basic, beams: true },
+    })
 }
 
 /// `--tracer`: the library's photon tracers, by name, with their help.
@@ -116,7 +141,7 @@ enum Command {
         #[arg(long, value_parser = parse_size)]
         size: Option<(u32, u32)>,
         #[arg(long, default_value = "basic", value_parser = technique_parser())]
-        technique: caustics::render::Technique,
+        technique: TechniqueChoice,
         /// How photons are splatted into the caustic map.
         #[arg(long, default_value = "triangles", value_parser = splat_parser())]
         splat: caustics::render::SplatMode,
@@ -527,7 +552,9 @@ fn run(cli: Cli) -> Result<()> {
             sphere_args,
         } => {
             check_output(&output)?;
-            // `--caustic-spheres` is `--technique caustic-spheres`.
+            // `--technique beams` is `--surface-caustics beams`; `--caustic-spheres` is
+            // `--technique caustic-spheres`.
+            let (technique, surface_caustics) = technique.apply(surface_caustics);
             let technique = if caustic_spheres { caustics::render::Technique::CausticSpheres } else { technique };
             let caustic_spheres = technique == caustics::render::Technique::CausticSpheres;
             if let Some(c) = &caustic_output {

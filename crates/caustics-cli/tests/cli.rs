@@ -261,3 +261,32 @@ fn caustic_spheres_technique_and_its_alias_render_the_same_image() {
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), "the alias renders other bits");
     let _ = std::fs::remove_dir_all(&cache);
 }
+
+/// `--technique beams` (the name for adaptive beam tracing) renders what
+/// `--surface-caustics beams` does: the caustics of spot and point lights from beams on surfaces
+/// and in the fog, no photon maps; the same bytes. Skips without a GPU adapter, except in CI.
+#[test]
+fn technique_beams_is_surface_caustics_from_beams() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/volume_caustic_fog.json");
+    let render = |name: &str, extra: &[&str]| -> Option<(Vec<u8>, String)> {
+        let out = tmp(name);
+        let mut args = vec!["render", scene, "--size", "24x18", "--beam-grid", "8", "--beam-levels", "1"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-o", out.to_str().unwrap()]);
+        let o = caustics().args(&args).output().unwrap();
+        let stdout = String::from_utf8_lossy(&o.stdout).to_string();
+        if !o.status.success() {
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "no GPU render in CI: {err}");
+            eprintln!("skipping: no GPU render ({err})");
+            return None;
+        }
+        Some((std::fs::read(&out).unwrap(), stdout))
+    };
+    let Some((a, out_a)) = render("technique_beams.exr", &["--technique", "beams"]) else { return };
+    let (b, _) = render("surface_beams.exr", &["--surface-caustics", "beams"]).unwrap();
+    assert!(a == b, "--technique beams and --surface-caustics beams differ");
+    assert!(out_a.contains("0 photons splatted"), "{out_a}");
+    let (c, _) = render("photons.exr", &[]).unwrap();
+    assert!(a != c, "the photon maps' surface caustic is the same as the beams'");
+}

@@ -34,7 +34,7 @@ pub struct ViewArgs {
     #[arg(long, default_value_t = 512)]
     pub photons: u32,
     #[arg(long, default_value = "basic", value_parser = crate::technique_parser())]
-    pub technique: caustics::render::Technique,
+    pub technique: crate::TechniqueChoice,
     #[arg(long, default_value = "triangles", value_parser = crate::splat_parser())]
     pub splat: caustics::render::SplatMode,
     /// Initial window size WxH (logical pixels).
@@ -85,9 +85,11 @@ pub fn prepare(args: ViewArgs) -> Result<Start, Error> {
             format!("{} is not a folder", args.screenshot_dir.display()),
         ));
     }
+    let (technique, surface_caustics) = args.technique.apply(caustics::render::SurfaceCaustics::Photons);
     let settings = RenderSettings {
         photons: args.photons,
-        technique: args.technique,
+        technique,
+        surface_caustics,
         splat: args.splat,
         caustic_map_size: args.caustic_map.unwrap_or(1024),
         ..Default::default()
