@@ -11,7 +11,9 @@
 //! part, and writes OUT_DIR/{gpu,splat}.exr. With `PATHS=N` (and `t`) also the transmitted
 //! branch's light paths (N² directions of the first light, a spot) splatted the same way, by
 //! segment (OUT_DIR/paths.exr); `NO_END_OUT=1` ends the beams leaving the scene at the medium's
-//! box instead of the plane through their edges' ends.
+//! box instead of the plane through their edges' ends. `SUBSETS=1` splats the thin beams (prisms:
+//! degenerate parts and orphans' beams; by part, branch, layer, leaving the scene or not), the
+//! narrow ones and the rest apart (OUT_DIR/sub_*.exr).
 use caustics::beams::Beam;
 use caustics::image_io::Image;
 use caustics::scene::Scene;
@@ -102,6 +104,37 @@ fn main() {
         eg / es,
         hdr_flip(&g_img, &splat, None).unwrap().mean
     );
+    if std::env::var_os("SUBSETS").is_some() {
+        let thin = |b: &Beam| (b.dirs[0] - b.dirs[1]).length() < 1e-6 && (b.dirs[0] - b.dirs[2]).length() < 1e-6;
+        // (a section below a square millimetre at both ends)
+        let narrow = |b: &Beam| {
+            let y = b.ends[0] * b.normal().dot(b.dirs[0]);
+            !thin(b) && b.area(y).max(b.area(0.0)) < 1e-6
+        };
+        let mut by = std::collections::BTreeMap::new();
+        for b in beams.iter().filter(|b| thin(b)) {
+            let e = by.entry((b.part, b.branch, b.layer, b.land == u32::MAX)).or_insert((0, 0.0f32));
+            e.0 += 1;
+            e.1 += b.flux.x;
+        }
+        for (k, v) in &by {
+            println!("thin (part, branch, layer, leaving) {k:?}: {} beams, {:.4} W", v.0, v.1);
+        }
+        for (name, f) in [
+            ("thin", &thin as &dyn Fn(&Beam) -> bool),
+            ("narrow", &|b: &Beam| narrow(b)),
+            ("rest_leaving", &|b: &Beam| !thin(b) && !narrow(b) && b.land == u32::MAX && b.layer == 0),
+            ("rest_landing", &|b: &Beam| !thin(b) && !narrow(b) && (b.land != u32::MAX || b.layer == 1)),
+        ] {
+            let n = beams.iter().filter(|b| f(b)).count();
+            let img = to_image(&splat_of(f));
+            println!(
+                "subset {name}: {n} beams, energy {:.4} of all",
+                energy(&img, None) / energy(&to_image(&all), None)
+            );
+            img.write(&out.join(format!("sub_{name}.exr")), 1.0).unwrap();
+        }
+    }
     let on_object = sum(&splat_of(&|b| b.layer == 0 && b.land != u32::MAX));
     let leaving = sum(&splat_of(&|b| b.layer == 0 && b.land == u32::MAX));
     let layer1 = sum(&splat_of(&|b| b.layer == 1));
