@@ -337,8 +337,9 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
                 // on a mesh caster: light that crosses it more often inside the triangle than at
                 // its corners), the triangle's orphans' beam alone (PART_ORPHANS; on the glass
                 // dragon 10 to 25 % of the light of the branches reflected at the third and
-                // fourth interactions and of the residual branch was lost without it). Layer 0
-                // only: the light between two specular objects of such triangles is not drawn.
+                // fourth interactions and of the residual branch was lost without it). On both
+                // layers: on layer 1 (light crossing the fog between two parts of the dragon) the
+                // transmitted beams carried 0.88 of the light without it.
                 let es3 = array<Edge, 3>(r0, r1, r2);
                 var part = 0u;
                 for (var c = 0u; c < 6u; c++) {
@@ -347,12 +348,12 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
                         part++;
                     }
                 }
-                let orphans_only = part == 0u && layer == 0u && paths_differ(r0, r1, r2);
-                if (orphans_only && br == 0u) {
+                let orphans_only = part == 0u && paths_differ(r0, r1, r2);
+                if (orphans_only && br == 0u && layer == 0u) {
                     atomicAdd(&stats[1u + BS_INCONSISTENT], 1u);
                 }
                 if (orphans_only) {
-                    queue_part(BeamPart(tri.a, tri.b, tri.c, tri.face, slot, level, br | (PART_ORPHANS << 8u)));
+                    queue_part(BeamPart(tri.a, tri.b, tri.c, tri.face, slot, level, br | (layer << 4u) | (PART_ORPHANS << 8u)));
                 }
             }
         }
