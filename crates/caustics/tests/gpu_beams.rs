@@ -2363,6 +2363,9 @@ fn a_mesh_casters_silhouette_triangles_all_get_their_parts() {
     // Parts of the same triangle exist (the dragon's corners take different paths everywhere).
     assert!(list.iter().filter(|b| b.part > 0).count() > 1000);
     assert_eq!(stats.overflow, 0);
+    // Every kept beam has its own place in the hierarchy (none overwrote another's): all are
+    // listed.
+    assert_eq!(stats.kept_per_level.iter().sum::<u32>(), stats.beams, "kept beams missing from the list");
     // The transmitted branch's last segments against the CPU's (2.53 W; 0.1 % at 400²), and of
     // it the light on the floor (object 1): light on a path none of a triangle's corners takes
     // goes to a beam that lands where it does (beam_shrink's orphans). Shared equally among the
