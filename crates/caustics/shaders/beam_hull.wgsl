@@ -167,7 +167,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
 // two end sections holds the whole waist region (a camera near a focus sits inside the hulls
 // of every beam through it).
 fn focus_cuts(v: array<vec3f, 3>, d: array<vec3f, 3>, cs: vec3f, nrm: vec3f, cut: ptr<function, array<f32, 4>>) -> u32 {
-    // (as beam_space in shared/beam_scatter.wgsl: the same bits)
+    // (as beam_space in shared/beams.wgsl: the same bits)
     let s = array<vec3f, 3>(d[0] / cs.x, d[1] / cs.y, d[2] / cs.z);
     let lo = (*cut)[0];
     let hi = (*cut)[1];

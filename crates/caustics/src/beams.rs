@@ -232,7 +232,6 @@ pub(crate) fn record_beams(
         if surface {
             bp.flags |= BEAM_FLAG_SURFACE;
         }
-
         let mut frame =
             record_light_beams(ctx, dc, &lf.light_buf, &bp, (footprint(b), chunk_scale(ctx, b)), enc, timer);
         if hulls {

@@ -381,24 +381,18 @@ fn beam_bound(v: array<vec3f, 3>, d: array<vec3f, 3>, nrm: vec3f, ym: f32) -> ve
 // loses up to the cutoff for each (docs/benchmarks.md, "Beams: the energy cutoff").
 fn cut_tail(b_in: BeamGpu) -> BeamGpu {
     var b = b_in;
-    let v = array<vec3f, 3>(b.v0.xyz, b.v1.xyz, b.v2.xyz);
-    let d = array<vec3f, 3>(b.d0.xyz, b.d1.xyz, b.d2.xyz);
-    var nrm = cross(v[1] - v[0], v[2] - v[0]);
-    if (length(nrm) <= 0.0) { return b; }
-    nrm = normalize(nrm);
-    if (dot(nrm, d[0] + d[1] + d[2]) < 0.0) { nrm = -nrm; }
-    let cs = vec3f(dot(nrm, d[0]), dot(nrm, d[1]), dot(nrm, d[2]));
+    // (make_beam keeps no beam with a degenerate base or an edge within 1e-3 of it)
+    let bs = beam_space(b);
+    let cs = vec3f(dot(bs.nrm, bs.dir[0]), dot(bs.nrm, bs.dir[1]), dot(bs.nrm, bs.dir[2]));
     let cmin = min(min(cs.x, cs.y), cs.z);
-    if (cmin < 1e-3) { return b; }
-    let q = section_area(v, array<vec3f, 3>(d[0] / cs.x, d[1] / cs.y, d[2] / cs.z), nrm);
+    let q = bs.kq;
     let kz = abs(q.z);
     if (kz <= 0.0) { return b; }
     let yv = -q.y / (2.0 * q.z);
     let yf = yv + sqrt(max(q.y * q.y - 4.0 * q.z * q.x, 0.0)) / (2.0 * kz);
     let flux = max(max(b.flux.x, b.flux.y), b.flux.z);
     let yc = yf + 2.0 * flux * bp.cut / (cmin * kz);
-    let ends = vec3f(b.d0.w, b.d1.w, b.d2.w) * cs;
-    if (yc >= min(min(ends.x, ends.y), ends.z)) { return b; }
+    if (yc >= min(min(bs.yend.x, bs.yend.y), bs.yend.z)) { return b; }
     if (yc <= 0.0) {
         b.flux.w = -2.0;
         return b;
@@ -406,7 +400,7 @@ fn cut_tail(b_in: BeamGpu) -> BeamGpu {
     b.d0.w = yc / cs.x;
     b.d1.w = yc / cs.y;
     b.d2.w = yc / cs.z;
-    b.bound = beam_bound(v, d, nrm, yc);
+    b.bound = beam_bound(bs.v, bs.dir, bs.nrm, yc);
     return b;
 }
 

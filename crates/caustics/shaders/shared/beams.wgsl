@@ -226,6 +226,45 @@ fn beam_clip(b: BeamGpu, v: array<vec3f, 3>, s: array<vec3f, 3>, nrm: vec3f) -> 
     return vec4f(nrm, dot(nrm, v[0]));
 }
 
+// A beam in beam space: base vertices v, unit edge directions dir, the base's normal (along the
+// edges), the edges scaled to unit height s_i = d_i / (n . d_i), and the heights of the edges'
+// ends.
+struct BeamSpace {
+    v: array<vec3f, 3>,
+    dir: array<vec3f, 3>,
+    s: array<vec3f, 3>,
+    nrm: vec3f,
+    yend: vec3f,
+    // The clip plane: points x with dot(cn, x) < cd are not in the beam (`beam_clip`).
+    cn: vec3f,
+    cd: f32,
+    // Twice the signed section area as a quadratic in the height (section_area), and the
+    // heights where it is zero (beam_foci).
+    kq: vec3f,
+    foci: vec2f,
+}
+
+fn beam_space(b: BeamGpu) -> BeamSpace {
+    var r: BeamSpace;
+    r.v = array<vec3f, 3>(b.v0.xyz, b.v1.xyz, b.v2.xyz);
+    r.dir = array<vec3f, 3>(b.d0.xyz, b.d1.xyz, b.d2.xyz);
+    var nrm = normalize(cross(r.v[1] - r.v[0], r.v[2] - r.v[0]));
+    if (dot(nrm, r.dir[0] + r.dir[1] + r.dir[2]) < 0.0) { nrm = -nrm; }
+    r.nrm = nrm;
+    for (var i = 0; i < 3; i++) {
+        let c = dot(nrm, r.dir[i]);
+        r.s[i] = r.dir[i] / c;
+        r.yend[i] = select(b.d0.w, select(b.d1.w, b.d2.w, i == 2), i >= 1) * c;
+    }
+    let cp = beam_clip(b, r.v, r.s, nrm);
+    r.cn = cp.xyz;
+    r.cd = cp.w;
+    r.kq = section_area(r.v, r.s, nrm);
+    // (beam_hull's heights: the same bits)
+    r.foci = beam_foci(r.kq, max(max(r.yend.x, r.yend.y), r.yend.z) * (1.0 + 1e-4));
+    return r;
+}
+
 fn bm_phase(cos_t: f32, g: f32) -> f32 {
     if (g == 0.0) { return 0.25 / PI; }
     let den = max(1.0 + g * g - 2.0 * g * cos_t, 1e-12);
