@@ -743,8 +743,16 @@ fn report_gpu(out: &GpuRender, wall_ms: f64) {
     println!("photons: {} traced in {} batch(es)", out.photons_traced, out.batches);
     for (li, (b, _)) in out.beams.iter().enumerate() {
         println!(
-            "beams (light {li}): {} rendered ({} on the residual branch); kept per level {:?}, traced per level {:?}; {} lost at the last level (no corner on a caustic path), {} grazing, {} over capacity, {} cut by the energy cutoff",
-            b.beams, b.residual, b.kept_per_level, b.visited_per_level, b.inconsistent, b.grazing, b.overflow, b.cut
+            "beams (light {li}): {} rendered ({} on the residual branch); kept per level {:?}, traced per level {:?}; {} lost at the last level (no corner on a caustic path), {} grazing, {} over capacity, {} cut by the energy cutoff, {} dropped without light",
+            b.beams,
+            b.residual,
+            b.kept_per_level,
+            b.visited_per_level,
+            b.inconsistent,
+            b.grazing,
+            b.overflow,
+            b.cut,
+            b.dark
         );
     }
     println!(

@@ -8,9 +8,9 @@
 //! every beam on the CPU (`reference::beam_splat`: LINES² lines of constant barycentrics per
 //! beam, STEPS stratified points each). Prints the energies of the GPU image, the splat and the
 //! reference (caustic-only; a black floor keeps the surface caustic out), by branch, layer and
-//! part, and writes OUT_DIR/{gpu,splat}.exr. With `PATHS=N` (and `t`) also the transmitted
+//! part, and writes OUT_DIR/{gpu,splat,beams_layer1}.exr. With `PATHS=N` (and `t`) also the transmitted
 //! branch's light paths (N² directions of the first light, a spot) splatted the same way, by
-//! segment (OUT_DIR/paths.exr); `NO_END_OUT=1` ends the beams leaving the scene at the medium's
+//! segment (OUT_DIR/paths.exr, the segments before the last in OUT_DIR/paths_layer1.exr); `NO_END_OUT=1` ends the beams leaving the scene at the medium's
 //! box instead of the plane through their edges' ends. `SUBSETS=1` splats the thin beams (prisms:
 //! degenerate parts and orphans' beams; by part, branch, layer, leaving the scene or not), the
 //! narrow ones and the rest apart (OUT_DIR/sub_*.exr).
@@ -56,8 +56,12 @@ fn main() {
     keys.sort_unstable();
     let repeated = keys.windows(2).filter(|w| w[0] == w[1]).count();
     if repeated > 0 && std::env::var_os("SHOW_REPEATS").is_some() {
+        let mut count = std::collections::HashMap::new();
+        for b in &beams {
+            *count.entry(key(b)).or_insert(0) += 1;
+        }
         for (i, b) in beams.iter().enumerate() {
-            if beams.iter().filter(|c| key(c) == key(b)).count() > 1 {
+            if count[&key(b)] > 1 {
                 println!(
                     "  repeated at {i}: level {} branch {} layer {} part {} flux {:.6} land {} ends {:?} clip {:?}",
                     b.level, b.branch, b.layer, b.part, b.flux.x, b.land, b.ends, b.clip
@@ -137,7 +141,9 @@ fn main() {
     }
     let on_object = sum(&splat_of(&|b| b.layer == 0 && b.land != u32::MAX));
     let leaving = sum(&splat_of(&|b| b.layer == 0 && b.land == u32::MAX));
-    let layer1 = sum(&splat_of(&|b| b.layer == 1));
+    let layer1_px = splat_of(&|b| b.layer == 1);
+    let layer1 = sum(&layer1_px);
+    to_image(&layer1_px).write(&out.join("beams_layer1.exr"), 1.0).unwrap();
     for branch in 0..6 {
         for layer in 0..2 {
             for parts in [false, true] {
@@ -243,6 +249,7 @@ fn main() {
             println!("  {name}: paths {p:.4e}, beams {b:.4e} ({:.4})", b / p);
         }
         paths.write(&out.join("paths.exr"), 1.0).unwrap();
+        to_image(&img[n..2 * n]).write(&out.join("paths_layer1.exr"), 1.0).unwrap();
     }
     g_img.write(&out.join("gpu.exr"), 1.0).unwrap();
     splat.write(&out.join("splat.exr"), 1.0).unwrap();

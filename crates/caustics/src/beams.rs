@@ -890,6 +890,7 @@ pub(crate) fn read_frame(ctx: &GpuContext, f: &BeamFrame) -> Result<(BeamStats, 
         hull_lit_fragments: w(23),
         residual: w(22),
         cut: w(24),
+        dark: w(25),
     };
     let count = stats.beams as u64;
     if count == 0 {

@@ -261,4 +261,7 @@ pub struct BeamStats {
     /// Beams the energy cutoff ([`crate::settings::BeamSettings::cutoff`]) shortened or, whose
     /// light was below it all along, dropped (those are not in `kept_per_level`).
     pub cut: u32,
+    /// Beams dropped because they carry no light (a part or orphans' beam of a last-level
+    /// triangle whose samples leave it none; not in `kept_per_level`).
+    pub dark: u32,
 }

@@ -2366,6 +2366,10 @@ fn a_mesh_casters_silhouette_triangles_all_get_their_parts() {
     // Every kept beam has its own place in the hierarchy (none overwrote another's): all are
     // listed.
     assert_eq!(stats.kept_per_level.iter().sum::<u32>(), stats.beams, "kept beams missing from the list");
+    // Parts and orphans' beams whose samples leave them no light are dropped, not drawn (on
+    // the 96² dragon 3128 of 83812 beams were).
+    assert!(stats.dark > 0, "the dragon's parts all carry light?");
+    assert!(list.iter().all(|b| b.flux.max_element() > 0.0), "a beam without light is listed");
     // The transmitted branch's last segments against the CPU's (2.53 W; 0.1 % at 400²), and of
     // it the light on the floor (object 1): light on a path none of a triangle's corners takes
     // goes to a beam that lands where it does (beam_shrink's orphans). Shared equally among the

@@ -468,6 +468,9 @@ fn part_applies(es: array<Edge, 3>, c: u32) -> bool {
 // nothing (info.x INVALID: beam_surface lights no point with it).
 fn emit(b: BeamGpu, slot: u32, br: u32, layer: u32, part: u32) {
     if (b.flux.w < 0.0) { atomicAdd(&stats[1u + BS_GRAZING], 1u); return; }
+    // (a part or orphans' beam whose samples' corrections left it no light: 3.7 % of the glass
+    // dragon's beams, hull fill for nothing)
+    if (all(b.flux.xyz <= vec3f(0.0))) { atomicAdd(&stats[1u + BS_DARK], 1u); return; }
     var out = b;
     // The energy cutoff (`cut_tail`), but for beams whose ends light the surface they land on.
     if (bp.cut > 0.0 && (layer > 0u || b.info.x == INVALID || (bp.flags & BEAM_FLAG_SURFACE) == 0u)) {

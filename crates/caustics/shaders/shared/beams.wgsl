@@ -161,7 +161,7 @@ struct BeamGpu {
 // 18 beams in the ordered list, 19 beams discarded for grazing bases, 20 beams kept on layer 1
 // (between two specular objects), 21 fragments beam_raster shaded, 22 beams kept on the
 // residual branch, 23 fragments that added light (the hulls' fill that was needed), 24 beams
-// whose diverging tail the energy cutoff dropped.
+// whose diverging tail the energy cutoff dropped, 25 beams dropped for carrying no light.
 const BS_KEPT: u32 = 0u;
 const BS_VISITED: u32 = 8u;
 const BS_OVERFLOW: u32 = 16u;
@@ -173,6 +173,7 @@ const BS_FRAGMENTS: u32 = 21u;
 const BS_RESIDUAL: u32 = 22u;
 const BS_LIT: u32 = 23u;
 const BS_CUT: u32 = 24u;
+const BS_DARK: u32 = 25u;
 const BS_WORDS: u32 = 32u;
 
 // Twice the signed area of a beam's section at height y over its base, S(y) = q.x + y q.y +
