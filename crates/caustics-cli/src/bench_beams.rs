@@ -1,9 +1,10 @@
 //! The beams' part of `caustics bench` (scenes with a medium, or `--surface-caustics beams`):
 //! per run, the beams kept per refinement level, the fragments their hulls shaded
 //! (`--beam-volume hulls`) and the GPU milliseconds of each beam pass (`beam_refine` summed over
-//! its levels, `beam_order` with its `beam_order_runs`, `beam_gather` and `beam_surface` summed
-//! over their chunks,
-//! `beam_hull`, `beam_raster` and `beam_resolve`; timestamp queries, "-" where the adapter has
+//! its levels, `beam_shrink` (the parts of last-level triangles), `beam_order` with its
+//! `beam_order_runs`, `beam_gather` and `beam_surface` summed over their chunks,
+//! `beam_surface_raster` (the surface caustic's hulls), `beam_hull`, `beam_raster` and
+//! `beam_resolve`; timestamp queries, "-" where the adapter has
 //! none or the pass did not run). Its own module so that the photon tables of `bench.rs` stay
 //! as they are.
 
@@ -11,8 +12,17 @@ use caustics::output::GpuRender;
 use std::fmt::Write;
 
 /// The beam passes, in the order they run.
-const PASSES: [&str; 7] =
-    ["beam_refine", "beam_order", "beam_gather", "beam_surface", "beam_hull", "beam_raster", "beam_resolve"];
+const PASSES: [&str; 9] = [
+    "beam_refine",
+    "beam_shrink",
+    "beam_order",
+    "beam_gather",
+    "beam_surface",
+    "beam_surface_raster",
+    "beam_hull",
+    "beam_raster",
+    "beam_resolve",
+];
 
 /// GPU ms of a beam pass in a render (all its dispatches), if it was timed.
 fn pass_ms(out: &GpuRender, pass: &str) -> Option<f64> {
