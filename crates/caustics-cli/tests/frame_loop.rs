@@ -1,5 +1,6 @@
 //! `caustics bench --frames N`: the frame-loop benchmark at tiny sizes writes the four phases
-//! with numbers (GPU: skipped without an adapter, failed without one in CI).
+//! with numbers; `caustics bench` on a fog scene times every beam pass (GPU: skipped without an
+//! adapter, failed without one in CI).
 
 use std::process::Command;
 
@@ -47,4 +48,48 @@ fn frame_loop_bench_writes_four_phases() {
         }
     }
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// `caustics bench` on a scene with fog: the beam table has a column for every beam pass and,
+/// on an adapter with timestamp queries (lavapipe has them), a time for each pass that ran —
+/// `beam_shrink` included (it was left out of the table once).
+#[test]
+fn bench_times_every_beam_pass() {
+    let out = std::env::temp_dir().join(format!("caustics-beambench-{}", std::process::id()));
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/volume_caustic_fog.json");
+    let run = Command::new(env!("CARGO_BIN_EXE_caustics"))
+        .args(["bench", scene, "--technique", "basic", "--photons", "64", "--size", "24x16"])
+        .args(["--caustic-map", "64", "--beam-grid", "8", "--beam-levels", "1", "--surface-caustics", "beams"])
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    if !run.status.success() && stderr.contains("no Vulkan, Metal or DX12 adapter") {
+        if std::env::var("CI").is_ok_and(|v| v == "true") {
+            panic!("CI requires a GPU adapter (install mesa-vulkan-drivers): {stderr}");
+        }
+        eprintln!("skipping the beam bench test: {stderr}");
+        return;
+    }
+    assert!(run.status.success(), "{stderr}");
+    let md = std::fs::read_to_string(out.join("bench_volume_caustic_fog.md")).unwrap();
+    let lines: Vec<&str> = md.lines().skip_while(|l| !l.starts_with("## Volume caustics (beams)")).collect();
+    let head = lines.iter().find(|l| l.starts_with("| run |")).unwrap_or_else(|| panic!("no beam table:\n{md}"));
+    let row = lines.iter().find(|l| l.starts_with("| basic")).unwrap_or_else(|| panic!("no beam row:\n{md}"));
+    let cols: Vec<&str> = head.split('|').map(str::trim).collect();
+    let vals: Vec<&str> = row.split('|').map(str::trim).collect();
+    assert_eq!(cols.len(), vals.len(), "{head}\n{row}");
+    // (an adapter without timestamp queries: "-" everywhere)
+    let timed = vals[cols.iter().position(|c| *c == "beam_refine ms").unwrap()] != "-";
+    for pass in ["beam_refine", "beam_shrink", "beam_order", "beam_surface_raster", "beam_hull", "beam_raster"] {
+        let k =
+            cols.iter().position(|c| *c == format!("{pass} ms")).unwrap_or_else(|| panic!("no {pass} column: {head}"));
+        if timed {
+            let ms: f64 = vals[k].parse().unwrap_or_else(|_| panic!("{pass}: {:?} in {row}", vals[k]));
+            assert!(ms.is_finite() && ms >= 0.0, "{pass} {ms}");
+        }
+    }
+    let beams: u32 = vals[cols.iter().position(|c| *c == "beams").unwrap()].parse().unwrap();
+    assert!(beams > 0, "{row}");
+    std::fs::remove_dir_all(&out).ok();
 }
