@@ -2,25 +2,29 @@
 //! with numbers; `caustics bench` on a fog scene times every beam pass (GPU: skipped without an
 //! adapter, failed without one in CI).
 
-use std::process::Command;
+use std::process::{Command, Output};
 
-#[test]
-fn frame_loop_bench_writes_four_phases() {
-    let out = std::env::temp_dir().join(format!("caustics-frameloop-{}", std::process::id()));
-    let run = Command::new(env!("CARGO_BIN_EXE_caustics"))
-        .args(["bench", "--frames", "3", "--technique", "basic", "--photons", "64", "--size", "64x48"])
-        .args(["--caustic-map", "64", "--out", out.to_str().unwrap()])
-        .output()
-        .unwrap();
+/// Runs `caustics bench` with `args`; None (the test skips, printing why) where no GPU adapter
+/// exists outside CI; panics without one in CI and where the command fails.
+fn bench(what: &str, args: &[&str]) -> Option<Output> {
+    let run = Command::new(env!("CARGO_BIN_EXE_caustics")).arg("bench").args(args).output().unwrap();
     let stderr = String::from_utf8_lossy(&run.stderr);
     if !run.status.success() && stderr.contains("no Vulkan, Metal or DX12 adapter") {
         if std::env::var("CI").is_ok_and(|v| v == "true") {
             panic!("CI requires a GPU adapter (install mesa-vulkan-drivers): {stderr}");
         }
-        eprintln!("skipping the frame-loop bench test: {stderr}");
-        return;
+        eprintln!("skipping the {what} test: {stderr}");
+        return None;
     }
     assert!(run.status.success(), "{stderr}");
+    Some(run)
+}
+
+#[test]
+fn frame_loop_bench_writes_four_phases() {
+    let out = std::env::temp_dir().join(format!("caustics-frameloop-{}", std::process::id()));
+    let args = ["--frames", "3", "--technique", "basic", "--photons", "64", "--size", "64x48", "--caustic-map", "64"];
+    let Some(run) = bench("frame-loop bench", &[&args[..], &["--out", out.to_str().unwrap()]].concat()) else { return };
     let stdout = String::from_utf8_lossy(&run.stdout);
     assert!(stdout.contains("# Frame loop: glass_sphere"), "{stdout}");
     let js: serde_json::Value =
@@ -57,21 +61,11 @@ fn frame_loop_bench_writes_four_phases() {
 fn bench_times_every_beam_pass() {
     let out = std::env::temp_dir().join(format!("caustics-beambench-{}", std::process::id()));
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/volume_caustic_fog.json");
-    let run = Command::new(env!("CARGO_BIN_EXE_caustics"))
-        .args(["bench", scene, "--technique", "basic", "--photons", "64", "--size", "24x16"])
-        .args(["--caustic-map", "64", "--beam-grid", "8", "--beam-levels", "1", "--surface-caustics", "beams"])
-        .args(["--out", out.to_str().unwrap()])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&run.stderr);
-    if !run.status.success() && stderr.contains("no Vulkan, Metal or DX12 adapter") {
-        if std::env::var("CI").is_ok_and(|v| v == "true") {
-            panic!("CI requires a GPU adapter (install mesa-vulkan-drivers): {stderr}");
-        }
-        eprintln!("skipping the beam bench test: {stderr}");
+    let args = [scene, "--technique", "basic", "--photons", "64", "--size", "24x16", "--caustic-map", "64"];
+    let beams = ["--beam-grid", "8", "--beam-levels", "1", "--surface-caustics", "beams"];
+    if bench("beam bench", &[&args[..], &beams, &["--out", out.to_str().unwrap()]].concat()).is_none() {
         return;
     }
-    assert!(run.status.success(), "{stderr}");
     let md = std::fs::read_to_string(out.join("bench_volume_caustic_fog.md")).unwrap();
     let lines: Vec<&str> = md.lines().skip_while(|l| !l.starts_with("## Volume caustics (beams)")).collect();
     let head = lines.iter().find(|l| l.starts_with("| run |")).unwrap_or_else(|| panic!("no beam table:\n{md}"));
