@@ -55,7 +55,7 @@ run 60 "$B" render "${A[@]}" -o "$OUT/glass_sphere_2.exr"
 same "$OUT/glass_sphere.exr" "$OUT/glass_sphere_2.exr" && rm -f "$OUT/glass_sphere_2.exr"
 
 log "2. beams at 1920x1080 (grid levels linearity)"
-for cfg in "16 3 0.05" "64 0 0.05" "16 2 0.03" "24 1 0.05" "32 0 0.05" "128 0 0.05" "16 3 0.03"; do
+for cfg in "16 3 0.05" "64 0 0.05" "16 2 0.05" "16 2 0.03" "24 1 0.05" "32 0 0.05" "128 0 0.05" "16 3 0.03"; do
     set -- $cfg
     run 60 "$B" bench --frames 12 scenes/volume_caustic_fog.json "${A[@]}" --technique basic --photons 1024 \
         --size 1920x1080 --phases full,camera --beam-grid "$1" --beam-levels "$2" \
