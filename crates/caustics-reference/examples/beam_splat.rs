@@ -132,10 +132,7 @@ fn main() {
         ] {
             let n = beams.iter().filter(|b| f(b)).count();
             let img = to_image(&splat_of(f));
-            println!(
-                "subset {name}: {n} beams, energy {:.4} of all",
-                energy(&img, None) / energy(&to_image(&all), None)
-            );
+            println!("subset {name}: {n} beams, energy {:.4} of all", energy(&img, None) / es);
             img.write(&out.join(format!("sub_{name}.exr")), 1.0).unwrap();
         }
     }

@@ -410,7 +410,7 @@ impl SurfaceCaustics {
         match self {
             SurfaceCaustics::Photons => "The lights' photon caustic maps (the default)",
             SurfaceCaustics::Beams => {
-                "Spot and point lights: the beams of adaptive beam tracing, gathered per pixel (no photon maps)"
+                "Spot and point lights: the light of adaptive beam tracing's beams where they end on surfaces, drawn as their hulls or gathered per pixel as --beam-volume says (no photon maps)"
             }
         }
     }
