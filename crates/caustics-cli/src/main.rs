@@ -202,6 +202,15 @@ enum Command {
         /// light (GPU; 1 to 1024).
         #[arg(long, default_value_t = 16)]
         medium_light_steps: u32,
+        /// Scenes with a medium: light between the diffuse surfaces and the medium (light →
+        /// floor → fog, light → fog → floor) from virtual point lights, this many blocks per
+        /// side of each light face (GPU; 0 to 64, 0: off).
+        #[arg(long, default_value_t = 16)]
+        medium_bounce_grid: u32,
+        /// Steps of the camera ray march that gathers the light the surfaces reflect into the
+        /// medium (GPU; 1 to 4096).
+        #[arg(long, default_value_t = 16)]
+        medium_bounce_steps: u32,
         /// Scenes with an environment light: the directional lights it is segmented into on
         /// the GPU (cube-map median cut; 1 to 256).
         #[arg(long, default_value_t = caustics::settings::DEFAULT_ENV_LIGHTS)]
@@ -456,6 +465,8 @@ fn flag_names(e: &mut anyhow::Error) {
         ("shadow_map_size", "--shadow-map"),
         ("medium_steps", "--medium-steps"),
         ("medium_light_steps", "--medium-light-steps"),
+        ("medium_bounce_grid", "--medium-bounce-grid"),
+        ("medium_bounce_steps", "--medium-bounce-steps"),
         ("env_lights", "--env-lights"),
         ("env_taps", "--env-taps"),
         ("beams.grid", "--beam-grid"),
@@ -533,6 +544,8 @@ fn run(cli: Cli) -> Result<()> {
             shadow_map,
             medium_steps,
             medium_light_steps,
+            medium_bounce_grid,
+            medium_bounce_steps,
             env_lights,
             env_taps,
             beams,
@@ -592,6 +605,8 @@ fn run(cli: Cli) -> Result<()> {
                 shadow_map_size: shadow_map,
                 medium_steps,
                 medium_light_steps,
+                medium_bounce_grid,
+                medium_bounce_steps,
                 env_lights,
                 env_taps,
                 beams: caustics::settings::BeamSettings { reflection: !no_glass_reflection, ..beams.settings() },

@@ -55,10 +55,7 @@ struct MediumParams {
 @group(0) @binding(8) var density: texture_3d<f32>;
 
 fn phase(cos_t: f32) -> f32 {
-    let g = mp.sigma_s.w;
-    if (g == 0.0) { return 0.25 / PI; }
-    let den = max(1.0 + g * g - 2.0 * g * cos_t, 1e-12);
-    return (1.0 - g * g) / (4.0 * PI * den * sqrt(den));
+    return hg_phase(cos_t, mp.sigma_s.w);
 }
 
 // Whether the light reaches x (0..1): the shadow map of the face that holds x, depth clamped

@@ -17,6 +17,7 @@ pub mod error;
 pub mod gpu;
 pub mod image_io;
 pub mod lightspace;
+pub(crate) mod medium_bounce;
 pub mod output;
 pub mod passes;
 pub mod raycast;

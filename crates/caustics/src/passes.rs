@@ -644,6 +644,12 @@ impl RenderSettings {
         if !(1..=1024).contains(&self.medium_light_steps) {
             return cl("medium_light_steps", format!("must be 1 to 1024 (got {})", self.medium_light_steps));
         }
+        if self.medium_bounce_grid > 64 {
+            return cl("medium_bounce_grid", format!("must be 0 to 64 (got {})", self.medium_bounce_grid));
+        }
+        if !(1..=4096).contains(&self.medium_bounce_steps) {
+            return cl("medium_bounce_steps", format!("must be 1 to 4096 (got {})", self.medium_bounce_steps));
+        }
         if let Some(g) = scene.medium.as_ref().and_then(|m| m.density.as_ref()) {
             let max3 = ctx.device.limits().max_texture_dimension_3d;
             if g.dims.iter().any(|&n| n > max3) {
@@ -1135,7 +1141,7 @@ fn record_tiles(
 
 /// The shadow maps' comparison sampler (bilinear percentage-closer lookups), shared by the
 /// shading and the medium passes.
-fn shadow_sampler(ctx: &GpuContext) -> wgpu::Sampler {
+pub(crate) fn shadow_sampler(ctx: &GpuContext) -> wgpu::Sampler {
     ctx.sampler(
         "shadow",
         &wgpu::SamplerDescriptor {

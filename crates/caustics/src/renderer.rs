@@ -760,6 +760,13 @@ impl Renderer {
             crate::passes::record_shade(&dc, &eye, lf, &s, &taps[li], enc, &mut timer);
             ctx.end_scope();
         }
+        // Light between the surfaces and the medium (scenes with one).
+        ctx.begin_scope("medium_bounce", enc);
+        let bounce = crate::medium_bounce::record_lights(&dc, &light_frames, &s, enc, &mut timer);
+        if let Some(bf) = &bounce {
+            crate::medium_bounce::record_surfaces(&dc, &eye, bf, enc, &mut timer);
+        }
+        ctx.end_scope();
         let mut sphere_stats = None;
         // The direct sphere records, also read by `sphere_volume` in a scene with a medium.
         let mut records = Vec::new();
@@ -806,6 +813,9 @@ impl Renderer {
         ctx.end_scope();
         ctx.begin_scope("composite", enc);
         let (full, caustic) = crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
+        if let Some(bf) = &bounce {
+            crate::medium_bounce::record(&dc, &eye, bf, &s, (&full, &caustic), enc, &mut timer);
+        }
         crate::beams::record_gather(&dc, &eye, &beams, &s, (&full, &caustic), enc, &mut timer);
         if let Some(sp) = self.spheres.as_ref().filter(|_| scene.medium.is_some() && !records.is_empty()) {
             let vol = (&sp.table, &records[..]);

@@ -318,6 +318,15 @@ pub struct RenderSettings {
     /// toward a light (per camera-ray step in `medium_scatter`, per surface point in
     /// `shade_receivers`), 1 to 1024. Homogeneous media use the closed form.
     pub medium_light_steps: u32,
+    /// Scenes with a medium: the light diffuse surfaces reflect into it (light → floor → fog
+    /// → camera, and the caustic's: light → glass → floor → fog → camera) comes from virtual
+    /// point lights, one per block of each light face's receiver map: this many blocks per side
+    /// (`medium_bounce_lights`, docs/architecture.md "Light reflected into the medium"), 0 to
+    /// 64; 0 leaves that light out.
+    pub medium_bounce_grid: u32,
+    /// Steps of the camera ray march that gathers the virtual point lights (`medium_bounce`),
+    /// 1 to 4096.
+    pub medium_bounce_steps: u32,
     /// Scenes with an environment light: the directional lights it is segmented into (the
     /// cube-map median cut, `scene::environment_lights`), 1 to 256; they light diffuse surfaces
     /// with shadow maps and cast caustics like the scene's own directional lights.
@@ -739,6 +748,8 @@ impl Default for RenderSettings {
             tessellation: Tessellation::default(),
             medium_steps: 64,
             medium_light_steps: 16,
+            medium_bounce_grid: 16,
+            medium_bounce_steps: 16,
             env_lights: DEFAULT_ENV_LIGHTS,
             env_split: Default::default(),
             env_taps: DEFAULT_ENV_TAPS,

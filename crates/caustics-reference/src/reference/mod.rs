@@ -57,7 +57,8 @@ pub struct ReferenceSettings {
     /// Texels per side of each light-space caustic map face.
     pub caustic_map_size: u32,
     /// Participating medium: single scattering only (every path from a light to the camera
-    /// scatters in the medium at most once) instead of multiple scattering.
+    /// scatters in the medium at most once, with any number of surface bounces before and
+    /// after) instead of multiple scattering.
     pub medium_single_scattering_only: bool,
     /// Which caustic paths the camera image `caustic` (and so `image`) holds: all of them
     /// (the default), or only light → specular chain → the first diffuse surface → camera,

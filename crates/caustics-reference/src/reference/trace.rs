@@ -23,7 +23,9 @@
 //! sample scattering points too and estimate the light's direct contribution there with the
 //! phase function and a shadow ray (light shafts, multiple scattering). Shadow rays and camera
 //! connections are attenuated by the transmittance. With `single_scattering`, every path
-//! scatters in the medium at most once.
+//! scatters in the medium at most once and goes on after it with the medium only attenuating:
+//! light a surface reflects into the medium (light → floor → fog → camera) and light the medium
+//! scatters onto a surface (light → fog → floor → camera) both count, caustic or not.
 
 use super::geometry::{Accel, Hit, spawn};
 use super::medium::{Flight, Media};
@@ -237,8 +239,9 @@ impl<'a> Tracer<'a> {
                 && !self.in_dielectric(d, hit.as_ref())
             {
                 let t_hit = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
-                if depth == 0 {
-                    // Before the first surface: caustic light reaches it unscattered.
+                if depth == 0 || (scattered && self.single_scattering) {
+                    // Before the first surface: caustic light reaches it unscattered. With
+                    // single scattering, after its one scattering event: it only attenuates.
                     flux *= m.transmittance(o, d, t_hit, rng);
                 } else {
                     match m.sample(o, d, t_hit, rng) {
@@ -255,7 +258,7 @@ impl<'a> Tracer<'a> {
                                 }
                             }
                             scattered = true;
-                            if self.single_scattering || depth + 1 >= self.max_depth {
+                            if depth + 1 >= self.max_depth {
                                 break;
                             }
                             let q = weight.max_element().min(1.0);
@@ -448,6 +451,9 @@ impl<'a> Tracer<'a> {
         let mut seen_diffuse = false;
         // Density of the cosine sampling that made `d`, when `d` leaves a diffuse vertex.
         let mut bsdf_pdf: Option<f32> = None;
+        // Whether the path has scattered in the medium (with single scattering, later flights
+        // only attenuate).
+        let mut scattered = false;
         for depth in 0..self.max_depth {
             rays += 1;
             let hit = self.accel.intersect(o, d, f32::INFINITY);
@@ -455,7 +461,12 @@ impl<'a> Tracer<'a> {
                 && !self.in_dielectric(d, hit.as_ref())
             {
                 let t_hit = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
-                match m.sample(o, d, t_hit, rng) {
+                let flight = if scattered && self.single_scattering {
+                    Flight::Pass { weight: m.transmittance(o, d, t_hit, rng) }
+                } else {
+                    m.sample(o, d, t_hit, rng)
+                };
+                match flight {
                     Flight::Pass { weight } => beta *= weight,
                     Flight::Scatter { t, weight } => {
                         beta *= weight;
@@ -463,7 +474,8 @@ impl<'a> Tracer<'a> {
                         let (ls, r) = self.medium_direct(m, x, d, rng);
                         rays += r;
                         l += beta * ls;
-                        if self.single_scattering || depth + 1 >= self.max_depth {
+                        scattered = true;
+                        if depth + 1 >= self.max_depth {
                             break;
                         }
                         let q = weight.max_element().min(1.0);

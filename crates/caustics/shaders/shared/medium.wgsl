@@ -87,3 +87,11 @@ fn grid_optical_depth(grid: texture_3d<f32>, a: vec3f, b: vec3f, lo: vec3f, hi: 
     }
     return s * dt;
 }
+
+// The Henyey-Greenstein phase function (1/sr) of asymmetry g at the scattering angle's cosine
+// (g = 0: isotropic, 1 / (4 pi)).
+fn hg_phase(cos_t: f32, g: f32) -> f32 {
+    if (g == 0.0) { return 0.25 / PI; }
+    let den = max(1.0 + g * g - 2.0 * g * cos_t, 1e-12);
+    return (1.0 - g * g) / (4.0 * PI * den * sqrt(den));
+}

@@ -230,6 +230,83 @@ pub struct MediumParams {
     pub _pad: u32,
 }
 
+/// `medium_bounce_lights` and `medium_bounce_shafts` (shaders/medium_bounce_lights.wgsl,
+/// shaders/medium_bounce_shafts.wgsl; `crate::medium_bounce`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct BounceLightParams {
+    /// The medium's box (w = 1) and sigma_t.
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+    pub sigma_t: [f32; 4],
+    /// VPL blocks per side of a light face.
+    pub grid: u32,
+    pub shadow_size: u32,
+    /// 1: heterogeneous medium (read the density grid), 0: homogeneous.
+    pub heterogeneous: u32,
+    /// Heterogeneous: ray-march steps of the transmittance toward the light.
+    pub light_steps: u32,
+    /// This light's first VPL.
+    pub offset: u32,
+    pub _pad: [u32; 3],
+    /// rgb = sigma_s (`medium_bounce_shafts`).
+    pub sigma_s: [f32; 4],
+}
+
+/// A virtual point light of `medium_bounce` (the light a block of a light's receiver map
+/// reflects; shaders/medium_bounce_lights.wgsl, `Vpl`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct VplGpu {
+    /// xyz = position, w = squared radius (m²).
+    pub pos: [f32; 4],
+    /// xyz = unit normal of the emitting side.
+    pub nrm: [f32; 4],
+    /// rgb = reflected flux (W).
+    pub full: [f32; 4],
+    /// rgb = the part of it that arrived as caustic light (W).
+    pub caustic: [f32; 4],
+}
+
+/// `medium_bounce_surfaces` (shaders/medium_bounce_surfaces.wgsl).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct SurfaceBounceParams {
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+    /// rgb = sigma_t, w = Henyey-Greenstein g.
+    pub sigma_t: [f32; 4],
+    pub camera: [f32; 4],
+    pub width: u32,
+    pub height: u32,
+    /// Shaft VPLs to read.
+    pub count: u32,
+    /// 1: heterogeneous medium, 0: homogeneous.
+    pub heterogeneous: u32,
+}
+
+/// `medium_bounce` (shaders/medium_bounce.wgsl).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct BounceParams {
+    pub clip_to_world: [[f32; 4]; 4],
+    pub camera: [f32; 4],
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+    /// rgb = sigma_s, w = Henyey-Greenstein g (0: isotropic).
+    pub sigma_s: [f32; 4],
+    /// rgb = sigma_t.
+    pub sigma_t: [f32; 4],
+    pub width: u32,
+    pub height: u32,
+    pub steps: u32,
+    /// VPLs to read.
+    pub count: u32,
+    /// 1: heterogeneous medium, 0: homogeneous.
+    pub heterogeneous: u32,
+    pub _pad: [u32; 3],
+}
+
 /// Parameters of the beam stages (`shaders/shared/beams.wgsl`, `BeamParams`; `crate::beams`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
@@ -673,6 +750,10 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("SphereVolumeParams", "SphereVolumeParams", std::mem::size_of::<SphereVolumeParams>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
     ("MediumParams", "MediumParams", std::mem::size_of::<MediumParams>()),
+    ("BounceLightParams", "BounceLightParams", std::mem::size_of::<BounceLightParams>()),
+    ("VplGpu", "Vpl", std::mem::size_of::<VplGpu>()),
+    ("BounceParams", "BounceParams", std::mem::size_of::<BounceParams>()),
+    ("SurfaceBounceParams", "SurfaceBounceParams", std::mem::size_of::<SurfaceBounceParams>()),
     ("BeamParams", "BeamParams", std::mem::size_of::<BeamParams>()),
     ("BeamLevel", "BeamLevel", std::mem::size_of::<BeamLevel>()),
     ("BeamTri", "BeamTri", std::mem::size_of::<BeamTri>()),

@@ -1,0 +1,163 @@
+// Stage: medium_bounce. Light that diffuse surfaces reflect into the medium, scattered toward
+// the camera: light -> surface -> medium -> camera (full image) and light -> casters -> surface
+// -> medium -> camera (the caustic part, into both images), from every light's virtual point
+// lights (`medium_bounce_lights`: one per block of a light's receiver map, Lambertian, of
+// squared radius r2).
+// Per pixel, the camera ray's segment in the medium (as `medium_scatter`: from the camera to the
+// first surface it sees, clipped to the box), a midpoint rule in `bp.steps` equal steps of
+//   sigma_s(x) sum_v phase(cos) F_v cos_v / (pi (d^2 + r2_v)) T(v -> x) T(camera -> x),
+// with d the distance from the VPL to x, cos_v the cosine at the VPL (zero behind it) and
+// cos the scattering angle's (between the VPL-to-x direction and the direction to the camera).
+// T in a homogeneous medium: exp(-sigma_t * length in the box); heterogeneous: the camera's
+// optical depth by the same midpoint rule, the VPL's by a `BOUNCE_GRID_STEPS`-step march.
+// Not modelled: visibility between the VPL and x (objects between a lit surface and the fog it
+// lights do not shadow it), light reflected by more than one diffuse surface.
+// The VPLs are read in tiles of 64 through workgroup memory; the sums run in a fixed order.
+
+#import medium
+
+struct BounceParams {
+    clip_to_world: mat4x4f,
+    camera: vec4f,
+    lo: vec4f,
+    hi: vec4f,
+    // rgb = sigma_s (1/m), w = Henyey-Greenstein g (0: isotropic)
+    sigma_s: vec4f,
+    // rgb = sigma_t (1/m)
+    sigma_t: vec4f,
+    width: u32,
+    height: u32,
+    steps: u32,
+    // VPLs in `vpls`.
+    count: u32,
+    // 1: heterogeneous (density grid), 0: homogeneous.
+    heterogeneous: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+struct Vpl {
+    pos: vec4f,
+    nrm: vec4f,
+    full: vec4f,
+    caustic: vec4f,
+}
+
+@group(0) @binding(0) var<uniform> bp: BounceParams;
+@group(0) @binding(1) var<storage, read> vpls: array<Vpl>;
+@group(0) @binding(2) var recv_pos: texture_2d<f32>;
+@group(0) @binding(3) var spec_pos: texture_2d<f32>;
+@group(0) @binding(4) var<storage, read_write> out_full: array<vec4f>;
+@group(0) @binding(5) var<storage, read_write> out_caustic: array<vec4f>;
+@group(0) @binding(6) var density: texture_3d<f32>;
+
+// Steps of the optical-depth march from a VPL to a point of a heterogeneous medium.
+const BOUNCE_GRID_STEPS: u32 = 4u;
+
+var<workgroup> tile: array<Vpl, 64>;
+// The tile's lit VPLs are packed to its front in index order (an inclusive prefix sum over the
+// 64 loaded): the loops skip the dark ones (a spot's spill face, blocks outside its cone).
+var<workgroup> scan: array<u32, 64>;
+
+fn phase(cos_t: f32) -> f32 {
+    return hg_phase(cos_t, bp.sigma_s.w);
+}
+
+fn inside(p: vec3f) -> bool {
+    return all(p >= bp.lo.xyz) && all(p <= bp.hi.xyz);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(local_invocation_index) li: u32) {
+    let in_image = gid.x < bp.width && gid.y < bp.height;
+    let lo = bp.lo.xyz;
+    let hi = bp.hi.xyz;
+    let cam = bp.camera.xyz;
+    var d = vec3f(0.0, 0.0, 1.0);
+    var seg = vec2f(1.0, 0.0);
+    if (in_image) {
+        let px = vec2i(gid.xy);
+        let ndc = vec2f((f32(gid.x) + 0.5) / f32(bp.width) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(bp.height) * 2.0);
+        let q = bp.clip_to_world * vec4f(ndc, 0.5, 1.0);
+        d = normalize(q.xyz / q.w - cam);
+        var t_max = 1e30;
+        let r = textureLoad(recv_pos, px, 0);
+        let sp = textureLoad(spec_pos, px, 0);
+        if (r.w >= 0.0) { t_max = min(t_max, length(r.xyz - cam)); }
+        if (sp.w >= 0.0) { t_max = min(t_max, length(sp.xyz - cam)); }
+        seg = box_clip(cam, d, t_max, lo, hi);
+    }
+    let live = in_image && seg.y > seg.x;
+    let n = max(bp.steps, 1u);
+    let dt = max(seg.y - seg.x, 0.0) / f32(n);
+    var acc_full = vec3f(0.0);
+    var acc_caus = vec3f(0.0);
+    for (var base = 0u; base < bp.count; base += 64u) {
+        workgroupBarrier();
+        var mine = Vpl(vec4f(0.0), vec4f(0.0), vec4f(0.0), vec4f(0.0));
+        if (base + li < bp.count) { mine = vpls[base + li]; }
+        let lit_one = any(mine.full.rgb > vec3f(0.0));
+        scan[li] = u32(lit_one);
+        workgroupBarrier();
+        for (var o = 1u; o < 64u; o = o * 2u) {
+            var v = scan[li];
+            if (li >= o) { v += scan[li - o]; }
+            workgroupBarrier();
+            scan[li] = v;
+            workgroupBarrier();
+        }
+        if (lit_one) { tile[scan[li] - 1u] = mine; }
+        let in_tile = scan[63];
+        workgroupBarrier();
+        if (live) {
+            // Optical depth (density units) of the camera ray from the segment's start to the
+            // current step's start (heterogeneous).
+            var tau = 0.0;
+            for (var s = 0u; s < n; s++) {
+                let t = seg.x + (f32(s) + 0.5) * dt;
+                let x = cam + d * t;
+                var rho = 1.0;
+                var tr_cam: vec3f;
+                if (bp.heterogeneous != 0u) {
+                    rho = grid_density(density, x, lo, hi);
+                    tr_cam = exp(-bp.sigma_t.rgb * (tau + 0.5 * rho * dt));
+                    tau += rho * dt;
+                    if (rho <= 0.0) { continue; }
+                } else {
+                    tr_cam = exp(-bp.sigma_t.rgb * (t - seg.x));
+                }
+                var sf = vec3f(0.0);
+                var sc = vec3f(0.0);
+                for (var k = 0u; k < in_tile; k++) {
+                    let v = tile[k];
+                    let dv = x - v.pos.xyz;
+                    let d2 = dot(dv, dv);
+                    let dist = sqrt(d2);
+                    if (dist <= 0.0) { continue; }
+                    let u = dv / dist;
+                    let cos_v = dot(v.nrm.xyz, u);
+                    if (cos_v <= 0.0) { continue; }
+                    var od: vec3f;
+                    if (bp.heterogeneous != 0u) {
+                        od = bp.sigma_t.rgb * grid_optical_depth(density, v.pos.xyz, x, lo, hi, BOUNCE_GRID_STEPS);
+                    } else {
+                        // x is inside the box; so is the whole segment when the VPL is.
+                        var len = dist;
+                        if (!inside(v.pos.xyz)) { len = box_length(v.pos.xyz, x, lo, hi); }
+                        od = bp.sigma_t.rgb * len;
+                    }
+                    let g = phase(dot(u, -d)) * cos_v / (PI * (d2 + v.pos.w)) * exp(-od);
+                    sf += v.full.rgb * g;
+                    sc += v.caustic.rgb * g;
+                }
+                acc_full += rho * tr_cam * sf;
+                acc_caus += rho * tr_cam * sc;
+            }
+        }
+    }
+    if (!live) { return; }
+    let idx = gid.y * bp.width + gid.x;
+    out_full[idx] += vec4f(bp.sigma_s.rgb * acc_full * dt, 0.0);
+    out_caustic[idx] += vec4f(bp.sigma_s.rgb * acc_caus * dt, 0.0);
+}

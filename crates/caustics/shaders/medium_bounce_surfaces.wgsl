@@ -1,0 +1,123 @@
+// Stage: medium_bounce_surfaces. The diffuse surfaces the camera sees, lit by the light the
+// medium scatters out of every light's shaft (light -> fog -> floor -> camera), from the shaft
+// VPLs of `medium_bounce_shafts`. Per pixel whose first surface is diffuse (point y, normal n
+// turned toward the camera, albedo rho), added into the eye's radiance (not the caustic-only
+// image: the shaft is direct light):
+//   rho / pi * sum_v F_v phase(w_v . u) max(n . -u, 0) / (d^2 + r2_v) T(v -> y),
+// u the unit direction from the VPL to y, d the distance, w_v the light's direction of travel
+// there, T the transmittance (homogeneous: exp(-sigma_t * length in the box); heterogeneous: a
+// `BOUNCE_GRID_STEPS`-step march). Runs before `composite`, so surfaces seen through glass and
+// in mirrors show it and `medium_scatter` attenuates it toward the camera.
+// Not modelled: visibility between the VPL and y (an object between the shaft and a surface
+// does not shadow it), light the beams' volume caustics scatter onto surfaces.
+// The VPLs are read in tiles of 64 through workgroup memory; the sums run in a fixed order.
+
+#import medium
+
+struct SurfaceBounceParams {
+    lo: vec4f,
+    hi: vec4f,
+    // rgb = sigma_t (1/m), w = Henyey-Greenstein g
+    sigma_t: vec4f,
+    camera: vec4f,
+    width: u32,
+    height: u32,
+    // VPLs in `vpls`.
+    count: u32,
+    // 1: heterogeneous (density grid), 0: homogeneous.
+    heterogeneous: u32,
+}
+
+struct Vpl {
+    pos: vec4f,
+    nrm: vec4f,
+    full: vec4f,
+    caustic: vec4f,
+}
+
+@group(0) @binding(0) var<uniform> sp: SurfaceBounceParams;
+@group(0) @binding(1) var<storage, read> vpls: array<Vpl>;
+@group(0) @binding(2) var eye_pos: texture_2d<f32>;
+@group(0) @binding(3) var eye_nrm: texture_2d<f32>;
+@group(0) @binding(4) var<storage, read> materials: array<MaterialGpu>;
+@group(0) @binding(5) var<storage, read_write> radiance: array<vec4f>;
+@group(0) @binding(6) var density: texture_3d<f32>;
+
+const BOUNCE_GRID_STEPS: u32 = 4u;
+
+var<workgroup> tile: array<Vpl, 64>;
+// The tile's lit VPLs are packed to its front in index order (an inclusive prefix sum over the
+// 64 loaded): the loops skip the dark ones (a spot's spill face, blocks outside its cone).
+var<workgroup> scan: array<u32, 64>;
+
+fn inside(p: vec3f) -> bool {
+    return all(p >= sp.lo.xyz) && all(p <= sp.hi.xyz);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(local_invocation_index) li: u32) {
+    let lo = sp.lo.xyz;
+    let hi = sp.hi.xyz;
+    var lit = false;
+    var y = vec3f(0.0);
+    var n = vec3f(0.0);
+    var rho = vec3f(0.0);
+    if (gid.x < sp.width && gid.y < sp.height) {
+        let pw = textureLoad(eye_pos, vec2i(gid.xy), 0);
+        if (pw.w >= 0.0) {
+            let mat = materials[u32(pw.w)];
+            if (mat.kind.x == KIND_DIFFUSE && any(mat.a.rgb > vec3f(0.0))) {
+                lit = true;
+                y = pw.xyz;
+                rho = mat.a.rgb;
+                n = normalize(textureLoad(eye_nrm, vec2i(gid.xy), 0).xyz);
+                if (dot(n, sp.camera.xyz - y) < 0.0) { n = -n; }
+            }
+        }
+    }
+    let y_in = inside(y);
+    var e = vec3f(0.0);
+    for (var base = 0u; base < sp.count; base += 64u) {
+        workgroupBarrier();
+        var mine = Vpl(vec4f(0.0), vec4f(0.0), vec4f(0.0), vec4f(0.0));
+        if (base + li < sp.count) { mine = vpls[base + li]; }
+        let lit_one = any(mine.full.rgb > vec3f(0.0));
+        scan[li] = u32(lit_one);
+        workgroupBarrier();
+        for (var o = 1u; o < 64u; o = o * 2u) {
+            var v = scan[li];
+            if (li >= o) { v += scan[li - o]; }
+            workgroupBarrier();
+            scan[li] = v;
+            workgroupBarrier();
+        }
+        if (lit_one) { tile[scan[li] - 1u] = mine; }
+        let in_tile = scan[63];
+        workgroupBarrier();
+        if (lit) {
+            for (var k = 0u; k < in_tile; k++) {
+                let v = tile[k];
+                let dv = y - v.pos.xyz;
+                let d2 = dot(dv, dv);
+                let dist = sqrt(d2);
+                if (dist <= 0.0) { continue; }
+                let u = dv / dist;
+                let cos_y = -dot(n, u);
+                if (cos_y <= 0.0) { continue; }
+                var od: vec3f;
+                if (sp.heterogeneous != 0u) {
+                    od = sp.sigma_t.rgb * grid_optical_depth(density, v.pos.xyz, y, lo, hi, BOUNCE_GRID_STEPS);
+                } else {
+                    // The whole segment is inside the box when both ends are.
+                    var len = dist;
+                    if (!y_in || !inside(v.pos.xyz)) { len = box_length(v.pos.xyz, y, lo, hi); }
+                    od = sp.sigma_t.rgb * len;
+                }
+                e += v.full.rgb * (hg_phase(dot(v.nrm.xyz, u), sp.sigma_t.w) * cos_y / (d2 + v.pos.w)) * exp(-od);
+            }
+        }
+    }
+    if (!lit) { return; }
+    let idx = gid.y * sp.width + gid.x;
+    radiance[idx] += vec4f(rho / PI * e, 0.0);
+}

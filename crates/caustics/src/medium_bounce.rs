@@ -1,0 +1,278 @@
+//! Light that diffuse surfaces and the medium exchange, with one scattering event in the
+//! medium (docs/architecture.md, "Light between surfaces and the medium"): light → floor → fog
+//! → camera (and the caustic's light → glass → floor → fog → camera), and light → fog → floor
+//! → camera.
+//!
+//! Four passes:
+//! - `medium_bounce_lights` (per light, after the lights' maps): each block of
+//!   `RenderSettings::medium_bounce_grid`² blocks of each face of the light's receiver map
+//!   becomes one virtual point light (VPL): the flux its diffuse receivers reflect (direct
+//!   light, shadowed, and the caustic map's light, both attenuated on their way from the
+//!   light), at the flux-weighted mean point, as a Lambertian disk with the same spread.
+//! - `medium_bounce_shafts` (per light): the same blocks' light rays cut into slices; each
+//!   slice's scattered flux (shadowed) becomes one point emitter with the phase function.
+//! - `medium_bounce_surfaces` (once, before `composite`): the diffuse surfaces the camera sees
+//!   lit by the shaft emitters, into the eye's radiance.
+//! - `medium_bounce` (once, after `medium_scatter`): per pixel, the camera ray's segment in the
+//!   medium gathers the surface VPLs' single scattering (`RenderSettings::medium_bounce_steps`
+//!   steps), into the full image and, for the caustic part of their flux, the caustic-only
+//!   image.
+//!
+//! Recorded only for scenes with a scattering medium and a diffuse material of nonzero albedo
+//! (a black floor reflects nothing and is lit by nothing it could show: its frames are the same
+//! bits as without the passes). The caustic part comes from the lights' caustic maps, so it is
+//! there for the photon techniques; with `SurfaceCaustics::Beams` or the caustic spheres those
+//! maps stay zero and only the direct light's share is added. The volume caustic's light on
+//! surfaces (light → glass → fog → floor) is not modelled.
+
+use crate::gpu::PassTimer;
+use crate::gpu::types::{BounceLightParams, BounceParams, SurfaceBounceParams, VplGpu};
+use crate::passes::{DrawCtx, EyeFrame, LightFrame, array_view, density_view, layer_view, shadow_sampler};
+use crate::settings::RenderSettings;
+
+/// Whether the frame records the passes: a scattering medium, the setting on, and a diffuse
+/// material that reflects.
+pub(crate) fn wanted(scene: &crate::scene::Scene, s: &RenderSettings) -> bool {
+    let Some(m) = &scene.medium else { return false };
+    s.medium_bounce_grid > 0
+        && m.sigma_s.max_element() > 0.0
+        && scene.objects.iter().any(|o| {
+            matches!(scene.materials.get(o.material), Some(crate::scene::Material::Diffuse { albedo }) if albedo.max_element() > 0.0)
+        })
+}
+
+/// Shaft emitters per light block (`SHAFT_SLICES` in shaders/medium_bounce_shafts.wgsl).
+const SHAFT_SLICES: u32 = 8;
+
+/// The frame's virtual point lights: on surfaces (`medium_bounce_lights`) and in the shafts
+/// (`medium_bounce_shafts`).
+pub(crate) struct BounceFrame {
+    surface: wgpu::Buffer,
+    surface_count: u32,
+    shafts: wgpu::Buffer,
+    shaft_count: u32,
+}
+
+/// The medium's box, sigma_t and sigma_s as the stages take them, and whether it has a grid.
+fn medium_params(m: &crate::scene::Medium) -> ([f32; 4], [f32; 4], [f32; 4], [f32; 4], u32) {
+    let g = match m.phase {
+        crate::scene::Phase::Isotropic => 0.0,
+        crate::scene::Phase::HenyeyGreenstein { g } => g,
+    };
+    (
+        m.bounds_min.extend(1.0).to_array(),
+        m.bounds_max.extend(1.0).to_array(),
+        (m.sigma_s + m.sigma_a).extend(0.0).to_array(),
+        m.sigma_s.extend(g).to_array(),
+        u32::from(m.density.is_some()),
+    )
+}
+
+/// `medium_bounce_lights` and `medium_bounce_shafts` for every light: the frame's VPLs, or
+/// `None` where the scene needs none ([`wanted`]).
+pub(crate) fn record_lights(
+    dc: &DrawCtx,
+    lights: &[&LightFrame],
+    s: &RenderSettings,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> Option<BounceFrame> {
+    if !wanted(dc.scene, s) || lights.is_empty() {
+        return None;
+    }
+    let m = dc.scene.medium.as_ref()?;
+    let ctx = dc.ctx;
+    let k = s.medium_bounce_grid;
+    let surface_count: u32 = lights.iter().map(|lf| lf.faces * k * k).sum();
+    let shaft_count = surface_count * SHAFT_SLICES;
+    let vpl_size = std::mem::size_of::<VplGpu>() as u64;
+    let surface = ctx.buffer("medium_vpls", u64::from(surface_count) * vpl_size, wgpu::BufferUsages::STORAGE);
+    let shafts = ctx.buffer("medium_shaft_vpls", u64::from(shaft_count) * vpl_size, wgpu::BufferUsages::STORAGE);
+    let (lo, hi, sigma_t, sigma_s, heterogeneous) = medium_params(m);
+    let density = density_view(ctx, &dc.geo.density);
+    let shadow_sampler = shadow_sampler(ctx);
+    let lights_pl = ctx.compute_pipeline("medium_bounce_lights");
+    let shafts_pl = ctx.compute_pipeline("medium_bounce_shafts");
+    let mut offset = 0;
+    for lf in lights {
+        let params = |offset| {
+            ctx.uniform(
+                "medium_bounce_light_params",
+                bytemuck::bytes_of(&BounceLightParams {
+                    lo,
+                    hi,
+                    sigma_t,
+                    grid: k,
+                    shadow_size: s.shadow_map_size,
+                    heterogeneous,
+                    light_steps: s.medium_light_steps,
+                    offset,
+                    _pad: [0; 3],
+                    sigma_s,
+                }),
+            )
+        };
+        let (rp, rn, sh) = (array_view(ctx, &lf.recv.pos), array_view(ctx, &lf.recv.nrm), array_view(ctx, &lf.shadow));
+        let (lp, sp) = (params(offset), params(offset * SHAFT_SLICES));
+        let bg = crate::gpu::bind(
+            ctx,
+            &lights_pl,
+            "medium_bounce_lights",
+            &[
+                lf.light_buf.as_entire_binding(),
+                lp.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&rp),
+                wgpu::BindingResource::TextureView(&rn),
+                lf.irradiance.as_entire_binding(),
+                dc.geo.materials.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&sh),
+                wgpu::BindingResource::Sampler(&shadow_sampler),
+                wgpu::BindingResource::TextureView(&density),
+                surface.as_entire_binding(),
+            ],
+        );
+        let sbg = crate::gpu::bind(
+            ctx,
+            &shafts_pl,
+            "medium_bounce_shafts",
+            &[
+                lf.light_buf.as_entire_binding(),
+                sp.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&rp),
+                wgpu::BindingResource::TextureView(&sh),
+                wgpu::BindingResource::Sampler(&shadow_sampler),
+                wgpu::BindingResource::TextureView(&density),
+                shafts.as_entire_binding(),
+            ],
+        );
+        {
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("medium_bounce_lights"),
+                timestamp_writes: timer.compute("medium_bounce_lights"),
+            });
+            cp.set_pipeline(&lights_pl);
+            cp.set_bind_group(0, &bg, &[]);
+            cp.dispatch_workgroups(k, k, lf.faces);
+        }
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("medium_bounce_shafts"),
+            timestamp_writes: timer.compute("medium_bounce_shafts"),
+        });
+        cp.set_pipeline(&shafts_pl);
+        cp.set_bind_group(0, &sbg, &[]);
+        cp.dispatch_workgroups(k, k, lf.faces);
+        offset += lf.faces * k * k;
+    }
+    Some(BounceFrame { surface, surface_count, shafts, shaft_count })
+}
+
+/// `medium_bounce_surfaces`: the camera's diffuse surfaces lit by the shaft emitters, added into
+/// the eye's radiance (before `composite`).
+pub(crate) fn record_surfaces(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    bf: &BounceFrame,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let Some(m) = &dc.scene.medium else { return };
+    let ctx = dc.ctx;
+    let cam = &dc.scene.camera;
+    let (lo, hi, sigma_t, sigma_s, heterogeneous) = medium_params(m);
+    let params = ctx.uniform(
+        "medium_bounce_surface_params",
+        bytemuck::bytes_of(&SurfaceBounceParams {
+            lo,
+            hi,
+            sigma_t: [sigma_t[0], sigma_t[1], sigma_t[2], sigma_s[3]],
+            camera: cam.position.extend(1.0).to_array(),
+            width: cam.width,
+            height: cam.height,
+            count: bf.shaft_count,
+            heterogeneous,
+        }),
+    );
+    let pl = ctx.compute_pipeline("medium_bounce_surfaces");
+    let (ep, en) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
+    let density = density_view(ctx, &dc.geo.density);
+    let bg = crate::gpu::bind(
+        ctx,
+        &pl,
+        "medium_bounce_surfaces",
+        &[
+            params.as_entire_binding(),
+            bf.shafts.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&ep),
+            wgpu::BindingResource::TextureView(&en),
+            dc.geo.materials.as_entire_binding(),
+            eye.radiance.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&density),
+        ],
+    );
+    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("medium_bounce_surfaces"),
+        timestamp_writes: timer.compute("medium_bounce_surfaces"),
+    });
+    cp.set_pipeline(&pl);
+    cp.set_bind_group(0, &bg, &[]);
+    cp.dispatch_workgroups(cam.width.div_ceil(8), cam.height.div_ceil(8), 1);
+}
+
+/// `medium_bounce`: the surface VPLs' single scattering along every camera ray, added into the
+/// composited images (full, caustic-only), after `medium_scatter`.
+pub(crate) fn record(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    bf: &BounceFrame,
+    s: &RenderSettings,
+    images: (&wgpu::Buffer, &wgpu::Buffer),
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let Some(m) = &dc.scene.medium else { return };
+    let ctx = dc.ctx;
+    let cam = &dc.scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let (lo, hi, sigma_t, sigma_s, heterogeneous) = medium_params(m);
+    let params = ctx.uniform(
+        "medium_bounce_params",
+        bytemuck::bytes_of(&BounceParams {
+            clip_to_world: eye.cam_clip.inverse().to_cols_array_2d(),
+            camera: cam.position.extend(1.0).to_array(),
+            lo,
+            hi,
+            sigma_s,
+            sigma_t,
+            width: w,
+            height: h,
+            steps: s.medium_bounce_steps,
+            count: bf.surface_count,
+            heterogeneous,
+            _pad: [0; 3],
+        }),
+    );
+    let pl = ctx.compute_pipeline("medium_bounce");
+    let density = density_view(ctx, &dc.geo.density);
+    let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
+    let bg = crate::gpu::bind(
+        ctx,
+        &pl,
+        "medium_bounce",
+        &[
+            params.as_entire_binding(),
+            bf.surface.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&rv),
+            wgpu::BindingResource::TextureView(&sv),
+            images.0.as_entire_binding(),
+            images.1.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&density),
+        ],
+    );
+    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("medium_bounce"),
+        timestamp_writes: timer.compute("medium_bounce"),
+    });
+    cp.set_pipeline(&pl);
+    cp.set_bind_group(0, &bg, &[]);
+    cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+}
