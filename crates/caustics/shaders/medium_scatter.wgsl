@@ -13,7 +13,9 @@
 //     the line from x back toward the light (its light enters the box from the vacuum outside;
 //     the orthographic shadow map covers the scene's bounding sphere, and a point outside its
 //     footprint sees the light past every object).
-// Segments beyond the first surface (through glass, in mirrors) are not attenuated.
+// A spot light's rule runs over the part of the segment inside its cone only (`cone_clip`).
+// Segments beyond the first surface (through glass, in mirrors) are not
+// attenuated.
 // Heterogeneous media (`mp.grid == 1`, a density grid in `density`): sigma(x) = rho(x) sigma;
 // the same midpoint rule gives the camera ray's optical depth (the attenuation) and, per step,
 // rho sigma_s phase I/r^2 exp(-sigma_t (tau_light + tau_camera)) V, tau_light by a ray march of
@@ -104,6 +106,58 @@ fn incident(x: vec3f) -> Incident {
     return Incident(wl, e, visibility(x, -wl));
 }
 
+// Whether x lies in the spot's cone (its light is zero outside: `intensity_toward`).
+fn in_cone(x: vec3f) -> bool {
+    let v = x - light.faces[0].origin.xyz;
+    return dot(v, light.axis.xyz) >= length(v) * cos(light.axis.w);
+}
+
+// The part of [seg.x, seg.y] of the camera ray cam + t d inside a spot light's cone (a convex
+// set, so one interval; empty: y <= x). The midpoint rule then runs over light only: at the
+// cone's edge the integrand jumps, and a rule across it leaves bands that follow where the edge
+// falls between its points (arcs across the shaft).
+fn cone_clip(cam: vec3f, d: vec3f, seg: vec2f) -> vec2f {
+    let a = light.axis.xyz;
+    let c2 = cos(light.axis.w) * cos(light.axis.w);
+    let v = cam - light.faces[0].origin.xyz;
+    let da = dot(d, a);
+    let va = dot(v, a);
+    // (va + t da)^2 - c2 |v + t d|^2 = qa t^2 + qb t + qc (on the cone's surface and its mirror)
+    let qa = da * da - c2;
+    let qb = 2.0 * (va * da - c2 * dot(v, d));
+    let qc = va * va - c2 * dot(v, v);
+    // Cut [seg.x, seg.y] at the roots inside it; the pieces whose midpoints are in the cone
+    // make the interval.
+    var cuts = array<f32, 4>(seg.x, seg.y, seg.y, seg.y);
+    var n = 1u;
+    if (abs(qa) > 1e-12) {
+        let disc = qb * qb - 4.0 * qa * qc;
+        if (disc >= 0.0) {
+            let sq = sqrt(disc);
+            // The stable pair of roots.
+            let q = -0.5 * (qb + select(-sq, sq, qb >= 0.0));
+            var r0 = q / qa;
+            var r1 = select(r0, qc / q, q != 0.0);
+            if (r1 < r0) { let t = r0; r0 = r1; r1 = t; }
+            if (r0 > seg.x && r0 < seg.y) { cuts[n] = r0; n++; }
+            if (r1 > seg.x && r1 < seg.y && r1 > cuts[n - 1u]) { cuts[n] = r1; n++; }
+        }
+    } else if (abs(qb) > 1e-12) {
+        let r = -qc / qb;
+        if (r > seg.x && r < seg.y) { cuts[n] = r; n++; }
+    }
+    cuts[n] = seg.y;
+    var lo = seg.y;
+    var hi = seg.x;
+    for (var i = 0u; i < n; i++) {
+        if (in_cone(cam + d * (0.5 * (cuts[i] + cuts[i + 1u])))) {
+            lo = min(lo, cuts[i]);
+            hi = max(hi, cuts[i + 1u]);
+        }
+    }
+    return vec2f(lo, hi);
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (gid.x >= mp.width || gid.y >= mp.height) { return; }
@@ -131,11 +185,17 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         out_caustic[idx] = vec4f(out_caustic[idx].rgb * tr, out_caustic[idx].a);
     }
     if ((mp.flags & 2u) == 0u) { return; }
+    // A spot light's single scattering only where the ray is in its cone.
+    var lit = seg;
+    if (light.info.y == LIGHT_SPOT) {
+        lit = cone_clip(cam, d, seg);
+        if (lit.y <= lit.x) { return; }
+    }
     let n = max(mp.steps, 1u);
-    let dt = (seg.y - seg.x) / f32(n);
+    let dt = (lit.y - lit.x) / f32(n);
     var acc = vec3f(0.0);
     for (var i = 0u; i < n; i++) {
-        let t = seg.x + (f32(i) + 0.5) * dt;
+        let t = lit.x + (f32(i) + 0.5) * dt;
         let x = cam + d * t;
         let inc = incident(x);
         if (inc.vis <= 0.0) { continue; }
@@ -153,25 +213,35 @@ fn heterogeneous(idx: u32, cam: vec3f, d: vec3f, seg: vec2f) {
     let lo = mp.lo.xyz;
     let hi = mp.hi.xyz;
     let scatter = (mp.flags & 2u) != 0u;
+    // A spot light's rule runs inside its cone (`cone_clip`); the attenuation then takes the
+    // whole segment's optical depth by a march of its own, and the rule starts from the
+    // optical depth before the cone.
+    var lit = seg;
+    if (scatter && light.info.y == LIGHT_SPOT) { lit = cone_clip(cam, d, seg); }
+    let clipped = lit.x != seg.x || lit.y != seg.y;
     let n = max(mp.steps, 1u);
-    let dt = (seg.y - seg.x) / f32(n);
+    let dt = max(lit.y - lit.x, 0.0) / f32(n);
     // Optical depth (density integral) from the segment's start to the current step's start.
     var tau = 0.0;
     var acc = vec3f(0.0);
-    for (var i = 0u; i < n; i++) {
-        let t = seg.x + (f32(i) + 0.5) * dt;
-        let x = cam + d * t;
-        let rho = grid_density(density, x, lo, hi);
-        let tau_here = tau + 0.5 * rho * dt;
-        tau += rho * dt;
-        if (!scatter || rho <= 0.0) { continue; }
-        let inc = incident(x);
-        if (inc.vis <= 0.0) { continue; }
-        let tau_l = grid_optical_depth(density, x, light_path_start(light, x, lo, hi), lo, hi, mp.light_steps);
-        let tr = exp(-mp.sigma_t.rgb * (tau_l + tau_here));
-        acc += rho * inc.e * phase(dot(inc.wl, -d)) * tr * inc.vis;
+    if (lit.y > lit.x) {
+        if (lit.x > seg.x) { tau = grid_optical_depth(density, cam + d * seg.x, cam + d * lit.x, lo, hi, n); }
+        for (var i = 0u; i < n; i++) {
+            let t = lit.x + (f32(i) + 0.5) * dt;
+            let x = cam + d * t;
+            let rho = grid_density(density, x, lo, hi);
+            let tau_here = tau + 0.5 * rho * dt;
+            tau += rho * dt;
+            if (!scatter || rho <= 0.0) { continue; }
+            let inc = incident(x);
+            if (inc.vis <= 0.0) { continue; }
+            let tau_l = grid_optical_depth(density, x, light_path_start(light, x, lo, hi), lo, hi, mp.light_steps);
+            let tr = exp(-mp.sigma_t.rgb * (tau_l + tau_here));
+            acc += rho * inc.e * phase(dot(inc.wl, -d)) * tr * inc.vis;
+        }
     }
     if ((mp.flags & 1u) != 0u) {
+        if (clipped) { tau = grid_optical_depth(density, cam + d * seg.x, cam + d * seg.y, lo, hi, n); }
         let tr = exp(-mp.sigma_t.rgb * tau);
         out_full[idx] = vec4f(out_full[idx].rgb * tr, out_full[idx].a);
         out_caustic[idx] = vec4f(out_caustic[idx].rgb * tr, out_caustic[idx].a);
