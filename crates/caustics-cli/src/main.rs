@@ -209,7 +209,7 @@ enum Command {
         medium_bounce_grid: u32,
         /// Steps of the camera ray march that gathers the light the surfaces reflect into the
         /// medium (GPU; 1 to 4096).
-        #[arg(long, default_value_t = 16)]
+        #[arg(long, default_value_t = 8)]
         medium_bounce_steps: u32,
         /// Scenes with an environment light: the directional lights it is segmented into on
         /// the GPU (cube-map median cut; 1 to 256).

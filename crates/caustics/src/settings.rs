@@ -749,7 +749,7 @@ impl Default for RenderSettings {
             medium_steps: 64,
             medium_light_steps: 16,
             medium_bounce_grid: 16,
-            medium_bounce_steps: 16,
+            medium_bounce_steps: 8,
             env_lights: DEFAULT_ENV_LIGHTS,
             env_split: Default::default(),
             env_taps: DEFAULT_ENV_TAPS,
