@@ -15,6 +15,7 @@
 // The VPLs are read in tiles of 64 through workgroup memory; the sums run in a fixed order.
 
 #import medium
+#import medium_bounce
 
 struct BounceParams {
     clip_to_world: mat4x4f,
@@ -37,13 +38,6 @@ struct BounceParams {
     _pad2: u32,
 }
 
-struct Vpl {
-    pos: vec4f,
-    nrm: vec4f,
-    full: vec4f,
-    caustic: vec4f,
-}
-
 @group(0) @binding(0) var<uniform> bp: BounceParams;
 @group(0) @binding(1) var<storage, read> vpls: array<Vpl>;
 @group(0) @binding(2) var recv_pos: texture_2d<f32>;
@@ -52,20 +46,8 @@ struct Vpl {
 @group(0) @binding(5) var<storage, read_write> out_caustic: array<vec4f>;
 @group(0) @binding(6) var density: texture_3d<f32>;
 
-// Steps of the optical-depth march from a VPL to a point of a heterogeneous medium.
-const BOUNCE_GRID_STEPS: u32 = 4u;
-
-var<workgroup> tile: array<Vpl, 64>;
-// The tile's lit VPLs are packed to its front in index order (an inclusive prefix sum over the
-// 64 loaded): the loops skip the dark ones (a spot's spill face, blocks outside its cone).
-var<workgroup> scan: array<u32, 64>;
-
 fn phase(cos_t: f32) -> f32 {
     return hg_phase(cos_t, bp.sigma_s.w);
-}
-
-fn inside(p: vec3f) -> bool {
-    return all(p >= bp.lo.xyz) && all(p <= bp.hi.xyz);
 }
 
 @compute @workgroup_size(8, 8)
@@ -94,22 +76,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(local_invocation_ind
     var acc_full = vec3f(0.0);
     var acc_caus = vec3f(0.0);
     for (var base = 0u; base < bp.count; base += 64u) {
-        workgroupBarrier();
-        var mine = Vpl(vec4f(0.0), vec4f(0.0), vec4f(0.0), vec4f(0.0));
-        if (base + li < bp.count) { mine = vpls[base + li]; }
-        let lit_one = any(mine.full.rgb > vec3f(0.0));
-        scan[li] = u32(lit_one);
-        workgroupBarrier();
-        for (var o = 1u; o < 64u; o = o * 2u) {
-            var v = scan[li];
-            if (li >= o) { v += scan[li - o]; }
-            workgroupBarrier();
-            scan[li] = v;
-            workgroupBarrier();
-        }
-        if (lit_one) { tile[scan[li] - 1u] = mine; }
-        let in_tile = scan[63];
-        workgroupBarrier();
+        let in_tile = load_tile(base, bp.count, li);
         if (live) {
             // Optical depth (density units) of the camera ray from the segment's start to the
             // current step's start (heterogeneous).
@@ -144,7 +111,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(local_invocation_ind
                     } else {
                         // x is inside the box; so is the whole segment when the VPL is.
                         var len = dist;
-                        if (!inside(v.pos.xyz)) { len = box_length(v.pos.xyz, x, lo, hi); }
+                        if (!in_box(v.pos.xyz, lo, hi)) { len = box_length(v.pos.xyz, x, lo, hi); }
                         od = bp.sigma_t.rgb * len;
                     }
                     let g = phase(dot(u, -d)) * cos_v / (PI * (d2 + v.pos.w)) * exp(-od);

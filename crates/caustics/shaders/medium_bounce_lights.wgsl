@@ -27,38 +27,7 @@
 // writes a VPL of zero flux (which `medium_bounce` skips).
 
 #import medium
-
-struct BounceLightParams {
-    // The medium's box and sigma_t (1/m).
-    lo: vec4f,
-    hi: vec4f,
-    sigma_t: vec4f,
-    // VPL blocks per side of a face.
-    grid: u32,
-    shadow_size: u32,
-    // 1: heterogeneous (density grid), 0: homogeneous.
-    heterogeneous: u32,
-    // Heterogeneous: ray-march steps of the transmittance toward the light.
-    light_steps: u32,
-    // This light's first VPL.
-    offset: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-    // rgb = sigma_s (1/m; read by `medium_bounce_shafts`)
-    sigma_s: vec4f,
-}
-
-struct Vpl {
-    // xyz = position, w = squared radius (m^2)
-    pos: vec4f,
-    // xyz = unit normal (the emitting side)
-    nrm: vec4f,
-    // rgb = reflected flux (W)
-    full: vec4f,
-    // rgb = the part of it that arrived as caustic light (W)
-    caustic: vec4f,
-}
+#import medium_bounce
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<uniform> bp: BounceLightParams;

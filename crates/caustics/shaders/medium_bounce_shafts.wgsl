@@ -23,29 +23,7 @@
 // SHAFT_SLICES + j].
 
 #import medium
-
-struct BounceLightParams {
-    lo: vec4f,
-    hi: vec4f,
-    sigma_t: vec4f,
-    grid: u32,
-    shadow_size: u32,
-    heterogeneous: u32,
-    light_steps: u32,
-    offset: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-    // rgb = sigma_s (1/m)
-    sigma_s: vec4f,
-}
-
-struct Vpl {
-    pos: vec4f,
-    nrm: vec4f,
-    full: vec4f,
-    caustic: vec4f,
-}
+#import medium_bounce
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<uniform> bp: BounceLightParams;

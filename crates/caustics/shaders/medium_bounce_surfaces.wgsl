@@ -13,6 +13,7 @@
 // The VPLs are read in tiles of 64 through workgroup memory; the sums run in a fixed order.
 
 #import medium
+#import medium_bounce
 
 struct SurfaceBounceParams {
     lo: vec4f,
@@ -28,13 +29,6 @@ struct SurfaceBounceParams {
     heterogeneous: u32,
 }
 
-struct Vpl {
-    pos: vec4f,
-    nrm: vec4f,
-    full: vec4f,
-    caustic: vec4f,
-}
-
 @group(0) @binding(0) var<uniform> sp: SurfaceBounceParams;
 @group(0) @binding(1) var<storage, read> vpls: array<Vpl>;
 @group(0) @binding(2) var eye_pos: texture_2d<f32>;
@@ -42,17 +36,6 @@ struct Vpl {
 @group(0) @binding(4) var<storage, read> materials: array<MaterialGpu>;
 @group(0) @binding(5) var<storage, read_write> radiance: array<vec4f>;
 @group(0) @binding(6) var density: texture_3d<f32>;
-
-const BOUNCE_GRID_STEPS: u32 = 4u;
-
-var<workgroup> tile: array<Vpl, 64>;
-// The tile's lit VPLs are packed to its front in index order (an inclusive prefix sum over the
-// 64 loaded): the loops skip the dark ones (a spot's spill face, blocks outside its cone).
-var<workgroup> scan: array<u32, 64>;
-
-fn inside(p: vec3f) -> bool {
-    return all(p >= sp.lo.xyz) && all(p <= sp.hi.xyz);
-}
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(local_invocation_index) li: u32) {
@@ -75,25 +58,10 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(local_invocation_ind
             }
         }
     }
-    let y_in = inside(y);
+    let y_in = in_box(y, lo, hi);
     var e = vec3f(0.0);
     for (var base = 0u; base < sp.count; base += 64u) {
-        workgroupBarrier();
-        var mine = Vpl(vec4f(0.0), vec4f(0.0), vec4f(0.0), vec4f(0.0));
-        if (base + li < sp.count) { mine = vpls[base + li]; }
-        let lit_one = any(mine.full.rgb > vec3f(0.0));
-        scan[li] = u32(lit_one);
-        workgroupBarrier();
-        for (var o = 1u; o < 64u; o = o * 2u) {
-            var v = scan[li];
-            if (li >= o) { v += scan[li - o]; }
-            workgroupBarrier();
-            scan[li] = v;
-            workgroupBarrier();
-        }
-        if (lit_one) { tile[scan[li] - 1u] = mine; }
-        let in_tile = scan[63];
-        workgroupBarrier();
+        let in_tile = load_tile(base, sp.count, li);
         if (lit) {
             for (var k = 0u; k < in_tile; k++) {
                 let v = tile[k];
@@ -110,7 +78,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(local_invocation_ind
                 } else {
                     // The whole segment is inside the box when both ends are.
                     var len = dist;
-                    if (!y_in || !inside(v.pos.xyz)) { len = box_length(v.pos.xyz, y, lo, hi); }
+                    if (!y_in || !in_box(v.pos.xyz, lo, hi)) { len = box_length(v.pos.xyz, y, lo, hi); }
                     od = sp.sigma_t.rgb * len;
                 }
                 e += v.full.rgb * (hg_phase(dot(v.nrm.xyz, u), sp.sigma_t.w) * cos_y / (d2 + v.pos.w)) * exp(-od);

@@ -68,6 +68,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("triangles", include_str!("../../shaders/shared/triangles.wgsl")),
     ("environment", include_str!("../../shaders/shared/environment.wgsl")),
     ("medium", include_str!("../../shaders/shared/medium.wgsl")),
+    ("medium_bounce", include_str!("../../shaders/shared/medium_bounce.wgsl")),
     ("beams", include_str!("../../shaders/shared/beams.wgsl")),
     ("beam_medium", include_str!("../../shaders/shared/beam_medium.wgsl")),
     ("beam_trace", include_str!("../../shaders/shared/beam_trace.wgsl")),
