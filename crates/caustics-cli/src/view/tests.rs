@@ -576,6 +576,15 @@ fn medium_density_and_beam_settings_change_live() {
     frame(&mut s);
     let gathered = caustic_sum(&s);
     assert!((gathered / with_beams - 1.0).abs() < 1e-5, "caustic light: {with_beams} drawn, {gathered} gathered");
+    // The lit floor's glow off (`medium_bounce_grid` 0): the fog over the floor darkens.
+    let sum = |img: &caustics::image_io::Image| -> f64 { img.pixels.iter().flatten().map(|&v| v as f64).sum() };
+    let glowing = sum(&s.renderer().read_image().unwrap());
+    let mut dark = s.settings().clone();
+    dark.medium_bounce_grid = 0;
+    s.act(Action::SetSettings(Box::new(dark))).unwrap();
+    frame(&mut s);
+    let unlit = sum(&s.renderer().read_image().unwrap());
+    assert!(unlit < glowing, "image: {glowing} with the glow, {unlit} without");
     // Beams off: the caustic light in the fog goes.
     let mut off = s.settings().clone();
     off.beams.enabled = false;

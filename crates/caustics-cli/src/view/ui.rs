@@ -514,6 +514,14 @@ fn medium_controls(
             if g == 0.0 { caustics::scene::Phase::Isotropic } else { caustics::scene::Phase::HenyeyGreenstein { g } };
         act(session, Action::SetMedium { sigma_s: m.sigma_s, sigma_a: m.sigma_a, phase });
     }
+    let s = session.settings().clone();
+    let mut grid = s.medium_bounce_grid;
+    let r = ui.add(egui::Slider::new(&mut grid, 0..=32).text("lit-surface glow")).on_hover_text(
+        "The light lit surfaces and the fog exchange: virtual point lights per side of each light face (0: off)",
+    );
+    if released(&r) && grid != s.medium_bounce_grid {
+        act(session, Action::SetSettings(Box::new(caustics::render::RenderSettings { medium_bounce_grid: grid, ..s })));
+    }
 }
 
 /// The beams' settings: the volume caustic (scenes with a medium), the beam grid and how the
