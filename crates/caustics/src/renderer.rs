@@ -158,6 +158,8 @@ pub struct Renderer {
     outputs: Option<(wgpu::Buffer, wgpu::Buffer, wgpu::Texture)>,
     /// The last frame's beam buffers per light with beams (`crate::beams`).
     beam_frames: Vec<crate::beams::BeamFrame>,
+    /// The lights' virtual point lights of `crate::medium_bounce`, kept while no light is redone.
+    bounce: Option<crate::medium_bounce::BounceFrame>,
     /// Count the beam hulls' fragments in the frame being encoded (`render_once`, which reads
     /// the beam statistics; `BEAM_FLAG_FRAGMENTS`).
     count_fragments: bool,
@@ -206,6 +208,7 @@ impl Renderer {
             frame: 0,
             outputs: None,
             beam_frames: Vec::new(),
+            bounce: None,
             count_fragments: false,
             ring: Vec::new(),
             latest: None,
@@ -760,10 +763,18 @@ impl Renderer {
             crate::passes::record_shade(&dc, &eye, lf, &s, &taps[li], enc, &mut timer);
             ctx.end_scope();
         }
-        // Light between the surfaces and the medium (scenes with one).
+        // Light between the surfaces and the medium (scenes with one): the lights' VPLs are
+        // made again when a light's maps were (every change that moves them redoes the lights:
+        // the medium, materials, settings, objects the light sees); a frame that only moves the
+        // camera keeps them, and their scope is not begun, so its buffers are not cleared.
+        if redone.iter().any(|&r| r) || self.bounce.is_none() {
+            ctx.begin_scope("medium_bounce_lights", enc);
+            self.bounce = crate::medium_bounce::record_lights(&dc, &light_frames, &s, enc, &mut timer);
+            ctx.end_scope();
+        }
+        let bounce = self.bounce.as_ref();
         ctx.begin_scope("medium_bounce", enc);
-        let bounce = crate::medium_bounce::record_lights(&dc, &light_frames, &s, enc, &mut timer);
-        if let Some(bf) = &bounce {
+        if let Some(bf) = bounce {
             crate::medium_bounce::record_surfaces(&dc, &eye, bf, enc, &mut timer);
         }
         ctx.end_scope();
@@ -813,7 +824,7 @@ impl Renderer {
         ctx.end_scope();
         ctx.begin_scope("composite", enc);
         let (full, caustic) = crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
-        if let Some(bf) = &bounce {
+        if let Some(bf) = bounce {
             crate::medium_bounce::record(&dc, &eye, bf, &s, (&full, &caustic), enc, &mut timer);
         }
         crate::beams::record_gather(&dc, &eye, &beams, &s, (&full, &caustic), enc, &mut timer);

@@ -503,3 +503,53 @@ fn the_floor_caustics_glow_in_the_fog_matches_the_reference() {
     assert!((ratios[0] - 1.0).abs() < 0.05, "{ratios:?}");
     assert!(ratios[1] < 0.8, "{ratios:?}");
 }
+
+#[test]
+fn a_camera_move_keeps_the_lights_vpls_and_matches_a_fresh_renderer() {
+    let Some(ctx) = gpu() else { return };
+    // The lit floor in fog: a frame, the spot moved (its maps and VPLs made again), then the
+    // camera moved (no light redone: the VPLs are kept, their passes not recorded). The image
+    // is a fresh renderer's, bit for bit.
+    let sc = lit_floor_fog_scene();
+    let frame = |r: &mut Renderer| {
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        r.encode(&mut enc, FrameRequest { stats: true }).unwrap();
+        ctx.queue.submit([enc.finish()]);
+        r.wait_stats().unwrap().expect("the frame asked for statistics")
+    };
+    let mut light = sc.lights[0].clone();
+    if let caustics::scene::Light::Spot { position, .. } = &mut light {
+        *position += Vec3::new(0.3, 0.0, -0.2);
+    }
+    let mut cam = sc.camera.clone();
+    cam.position += Vec3::new(-0.5, 0.3, 0.2);
+    let mut r = Renderer::with_context(ctx.clone(), sc.clone(), settings()).unwrap();
+    frame(&mut r);
+    r.set_light(0, light.clone()).unwrap();
+    let moved = frame(&mut r);
+    assert_eq!(moved.lights_redone, [true]);
+    r.set_camera(cam.clone()).unwrap();
+    let kept = frame(&mut r);
+    assert_eq!(kept.lights_redone, [false]);
+    // Where the adapter has timestamps: the VPLs were made in the second frame, not the third.
+    let timed = |f: &caustics::renderer::FrameStats, pass: &str| f.timings.iter().any(|(n, _)| n == pass);
+    if !moved.timings.is_empty() {
+        assert!(timed(&moved, "medium_bounce_lights") && timed(&moved, "medium_bounce"));
+        assert!(!timed(&kept, "medium_bounce_lights") && !timed(&kept, "medium_bounce_shafts"));
+        assert!(timed(&kept, "medium_bounce") && timed(&kept, "medium_bounce_surfaces"));
+    }
+    let image = r.read_image().unwrap();
+    let mut fresh = Renderer::with_context(ctx.clone(), sc, settings()).unwrap();
+    fresh.set_light(0, light).unwrap();
+    fresh.set_camera(cam).unwrap();
+    frame(&mut fresh);
+    let want = fresh.read_image().unwrap();
+    assert!(image.pixels == want.pixels, "the image differs from a fresh renderer's");
+    // And the glow is in it: without the passes the image is darker.
+    let mut off =
+        Renderer::with_context(ctx.clone(), r.scene().clone(), RenderSettings { medium_bounce_grid: 0, ..settings() })
+            .unwrap();
+    frame(&mut off);
+    let sum = |img: &caustics::image_io::Image| img.pixels.iter().flatten().map(|&v| v as f64).sum::<f64>();
+    assert!(sum(&off.read_image().unwrap()) < 0.95 * sum(&image));
+}
