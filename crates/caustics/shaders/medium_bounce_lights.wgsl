@@ -143,7 +143,9 @@ fn main(@builtin(workgroup_id) wid: vec3u, @builtin(local_invocation_index) i: u
         if (r.w < 0.0) { continue; }
         let p = r.xyz;
         let l = to_light(light, p);
-        var n = normalize(textureLoad(recv_nrm, t, f, 0).xyz);
+        let n_raw = textureLoad(recv_nrm, t, f, 0).xyz;
+        if (dot(n_raw, n_raw) <= 1e-20) { continue; }
+        var n = normalize(n_raw);
         if (dot(n, l.xyz) < 0.0) { n = -n; }
         let cos_t = max(dot(n, l.xyz), 0.0);
         var e_direct: vec3f;
