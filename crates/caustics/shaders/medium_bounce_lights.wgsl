@@ -67,14 +67,7 @@ fn shadow(p: vec3f, n: vec3f) -> f32 {
     let po = p + n * (1.5 * texel) + l.xyz * (1.0 * texel + prec);
     let q = project_face(light.faces[f], po, s);
     if (q.w < 0.5) { return 1.0; }
-    var vis = 0.0;
-    for (var y = -1; y <= 1; y++) {
-        for (var x = -1; x <= 1; x++) {
-            let uv = (q.xy + vec2f(f32(x), f32(y))) / s;
-            vis += textureSampleCompareLevel(shadow_map, shadow_sampler, uv, f, q.z);
-        }
-    }
-    return vis / 9.0;
+    return shadow_pcf(shadow_map, shadow_sampler, q, f, s);
 }
 
 // The receiver at texel t of face f, if this face owns it: (point, object id) or w < 0.

@@ -58,14 +58,7 @@ fn face_ray(f: u32, ndc: vec2f) -> Ray {
 // Whether the light reaches x in face f (one bilinear comparison one texel toward the light, as
 // `medium_scatter`'s `visibility`).
 fn visible(f: u32, x: vec3f, to_l: vec3f) -> f32 {
-    let face = light.faces[f];
-    let s = f32(bp.shadow_size);
-    let texel = sqrt(texel_area(face, x, to_l, s));
-    let c = face.world_to_clip * vec4f(x + to_l * texel, 1.0);
-    if (c.w <= 0.0) { return 1.0; }
-    let ndc = c.xyz / c.w;
-    let uv = vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
-    return textureSampleCompareLevel(shadow_map, shadow_sampler, uv, f, clamp(ndc.z, 0.0, 1.0));
+    return shadow_point(shadow_map, shadow_sampler, light.faces[f], f, x, to_l, f32(bp.shadow_size));
 }
 
 @compute @workgroup_size(64)

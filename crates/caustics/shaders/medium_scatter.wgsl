@@ -70,12 +70,7 @@ fn visibility(x: vec3f, to_l: vec3f) -> f32 {
         if (c0.w <= 0.0) { continue; }
         let n0 = c0.xyz / c0.w;
         if (abs(n0.x) > 1.0 || abs(n0.y) > 1.0) { continue; }
-        let texel = sqrt(texel_area(face, x, to_l, s));
-        let c = face.world_to_clip * vec4f(x + to_l * texel, 1.0);
-        if (c.w <= 0.0) { return 1.0; }
-        let ndc = c.xyz / c.w;
-        let uv = vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
-        return textureSampleCompareLevel(shadow_map, shadow_sampler, uv, f, clamp(ndc.z, 0.0, 1.0));
+        return shadow_point(shadow_map, shadow_sampler, face, f, x, to_l, s);
     }
     return 1.0;
 }

@@ -96,14 +96,7 @@ fn shadow(p: vec3f, n: vec3f) -> f32 {
         if (q.z <= r.x) { return 1.0; }
         if (q.z > r.y) { return 0.0; }
     }
-    var vis = 0.0;
-    for (var y = -1; y <= 1; y++) {
-        for (var x = -1; x <= 1; x++) {
-            let uv = (q.xy + vec2f(f32(x), f32(y))) / s;
-            vis += textureSampleCompareLevel(shadow_map, shadow_sampler, uv, f, q.z);
-        }
-    }
-    return vis / 9.0;
+    return shadow_pcf(shadow_map, shadow_sampler, q, f, s);
 }
 
 fn caustic_at(p: vec3f) -> vec3f {

@@ -232,3 +232,31 @@ fn hash_uniform(key: u32, n: u32) -> f32 {
     s = (s >> 22u) ^ s;
     return f32(s >> 8u) * (1.0 / 16777216.0);
 }
+
+// Shadow-map lookups shared by the stages that read a light's shadow map (`shadow_map`: one
+// layer per face, depth; `ss`: a comparison sampler).
+
+// 3x3 PCF around q (texel x, texel y, ndc depth: `project_face` of an offset point) in layer f
+// of a size x size map: the fraction of the nine comparisons that pass.
+fn shadow_pcf(shadow_map: texture_depth_2d_array, ss: sampler_comparison, q: vec4f, f: u32, size: f32) -> f32 {
+    var vis = 0.0;
+    for (var y = -1; y <= 1; y++) {
+        for (var x = -1; x <= 1; x++) {
+            let uv = (q.xy + vec2f(f32(x), f32(y))) / size;
+            vis += textureSampleCompareLevel(shadow_map, ss, uv, f, q.z);
+        }
+    }
+    return vis / 9.0;
+}
+
+// Whether the light reaches the medium point x through face f (0..1): one bilinear comparison
+// one texel toward the light (`to_l`), depth clamped to the map's range (a point beyond the far
+// plane is lit where no object covers its texel).
+fn shadow_point(shadow_map: texture_depth_2d_array, ss: sampler_comparison, face: Face, f: u32, x: vec3f, to_l: vec3f, size: f32) -> f32 {
+    let texel = sqrt(texel_area(face, x, to_l, size));
+    let c = face.world_to_clip * vec4f(x + to_l * texel, 1.0);
+    if (c.w <= 0.0) { return 1.0; }
+    let ndc = c.xyz / c.w;
+    let uv = vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
+    return textureSampleCompareLevel(shadow_map, ss, uv, f, clamp(ndc.z, 0.0, 1.0));
+}
