@@ -471,6 +471,47 @@ fn caustic_glow_scene() -> Scene {
 }
 
 #[test]
+fn light_between_a_lit_floor_and_layered_fog_matches_the_reference() {
+    let Some(ctx) = gpu() else { return };
+    // The lit floor under ground fog: a density grid, 2.2 at the floor falling to 0.25 at 1.5 m
+    // and above (the gathers march the grid from each VPL to the point it lights).
+    let dims = [4u32, 22, 4];
+    let mut v = Vec::new();
+    for _z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for _x in 0..dims[0] {
+                // Voxel centres over y in [-1, 4.5].
+                let h = -1.0 + (y as f32 + 0.5) / dims[1] as f32 * 5.5;
+                v.push(0.25 + 1.95 * (1.0 - (h / 1.5).clamp(0.0, 1.0)));
+            }
+        }
+    }
+    let sc = with_grid(lit_floor_fog_scene(), DensityGrid::new(dims, v).unwrap());
+    let rs = common::single_scattering_reference(1, 1024, 5);
+    let r = reference::render(&sc, &rs).unwrap();
+    let region = |img: &caustics::image_io::Image, rows: std::ops::Range<u32>| -> f64 {
+        rows.flat_map(|y| (0..32).map(move |x| (x, y)))
+            .map(|(x, y)| img.get(x, y).iter().map(|&v| v as f64).sum::<f64>())
+            .sum()
+    };
+    let (fog_r, floor_r) = (region(&r.image, 0..12), region(&r.image, 18..32));
+    let mut ratios = Vec::new();
+    for grid in [16, 0] {
+        let g = render(&ctx, &sc, &RenderSettings { medium_bounce_grid: grid, ..settings() }).unwrap();
+        let (fog, floor) = (region(&g.image, 0..12) / fog_r, region(&g.image, 18..32) / floor_r);
+        println!("layered fog, medium_bounce_grid {grid}: GPU / reference: fog rows {fog:.4}, floor rows {floor:.4}");
+        ratios.push((fog, floor));
+    }
+    // Measured (lavapipe): with the passes fog 1.004, floor 0.923; without them 0.794, 0.780
+    // (another seed: 0.998, 0.923; 0.790, 0.780). The floor's shortfall is larger than in the
+    // even fog: the dense layer over it sends more of its glow back (light -> floor -> fog ->
+    // floor, not rendered).
+    let (with, without) = (ratios[0], ratios[1]);
+    assert!((with.0 - 1.0).abs() < 0.05 && with.1 > 0.9 && with.1 < 1.02, "{ratios:?}");
+    assert!(without.0 < 0.85 && without.1 < 0.85, "{ratios:?}");
+}
+
+#[test]
 fn the_floor_caustics_glow_in_the_fog_matches_the_reference() {
     let Some(ctx) = gpu() else { return };
     // The floor caustic's light scattered into the fog (light -> glass -> floor -> fog ->
