@@ -13,8 +13,7 @@
 #    CAUSTICS_LOG_PIPELINES, so a driver whose compiler stalls names its stage), twice: the
 #    same image bit for bit; then the built-in scene twice;
 # 2. the beams at 1920x1080 for the grids of the issue's budgets (frame loop: full and camera;
-#    the scene's floor glows: `bench` runs the medium_bounce passes at their defaults), and the
-#    lit floor's glow on and off;
+#    the beams alone: the floor's glow off), and the lit floor's glow on and off;
 # 3. the frame loop of the built-in scene at 1920x1080;
 # 4. the photon emission techniques (Table 1 of Wyman & Nichols 2009) up to 16384^2;
 # 5. the CPU reference on this machine's cores.
@@ -61,7 +60,7 @@ for cfg in "16 3 0.05" "64 0 0.05" "16 2 0.05" "16 2 0.03" "24 1 0.05" "32 0 0.0
     set -- $cfg
     run 60 "$B" bench --frames 12 scenes/volume_caustic_fog.json "${A[@]}" --technique basic --photons 1024 \
         --size 1920x1080 --phases full,camera --beam-grid "$1" --beam-levels "$2" \
-        --beam-linearity-threshold "$3" --out "$OUT/beams_$1_$2_$3"
+        --beam-linearity-threshold "$3" --medium-bounce-grid 0 --out "$OUT/beams_$1_$2_$3"
 done
 run 40 "$B" render scenes/volume_caustic_fog.json "${A[@]}" --size 1920x1080 -o "$OUT/fog_1080.png"
 # The lit floor's glow (medium_bounce_* passes: GPU ms per pass in the render's table), on and off.

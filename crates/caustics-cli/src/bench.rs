@@ -90,6 +90,11 @@ pub struct BenchArgs {
     /// The volume caustic's beams (scenes with a medium; see `caustics render --help`).
     #[command(flatten)]
     beams: crate::BeamArgs,
+    /// Scenes with a medium: the light lit surfaces and the medium exchange, virtual point
+    /// lights per side of each light face (0: off, to time the beams alone; see `caustics
+    /// render --help`).
+    #[arg(long, default_value_t = 16)]
+    medium_bounce_grid: u32,
 }
 
 fn parse_grids(s: &str) -> Result<Vec<u32>> {
@@ -690,6 +695,7 @@ fn settings(a: &BenchArgs, t: Technique, n: u32, splat: caustics::splat::SplatMo
         surface_caustics: a.surface_caustics,
         spill_faces: a.spill_faces,
         beams: a.beams.settings(),
+        medium_bounce_grid: a.medium_bounce_grid,
         ..Default::default()
     }
 }
