@@ -61,7 +61,11 @@ fn shadow(p: vec3f, n: vec3f) -> f32 {
         if (q0.w > 0.5) { break; }
     }
     if (f >= light.info.x) { return 1.0; }
-    let q = shadow_lookup(light, f, p, n, s);
+    let l = to_light(light, p);
+    let texel = sqrt(texel_area(light.faces[f], p, l.xyz, s));
+    let prec = min(depth_precision(light.faces[f], p, l.xyz), 8.0 * texel);
+    let po = p + n * (1.5 * texel) + l.xyz * (1.0 * texel + prec);
+    let q = project_face(light.faces[f], po, s);
     if (q.w < 0.5) { return 1.0; }
     return shadow_pcf(shadow_map, shadow_sampler, q, f, s);
 }

@@ -80,7 +80,12 @@ fn shadow(p: vec3f, n: vec3f) -> f32 {
     let q0 = face_of(p, s);
     if (q0.w < 0.0) { return 1.0; }
     let f = u32(q0.w);
-    let q = shadow_lookup(light, f, p, n, s);
+    let l = to_light(light, p);
+    let texel = sqrt(texel_area(light.faces[f], p, l.xyz, s));
+    // (and the depth's rounding: depth_precision; capped at 8 texels)
+    let prec = min(depth_precision(light.faces[f], p, l.xyz), 8.0 * texel);
+    let po = p + n * (1.5 * texel) + l.xyz * (1.0 * texel + prec);
+    let q = project_face(light.faces[f], po, s);
     if (q.w < 0.5) { return 1.0; }
     if (sp.tiles != 0u) {
         // Every texel the 3x3 PCF reads lies within two texels of floor(q.xy), in the widened

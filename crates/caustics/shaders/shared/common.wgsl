@@ -260,14 +260,3 @@ fn shadow_point(shadow_map: texture_depth_2d_array, ss: sampler_comparison, face
     let uv = vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
     return textureSampleCompareLevel(shadow_map, ss, uv, f, clamp(ndc.z, 0.0, 1.0));
 }
-
-// Where a surface point p (unit normal n, on the light's side) is looked up in face f of a
-// size x size shadow map: p moved 1.5 texels along its normal and one texel toward the light,
-// plus the depth's rounding (depth_precision, capped at 8 texels), projected (project_face).
-fn shadow_lookup(light: LightGpu, f: u32, p: vec3f, n: vec3f, s: f32) -> vec4f {
-    let l = to_light(light, p);
-    let texel = sqrt(texel_area(light.faces[f], p, l.xyz, s));
-    let prec = min(depth_precision(light.faces[f], p, l.xyz), 8.0 * texel);
-    let po = p + n * (1.5 * texel) + l.xyz * (1.0 * texel + prec);
-    return project_face(light.faces[f], po, s);
-}
