@@ -5,6 +5,13 @@
 // order (the same bits every run). The cost is a test per pixel and beam (the bounding sphere
 // against the pixel's cone); beam_hull and beam_raster (the paper's hulls) spend work only on
 // the pixels a beam can reach.
+// With `gather_slot` k >= 0 (one dispatch per chunk and slot, so that no two invocations add to
+// one pixel at once, with the chunk's dispatch size; invocation i takes the i-th pixel of
+// `composite`'s list of specular pixels) each
+// invocation gathers along its pixel's kept segment k beyond the specular surface
+// (`EyeSegment`, shared/medium.wgsl), weighted by the path's weight, into the full image (the
+// caustic-only image is zero where the camera sees glass). The hulls draw only the camera
+// rays; these segments are gathered either way.
 
 #import beams
 #import medium
@@ -36,8 +43,20 @@
 // The eye's receiver and specular normals (the first surface's tangent plane in each pixel).
 @group(0) @binding(11) var recv_nrm: texture_2d<f32>;
 @group(0) @binding(12) var spec_nrm: texture_2d<f32>;
+// `composite`'s list of specular pixels, its length (count[3]) and the segments it kept.
+@group(0) @binding(13) var<storage, read> spec_list: array<u32>;
+@group(0) @binding(14) var<storage, read> spec_count: array<u32, 4>;
+@group(0) @binding(15) var<storage, read> segments: array<EyeSegment>;
+override gather_slot: i32 = -1;
+
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) gid: vec3u) {
+fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @builtin(local_invocation_index) li: u32) {
+    if (gather_slot >= 0) {
+        // (the chunk's dispatch over the image's pixels, as the camera rays': enough
+        // invocations for every listed pixel; the rest return)
+        along_segment((wg.y * nwg.x + wg.x) * 64u + li);
+        return;
+    }
     if (gid.x >= bp.width || gid.y >= bp.height) { return; }
     let idx = gid.y * bp.width + gid.x;
     let view = pixel_view(gid.xy);
@@ -51,4 +70,25 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (all(acc == vec3f(0.0))) { return; }
     out_full[idx] += vec4f(acc, 0.0);
     out_caustic[idx] += vec4f(acc, 0.0);
+}
+
+// Listed specular pixel i's kept segment `gather_slot`, against this chunk's beams.
+fn along_segment(i: u32) {
+    if (i >= spec_count[3]) { return; }
+    let e = segments[i * EYE_SEGMENTS + u32(gather_slot)];
+    if (!(e.o.w > 0.0)) { return; }
+    let o = e.o.xyz;
+    let d = segment_dir(e);
+    let seg = box_clip(o, d, e.o.w, bp.lo.xyz, bp.hi.xyz);
+    if (seg.y <= seg.x) { return; }
+    let count = min(stats[1u + BS_ORDERED], bp.capacity);
+    if (chunk.offset >= count) { return; }
+    var acc = vec3f(0.0);
+    let end = min(count, chunk.offset + chunk.base_count);
+    for (var k = chunk.offset; k < end; k++) {
+        beam_segment(order[k], o, d, seg, &acc);
+    }
+    if (all(acc == vec3f(0.0))) { return; }
+    let idx = spec_list[i];
+    out_full[idx] += vec4f(e.w * acc, 0.0);
 }

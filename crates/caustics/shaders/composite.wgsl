@@ -10,10 +10,16 @@
 // Multi-layer deferred refraction: analytic specular objects behind the first layer are
 // intersected exactly; specular meshes behind it are found in the camera's second-layer buffers
 // (front and back, depth-peeled per object by `raster_peel`) and refracted through the same way.
+// In a scene with a medium (`composite_medium`), the rays beyond the first specular surface are
+// attenuated by it along every segment they travel outside the dielectrics, and each specular
+// pixel keeps its EYE_SEGMENTS heaviest segments (`shared/medium.wgsl`) for the medium's stages
+// to add the light scattered along them; the camera ray's own segment to the specular surface
+// is `medium_scatter`'s.
 
 #import shapes
 #import raytrace
 #import environment
+#import medium
 
 struct CompositeParams {
     world_to_clip: mat4x4f,
@@ -25,6 +31,11 @@ struct CompositeParams {
     // 1 when the scene has specular meshes: else the second-layer buffers are empty.
     layer2: u32,
     _pad: u32,
+    // The medium (`composite_medium`): its box, w of `medium_hi` 1 for a density grid; sigma_t
+    // (1/m), w = the midpoint rule's steps along a segment in a density grid.
+    medium_lo: vec4f,
+    medium_hi: vec4f,
+    medium_sigma_t: vec4f,
 }
 
 // The parameters are read from a storage buffer into a private copy: lavapipe (Mesa 22.3)
@@ -47,6 +58,8 @@ override composite_pass: u32 = 0u;
 // the environment's lookups are compiled out).
 override composite_layer2: bool = true;
 override composite_env: bool = true;
+// Whether the scene has a medium: else the segments are neither attenuated nor kept.
+override composite_medium: bool = false;
 @group(0) @binding(1) var recv_pos: texture_2d<f32>;
 @group(0) @binding(2) var recv_nrm: texture_2d<f32>;
 @group(0) @binding(3) var spec_pos: texture_2d<f32>;
@@ -66,6 +79,69 @@ override composite_env: bool = true;
 @group(0) @binding(17) var<storage, read> bvh_nodes: array<BvhNode>;
 @group(0) @binding(18) var<storage, read> bvh_tris: array<BvhTri>;
 @group(0) @binding(19) var<storage, read> bvh_instances: array<BvhInstance>;
+// The kept segments (`composite_medium`), EYE_SEGMENTS per listed specular pixel.
+@group(0) @binding(22) var<storage, read_write> segments: array<EyeSegment>;
+@group(0) @binding(23) var density: texture_3d<f32>;
+
+// The specular pixel's heaviest segments so far, and the medium's transmittance from the camera
+// to its specular surface (in the kept weights: the segments' light is added after
+// `medium_scatter` attenuates the pixel).
+var<private> kept: array<EyeSegment, EYE_SEGMENTS>;
+var<private> kept_n: u32;
+var<private> t_cam: vec3f;
+
+// The medium's transmittance along o + s d, 0 <= s <= t (its part inside the box).
+fn transmittance(o: vec3f, d: vec3f, t: f32) -> vec3f {
+    if (!composite_medium) { return vec3f(1.0); }
+    let lo = cp.medium_lo.xyz;
+    let hi = cp.medium_hi.xyz;
+    let c = box_clip(o, d, t, lo, hi);
+    if (c.y <= c.x) { return vec3f(1.0); }
+    var tau = c.y - c.x;
+    if (cp.medium_hi.w != 0.0) {
+        tau = grid_optical_depth(density, o + d * c.x, o + d * c.y, lo, hi, u32(cp.medium_sigma_t.w));
+    }
+    return exp(-cp.medium_sigma_t.rgb * tau);
+}
+
+// A segment o + s d, 0 <= s <= t, of a camera path of weight w (from the specular surface the
+// pixel sees) outside the dielectrics: kept when among the pixel's EYE_SEGMENTS heaviest;
+// returns its transmittance.
+fn segment(o: vec3f, d: vec3f, t: f32, w: vec3f) -> vec3f {
+    if (!composite_medium) { return vec3f(1.0); }
+    var e: EyeSegment;
+    e.o = vec4f(o, t);
+    e.w = w * t_cam;
+    e.dir = oct_encode(d);
+    let heavy = max(max(e.w.x, e.w.y), e.w.z);
+    if (heavy > 0.0) {
+        if (kept_n < EYE_SEGMENTS) {
+            kept[kept_n] = e;
+            kept_n++;
+        } else {
+            // The lightest kept one gives way to a heavier one (the first of equals stays).
+            var j = 0u;
+            var light = 3.0e38;
+            for (var k = 0u; k < EYE_SEGMENTS; k++) {
+                let wk = kept[k].w;
+                let m = max(max(wk.x, wk.y), wk.z);
+                if (m < light) {
+                    light = m;
+                    j = k;
+                }
+            }
+            if (heavy > light) { kept[j] = e; }
+        }
+    }
+    return transmittance(o, d, t);
+}
+
+// The radiance the screen-space search finds along o + s d (`trace_receivers_t`), attenuated by
+// the medium; the segment is kept with weight w.
+fn receivers(o: vec3f, d: vec3f, w: vec3f) -> vec3f {
+    let r = trace_receivers_t(o, d);
+    return segment(o, d, r.w, w) * r.rgb;
+}
 
 fn to_pixel(p: vec3f) -> vec3f {
     let c = cp.world_to_clip * vec4f(p, 1.0);
@@ -107,17 +183,14 @@ fn trace_receivers_t(o: vec3f, d: vec3f) -> vec4f {
     return vec4f(radiance[u32(px.y) * cp.width + u32(px.x)].rgb, t);
 }
 
-fn trace_receivers(o: vec3f, d: vec3f) -> vec3f {
-    return trace_receivers_t(o, d).rgb;
-}
-
 // Radiance along a ray leaving the specular object `leaving`: analytic specular objects on its
 // way (spheres, open cylinders, rectangles, intersected exactly) reflect or refract it, up to
 // three more times (multi-layer refraction: glass seen through glass, glass in a mirror);
 // specular meshes behind the first layer are found in the second-layer buffers and refracted
 // through (`mesh_interaction`); otherwise it sees the diffuse surface the screen-space search
-// finds.
-fn shade_ray(o_in: vec3f, d_in: vec3f, leaving_in: u32) -> vec3f {
+// finds. `wr`: the weight of the returned radiance in the pixel (for the kept segments' weights;
+// the medium attenuates every segment).
+fn shade_ray(o_in: vec3f, d_in: vec3f, leaving_in: u32, wr: vec3f) -> vec3f {
     var o = o_in;
     var d = d_in;
     var leaving = leaving_in;
@@ -128,7 +201,8 @@ fn shade_ray(o_in: vec3f, d_in: vec3f, leaving_in: u32) -> vec3f {
         let h = exact_shape(o, d, rec.w, leaving, false);
         let mh = find_layer2(o, d, min(rec.w, h.t), leaving);
         if (mh.ok) {
-            let r = mesh_interaction(mh, d);
+            w *= segment(o, d, distance(o, mh.p), wr * w);
+            let r = mesh_interaction(mh, d, wr * w);
             l += w * r.l;
             w *= r.w;
             if (!r.ok) { return l; }
@@ -137,7 +211,8 @@ fn shade_ray(o_in: vec3f, d_in: vec3f, leaving_in: u32) -> vec3f {
             leaving = mh.object;
             continue;
         }
-        if (h.object == INVALID) { return l + w * rec.rgb; }
+        if (h.object == INVALID) { return l + w * (segment(o, d, rec.w, wr * w) * rec.rgb); }
+        w *= segment(o, d, h.t, wr * w);
         let m = materials[h.object];
         var n = h.n;
         if (dot(n, d) > 0.0) { n = -n; }
@@ -152,7 +227,7 @@ fn shade_ray(o_in: vec3f, d_in: vec3f, leaving_in: u32) -> vec3f {
             let ior = m.a.x;
             let ext = m.a.y;
             let f1 = fresnel_dielectric(cos1, ior / ext);
-            l += w * f1 * trace_receivers(h.p, reflect(d, n));
+            l += w * f1 * receivers(h.p, reflect(d, n), wr * w * f1);
             w *= 1.0 - f1;
             let t1 = refract_dir(d, n, ext / ior);
             if (m.kind.z != SHAPE_SPHERE) {
@@ -179,7 +254,7 @@ fn shade_ray(o_in: vec3f, d_in: vec3f, leaving_in: u32) -> vec3f {
         o = h.p;
         leaving = h.object;
     }
-    return l + w * trace_receivers(o, d);
+    return l + w * receivers(o, d, wr * w);
 }
 
 struct EyeHit {
@@ -298,7 +373,8 @@ struct MeshResult {
 // buffers (total internal reflection followed up to three times) and refract out. Returns the
 // radiance gathered (l), the weight of what follows (w) and the continuing ray (o, d), ok =
 // false when the ray is lost.
-fn mesh_interaction(h: EyeHit, d: vec3f) -> MeshResult {
+// `wr`: the weight of the ray along d in the pixel (for the kept segments).
+fn mesh_interaction(h: EyeHit, d: vec3f, wr: vec3f) -> MeshResult {
     var r: MeshResult;
     r.l = vec3f(0.0);
     r.w = vec3f(1.0);
@@ -317,7 +393,7 @@ fn mesh_interaction(h: EyeHit, d: vec3f) -> MeshResult {
     let ior = m.a.x;
     let ext = m.a.y;
     let f1 = fresnel_dielectric(cos1, ior / ext);
-    r.l = f1 * trace_receivers(h.p, reflect(d, n));
+    r.l = f1 * receivers(h.p, reflect(d, n), wr * f1);
     r.w = vec3f(1.0 - f1);
     var p_in = h.p;
     var t_in = refract_dir(d, n, ext / ior).xyz;
@@ -389,6 +465,14 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(workgroup_id) wg: ve
         if (i >= atomicLoad(&spec_count[3])) { return; }
         let idx = spec_list[i];
         specular_pixel(vec2i(vec2u(idx % cp.width, idx / cp.width)), idx);
+        if (composite_medium) {
+            // (the empty slots cleared: the stages read every slot)
+            for (var k = 0u; k < EYE_SEGMENTS; k++) {
+                var e = kept[k];
+                if (k >= kept_n) { e.o = vec4f(0.0); }
+                segments[i * EYE_SEGMENTS + k] = e;
+            }
+        }
         return;
     }
     if (gid.x >= cp.width || gid.y >= cp.height) { return; }
@@ -441,23 +525,27 @@ fn specular_pixel(px: vec2i, idx: u32) {
         }
     }
     if (dot(n, d) > 0.0) { n = -n; }
+    kept_n = 0u;
+    t_cam = vec3f(1.0);
+    if (composite_medium) { t_cam = transmittance(cam, d, distance(cam, p)); }
     let cos1 = -dot(d, n);
     let refl = reflect(d, n);
     var l = vec3f(0.0);
     if (mat.kind.x == KIND_MIRROR) {
-        l = mat.a.rgb * shade_ray(p, refl, obj);
+        l = mat.a.rgb * shade_ray(p, refl, obj, mat.a.rgb);
     } else if (mat.kind.x == KIND_CONDUCTOR) {
-        l = fresnel_conductor(cos1, mat.a.rgb, mat.b.rgb) * shade_ray(p, refl, obj);
+        let fc = fresnel_conductor(cos1, mat.a.rgb, mat.b.rgb);
+        l = fc * shade_ray(p, refl, obj, fc);
     } else if (mat.kind.x == KIND_DIELECTRIC) {
         let ior = mat.a.x;
         let ext = mat.a.y;
         let f1 = fresnel_dielectric(cos1, ior / ext);
-        l = f1 * shade_ray(p, refl, obj);
+        l = f1 * shade_ray(p, refl, obj, vec3f(f1));
         let t1 = refract_dir(d, n, ext / ior);
         if (mat.kind.z == SHAPE_CYLINDER || mat.kind.z == SHAPE_RECTANGLE) {
             // Open cylinders and rectangles have no inside: a thin sheet, out the other side
             // (as `shade_ray` treats them behind the first layer).
-            l += (1.0 - f1) * (1.0 - f1) * shade_ray(p, d, obj);
+            l += (1.0 - f1) * (1.0 - f1) * shade_ray(p, d, obj, vec3f((1.0 - f1) * (1.0 - f1)));
         } else {
             // Inside: to the exit (exactly for a sphere; marched through the camera's buffers
             // for a mesh, with the exact BVH tracer where the march finds none); total internal
@@ -474,7 +562,7 @@ fn specular_pixel(px: vec2i, idx: u32) {
                 let t2 = refract_dir(t_in, -n2, ior / ext);
                 if (t2.w > 0.5) {
                     let f2 = fresnel_dielectric(cos2, ext / ior);
-                    l += w * (1.0 - f2) * shade_ray(exit.p, t2.xyz, obj);
+                    l += w * (1.0 - f2) * shade_ray(exit.p, t2.xyz, obj, vec3f(w * (1.0 - f2)));
                     break;
                 }
                 p_in = exit.p;

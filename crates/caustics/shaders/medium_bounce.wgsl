@@ -13,6 +13,10 @@
 // Not modelled: visibility between the VPL and x (objects between a lit surface and the fog it
 // lights do not shadow it), light reflected by more than one diffuse surface.
 // The VPLs are read in tiles of 64 through workgroup memory; the sums run in a fixed order.
+// With `bounce_segments` (a second dispatch, indirect over `composite`'s list of specular
+// pixels) the same gather runs along the segments `composite` kept of the paths beyond each
+// pixel's specular surface (`EyeSegment`, shared/medium.wgsl), weighted by the path's weight,
+// into the full image only (the caustic-only image is zero where the camera sees glass).
 
 #import medium
 #import medium_bounce
@@ -45,45 +49,84 @@ struct BounceParams {
 @group(0) @binding(4) var<storage, read_write> out_full: array<vec4f>;
 @group(0) @binding(5) var<storage, read_write> out_caustic: array<vec4f>;
 @group(0) @binding(6) var density: texture_3d<f32>;
+// `composite`'s list of specular pixels, its length (count[3]) and the segments it kept.
+@group(0) @binding(7) var<storage, read> spec_list: array<u32>;
+@group(0) @binding(8) var<storage, read> spec_count: array<u32, 4>;
+@group(0) @binding(9) var<storage, read> segments: array<EyeSegment>;
+override bounce_segments: bool = false;
 
 fn phase(cos_t: f32) -> f32 {
     return hg_phase(cos_t, bp.sigma_s.w);
 }
 
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(local_invocation_index) li: u32) {
-    let in_image = gid.x < bp.width && gid.y < bp.height;
+fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(workgroup_id) wg: vec3u, @builtin(local_invocation_index) li: u32) {
     let lo = bp.lo.xyz;
     let hi = bp.hi.xyz;
-    let cam = bp.camera.xyz;
-    var d = vec3f(0.0, 0.0, 1.0);
-    var seg = vec2f(1.0, 0.0);
-    if (in_image) {
+    // This invocation's rays: the pixel's camera ray from the camera to the first surface it
+    // sees, or the kept segments of a listed specular pixel; each clipped to the box.
+    var ro: array<vec3f, EYE_SEGMENTS>;
+    var rd: array<vec3f, EYE_SEGMENTS>;
+    var rs: array<vec2f, EYE_SEGMENTS>;
+    var rw: array<vec3f, EYE_SEGMENTS>;
+    var rays = 0u;
+    var idx = 0u;
+    if (bounce_segments) {
+        let i = wg.x * 64u + li;
+        if (i < spec_count[3]) {
+            idx = spec_list[i];
+            for (var k = 0u; k < EYE_SEGMENTS; k++) {
+                let e = segments[i * EYE_SEGMENTS + k];
+                if (!(e.o.w > 0.0)) { continue; }
+                let d = segment_dir(e);
+                let seg = box_clip(e.o.xyz, d, e.o.w, lo, hi);
+                if (seg.y <= seg.x) { continue; }
+                ro[rays] = e.o.xyz;
+                rd[rays] = d;
+                rs[rays] = seg;
+                rw[rays] = e.w;
+                rays++;
+            }
+        }
+    } else if (gid.x < bp.width && gid.y < bp.height) {
+        idx = gid.y * bp.width + gid.x;
+        let cam = bp.camera.xyz;
         let px = vec2i(gid.xy);
         let ndc = vec2f((f32(gid.x) + 0.5) / f32(bp.width) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(bp.height) * 2.0);
         let q = bp.clip_to_world * vec4f(ndc, 0.5, 1.0);
-        d = normalize(q.xyz / q.w - cam);
+        let d = normalize(q.xyz / q.w - cam);
         var t_max = 1e30;
         let r = textureLoad(recv_pos, px, 0);
         let sp = textureLoad(spec_pos, px, 0);
         if (r.w >= 0.0) { t_max = min(t_max, length(r.xyz - cam)); }
         if (sp.w >= 0.0) { t_max = min(t_max, length(sp.xyz - cam)); }
-        seg = box_clip(cam, d, t_max, lo, hi);
+        let seg = box_clip(cam, d, t_max, lo, hi);
+        if (seg.y > seg.x) {
+            ro[0] = cam;
+            rd[0] = d;
+            rs[0] = seg;
+            rw[0] = vec3f(1.0);
+            rays = 1u;
+        }
     }
-    let live = in_image && seg.y > seg.x;
     let n = max(bp.steps, 1u);
-    let dt = max(seg.y - seg.x, 0.0) / f32(n);
     var acc_full = vec3f(0.0);
     var acc_caus = vec3f(0.0);
     for (var base = 0u; base < bp.count; base += 64u) {
         let in_tile = load_tile(base, bp.count, li);
-        if (live) {
-            // Optical depth (density units) of the camera ray from the segment's start to the
-            // current step's start (heterogeneous).
+        for (var r = 0u; r < rays; r++) {
+            let o = ro[r];
+            let d = rd[r];
+            let seg = rs[r];
+            let dt = (seg.y - seg.x) / f32(n);
+            // (a segment's step length in its weight; the pixel's ray's at the end)
+            let wr = select(rw[r], rw[r] * dt, bounce_segments);
+            // Optical depth (density units) of the ray from the segment's start to the current
+            // step's start (heterogeneous).
             var tau = 0.0;
             for (var s = 0u; s < n; s++) {
                 let t = seg.x + (f32(s) + 0.5) * dt;
-                let x = cam + d * t;
+                let x = o + d * t;
                 var rho = 1.0;
                 var tr_cam: vec3f;
                 if (bp.heterogeneous != 0u) {
@@ -118,13 +161,17 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(local_invocation_ind
                     sf += v.full.rgb * g;
                     sc += v.caustic.rgb * g;
                 }
-                acc_full += rho * tr_cam * sf;
+                acc_full += wr * (rho * tr_cam * sf);
                 acc_caus += rho * tr_cam * sc;
             }
         }
     }
-    if (!live) { return; }
-    let idx = gid.y * bp.width + gid.x;
+    if (rays == 0u) { return; }
+    if (bounce_segments) {
+        out_full[idx] += vec4f(bp.sigma_s.rgb * acc_full, 0.0);
+        return;
+    }
+    let dt = (rs[0].y - rs[0].x) / f32(n);
     out_full[idx] += vec4f(bp.sigma_s.rgb * acc_full * dt, 0.0);
     out_caustic[idx] += vec4f(bp.sigma_s.rgb * acc_caus * dt, 0.0);
 }

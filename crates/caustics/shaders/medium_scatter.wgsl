@@ -14,8 +14,10 @@
 //     the orthographic shadow map covers the scene's bounding sphere, and a point outside its
 //     footprint sees the light past every object).
 // A spot light's rule runs over the part of the segment inside its cone only (`cone_clip`).
-// Segments beyond the first surface (through glass, in mirrors) are not
-// attenuated.
+// With `medium_segments` (a second dispatch per light, indirect over `composite`'s list of
+// specular pixels) the same rule runs along the segments `composite` kept of the paths beyond
+// each pixel's specular surface (`EyeSegment`, shared/medium.wgsl), weighted by the path's
+// weight; `composite` attenuated what those paths see.
 // Heterogeneous media (`mp.grid == 1`, a density grid in `density`): sigma(x) = rho(x) sigma;
 // the same midpoint rule gives the camera ray's optical depth (the attenuation) and, per step,
 // rho sigma_s phase I/r^2 exp(-sigma_t (tau_light + tau_camera)) V, tau_light by a ray march of
@@ -55,6 +57,11 @@ struct MediumParams {
 @group(0) @binding(6) var<storage, read_write> out_full: array<vec4f>;
 @group(0) @binding(7) var<storage, read_write> out_caustic: array<vec4f>;
 @group(0) @binding(8) var density: texture_3d<f32>;
+// `composite`'s list of specular pixels, its length (count[3]) and the segments it kept.
+@group(0) @binding(9) var<storage, read> spec_list: array<u32>;
+@group(0) @binding(10) var<storage, read> spec_count: array<u32, 4>;
+@group(0) @binding(11) var<storage, read> segments: array<EyeSegment>;
+override medium_segments: bool = false;
 
 fn phase(cos_t: f32) -> f32 {
     return hg_phase(cos_t, mp.sigma_s.w);
@@ -154,7 +161,11 @@ fn cone_clip(cam: vec3f, d: vec3f, seg: vec2f) -> vec2f {
 }
 
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) gid: vec3u) {
+fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(workgroup_id) wg: vec3u, @builtin(local_invocation_index) li: u32) {
+    if (medium_segments) {
+        along_segments(wg.x * 64u + li);
+        return;
+    }
     if (gid.x >= mp.width || gid.y >= mp.height) { return; }
     let idx = gid.y * mp.width + gid.x;
     let px = vec2i(gid.xy);
@@ -180,34 +191,83 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         out_caustic[idx] = vec4f(out_caustic[idx].rgb * tr, out_caustic[idx].a);
     }
     if ((mp.flags & 2u) == 0u) { return; }
+    out_full[idx] += vec4f(homogeneous_scatter(cam, d, seg), 0.0);
+}
+
+// The light scattered toward o along o + t d over `seg` (its part in the box; the
+// transmittance toward o starts at seg.x) in a homogeneous medium.
+fn homogeneous_scatter(o: vec3f, d: vec3f, seg: vec2f) -> vec3f {
     // A spot light's single scattering only where the ray is in its cone.
     var lit = seg;
     if (light.info.y == LIGHT_SPOT) {
-        lit = cone_clip(cam, d, seg);
-        if (lit.y <= lit.x) { return; }
+        lit = cone_clip(o, d, seg);
+        if (lit.y <= lit.x) { return vec3f(0.0); }
     }
     let n = max(mp.steps, 1u);
     let dt = (lit.y - lit.x) / f32(n);
     var acc = vec3f(0.0);
     for (var i = 0u; i < n; i++) {
         let t = lit.x + (f32(i) + 0.5) * dt;
-        let x = cam + d * t;
+        let x = o + d * t;
         let inc = incident(x);
         if (inc.vis <= 0.0) { continue; }
         let lp = light_path_start(light, x, mp.lo.xyz, mp.hi.xyz);
         let tr = exp(-mp.sigma_t.rgb * (box_length(lp, x, mp.lo.xyz, mp.hi.xyz) + (t - seg.x)));
         acc += inc.e * phase(dot(inc.wl, -d)) * tr * inc.vis;
     }
-    out_full[idx] += vec4f(mp.sigma_s.rgb * acc * dt, 0.0);
+    return mp.sigma_s.rgb * acc * dt;
+}
+
+// The segments `composite` kept for listed specular pixel `i`: this light's single scattering
+// along each, weighted by its path's weight, added to the pixel's full image.
+fn along_segments(i: u32) {
+    if (i >= spec_count[3] || (mp.flags & 2u) == 0u) { return; }
+    var add = vec3f(0.0);
+    for (var k = 0u; k < EYE_SEGMENTS; k++) {
+        let e = segments[i * EYE_SEGMENTS + k];
+        if (!(e.o.w > 0.0)) { continue; }
+        let o = e.o.xyz;
+        let d = segment_dir(e);
+        let seg = box_clip(o, d, e.o.w, mp.lo.xyz, mp.hi.xyz);
+        if (seg.y <= seg.x) { continue; }
+        if (mp.grid != 0u) {
+            add += e.w * heterogeneous_along(o, d, seg, true, false).l;
+        } else {
+            add += e.w * homogeneous_scatter(o, d, seg);
+        }
+    }
+    let idx = spec_list[i];
+    out_full[idx] += vec4f(add, 0.0);
 }
 
 // The pixel `idx`'s camera ray cam + t d over the segment `seg` in a heterogeneous medium:
-// attenuation (flag 1) and this light's single scattering (flag 2), one midpoint rule in
-// `mp.steps` steps for both.
+// attenuation (flag 1) and this light's single scattering (flag 2).
 fn heterogeneous(idx: u32, cam: vec3f, d: vec3f, seg: vec2f) {
+    let a = heterogeneous_along(cam, d, seg, (mp.flags & 2u) != 0u, (mp.flags & 1u) != 0u);
+    if ((mp.flags & 1u) != 0u) {
+        let tr = exp(-mp.sigma_t.rgb * a.tau);
+        out_full[idx] = vec4f(out_full[idx].rgb * tr, out_full[idx].a);
+        out_caustic[idx] = vec4f(out_caustic[idx].rgb * tr, out_caustic[idx].a);
+    }
+    if ((mp.flags & 2u) != 0u) {
+        out_full[idx] += vec4f(a.l, 0.0);
+    }
+}
+
+struct Along {
+    // The light scattered toward the ray's origin.
+    l: vec3f,
+    // The optical depth (density units) of the whole segment.
+    tau: f32,
+}
+
+// The ray o + t d over `seg` in a heterogeneous medium: (`scatter`) this light's single
+// scattering toward o and (`whole`) the whole segment's optical depth, one midpoint rule in
+// `mp.steps` steps for both.
+fn heterogeneous_along(o: vec3f, d: vec3f, seg: vec2f, scatter: bool, whole: bool) -> Along {
+    let cam = o;
     let lo = mp.lo.xyz;
     let hi = mp.hi.xyz;
-    let scatter = (mp.flags & 2u) != 0u;
     // A spot light's rule runs inside its cone (`cone_clip`); the attenuation then takes the
     // whole segment's optical depth by a march of its own, and the rule starts from the
     // optical depth before the cone.
@@ -235,13 +295,9 @@ fn heterogeneous(idx: u32, cam: vec3f, d: vec3f, seg: vec2f) {
             acc += rho * inc.e * phase(dot(inc.wl, -d)) * tr * inc.vis;
         }
     }
-    if ((mp.flags & 1u) != 0u) {
-        if (clipped) { tau = grid_optical_depth(density, cam + d * seg.x, cam + d * seg.y, lo, hi, n); }
-        let tr = exp(-mp.sigma_t.rgb * tau);
-        out_full[idx] = vec4f(out_full[idx].rgb * tr, out_full[idx].a);
-        out_caustic[idx] = vec4f(out_caustic[idx].rgb * tr, out_caustic[idx].a);
-    }
-    if (scatter) {
-        out_full[idx] += vec4f(mp.sigma_s.rgb * acc * dt, 0.0);
-    }
+    var r: Along;
+    r.l = mp.sigma_s.rgb * acc * dt;
+    r.tau = tau;
+    if (clipped && whole) { r.tau = grid_optical_depth(density, cam + d * seg.x, cam + d * seg.y, lo, hi, n); }
+    return r;
 }

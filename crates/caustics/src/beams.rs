@@ -248,12 +248,17 @@ pub(crate) fn record_beams(
 
 /// The volume caustic of the beams [`record_beams`] made (`beam_gather`, with
 /// [`RenderSettings::beams_volume_active`]), added to both composited images.
+/// Then, with `segs`, along the segments `composite` kept of the paths beyond the specular
+/// surfaces (`beam_gather` with `gather_slot`, whichever way the camera rays' volume caustic is
+/// drawn), into the full image.
+#[expect(clippy::too_many_arguments, reason = "the frame's resources")]
 pub(crate) fn record_gather(
     dc: &DrawCtx,
     eye: &EyeFrame,
     frames: &[BeamFrame],
     s: &RenderSettings,
     images: (&wgpu::Buffer, &wgpu::Buffer),
+    segs: Option<&crate::passes::EyeSegments>,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -268,21 +273,14 @@ pub(crate) fn record_gather(
     for f in frames {
         if let Some(hulls) = &f.hulls {
             record_volume_hulls(ctx, f, hulls, &views, images, &density, enc, timer);
-            continue;
+        } else {
+            record_gather_chunks(ctx, f, &views, images, &density, None, enc, timer);
         }
-        record_gather_chunks(
-            ctx,
-            &f.params,
-            &f.beams,
-            &f.order,
-            &f.stats,
-            &views,
-            images,
-            (&f.chunks, &f.dispatch, f.footprint),
-            &density,
-            enc,
-            timer,
-        );
+        if let Some(segs) = segs {
+            for slot in 0..crate::gpu::types::EYE_SEGMENTS as u32 {
+                record_gather_chunks(ctx, f, &views, images, &density, Some((segs, slot)), enc, timer);
+            }
+        }
     }
 }
 
@@ -749,21 +747,28 @@ fn raster_pipeline(ctx: &GpuContext, stage: &str) -> wgpu::RenderPipeline {
     })
 }
 
+/// `beam_gather` over light `f`'s chunks: along the camera rays, or (`segs`: the segments and a
+/// slot) along the kept segments in that slot.
 #[expect(clippy::too_many_arguments, reason = "the gathering stage's resources")]
 fn record_gather_chunks(
     ctx: &GpuContext,
-    params: &wgpu::Buffer,
-    beams: &wgpu::Buffer,
-    order: &wgpu::Buffer,
-    stats: &wgpu::Buffer,
+    f: &BeamFrame,
     eye_views: &[wgpu::BindingResource; 4],
     images: (&wgpu::Buffer, &wgpu::Buffer),
-    (chunks, dispatch, foot): (&Chunks, &wgpu::Buffer, [f32; 4]),
     density: &wgpu::TextureView,
+    segs: Option<(&crate::passes::EyeSegments, u32)>,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
-    let gpl = ctx.compute_pipeline("beam_gather");
+    let (params, beams, order, stats) = (&f.params, &f.beams, &f.order, &f.stats);
+    let (chunks, dispatch, foot) = (&f.chunks, &f.dispatch, f.footprint);
+    let slot = segs.map_or(-1.0, |(_, k)| f64::from(k));
+    let gpl = ctx.compute_pipeline_with("beam_gather", &[("gather_slot", slot)]);
+    let (label, seg_bindings) = match segs {
+        Some((sg, _)) => ("beam_gather_segments", [&sg.list, &sg.count, &sg.segments]),
+        // (the stage reads none of them along the camera rays)
+        None => ("beam_gather", [order, stats, order]),
+    };
     let foot_buf = ctx.constants("beam_footprint", bytemuck::cast_slice(&foot));
     // One dispatch per chunk of the ordered list (see beam_gather.wgsl and `Chunks`), its size
     // written by beam_order (none past the beams listed).
@@ -787,11 +792,14 @@ fn record_gather_chunks(
                 wgpu::BindingResource::TextureView(density),
                 eye_views[2].clone(),
                 eye_views[3].clone(),
+                seg_bindings[0].as_entire_binding(),
+                seg_bindings[1].as_entire_binding(),
+                seg_bindings[2].as_entire_binding(),
             ],
         );
         let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("beam_gather"),
-            timestamp_writes: timer.compute("beam_gather"),
+            label: Some(label),
+            timestamp_writes: timer.compute(label),
         });
         cp.set_pipeline(&gpl);
         cp.set_bind_group(0, &gbg, &[]);
@@ -972,36 +980,24 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     let dispatch = chunks.dispatch_buffer(&ctx);
     record_order(&ctx, (&params, bp.slots), (&slot_buf, &order, &stats), (&chunks, &dispatch), &mut enc, &mut timer);
     let dv = density_view(&ctx, &density);
+    let f = BeamFrame {
+        params,
+        stats,
+        beams: beam_buf,
+        order,
+        capacity: bp.capacity,
+        levels: 0,
+        footprint: foot,
+        chunks,
+        dispatch,
+        size: (w, h),
+        hulls: None,
+    };
     if b.volume.on(ctx.device.features()) == BeamVolume::Hulls {
-        let f = BeamFrame {
-            params,
-            stats,
-            beams: beam_buf,
-            order,
-            capacity: bp.capacity,
-            levels: 0,
-            footprint: foot,
-            chunks,
-            dispatch,
-            size: (w, h),
-            hulls: None,
-        };
         let hulls = hull_buffer(&ctx, f.capacity);
         record_volume_hulls(&ctx, &f, &hulls, &tv, (&full, &caustic), &dv, &mut enc, &mut timer);
     } else {
-        record_gather_chunks(
-            &ctx,
-            &params,
-            &beam_buf,
-            &order,
-            &stats,
-            &tv,
-            (&full, &caustic),
-            (&chunks, &dispatch, foot),
-            &dv,
-            &mut enc,
-            &mut timer,
-        );
+        record_gather_chunks(&ctx, &f, &tv, (&full, &caustic), &dv, None, &mut enc, &mut timer);
     }
     ctx.end_scope();
     ctx.queue.submit([enc.finish()]);

@@ -219,13 +219,17 @@ pub(crate) fn record_surfaces(
 }
 
 /// `medium_bounce`: the surface VPLs' single scattering along every camera ray, added into the
-/// composited images (full, caustic-only), after `medium_scatter`.
+/// composited images (full, caustic-only), after `medium_scatter`; then
+/// (`medium_bounce_segments`) along the segments `composite` kept of the paths beyond the
+/// specular surfaces, into the full image.
+#[expect(clippy::too_many_arguments, reason = "the frame's resources")]
 pub(crate) fn record(
     dc: &DrawCtx,
     eye: &EyeFrame,
     bf: &BounceFrame,
     s: &RenderSettings,
     images: (&wgpu::Buffer, &wgpu::Buffer),
+    segs: &crate::passes::EyeSegments,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -251,7 +255,8 @@ pub(crate) fn record(
             _pad: [0; 3],
         }),
     );
-    let pl = ctx.compute_pipeline("medium_bounce");
+    let pl = ctx.compute_pipeline_with("medium_bounce", &[("bounce_segments", 0.0)]);
+    let seg_pl = ctx.compute_pipeline_with("medium_bounce", &[("bounce_segments", 1.0)]);
     let density = density_view(ctx, &dc.geo.density);
     let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
     let bg = crate::gpu::bind(
@@ -266,13 +271,25 @@ pub(crate) fn record(
             images.0.as_entire_binding(),
             images.1.as_entire_binding(),
             wgpu::BindingResource::TextureView(&density),
+            segs.list.as_entire_binding(),
+            segs.count.as_entire_binding(),
+            segs.segments.as_entire_binding(),
         ],
     );
+    {
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("medium_bounce"),
+            timestamp_writes: timer.compute("medium_bounce"),
+        });
+        cp.set_pipeline(&pl);
+        cp.set_bind_group(0, &bg, &[]);
+        cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    }
     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("medium_bounce"),
-        timestamp_writes: timer.compute("medium_bounce"),
+        label: Some("medium_bounce_segments"),
+        timestamp_writes: timer.compute("medium_bounce_segments"),
     });
-    cp.set_pipeline(&pl);
+    cp.set_pipeline(&seg_pl);
     cp.set_bind_group(0, &bg, &[]);
-    cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    cp.dispatch_workgroups_indirect(&segs.args, 0);
 }

@@ -1303,17 +1303,39 @@ pub(crate) fn density_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::Texture
     ctx.view(t, Some(wgpu::TextureViewDimension::D3), 0, None)
 }
 
-/// `medium_scatter` (scenes with a medium; nothing is recorded or requested otherwise): one
-/// dispatch per light (spot, point or directional) over the composited images. The first attenuates both
-/// images by the transmittance along each pixel's camera ray to its first surface; each adds
-/// its light's single scattering along that ray (`RenderSettings::medium_steps` steps, shadowed
-/// by the light's shadow map) to the full image.
+/// The composited images and, in a scene with a medium, the segments of the camera paths
+/// beyond the first specular surface that `composite` kept for the medium's stages.
+pub(crate) struct Composited {
+    pub full: wgpu::Buffer,
+    pub caustic: wgpu::Buffer,
+    pub segments: Option<EyeSegments>,
+}
+
+/// `composite`'s list of specular pixels and their kept segments ([`EYE_SEGMENTS`] each, in
+/// the list's order): a stage over them is dispatched indirectly from `args` (workgroups of 64)
+/// and reads the list's length from `count[3]`.
+pub(crate) struct EyeSegments {
+    pub list: wgpu::Buffer,
+    pub count: wgpu::Buffer,
+    pub args: wgpu::Buffer,
+    pub segments: wgpu::Buffer,
+}
+
+/// `medium_scatter` (scenes with a medium; nothing is recorded or requested otherwise): two
+/// dispatches per light (spot, point or directional) over the composited images. The first
+/// light's attenuates both images by the transmittance along each pixel's camera ray to its
+/// first surface; each adds its light's single scattering along that ray
+/// (`RenderSettings::medium_steps` steps, shadowed by the light's shadow map) to the full
+/// image; the second (`medium_segments`, over `composite`'s list of specular pixels) along the
+/// segments the pixels' paths travel in the medium beyond their specular surfaces.
+#[expect(clippy::too_many_arguments, reason = "the frame's resources")]
 fn record_medium(
     dc: &DrawCtx,
     eye: &EyeFrame,
     lights: &[&LightFrame],
     s: &RenderSettings,
     images: (&wgpu::Buffer, &wgpu::Buffer),
+    segs: &EyeSegments,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -1321,7 +1343,8 @@ fn record_medium(
     let ctx = dc.ctx;
     let cam = &dc.scene.camera;
     let (w, h) = (cam.width, cam.height);
-    let pl = ctx.compute_pipeline("medium_scatter");
+    let pl = ctx.compute_pipeline_with("medium_scatter", &[("medium_segments", 0.0)]);
+    let seg_pl = ctx.compute_pipeline_with("medium_scatter", &[("medium_segments", 1.0)]);
     let shadow_sampler = shadow_sampler(ctx);
     let g = match m.phase {
         crate::scene::Phase::Isotropic => 0.0,
@@ -1366,15 +1389,30 @@ fn record_medium(
                 images.0.as_entire_binding(),
                 images.1.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&density),
+                segs.list.as_entire_binding(),
+                segs.count.as_entire_binding(),
+                segs.segments.as_entire_binding(),
             ],
         );
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("medium_scatter"),
-            timestamp_writes: timer.compute("medium_scatter"),
-        });
-        cp.set_pipeline(&pl);
-        cp.set_bind_group(0, &bg, &[]);
-        cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+        {
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("medium_scatter"),
+                timestamp_writes: timer.compute("medium_scatter"),
+            });
+            cp.set_pipeline(&pl);
+            cp.set_bind_group(0, &bg, &[]);
+            cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+        }
+        if scatters {
+            // (the same layout: one bind group for both variants)
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("medium_scatter_segments"),
+                timestamp_writes: timer.compute("medium_scatter_segments"),
+            });
+            cp.set_pipeline(&seg_pl);
+            cp.set_bind_group(0, &bg, &[]);
+            cp.dispatch_workgroups_indirect(&segs.args, 0);
+        }
     }
 }
 
@@ -1388,7 +1426,7 @@ pub(crate) fn record_composite(
     s: &RenderSettings,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
-) -> (wgpu::Buffer, wgpu::Buffer) {
+) -> Composited {
     let ctx = dc.ctx;
     let cam = &dc.scene.camera;
     let (w, h) = (cam.width, cam.height);
@@ -1398,6 +1436,15 @@ pub(crate) fn record_composite(
     let out_caustic = ctx.buffer("caustic_image", img_bytes, usage);
     // In a storage buffer, not a uniform: see `shaders/composite.wgsl` (lavapipe's inlining).
     let layer2 = has_specular_meshes(dc.scene);
+    let medium = dc.scene.medium.as_ref();
+    let (medium_lo, medium_hi, medium_sigma_t) = match medium {
+        Some(m) => (
+            m.bounds_min.extend(0.0).to_array(),
+            m.bounds_max.extend(f32::from(u8::from(m.density.is_some()))).to_array(),
+            (m.sigma_s + m.sigma_a).extend(s.medium_steps as f32).to_array(),
+        ),
+        None => ([0.0; 4], [0.0; 4], [0.0; 4]),
+    };
     let cpar = ctx.buffer_init(
         "composite_params",
         bytemuck::bytes_of(&CompositeParams {
@@ -1412,9 +1459,20 @@ pub(crate) fn record_composite(
             height: h,
             layer2: layer2 as u32,
             _pad: 0,
+            medium_lo,
+            medium_hi,
+            medium_sigma_t,
         }),
         wgpu::BufferUsages::STORAGE,
     );
+    // The kept segments (a scene with a medium; else one unused slot).
+    let seg_slots = if medium.is_some() { (w as u64) * (h as u64) * EYE_SEGMENTS } else { 1 };
+    let segments = ctx.buffer(
+        "composite_segments",
+        seg_slots * std::mem::size_of::<EyeSegmentGpu>() as u64,
+        wgpu::BufferUsages::STORAGE,
+    );
+    let density = density_view(ctx, &dc.geo.density);
     // The specular pixels listed by the first pass and the indirect dispatch of the second.
     let spec_list = ctx.buffer("composite_list", (w as u64) * (h as u64) * 4, wgpu::BufferUsages::STORAGE);
     let spec_count = ctx.buffer("composite_count", 16, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
@@ -1441,6 +1499,7 @@ pub(crate) fn record_composite(
             ("composite_pass", f64::from(pass)),
             ("composite_layer2", f64::from(u8::from(layer2))),
             ("composite_env", f64::from(u8::from(env))),
+            ("composite_medium", f64::from(u8::from(medium.is_some()))),
         ]
     };
     let composite_pl = ctx.compute_pipeline_with("composite", &consts(0));
@@ -1472,6 +1531,8 @@ pub(crate) fn record_composite(
             dc.geo.bvh_instances.as_entire_binding(),
             spec_list.as_entire_binding(),
             spec_count.as_entire_binding(),
+            segments.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&density),
         ],
     );
     {
@@ -1493,8 +1554,9 @@ pub(crate) fn record_composite(
         cp.set_bind_group(0, &cbg, &[]);
         cp.dispatch_workgroups_indirect(&spec_args, 0);
     }
-    record_medium(dc, eye, lights, s, (&out_full, &out_caustic), enc, timer);
-    (out_full, out_caustic)
+    let segs = EyeSegments { list: spec_list, count: spec_count, args: spec_args, segments };
+    record_medium(dc, eye, lights, s, (&out_full, &out_caustic), &segs, enc, timer);
+    Composited { full: out_full, caustic: out_caustic, segments: medium.is_some().then_some(segs) }
 }
 
 /// `display`: the radiance image `out_full` tone-mapped into an Rgba8Unorm texture.

@@ -823,11 +823,12 @@ impl Renderer {
         let beams = crate::beams::record_beams(&dc, &eye, &light_frames, &s, self.count_fragments, enc, &mut timer);
         ctx.end_scope();
         ctx.begin_scope("composite", enc);
-        let (full, caustic) = crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
-        if let Some(bf) = bounce {
-            crate::medium_bounce::record(&dc, &eye, bf, &s, (&full, &caustic), enc, &mut timer);
+        let composited = crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
+        let crate::passes::Composited { full, caustic, segments: eye_segments } = composited;
+        if let (Some(bf), Some(segs)) = (bounce, &eye_segments) {
+            crate::medium_bounce::record(&dc, &eye, bf, &s, (&full, &caustic), segs, enc, &mut timer);
         }
-        crate::beams::record_gather(&dc, &eye, &beams, &s, (&full, &caustic), enc, &mut timer);
+        crate::beams::record_gather(&dc, &eye, &beams, &s, (&full, &caustic), eye_segments.as_ref(), enc, &mut timer);
         if let Some(sp) = self.spheres.as_ref().filter(|_| scene.medium.is_some() && !records.is_empty()) {
             let vol = (&sp.table, &records[..]);
             crate::caustic_spheres::gpu::record_volume(

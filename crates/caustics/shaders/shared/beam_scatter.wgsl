@@ -159,8 +159,10 @@ fn side_range(r: ptr<function, vec2f>, a: vec3f, b: vec3f, u: vec3f, rr: f32) {
 
 // The radiance the beam scatters toward the camera along o + u d, 0 <= u <= len, at heights
 // within `hr` and outside `thin` (those the footprint integral takes); the camera's box entry
-// is at u = -eye_in (the transmittance toward the camera starts there).
-fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, hr: vec2f, o: vec3f, d: vec3f, len: f32, eye_in: f32) -> vec3f {
+// is at u = -eye_in (the transmittance toward the camera starts there), the ray's origin at
+// `eye` (the camera, or the start of a segment beyond a specular surface: a density grid's
+// optical depth toward the camera is marched from there).
+fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, hr: vec2f, o: vec3f, d: vec3f, len: f32, eye_in: f32, eye: vec3f) -> vec3f {
     let v = bs.v;
     let dir = bs.dir;
     let nrm = bs.nrm;
@@ -255,7 +257,7 @@ fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, hr: vec2f, o: vec3f, d:
             let pre = w.x * b.v0.w + w.y * b.v1.w + w.z * b.v2.w;
             var tr: vec3f;
             if (beam_has_grid()) {
-                tr = exp(-bp.sigma_t.rgb * (pre + beam_depth(base, x) + beam_depth(bp.camera.xyz, x))) * beam_density(x);
+                tr = exp(-bp.sigma_t.rgb * (pre + beam_depth(base, x) + beam_depth(eye, x))) * beam_density(x);
             } else {
                 let sl = box_length(base, x, bp.lo.xyz, bp.hi.xyz);
                 tr = exp(-bp.sigma_t.rgb * (pre + sl + eye_in + u));
@@ -495,10 +497,27 @@ fn beam_pixel(bi: u32, px: vec2u, v: PixelView, heights: vec2f, acc: ptr<functio
         let t0 = max(tc - hh, seg.x);
         let t1 = min(tc + hh, seg.y);
         if (t1 > t0) {
-            *acc += inv_rays * beam_radiance(b, bs, thin, heights, cam + d * t0, d, t1 - t0, t0 - seg.x);
+            *acc += inv_rays * beam_radiance(b, bs, thin, heights, cam + d * t0, d, t1 - t0, t0 - seg.x, cam);
         }
     }
     if (thin_part.y > thin_part.x) {
         *acc += beam_footprint(b, bs, thin_part, vec2f(px), v) / (v.pw * v.ph);
     }
+}
+
+// Beam `bi`'s light along a camera path's segment beyond a specular surface, o + t d over `seg`
+// (its part in the box), added to `acc`: the ray alone (no footprint: the pixel's footprint
+// after glass is not tracked, so a focal line thinner than the pixel is point-sampled there).
+fn beam_segment(bi: u32, o: vec3f, d: vec3f, seg: vec2f, acc: ptr<function, vec3f>) {
+    let bound = beams[bi].bound;
+    let oc = bound.xyz - o;
+    let tc = dot(oc, d);
+    let h2 = bound.w * bound.w - (dot(oc, oc) - tc * tc);
+    if (h2 <= 0.0) { return; }
+    let hh = sqrt(h2);
+    let t0 = max(tc - hh, seg.x);
+    let t1 = min(tc + hh, seg.y);
+    if (t1 <= t0) { return; }
+    let b = beams[bi];
+    *acc += beam_radiance(b, beam_space(b), vec2f(1.0, 0.0), vec2f(0.0, 3.0e38), o + d * t0, d, t1 - t0, t0 - seg.x, o);
 }

@@ -95,3 +95,48 @@ fn hg_phase(cos_t: f32, g: f32) -> f32 {
     let den = max(1.0 + g * g - 2.0 * g * cos_t, 1e-12);
     return (1.0 - g * g) / (4.0 * PI * den * sqrt(den));
 }
+
+// The camera paths' segments in the medium beyond the first specular surface
+// (`gpu::types::EyeSegmentGpu`): `composite` keeps, per specular pixel it shades, the
+// `EYE_SEGMENTS` heaviest segments its reflected and refracted rays travel outside the
+// dielectrics (from a specular surface to the next surface, or out of the scene), in slots
+// listed index * EYE_SEGMENTS + j (the index in `composite`'s list of specular pixels); the
+// medium's stages add the light each scatters toward the camera (`medium_scatter`,
+// `medium_bounce`, `beam_gather`), weighted by `w`.
+const EYE_SEGMENTS: u32 = 2u;
+
+struct EyeSegment {
+    // xyz: where the segment starts (on a specular surface); w: its length (1e30: it leaves
+    // the scene; 0: an empty slot).
+    o: vec4f,
+    // The path's weight from the camera to o (Fresnel factors, a mirror's colour, the
+    // medium's transmittance along the camera ray and the segments before it).
+    w: vec3f,
+    // The unit direction, octahedral (`oct_encode`).
+    dir: u32,
+}
+
+// A unit direction as an octahedral map point in [-1, 1]^2 (Meyer et al. 2010), as 2 x 16-bit
+// snorm (at most about 1e-4 rad off).
+fn oct_encode(d: vec3f) -> u32 {
+    var p = d.xy / (abs(d.x) + abs(d.y) + abs(d.z));
+    if (d.z < 0.0) {
+        let s = select(vec2f(-1.0), vec2f(1.0), p >= vec2f(0.0));
+        p = (1.0 - abs(p.yx)) * s;
+    }
+    return pack2x16snorm(p);
+}
+
+fn oct_decode(bits: u32) -> vec3f {
+    let p = unpack2x16snorm(bits);
+    var d = vec3f(p, 1.0 - abs(p.x) - abs(p.y));
+    if (d.z < 0.0) {
+        let s = select(vec2f(-1.0), vec2f(1.0), d.xy >= vec2f(0.0));
+        d = vec3f((1.0 - abs(d.yx)) * s, d.z);
+    }
+    return normalize(d);
+}
+
+fn segment_dir(s: EyeSegment) -> vec3f {
+    return oct_decode(s.dir);
+}

@@ -432,7 +432,29 @@ pub struct CompositeParams {
     /// `composite` then skips the march through the (empty) second-layer buffers.
     pub layer2: u32,
     pub _pad: u32,
+    /// The medium's box (scenes with one; `composite_medium`): w of `medium_hi` 1 for a density
+    /// grid, else 0.
+    pub medium_lo: [f32; 4],
+    pub medium_hi: [f32; 4],
+    /// rgb = sigma_t (1/m); w = the midpoint rule's steps along a segment in a density grid.
+    pub medium_sigma_t: [f32; 4],
 }
+
+/// A camera path's segment in the medium beyond the first specular surface (`composite` keeps
+/// [`EYE_SEGMENTS`] per specular pixel for the medium's stages; `shaders/shared/medium.wgsl`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct EyeSegmentGpu {
+    /// xyz: start (on a specular surface); w: length (1e30: out of the scene; 0: empty slot).
+    pub o: [f32; 4],
+    /// The path's weight from the camera to the start.
+    pub w: [f32; 3],
+    /// The direction, octahedral, 2 x snorm16.
+    pub dir: u32,
+}
+
+/// Segments kept per specular pixel (`EYE_SEGMENTS` in `shaders/shared/medium.wgsl`).
+pub const EYE_SEGMENTS: u64 = 2;
 
 /// Read by photon_splat from a storage buffer: the first three words are also the indirect
 /// dispatch arguments of the splat (the adaptive techniques write them on the GPU).
@@ -749,6 +771,7 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("SphereCompileParams", "SphereCompileParams", std::mem::size_of::<SphereCompileParams>()),
     ("SphereVolumeParams", "SphereVolumeParams", std::mem::size_of::<SphereVolumeParams>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
+    ("EyeSegmentGpu", "EyeSegment", std::mem::size_of::<EyeSegmentGpu>()),
     ("MediumParams", "MediumParams", std::mem::size_of::<MediumParams>()),
     ("BounceLightParams", "BounceLightParams", std::mem::size_of::<BounceLightParams>()),
     ("VplGpu", "Vpl", std::mem::size_of::<VplGpu>()),
