@@ -95,6 +95,10 @@ pub struct BenchArgs {
     /// render --help`).
     #[arg(long, default_value_t = 16)]
     medium_bounce_grid: u32,
+    /// Scenes with a medium: leave out the medium beyond the first specular surface (see
+    /// `caustics render --help`).
+    #[arg(long)]
+    no_medium_beyond_specular: bool,
 }
 
 fn parse_grids(s: &str) -> Result<Vec<u32>> {
@@ -696,6 +700,7 @@ fn settings(a: &BenchArgs, t: Technique, n: u32, splat: caustics::splat::SplatMo
         spill_faces: a.spill_faces,
         beams: a.beams.settings(),
         medium_bounce_grid: a.medium_bounce_grid,
+        medium_beyond_specular: !a.no_medium_beyond_specular,
         ..Default::default()
     }
 }

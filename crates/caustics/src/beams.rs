@@ -248,7 +248,7 @@ pub(crate) fn record_beams(
 
 /// The volume caustic of the beams [`record_beams`] made (`beam_gather`, with
 /// [`RenderSettings::beams_volume_active`]), added to both composited images.
-/// Then, with `segs`, along the segments `composite` kept of the paths beyond the specular
+/// Then, where `segs` were kept, along the segments `composite` kept of the paths beyond the specular
 /// surfaces (`beam_gather` with `gather_slot`, whichever way the camera rays' volume caustic is
 /// drawn), into the full image.
 #[expect(clippy::too_many_arguments, reason = "the frame's resources")]
@@ -258,7 +258,7 @@ pub(crate) fn record_gather(
     frames: &[BeamFrame],
     s: &RenderSettings,
     images: (&wgpu::Buffer, &wgpu::Buffer),
-    segs: Option<&crate::passes::EyeSegments>,
+    segs: &crate::passes::EyeSegments,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -276,7 +276,7 @@ pub(crate) fn record_gather(
         } else {
             record_gather_chunks(ctx, f, &views, images, &density, None, enc, timer);
         }
-        if let Some(segs) = segs {
+        if segs.kept {
             for slot in 0..crate::gpu::types::EYE_SEGMENTS as u32 {
                 record_gather_chunks(ctx, f, &views, images, &density, Some((segs, slot)), enc, timer);
             }

@@ -285,6 +285,9 @@ pub(crate) fn record(
         cp.set_bind_group(0, &bg, &[]);
         cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
+    if !segs.kept {
+        return;
+    }
     let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
         label: Some("medium_bounce_segments"),
         timestamp_writes: timer.compute("medium_bounce_segments"),

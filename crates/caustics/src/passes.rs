@@ -1308,13 +1308,16 @@ pub(crate) fn density_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::Texture
 pub(crate) struct Composited {
     pub full: wgpu::Buffer,
     pub caustic: wgpu::Buffer,
-    pub segments: Option<EyeSegments>,
+    pub segments: EyeSegments,
 }
 
 /// `composite`'s list of specular pixels and their kept segments ([`EYE_SEGMENTS`] each, in
 /// the list's order): a stage over them is dispatched indirectly from `args` (workgroups of 64)
-/// and reads the list's length from `count[3]`.
+/// and reads the list's length from `count[3]`. `kept`: whether `composite` kept segments
+/// ([`RenderSettings::medium_segments_active`]; else `segments` is one unused slot and no stage
+/// runs along them).
 pub(crate) struct EyeSegments {
+    pub kept: bool,
     pub list: wgpu::Buffer,
     pub count: wgpu::Buffer,
     pub args: wgpu::Buffer,
@@ -1403,7 +1406,7 @@ fn record_medium(
             cp.set_bind_group(0, &bg, &[]);
             cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
         }
-        if scatters {
+        if scatters && segs.kept {
             // (the same layout: one bind group for both variants)
             let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("medium_scatter_segments"),
@@ -1436,7 +1439,8 @@ pub(crate) fn record_composite(
     let out_caustic = ctx.buffer("caustic_image", img_bytes, usage);
     // In a storage buffer, not a uniform: see `shaders/composite.wgsl` (lavapipe's inlining).
     let layer2 = has_specular_meshes(dc.scene);
-    let medium = dc.scene.medium.as_ref();
+    let kept = s.medium_segments_active(dc.scene);
+    let medium = dc.scene.medium.as_ref().filter(|_| kept);
     let (medium_lo, medium_hi, medium_sigma_t) = match medium {
         Some(m) => (
             m.bounds_min.extend(0.0).to_array(),
@@ -1554,9 +1558,9 @@ pub(crate) fn record_composite(
         cp.set_bind_group(0, &cbg, &[]);
         cp.dispatch_workgroups_indirect(&spec_args, 0);
     }
-    let segs = EyeSegments { list: spec_list, count: spec_count, args: spec_args, segments };
+    let segs = EyeSegments { kept, list: spec_list, count: spec_count, args: spec_args, segments };
     record_medium(dc, eye, lights, s, (&out_full, &out_caustic), &segs, enc, timer);
-    Composited { full: out_full, caustic: out_caustic, segments: medium.is_some().then_some(segs) }
+    Composited { full: out_full, caustic: out_caustic, segments: segs }
 }
 
 /// `display`: the radiance image `out_full` tone-mapped into an Rgba8Unorm texture.

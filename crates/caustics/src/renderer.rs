@@ -825,10 +825,10 @@ impl Renderer {
         ctx.begin_scope("composite", enc);
         let composited = crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
         let crate::passes::Composited { full, caustic, segments: eye_segments } = composited;
-        if let (Some(bf), Some(segs)) = (bounce, &eye_segments) {
-            crate::medium_bounce::record(&dc, &eye, bf, &s, (&full, &caustic), segs, enc, &mut timer);
+        if let Some(bf) = bounce {
+            crate::medium_bounce::record(&dc, &eye, bf, &s, (&full, &caustic), &eye_segments, enc, &mut timer);
         }
-        crate::beams::record_gather(&dc, &eye, &beams, &s, (&full, &caustic), eye_segments.as_ref(), enc, &mut timer);
+        crate::beams::record_gather(&dc, &eye, &beams, &s, (&full, &caustic), &eye_segments, enc, &mut timer);
         if let Some(sp) = self.spheres.as_ref().filter(|_| scene.medium.is_some() && !records.is_empty()) {
             let vol = (&sp.table, &records[..]);
             crate::caustic_spheres::gpu::record_volume(

@@ -327,6 +327,12 @@ pub struct RenderSettings {
     /// Steps of the camera ray march that gathers the virtual point lights (`medium_bounce`),
     /// 1 to 4096.
     pub medium_bounce_steps: u32,
+    /// Scenes with a medium: the medium along the camera paths beyond their first specular
+    /// surface (through glass, in mirrors): `composite` attenuates what they see, and the
+    /// medium's passes add the light scattered along them (`EyeSegment`, docs/architecture.md
+    /// "The medium beyond the first specular surface"). Default on; off, glass shows what lies
+    /// behind it as if the medium ended at its surface (cheaper).
+    pub medium_beyond_specular: bool,
     /// Scenes with an environment light: the directional lights it is segmented into (the
     /// cube-map median cut, `scene::environment_lights`), 1 to 256; they light diffuse surfaces
     /// with shadow maps and cast caustics like the scene's own directional lights.
@@ -444,6 +450,12 @@ impl RenderSettings {
 
     /// Whether the volume caustic is gathered (`beam_gather`): a medium that scatters, a
     /// specular caster, and the beams enabled.
+    /// Whether `composite` keeps the camera paths' segments in the medium beyond the first
+    /// specular surface ([`Self::medium_beyond_specular`] and a medium).
+    pub fn medium_segments_active(&self, scene: &crate::scene::Scene) -> bool {
+        self.medium_beyond_specular && scene.medium.is_some()
+    }
+
     pub fn beams_volume_active(&self, scene: &crate::scene::Scene) -> bool {
         self.beams.enabled
             && scene.medium.as_ref().is_some_and(|m| m.sigma_s.max_element() > 0.0)
@@ -750,6 +762,7 @@ impl Default for RenderSettings {
             medium_light_steps: 16,
             medium_bounce_grid: 16,
             medium_bounce_steps: 8,
+            medium_beyond_specular: true,
             env_lights: DEFAULT_ENV_LIGHTS,
             env_split: Default::default(),
             env_taps: DEFAULT_ENV_TAPS,

@@ -520,7 +520,20 @@ fn medium_controls(
         "The light lit surfaces and the fog exchange: virtual point lights per side of each light face (0: off)",
     );
     if released(&r) && grid != s.medium_bounce_grid {
-        act(session, Action::SetSettings(Box::new(caustics::render::RenderSettings { medium_bounce_grid: grid, ..s })));
+        act(
+            session,
+            Action::SetSettings(Box::new(caustics::render::RenderSettings { medium_bounce_grid: grid, ..s.clone() })),
+        );
+    }
+    let mut beyond = s.medium_beyond_specular;
+    let r = ui.checkbox(&mut beyond, "fog seen through glass").on_hover_text(
+        "The medium along the camera rays beyond glass and mirrors: attenuation and the fog's light (off: cheaper)",
+    );
+    if r.changed() {
+        act(
+            session,
+            Action::SetSettings(Box::new(caustics::render::RenderSettings { medium_beyond_specular: beyond, ..s })),
+        );
     }
 }
 
