@@ -55,6 +55,8 @@ pub use crate::output::{Beam, BeamStats};
 /// A light's beam buffers: kept for the gather after the composite and for the statistics
 /// read-back.
 pub(crate) struct BeamFrame {
+    /// The scene light's index.
+    pub light: usize,
     params: wgpu::Buffer,
     stats: wgpu::Buffer,
     beams: wgpu::Buffer,
@@ -234,6 +236,7 @@ pub(crate) fn record_beams(
         }
         let mut frame =
             record_light_beams(ctx, dc, &lf.light_buf, &bp, (footprint(b), chunk_scale(ctx, b)), enc, timer);
+        frame.light = li;
         if hulls {
             frame.hulls = Some(hull_buffer(ctx, frame.capacity));
         }
@@ -244,6 +247,15 @@ pub(crate) fn record_beams(
         frames.push(frame);
     }
     frames
+}
+
+impl BeamFrame {
+    /// What a stage over the listed beams binds: (parameters, beams, ordered list, statistics),
+    /// and its indirect dispatch (`beam_hull`'s: workgroups of 64, one invocation per listed
+    /// beam) as (buffer, byte offset).
+    pub(crate) fn listed(&self) -> ([&wgpu::Buffer; 4], (&wgpu::Buffer, u64)) {
+        ([&self.params, &self.beams, &self.order, &self.stats], (&self.dispatch, self.chunks.hull_args()))
+    }
 }
 
 /// The volume caustic of the beams [`record_beams`] made (`beam_gather`, with
@@ -372,6 +384,7 @@ fn record_light_beams(
     record_order(ctx, (&params, bp.slots), (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
     let size = (bp.width, bp.height);
     BeamFrame {
+        light: 0,
         params,
         stats,
         beams,
@@ -981,6 +994,7 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     record_order(&ctx, (&params, bp.slots), (&slot_buf, &order, &stats), (&chunks, &dispatch), &mut enc, &mut timer);
     let dv = density_view(&ctx, &density);
     let f = BeamFrame {
+        light: 0,
         params,
         stats,
         beams: beam_buf,

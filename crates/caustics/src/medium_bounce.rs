@@ -1,9 +1,9 @@
 //! Light that diffuse surfaces and the medium exchange, with one scattering event in the
 //! medium (docs/architecture.md, "Light between surfaces and the medium"): light → floor → fog
-//! → camera (and the caustic's light → glass → floor → fog → camera), and light → fog → floor
-//! → camera.
+//! → camera (and the caustic's light → glass → floor → fog → camera), light → fog → floor
+//! → camera, and the volume caustic's light → glass → fog → floor → camera.
 //!
-//! Four passes:
+//! Five passes:
 //! - `medium_bounce_lights` (per light, after the lights' maps): each block of
 //!   `RenderSettings::medium_bounce_grid`² blocks of each face of the light's receiver map
 //!   becomes one virtual point light (VPL): the flux its diffuse receivers reflect (direct
@@ -11,8 +11,11 @@
 //!   light), at the flux-weighted mean point, as a Lambertian disk with the same spread.
 //! - `medium_bounce_shafts` (per light): the same blocks' light rays cut into slices; each
 //!   slice's scattered flux (shadowed) becomes one point emitter with the phase function.
-//! - `medium_bounce_surfaces` (once, before `composite`): the diffuse surfaces the camera sees
-//!   lit by the shaft emitters, into the eye's radiance.
+//! - `medium_bounce_beams` (per light with beams, every frame): the beams' scattered light,
+//!   sampled along each beam and binned by light block and distance into point emitters
+//!   (fixed-point sums).
+//! - `medium_bounce_surfaces` (before `composite`): the diffuse surfaces the camera sees lit by
+//!   the shaft and beam emitters, into the eye's radiance.
 //! - `medium_bounce` (once, after `medium_scatter`): per pixel, the camera ray's segment in the
 //!   medium gathers the surface VPLs' single scattering (`RenderSettings::medium_bounce_steps`
 //!   steps), into the full image and, for the caustic part of their flux, the caustic-only
@@ -22,11 +25,10 @@
 //! (a black floor reflects nothing and is lit by nothing it could show: its frames are the same
 //! bits as without the passes). The caustic part comes from the lights' caustic maps, so it is
 //! there for the photon techniques; with `SurfaceCaustics::Beams` or the caustic spheres those
-//! maps stay zero and only the direct light's share is added. The volume caustic's light on
-//! surfaces (light → glass → fog → floor) is not modelled.
+//! maps stay zero and only the direct light's share is added.
 
 use crate::gpu::PassTimer;
-use crate::gpu::types::{BounceLightParams, BounceParams, SurfaceBounceParams, VplGpu};
+use crate::gpu::types::{BeamEmitParams, BounceLightParams, BounceParams, SurfaceBounceParams, VplGpu};
 use crate::passes::{DrawCtx, EyeFrame, LightFrame, array_view, density_view, layer_view, shadow_sampler};
 use crate::settings::RenderSettings;
 
@@ -166,12 +168,112 @@ pub(crate) fn record_lights(
     Some(BounceFrame { surface, surface_count, shafts, shaft_count })
 }
 
-/// `medium_bounce_surfaces`: the camera's diffuse surfaces lit by the shaft emitters, added into
-/// the eye's radiance (before `composite`).
+/// Beam emitters per light block (`BEAM_EMIT_SLICES` in shaders/medium_bounce_beams.wgsl), and
+/// the words of each one's sums (`BEAM_EMIT_WORDS`).
+const BEAM_EMIT_SLICES: u32 = 16;
+const BEAM_EMIT_WORDS: u64 = 24;
+
+/// `medium_bounce_beams` for every light's beams (the volume caustic's light scattered toward
+/// the surfaces, light -> glass -> fog -> floor): per light with beams, its beam VPLs and their
+/// count. Nothing where [`wanted`] is not or no light has beams.
+pub(crate) fn record_beam_emitters(
+    dc: &DrawCtx,
+    frames: &[crate::beams::BeamFrame],
+    lights: &[&LightFrame],
+    s: &RenderSettings,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> Vec<(wgpu::Buffer, u32)> {
+    if !wanted(dc.scene, s) || !s.beams_volume_active(dc.scene) {
+        return Vec::new();
+    }
+    let ctx = dc.ctx;
+    let density = density_view(ctx, &dc.geo.density);
+    let pipelines: Vec<_> =
+        (0..3).map(|p| ctx.compute_pipeline_with("medium_bounce_beams", &[("emit_pass", f64::from(p))])).collect();
+    let mut out = Vec::new();
+    for (fi, f) in frames.iter().enumerate() {
+        let lf = lights[f.light];
+        let grid = s.medium_bounce_grid;
+        let bins = lf.faces * grid * grid * BEAM_EMIT_SLICES;
+        let params = ctx.uniform(
+            "medium_bounce_beams_params",
+            bytemuck::bytes_of(&BeamEmitParams {
+                grid,
+                faces: lf.faces,
+                bins,
+                _pad: 0,
+                scale: lf.scale as f32,
+                _pad1: [0.0; 3],
+            }),
+        );
+        // (the sums, then the samples' range of distances: two words)
+        let sums = ctx.buffer(
+            &format!("medium_bounce_beams_sums{fi}"),
+            (u64::from(bins) * BEAM_EMIT_WORDS + 2) * 4,
+            wgpu::BufferUsages::STORAGE,
+        );
+        let vpls = ctx.buffer(
+            &format!("medium_bounce_beam_vpls{fi}"),
+            u64::from(bins) * std::mem::size_of::<VplGpu>() as u64,
+            wgpu::BufferUsages::STORAGE,
+        );
+        let ([bp, beams, order, stats], (args, at)) = f.listed();
+        let bg = crate::gpu::bind(
+            ctx,
+            &pipelines[0],
+            "medium_bounce_beams",
+            &[
+                bp.as_entire_binding(),
+                lf.light_buf.as_entire_binding(),
+                params.as_entire_binding(),
+                beams.as_entire_binding(),
+                order.as_entire_binding(),
+                stats.as_entire_binding(),
+                sums.as_entire_binding(),
+                vpls.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&density),
+            ],
+        );
+        for (p, pl) in pipelines.iter().enumerate() {
+            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("medium_bounce_beams"),
+                timestamp_writes: timer.compute("medium_bounce_beams"),
+            });
+            cp.set_pipeline(pl);
+            cp.set_bind_group(0, &bg, &[]);
+            if p < 2 {
+                cp.dispatch_workgroups_indirect(args, at);
+            } else {
+                cp.dispatch_workgroups(bins.div_ceil(64), 1, 1);
+            }
+        }
+        out.push((vpls, bins));
+    }
+    out
+}
+
+/// `medium_bounce_surfaces`: the camera's diffuse surfaces lit by the shaft emitters and the
+/// beam emitters ([`record_beam_emitters`]), added into the eye's radiance (before
+/// `composite`).
 pub(crate) fn record_surfaces(
     dc: &DrawCtx,
     eye: &EyeFrame,
     bf: &BounceFrame,
+    beam_vpls: &[(wgpu::Buffer, u32)],
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    for (vpls, count) in std::iter::once((&bf.shafts, bf.shaft_count)).chain(beam_vpls.iter().map(|(b, n)| (b, *n))) {
+        record_surface_gather(dc, eye, vpls, count, enc, timer);
+    }
+}
+
+fn record_surface_gather(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    vpls: &wgpu::Buffer,
+    count: u32,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -188,7 +290,7 @@ pub(crate) fn record_surfaces(
             camera: cam.position.extend(1.0).to_array(),
             width: cam.width,
             height: cam.height,
-            count: bf.shaft_count,
+            count,
             heterogeneous,
         }),
     );
@@ -201,7 +303,7 @@ pub(crate) fn record_surfaces(
         "medium_bounce_surfaces",
         &[
             params.as_entire_binding(),
-            bf.shafts.as_entire_binding(),
+            vpls.as_entire_binding(),
             wgpu::BindingResource::TextureView(&ep),
             wgpu::BindingResource::TextureView(&en),
             dc.geo.materials.as_entire_binding(),

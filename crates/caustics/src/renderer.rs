@@ -773,11 +773,6 @@ impl Renderer {
             ctx.end_scope();
         }
         let bounce = self.bounce.as_ref();
-        ctx.begin_scope("medium_bounce", enc);
-        if let Some(bf) = bounce {
-            crate::medium_bounce::record_surfaces(&dc, &eye, bf, enc, &mut timer);
-        }
-        ctx.end_scope();
         let mut sphere_stats = None;
         // The direct sphere records, also read by `sphere_volume` in a scene with a medium.
         let mut records = Vec::new();
@@ -821,6 +816,14 @@ impl Renderer {
         // added to the eye's accumulators before the composite shows them through glass).
         ctx.begin_scope("beams", enc);
         let beams = crate::beams::record_beams(&dc, &eye, &light_frames, &s, self.count_fragments, enc, &mut timer);
+        ctx.end_scope();
+        // The surfaces lit by the shafts' and the beams' light in the medium (before `composite`,
+        // which shows them through glass).
+        ctx.begin_scope("medium_bounce", enc);
+        if let Some(bf) = bounce {
+            let beam_vpls = crate::medium_bounce::record_beam_emitters(&dc, &beams, &light_frames, &s, enc, &mut timer);
+            crate::medium_bounce::record_surfaces(&dc, &eye, bf, &beam_vpls, enc, &mut timer);
+        }
         ctx.end_scope();
         ctx.begin_scope("composite", enc);
         let composited = crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);

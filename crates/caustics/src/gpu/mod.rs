@@ -41,6 +41,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("ray_query", include_str!("../../shaders/ray_query.wgsl")),
     ("medium_bounce_lights", include_str!("../../shaders/medium_bounce_lights.wgsl")),
     ("medium_bounce", include_str!("../../shaders/medium_bounce.wgsl")),
+    ("medium_bounce_beams", include_str!("../../shaders/medium_bounce_beams.wgsl")),
     ("medium_bounce_shafts", include_str!("../../shaders/medium_bounce_shafts.wgsl")),
     ("medium_bounce_surfaces", include_str!("../../shaders/medium_bounce_surfaces.wgsl")),
     ("beam_refine", include_str!("../../shaders/beam_refine.wgsl")),

@@ -453,6 +453,20 @@ pub struct EyeSegmentGpu {
     pub dir: u32,
 }
 
+/// `medium_bounce_beams`' parameters (`shaders/medium_bounce_beams.wgsl`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct BeamEmitParams {
+    /// Blocks per side of a light face, the light's faces, the bins (faces × grid² × slices).
+    pub grid: u32,
+    pub faces: u32,
+    pub bins: u32,
+    pub _pad: u32,
+    /// The fixed-point scale (units per W: the light's).
+    pub scale: f32,
+    pub _pad1: [f32; 3],
+}
+
 /// Segments kept per specular pixel (`EYE_SEGMENTS` in `shaders/shared/medium.wgsl`).
 pub const EYE_SEGMENTS: u64 = 2;
 
@@ -772,6 +786,7 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("SphereVolumeParams", "SphereVolumeParams", std::mem::size_of::<SphereVolumeParams>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
     ("EyeSegmentGpu", "EyeSegment", std::mem::size_of::<EyeSegmentGpu>()),
+    ("BeamEmitParams", "BeamEmitParams", std::mem::size_of::<BeamEmitParams>()),
     ("MediumParams", "MediumParams", std::mem::size_of::<MediumParams>()),
     ("BounceLightParams", "BounceLightParams", std::mem::size_of::<BounceLightParams>()),
     ("VplGpu", "Vpl", std::mem::size_of::<VplGpu>()),
