@@ -1,8 +1,9 @@
 // Stage: medium_bounce_surfaces. The diffuse surfaces the camera sees, lit by the light the
 // medium scatters out of every light's shaft (light -> fog -> floor -> camera), from the shaft
-// VPLs of `medium_bounce_shafts`, and (one more dispatch per light with beams) out of the
-// volume caustic (light -> glass -> fog -> floor -> camera), from the beam VPLs of
-// `medium_bounce_beams`. Per pixel whose first surface is diffuse (point y, normal n
+// VPLs of `medium_bounce_shafts`, and (one more dispatch per list) out of the lit surfaces'
+// glow (light -> floor -> fog -> floor -> camera), from the glow VPLs of `medium_bounce_glow`,
+// and out of the volume caustic (light -> glass -> fog -> floor -> camera), from the beam VPLs
+// of `medium_bounce_beams`. Per pixel whose first surface is diffuse (point y, normal n
 // turned toward the camera, albedo rho), added into the eye's radiance (not the caustic-only
 // image: the shaft is direct light):
 //   rho / pi * sum_v F_v phase(w_v . u) max(n . -u, 0) / (d^2 + r2_v) T(v -> y),
@@ -11,7 +12,7 @@
 // `BOUNCE_GRID_STEPS`-step march). Runs before `composite`, so surfaces seen through glass and
 // in mirrors show it and `medium_scatter` attenuates it toward the camera.
 // Not modelled: visibility between the VPL and y (an object between the shaft and a surface
-// does not shadow it), the surfaces' own glow sent back to them (light -> floor -> fog -> floor).
+// does not shadow it).
 // The VPLs are read in tiles of 64 through workgroup memory; the sums run in a fixed order.
 
 #import medium

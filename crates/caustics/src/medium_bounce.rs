@@ -1,9 +1,10 @@
 //! Light that diffuse surfaces and the medium exchange, with one scattering event in the
 //! medium (docs/architecture.md, "Light between surfaces and the medium"): light → floor → fog
 //! → camera (and the caustic's light → glass → floor → fog → camera), light → fog → floor
-//! → camera, and the volume caustic's light → glass → fog → floor → camera.
+//! → camera, the glow's light back on the floor (light → floor → fog → floor → camera), and the
+//! volume caustic's light → glass → fog → floor → camera.
 //!
-//! Five passes:
+//! Six passes:
 //! - `medium_bounce_lights` (per light, after the lights' maps): each block of
 //!   `RenderSettings::medium_bounce_grid`² blocks of each face of the light's receiver map
 //!   becomes one virtual point light (VPL): the flux its diffuse receivers reflect (direct
@@ -11,11 +12,14 @@
 //!   light), at the flux-weighted mean point, as a Lambertian disk with the same spread.
 //! - `medium_bounce_shafts` (per light): the same blocks' light rays cut into slices; each
 //!   slice's scattered flux (shadowed) becomes one point emitter with the phase function.
+//! - `medium_bounce_glow` (per light, with the VPLs): each surface VPL's light along 32
+//!   directions of its hemisphere, scattered in 8 steps each, binned by light block and
+//!   distance into point emitters (fixed-point sums).
 //! - `medium_bounce_beams` (per light with beams, every frame): the beams' scattered light,
 //!   sampled along each beam and binned by light block and distance into point emitters
 //!   (fixed-point sums).
 //! - `medium_bounce_surfaces` (before `composite`): the diffuse surfaces the camera sees lit by
-//!   the shaft and beam emitters, into the eye's radiance.
+//!   the shaft, glow and beam emitters, into the eye's radiance.
 //! - `medium_bounce` (once, after `medium_scatter`): per pixel, the camera ray's segment in the
 //!   medium gathers the surface VPLs' single scattering (`RenderSettings::medium_bounce_steps`
 //!   steps), into the full image and, for the caustic part of their flux, the caustic-only
@@ -28,7 +32,7 @@
 //! maps stay zero and only the direct light's share is added.
 
 use crate::gpu::PassTimer;
-use crate::gpu::types::{BeamEmitParams, BounceLightParams, BounceParams, SurfaceBounceParams, VplGpu};
+use crate::gpu::types::{BounceLightParams, BounceParams, EmitParams, SurfaceBounceParams, VplGpu};
 use crate::passes::{DrawCtx, EyeFrame, LightFrame, array_view, density_view, layer_view, shadow_sampler};
 use crate::settings::RenderSettings;
 
@@ -53,6 +57,8 @@ pub(crate) struct BounceFrame {
     surface_count: u32,
     shafts: wgpu::Buffer,
     shaft_count: u32,
+    /// Per light, its glow emitters (`medium_bounce_glow`) and their count.
+    glow: Vec<(wgpu::Buffer, u32)>,
 }
 
 /// The medium's box, sigma_t and sigma_s as the stages take them, and whether it has a grid.
@@ -165,13 +171,84 @@ pub(crate) fn record_lights(
         cp.dispatch_workgroups(k, k, lf.faces);
         offset += lf.faces * k * k;
     }
-    Some(BounceFrame { surface, surface_count, shafts, shaft_count })
+    let glow = record_glow(dc, m, lights, s, &surface, enc, timer);
+    Some(BounceFrame { surface, surface_count, shafts, shaft_count, glow })
 }
 
-/// Beam emitters per light block (`BEAM_EMIT_SLICES` in shaders/medium_bounce_beams.wgsl), and
-/// the words of each one's sums (`BEAM_EMIT_WORDS`).
+/// Words of each point emitter's sums (`EMIT_WORDS` in shaders/shared/medium_emit.wgsl).
+const EMIT_WORDS: u64 = 24;
+/// Slices per block of the beam emitters and of the glow emitters.
 const BEAM_EMIT_SLICES: u32 = 16;
-const BEAM_EMIT_WORDS: u64 = 24;
+const GLOW_SLICES: u32 = 16;
+/// Directions per surface VPL of `medium_bounce_glow` (`GLOW_DIRS`).
+const GLOW_DIRS: u32 = 32;
+
+/// A light's point emitters: the sums (zeroed), the emitters, and their parameters.
+fn emitter_buffers(
+    ctx: &crate::gpu::GpuContext,
+    label: &str,
+    m: &crate::scene::Medium,
+    lf: &LightFrame,
+    (grid, slices): (u32, u32),
+    (vpl_offset, vpl_count): (u32, u32),
+) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, u32) {
+    let (lo, hi, sigma_t, sigma_s, heterogeneous) = medium_params(m);
+    let bins = lf.faces * grid * grid * slices;
+    let params = ctx.uniform(
+        &format!("{label}_params"),
+        bytemuck::bytes_of(&EmitParams {
+            lo,
+            hi,
+            sigma_s,
+            sigma_t,
+            grid,
+            faces: lf.faces,
+            bins,
+            slices,
+            scale: lf.scale as f32,
+            heterogeneous,
+            vpl_offset,
+            vpl_count,
+        }),
+    );
+    // (the sums, then the samples' range of distances: two words)
+    let sums =
+        ctx.buffer(&format!("{label}_sums"), (u64::from(bins) * EMIT_WORDS + 2) * 4, wgpu::BufferUsages::STORAGE);
+    let vpls = ctx.buffer(
+        &format!("{label}_vpls"),
+        u64::from(bins) * std::mem::size_of::<VplGpu>() as u64,
+        wgpu::BufferUsages::STORAGE,
+    );
+    (params, sums, vpls, bins)
+}
+
+/// The three dispatches of an emitter stage (`emit_pass` 0, 1, 2): the samples' range and sums
+/// (`samples`: an indirect dispatch, or workgroups of 64), the emitters per bin.
+fn record_emitter_passes(
+    ctx: &crate::gpu::GpuContext,
+    stage: &str,
+    entries: &[wgpu::BindingResource],
+    samples: Result<(&wgpu::Buffer, u64), u32>,
+    bins: u32,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let pipelines: Vec<_> = (0..3).map(|p| ctx.compute_pipeline_with(stage, &[("emit_pass", f64::from(p))])).collect();
+    let bg = crate::gpu::bind(ctx, &pipelines[0], stage, entries);
+    for (p, pl) in pipelines.iter().enumerate() {
+        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(stage),
+            timestamp_writes: timer.compute(stage),
+        });
+        cp.set_pipeline(pl);
+        cp.set_bind_group(0, &bg, &[]);
+        match (p, samples) {
+            (2, _) => cp.dispatch_workgroups(bins.div_ceil(64), 1, 1),
+            (_, Ok((args, at))) => cp.dispatch_workgroups_indirect(args, at),
+            (_, Err(groups)) => cp.dispatch_workgroups(groups, 1, 1),
+        }
+    }
+}
 
 /// `medium_bounce_beams` for every light's beams (the volume caustic's light scattered toward
 /// the surfaces, light -> glass -> fog -> floor): per light with beams, its beam VPLs and their
@@ -184,71 +261,68 @@ pub(crate) fn record_beam_emitters(
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) -> Vec<(wgpu::Buffer, u32)> {
-    if !wanted(dc.scene, s) || !s.beams_volume_active(dc.scene) {
+    let Some(m) = dc.scene.medium.as_ref().filter(|_| wanted(dc.scene, s) && s.beams_volume_active(dc.scene)) else {
         return Vec::new();
-    }
+    };
     let ctx = dc.ctx;
     let density = density_view(ctx, &dc.geo.density);
-    let pipelines: Vec<_> =
-        (0..3).map(|p| ctx.compute_pipeline_with("medium_bounce_beams", &[("emit_pass", f64::from(p))])).collect();
     let mut out = Vec::new();
     for (fi, f) in frames.iter().enumerate() {
         let lf = lights[f.light];
-        let grid = s.medium_bounce_grid;
-        let bins = lf.faces * grid * grid * BEAM_EMIT_SLICES;
-        let params = ctx.uniform(
-            "medium_bounce_beams_params",
-            bytemuck::bytes_of(&BeamEmitParams {
-                grid,
-                faces: lf.faces,
-                bins,
-                _pad: 0,
-                scale: lf.scale as f32,
-                _pad1: [0.0; 3],
-            }),
-        );
-        // (the sums, then the samples' range of distances: two words)
-        let sums = ctx.buffer(
-            &format!("medium_bounce_beams_sums{fi}"),
-            (u64::from(bins) * BEAM_EMIT_WORDS + 2) * 4,
-            wgpu::BufferUsages::STORAGE,
-        );
-        let vpls = ctx.buffer(
-            &format!("medium_bounce_beam_vpls{fi}"),
-            u64::from(bins) * std::mem::size_of::<VplGpu>() as u64,
-            wgpu::BufferUsages::STORAGE,
-        );
-        let ([bp, beams, order, stats], (args, at)) = f.listed();
-        let bg = crate::gpu::bind(
-            ctx,
-            &pipelines[0],
-            "medium_bounce_beams",
-            &[
-                bp.as_entire_binding(),
-                lf.light_buf.as_entire_binding(),
-                params.as_entire_binding(),
-                beams.as_entire_binding(),
-                order.as_entire_binding(),
-                stats.as_entire_binding(),
-                sums.as_entire_binding(),
-                vpls.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&density),
-            ],
-        );
-        for (p, pl) in pipelines.iter().enumerate() {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("medium_bounce_beams"),
-                timestamp_writes: timer.compute("medium_bounce_beams"),
-            });
-            cp.set_pipeline(pl);
-            cp.set_bind_group(0, &bg, &[]);
-            if p < 2 {
-                cp.dispatch_workgroups_indirect(args, at);
-            } else {
-                cp.dispatch_workgroups(bins.div_ceil(64), 1, 1);
-            }
-        }
+        let label = format!("medium_bounce_beams{fi}");
+        let (params, sums, vpls, bins) =
+            emitter_buffers(ctx, &label, m, lf, (s.medium_bounce_grid, BEAM_EMIT_SLICES), (0, 0));
+        let ([bp, beams, order, stats], args) = f.listed();
+        let entries = [
+            bp.as_entire_binding(),
+            lf.light_buf.as_entire_binding(),
+            params.as_entire_binding(),
+            beams.as_entire_binding(),
+            order.as_entire_binding(),
+            stats.as_entire_binding(),
+            sums.as_entire_binding(),
+            vpls.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&density),
+        ];
+        record_emitter_passes(ctx, "medium_bounce_beams", &entries, Ok(args), bins, enc, timer);
         out.push((vpls, bins));
+    }
+    out
+}
+
+/// `medium_bounce_glow` for every light: its lit surfaces' light scattered in the medium toward
+/// the surfaces (light -> floor -> fog -> floor), from its surface VPLs in `surface` (each
+/// light's `faces × grid²` in order): per light, its glow VPLs and their count.
+fn record_glow(
+    dc: &DrawCtx,
+    m: &crate::scene::Medium,
+    lights: &[&LightFrame],
+    s: &RenderSettings,
+    surface: &wgpu::Buffer,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> Vec<(wgpu::Buffer, u32)> {
+    let ctx = dc.ctx;
+    let density = density_view(ctx, &dc.geo.density);
+    let k = s.medium_bounce_grid;
+    let mut offset = 0;
+    let mut out = Vec::new();
+    for (li, lf) in lights.iter().enumerate() {
+        let count = lf.faces * k * k;
+        let label = format!("medium_bounce_glow{li}");
+        let (params, sums, vpls, bins) = emitter_buffers(ctx, &label, m, lf, (k, GLOW_SLICES), (offset, count));
+        let entries = [
+            lf.light_buf.as_entire_binding(),
+            params.as_entire_binding(),
+            surface.as_entire_binding(),
+            sums.as_entire_binding(),
+            vpls.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&density),
+        ];
+        let groups = (count * GLOW_DIRS).div_ceil(64);
+        record_emitter_passes(ctx, "medium_bounce_glow", &entries, Err(groups), bins, enc, timer);
+        out.push((vpls, bins));
+        offset += count;
     }
     out
 }
@@ -264,7 +338,9 @@ pub(crate) fn record_surfaces(
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
-    for (vpls, count) in std::iter::once((&bf.shafts, bf.shaft_count)).chain(beam_vpls.iter().map(|(b, n)| (b, *n))) {
+    let lists =
+        std::iter::once((&bf.shafts, bf.shaft_count)).chain(bf.glow.iter().chain(beam_vpls).map(|(b, n)| (b, *n)));
+    for (vpls, count) in lists {
         record_surface_gather(dc, eye, vpls, count, enc, timer);
     }
 }

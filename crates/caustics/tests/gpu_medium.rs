@@ -410,9 +410,10 @@ fn light_between_a_lit_floor_and_the_fog_matches_the_reference() {
     let Some(ctx) = gpu() else { return };
     // The reference with single scattering counts every path with one scattering event in the
     // medium: light -> floor -> fog -> camera (the fog glows over the lit floor) and light ->
-    // fog -> floor -> camera (the shaft lights the floor around it), which `medium_bounce`
-    // and `medium_bounce_surfaces` add. Regions: the fog rows (0..12, no surface in view) and
-    // the floor rows (18..32).
+    // fog -> floor -> camera (the shaft lights the floor around it), and light -> floor -> fog
+    // -> floor -> camera (the glow lights the floor back), which `medium_bounce` and
+    // `medium_bounce_surfaces` add (from the surface VPLs, the shaft emitters and the glow
+    // emitters). Regions: the fog rows (0..12, no surface in view) and the floor rows (18..32).
     let sc = lit_floor_fog_scene();
     let ratios = lit_floor_ratios(&ctx, &sc, "even fog", |grid, g| {
         // No caster: nothing in the caustic-only image.
@@ -429,13 +430,12 @@ fn light_between_a_lit_floor_and_the_fog_matches_the_reference() {
         let Err(e) = render(&ctx, &sc, &bad) else { panic!("a setting out of range was accepted") };
         assert!(e.to_string().contains("medium_bounce_"), "{e}");
     }
-    // Measured (lavapipe): with the passes fog 0.997, floor 0.944; without them fog 0.788,
-    // floor 0.802 (at 16 steps and another seed: 0.999, 0.939; 0.789, 0.800). The floor's remaining shortfall
-    // is light the fog's glow sends back to the floor (light -> floor -> fog -> floor), which
-    // the reference has and the GPU does not.
+    // Measured (lavapipe): with the passes fog 0.998, floor 0.978; without them fog 0.788,
+    // floor 0.802. The floor rows were 0.944 before the glow's light on the floor (light ->
+    // floor -> fog -> floor, `medium_bounce_glow`); 0.969 with half its blocks and slices.
     let (with, without) = (ratios[0], ratios[1]);
     assert!((with.0 - 1.0).abs() < 0.05, "fog rows: {}", with.0);
-    assert!(with.1 > 0.9 && with.1 < 1.01, "floor rows: {}", with.1);
+    assert!(with.1 > 0.955 && with.1 < 1.01, "floor rows: {}", with.1);
     // Without the passes the test fails: the fog's glow is missing.
     assert!(without.0 < 0.9 && without.1 < 0.88, "without the passes: {without:?}");
 }
@@ -504,12 +504,12 @@ fn light_between_a_lit_floor_and_layered_fog_matches_the_reference() {
     }
     let sc = with_grid(lit_floor_fog_scene(), DensityGrid::new(dims, v).unwrap());
     let ratios = lit_floor_ratios(&ctx, &sc, "layered fog", |_, _| {});
-    // Measured (lavapipe): with the passes fog 1.004, floor 0.923; without them 0.794, 0.780
-    // (another seed: 0.998, 0.923; 0.790, 0.780). The floor's shortfall is larger than in the
-    // even fog: the dense layer over it sends more of its glow back (light -> floor -> fog ->
-    // floor, not rendered).
+    // Measured (lavapipe): with the passes fog 1.004, floor 0.960; without them 0.794, 0.780.
+    // The floor rows were 0.923 before the glow's light on the floor (`medium_bounce_glow`);
+    // what remains is larger than in the even fog: the dense layer's glow is nearer the floor,
+    // where the emitters' bins are coarsest for it.
     let (with, without) = (ratios[0], ratios[1]);
-    assert!((with.0 - 1.0).abs() < 0.05 && with.1 > 0.9 && with.1 < 1.02, "{ratios:?}");
+    assert!((with.0 - 1.0).abs() < 0.05 && with.1 > 0.94 && with.1 < 1.02, "{ratios:?}");
     assert!(without.0 < 0.85 && without.1 < 0.85, "{ratios:?}");
 }
 

@@ -453,18 +453,29 @@ pub struct EyeSegmentGpu {
     pub dir: u32,
 }
 
-/// `medium_bounce_beams`' parameters (`shaders/medium_bounce_beams.wgsl`).
+/// The point emitters' parameters of `medium_bounce_beams` and `medium_bounce_glow`
+/// (`shaders/shared/medium_emit.wgsl`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct BeamEmitParams {
-    /// Blocks per side of a light face, the light's faces, the bins (faces × grid² × slices).
+pub struct EmitParams {
+    /// The medium's box, sigma_s (w = Henyey-Greenstein g) and sigma_t.
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+    pub sigma_s: [f32; 4],
+    pub sigma_t: [f32; 4],
+    /// Blocks per side of a light face, the light's faces, the bins (faces × grid² × slices),
+    /// slices per block.
     pub grid: u32,
     pub faces: u32,
     pub bins: u32,
-    pub _pad: u32,
+    pub slices: u32,
     /// The fixed-point scale (units per W: the light's).
     pub scale: f32,
-    pub _pad1: [f32; 3],
+    /// 1: a density grid.
+    pub heterogeneous: u32,
+    /// `medium_bounce_glow`: the light's first surface VPL and its VPLs.
+    pub vpl_offset: u32,
+    pub vpl_count: u32,
 }
 
 /// Segments kept per specular pixel (`EYE_SEGMENTS` in `shaders/shared/medium.wgsl`).
@@ -786,7 +797,7 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("SphereVolumeParams", "SphereVolumeParams", std::mem::size_of::<SphereVolumeParams>()),
     ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
     ("EyeSegmentGpu", "EyeSegment", std::mem::size_of::<EyeSegmentGpu>()),
-    ("BeamEmitParams", "BeamEmitParams", std::mem::size_of::<BeamEmitParams>()),
+    ("EmitParams", "EmitParams", std::mem::size_of::<EmitParams>()),
     ("MediumParams", "MediumParams", std::mem::size_of::<MediumParams>()),
     ("BounceLightParams", "BounceLightParams", std::mem::size_of::<BounceLightParams>()),
     ("VplGpu", "Vpl", std::mem::size_of::<VplGpu>()),
