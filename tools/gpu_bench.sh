@@ -13,7 +13,8 @@
 #    CAUSTICS_LOG_PIPELINES, so a driver whose compiler stalls names its stage), twice: the
 #    same image bit for bit; then the built-in scene twice;
 # 2. the beams at 1920x1080 for the grids of the issue's budgets (frame loop: full and camera;
-#    the beams alone: the floor's glow off), and the lit floor's glow on and off;
+#    the beams alone: the floor's glow off), the lit floor's glow on and off, the medium beyond
+#    glass off, and the fog scene's frame loop;
 # 3. the frame loop of the built-in scene at 1920x1080;
 # 4. the photon emission techniques (Table 1 of Wyman & Nichols 2009) up to 16384^2;
 # 5. the CPU reference on this machine's cores.
@@ -66,6 +67,11 @@ run 40 "$B" render scenes/volume_caustic_fog.json "${A[@]}" --size 1920x1080 -o 
 # The lit floor's glow (medium_bounce_* passes: GPU ms per pass in the render's table), on and off.
 run 40 "$B" render scenes/glass_sphere_fog.json "${A[@]}" --size 1920x1080 -o "$OUT/sphere_fog_1080.png"
 run 40 "$B" render scenes/glass_sphere_fog.json "${A[@]}" --size 1920x1080 --medium-bounce-grid 0 -o "$OUT/sphere_fog_1080_noglow.png"
+# The medium beyond glass (`medium_*_segments`, `beam_gather_segments` in the table), off.
+run 40 "$B" render scenes/glass_sphere_fog.json "${A[@]}" --size 1920x1080 --no-medium-beyond-specular -o "$OUT/sphere_fog_1080_nobeyond.png"
+# The frame loop of the fog scene with everything on (camera-only frames keep the lights' VPLs).
+run 60 "$B" bench --frames 12 scenes/glass_sphere_fog.json "${A[@]}" --technique basic --photons 1024 \
+    --size 1920x1080 --phases full,camera --out "$OUT/sphere_fog_loop"
 
 log "3. frame loop, built-in scene, 1920x1080"
 run 90 "$B" bench --frames 20 "${A[@]}" --technique basic,adaptive-level --photons 1024,2048 --size 1920x1080 \
