@@ -585,6 +585,18 @@ fn medium_density_and_beam_settings_change_live() {
     frame(&mut s);
     let unlit = sum(&s.renderer().read_image().unwrap());
     assert!(unlit < glowing, "image: {glowing} with the glow, {unlit} without");
+    // The medium beyond glass off ("fog seen through glass"): the pixels that see glass change.
+    let beyond = s.renderer().read_image().unwrap();
+    let mut near = s.settings().clone();
+    near.medium_beyond_specular = false;
+    s.act(Action::SetSettings(Box::new(near))).unwrap();
+    frame(&mut s);
+    let changed = s.renderer().read_image().unwrap().pixels.iter().zip(&beyond.pixels).filter(|(a, b)| a != b).count();
+    assert!(changed > 0, "the medium beyond glass switched off changed no pixel");
+    let mut back = s.settings().clone();
+    back.medium_beyond_specular = true;
+    s.act(Action::SetSettings(Box::new(back))).unwrap();
+    frame(&mut s);
     // Beams off: the caustic light in the fog goes.
     let mut off = s.settings().clone();
     off.beams.enabled = false;
