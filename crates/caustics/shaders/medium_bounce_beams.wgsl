@@ -31,8 +31,15 @@
 @group(0) @binding(6) var<storage, read_write> sums: array<atomic<u32>>;
 @group(0) @binding(7) var<storage, read_write> vpls: array<Vpl>;
 @group(0) @binding(8) var density_grid: texture_3d<f32>;
+@group(0) @binding(9) var<storage, read> materials: array<MaterialGpu>;
 
 override emit_pass: u32 = 0u;
+// The beams' landing emitters instead (`emit_pass` 1 and 2, one slice per block; where the
+// surface caustic is the beams', so the lights' caustic maps are empty): each beam's light where
+// it lands on a diffuse surface, times the albedo, as a Lambertian emitter (the end triangle's
+// three corners, a third of the flux each, so a bin's spread covers it), for the VPLs' passes
+// (`medium_bounce`: the floor caustic's glow; `medium_bounce_glow`).
+override emit_landing: bool = false;
 
 const BEAM_EMIT_SAMPLES: u32 = 8u;
 
@@ -54,6 +61,10 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let dy = max((bs.yend.x + bs.yend.y + bs.yend.z) / 3.0, 0.0) / f32(BEAM_EMIT_SAMPLES);
     if (!(dy > 0.0)) { return; }
     let pre = (b.v0.w + b.v1.w + b.v2.w) / 3.0;
+    if (emit_landing) {
+        land(b, bs, c, s, dy * f32(BEAM_EMIT_SAMPLES), pre);
+        return;
+    }
     let dl = dy * length(s);
     let dir = normalize(s);
     for (var i = 0u; i < BEAM_EMIT_SAMPLES; i++) {
@@ -66,4 +77,25 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         let tr = exp(-bp.sigma_t.rgb * (pre + beam_depth(c, x)));
         emit_deposit(x, bp.sigma_s.rgb * beam_density(x) * b.flux.rgb * tr * dl, dir);
     }
+}
+
+// The light beam b reflects where it lands (end height y_end of the barycentre's line c + y s),
+// deposited at its end triangle's corners.
+fn land(b: BeamGpu, bs: BeamSpace, c: vec3f, s: vec3f, y_end: f32, pre: f32) {
+    let obj = b.info.x;
+    if (obj == INVALID) { return; }
+    let m = materials[obj];
+    if (m.kind.x != KIND_DIFFUSE || all(m.a.rgb <= vec3f(0.0))) { return; }
+    let x = c + s * y_end;
+    let e0 = bs.v[0] + b.d0.xyz * b.d0.w;
+    let e1 = bs.v[1] + b.d1.xyz * b.d1.w;
+    let e2 = bs.v[2] + b.d2.xyz * b.d2.w;
+    var n = cross(e1 - e0, e2 - e0);
+    if (!(dot(n, n) > 0.0)) { return; }
+    n = normalize(n);
+    if (dot(n, s) > 0.0) { n = -n; }
+    let flux = m.a.rgb * b.flux.rgb * exp(-bp.sigma_t.rgb * (pre + beam_depth(c, x))) / 3.0;
+    emit_deposit(e0, flux, n);
+    emit_deposit(e1, flux, n);
+    emit_deposit(e2, flux, n);
 }

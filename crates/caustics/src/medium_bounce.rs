@@ -29,12 +29,15 @@
 //! (a black floor reflects nothing and is lit by nothing it could show: its frames are the same
 //! bits as without the passes). The caustic part comes from the lights' caustic maps, so it is
 //! there for the photon techniques; with `SurfaceCaustics::Beams` or the caustic spheres those
-//! maps stay zero and only the direct light's share is added.
+//! maps stay zero: with the beams' surface caustic `medium_bounce_beams` makes the caustic
+//! share from the beams' landing light instead; with the caustic spheres only the direct
+//! light's share is added.
 
 use crate::gpu::PassTimer;
 use crate::gpu::types::{BounceLightParams, BounceParams, EmitParams, SurfaceBounceParams, VplGpu};
 use crate::passes::{DrawCtx, EyeFrame, LightFrame, array_view, density_view, layer_view, shadow_sampler};
 use crate::settings::RenderSettings;
+use glam::Vec3;
 
 /// Whether the frame records the passes: a scattering medium, the setting on, and a diffuse
 /// material that reflects.
@@ -191,8 +194,14 @@ fn emitter_buffers(
     lf: &LightFrame,
     (grid, slices): (u32, u32),
     (vpl_offset, vpl_count): (u32, u32),
+    landing: Option<(Vec3, Vec3)>,
 ) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, u32) {
-    let (lo, hi, sigma_t, sigma_s, heterogeneous) = medium_params(m);
+    let (mut lo, mut hi, sigma_t, sigma_s, heterogeneous) = medium_params(m);
+    if let Some((a, b)) = landing {
+        // (the landing points' normalization box: they need not lie in the medium)
+        lo = a.extend(1.0).to_array();
+        hi = b.extend(1.0).to_array();
+    }
     let bins = lf.faces * grid * grid * slices;
     let params = ctx.uniform(
         &format!("{label}_params"),
@@ -209,6 +218,8 @@ fn emitter_buffers(
             heterogeneous,
             vpl_offset,
             vpl_count,
+            caustic: u32::from(landing.is_some()),
+            _pad: [0; 3],
         }),
     );
     // (the sums, then the samples' range of distances: two words)
@@ -224,18 +235,26 @@ fn emitter_buffers(
 
 /// The three dispatches of an emitter stage (`emit_pass` 0, 1, 2): the samples' range and sums
 /// (`samples`: an indirect dispatch, or workgroups of 64), the emitters per bin.
+#[expect(clippy::too_many_arguments, reason = "the stage's resources")]
 fn record_emitter_passes(
     ctx: &crate::gpu::GpuContext,
-    stage: &str,
+    (stage, consts): (&str, &[(&str, f64)]),
     entries: &[wgpu::BindingResource],
     samples: Result<(&wgpu::Buffer, u64), u32>,
     bins: u32,
+    first_pass: usize,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
-    let pipelines: Vec<_> = (0..3).map(|p| ctx.compute_pipeline_with(stage, &[("emit_pass", f64::from(p))])).collect();
+    let pipelines: Vec<_> = (0..3)
+        .map(|p| {
+            let mut c = consts.to_vec();
+            c.push(("emit_pass", p as f64));
+            ctx.compute_pipeline_with(stage, &c)
+        })
+        .collect();
     let bg = crate::gpu::bind(ctx, &pipelines[0], stage, entries);
-    for (p, pl) in pipelines.iter().enumerate() {
+    for (p, pl) in pipelines.iter().enumerate().skip(first_pass) {
         let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(stage),
             timestamp_writes: timer.compute(stage),
@@ -250,9 +269,23 @@ fn record_emitter_passes(
     }
 }
 
-/// `medium_bounce_beams` for every light's beams (the volume caustic's light scattered toward
-/// the surfaces, light -> glass -> fog -> floor): per light with beams, its beam VPLs and their
-/// count. Nothing where [`wanted`] is not or no light has beams.
+/// The frame's emitters from the beams ([`record_beam_emitters`]).
+#[derive(Default)]
+pub(crate) struct BeamEmitters {
+    /// Per light with beams: the light its beams scatter in the medium (point emitters for the
+    /// surfaces).
+    pub scatter: Vec<(wgpu::Buffer, u32)>,
+    /// Where the surface caustic is the beams' (the caustic maps empty): per light with beams,
+    /// the light its beams land with on diffuse surfaces (Lambertian VPLs for the camera's
+    /// gather, caustic light), and their glow emitters.
+    pub landing: Vec<(wgpu::Buffer, u32)>,
+    pub landing_glow: Vec<(wgpu::Buffer, u32)>,
+}
+
+/// `medium_bounce_beams` for every light's beams: the volume caustic's light scattered toward
+/// the surfaces (light -> glass -> fog -> floor), and where the surface caustic is the beams'
+/// their landing light (light -> glass -> floor -> fog) with its glow
+/// (`medium_bounce_glow`). Nothing where [`wanted`] is not or no light has beams.
 pub(crate) fn record_beam_emitters(
     dc: &DrawCtx,
     frames: &[crate::beams::BeamFrame],
@@ -260,34 +293,62 @@ pub(crate) fn record_beam_emitters(
     s: &RenderSettings,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
-) -> Vec<(wgpu::Buffer, u32)> {
-    let Some(m) = dc.scene.medium.as_ref().filter(|_| wanted(dc.scene, s) && s.beams_volume_active(dc.scene)) else {
-        return Vec::new();
+) -> BeamEmitters {
+    let mut out = BeamEmitters::default();
+    let Some(m) = dc.scene.medium.as_ref().filter(|_| wanted(dc.scene, s) && s.beams_active(dc.scene)) else {
+        return out;
     };
     let ctx = dc.ctx;
     let density = density_view(ctx, &dc.geo.density);
-    let mut out = Vec::new();
+    let landing_bounds = landing_box(dc.scene);
     for (fi, f) in frames.iter().enumerate() {
         let lf = lights[f.light];
-        let label = format!("medium_bounce_beams{fi}");
-        let (params, sums, vpls, bins) =
-            emitter_buffers(ctx, &label, m, lf, (s.medium_bounce_grid, BEAM_EMIT_SLICES), (0, 0));
         let ([bp, beams, order, stats], args) = f.listed();
-        let entries = [
-            bp.as_entire_binding(),
-            lf.light_buf.as_entire_binding(),
-            params.as_entire_binding(),
-            beams.as_entire_binding(),
-            order.as_entire_binding(),
-            stats.as_entire_binding(),
-            sums.as_entire_binding(),
-            vpls.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&density),
-        ];
-        record_emitter_passes(ctx, "medium_bounce_beams", &entries, Ok(args), bins, enc, timer);
-        out.push((vpls, bins));
+        let mut emit = |label: String, grid_slices, landing: Option<(Vec3, Vec3)>| {
+            let (params, sums, vpls, bins) = emitter_buffers(ctx, &label, m, lf, grid_slices, (0, 0), landing);
+            let entries = [
+                bp.as_entire_binding(),
+                lf.light_buf.as_entire_binding(),
+                params.as_entire_binding(),
+                beams.as_entire_binding(),
+                order.as_entire_binding(),
+                stats.as_entire_binding(),
+                sums.as_entire_binding(),
+                vpls.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&density),
+                dc.geo.materials.as_entire_binding(),
+            ];
+            let consts = [("emit_landing", f64::from(u8::from(landing.is_some())))];
+            // (one slice per block for the landing light: no range pass)
+            let first = usize::from(landing.is_some());
+            record_emitter_passes(ctx, ("medium_bounce_beams", &consts), &entries, Ok(args), bins, first, enc, timer);
+            (vpls, bins)
+        };
+        if s.beams_volume_active(dc.scene) {
+            out.scatter.push(emit(format!("medium_bounce_beams{fi}"), (s.medium_bounce_grid, BEAM_EMIT_SLICES), None));
+        }
+        if s.beams_surface_active(dc.scene) {
+            let (vpls, bins) =
+                emit(format!("medium_bounce_landing{fi}"), (s.medium_bounce_grid, 1), Some(landing_bounds));
+            let label = format!("medium_bounce_landing_glow{fi}");
+            out.landing_glow.push(record_glow_of(dc, m, lf, s, (&vpls, 0, bins), &label, enc, timer));
+            out.landing.push((vpls, bins));
+        }
     }
     out
+}
+
+/// A box holding the medium's and every object's (a cube about their union, twice its largest
+/// extent: objects may move), to normalize the beams' landing points by.
+fn landing_box(scene: &crate::scene::Scene) -> (Vec3, Vec3) {
+    let (mut lo, mut hi) = scene.bounds();
+    if let Some(m) = &scene.medium {
+        lo = lo.min(m.bounds_min);
+        hi = hi.max(m.bounds_max);
+    }
+    let c = 0.5 * (lo + hi);
+    let r = (hi - lo).max_element().max(1e-3);
+    (c - Vec3::splat(r), c + Vec3::splat(r))
 }
 
 /// `medium_bounce_glow` for every light: its lit surfaces' light scattered in the medium toward
@@ -302,29 +363,45 @@ fn record_glow(
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) -> Vec<(wgpu::Buffer, u32)> {
-    let ctx = dc.ctx;
-    let density = density_view(ctx, &dc.geo.density);
     let k = s.medium_bounce_grid;
     let mut offset = 0;
     let mut out = Vec::new();
     for (li, lf) in lights.iter().enumerate() {
         let count = lf.faces * k * k;
         let label = format!("medium_bounce_glow{li}");
-        let (params, sums, vpls, bins) = emitter_buffers(ctx, &label, m, lf, (k, GLOW_SLICES), (offset, count));
-        let entries = [
-            lf.light_buf.as_entire_binding(),
-            params.as_entire_binding(),
-            surface.as_entire_binding(),
-            sums.as_entire_binding(),
-            vpls.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&density),
-        ];
-        let groups = (count * GLOW_DIRS).div_ceil(64);
-        record_emitter_passes(ctx, "medium_bounce_glow", &entries, Err(groups), bins, enc, timer);
-        out.push((vpls, bins));
+        out.push(record_glow_of(dc, m, lf, s, (surface, offset, count), &label, enc, timer));
         offset += count;
     }
     out
+}
+
+/// `medium_bounce_glow` for one light over `count` of its surface VPLs from `offset` in `vpls_in`.
+#[expect(clippy::too_many_arguments, reason = "the stage's resources")]
+fn record_glow_of(
+    dc: &DrawCtx,
+    m: &crate::scene::Medium,
+    lf: &LightFrame,
+    s: &RenderSettings,
+    (vpls_in, offset, count): (&wgpu::Buffer, u32, u32),
+    label: &str,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) -> (wgpu::Buffer, u32) {
+    let ctx = dc.ctx;
+    let density = density_view(ctx, &dc.geo.density);
+    let (params, sums, vpls, bins) =
+        emitter_buffers(ctx, label, m, lf, (s.medium_bounce_grid, GLOW_SLICES), (offset, count), None);
+    let entries = [
+        lf.light_buf.as_entire_binding(),
+        params.as_entire_binding(),
+        vpls_in.as_entire_binding(),
+        sums.as_entire_binding(),
+        vpls.as_entire_binding(),
+        wgpu::BindingResource::TextureView(&density),
+    ];
+    let groups = (count * GLOW_DIRS).div_ceil(64);
+    record_emitter_passes(ctx, ("medium_bounce_glow", &[]), &entries, Err(groups), bins, 0, enc, timer);
+    (vpls, bins)
 }
 
 /// `medium_bounce_surfaces`: the camera's diffuse surfaces lit by the shaft emitters and the
@@ -408,6 +485,25 @@ pub(crate) fn record(
     s: &RenderSettings,
     images: (&wgpu::Buffer, &wgpu::Buffer),
     segs: &crate::passes::EyeSegments,
+    landing: &[(wgpu::Buffer, u32)],
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut PassTimer,
+) {
+    let lists = std::iter::once((&bf.surface, bf.surface_count)).chain(landing.iter().map(|(b, n)| (b, *n)));
+    for (vpls, count) in lists {
+        record_camera_gather(dc, eye, (vpls, count), s, images, segs, enc, timer);
+    }
+}
+
+/// `medium_bounce` over one list of surface VPLs (`count` of them in `vpls`).
+#[expect(clippy::too_many_arguments, reason = "the frame's resources")]
+fn record_camera_gather(
+    dc: &DrawCtx,
+    eye: &EyeFrame,
+    (vpls, count): (&wgpu::Buffer, u32),
+    s: &RenderSettings,
+    images: (&wgpu::Buffer, &wgpu::Buffer),
+    segs: &crate::passes::EyeSegments,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -428,7 +524,7 @@ pub(crate) fn record(
             width: w,
             height: h,
             steps: s.medium_bounce_steps,
-            count: bf.surface_count,
+            count,
             heterogeneous,
             _pad: [0; 3],
         }),
@@ -443,7 +539,7 @@ pub(crate) fn record(
         "medium_bounce",
         &[
             params.as_entire_binding(),
-            bf.surface.as_entire_binding(),
+            vpls.as_entire_binding(),
             wgpu::BindingResource::TextureView(&rv),
             wgpu::BindingResource::TextureView(&sv),
             images.0.as_entire_binding(),

@@ -820,16 +820,19 @@ impl Renderer {
         // The surfaces lit by the shafts' and the beams' light in the medium (before `composite`,
         // which shows them through glass).
         ctx.begin_scope("medium_bounce", enc);
+        let mut beam_emitters = crate::medium_bounce::BeamEmitters::default();
         if let Some(bf) = bounce {
-            let beam_vpls = crate::medium_bounce::record_beam_emitters(&dc, &beams, &light_frames, &s, enc, &mut timer);
-            crate::medium_bounce::record_surfaces(&dc, &eye, bf, &beam_vpls, enc, &mut timer);
+            beam_emitters = crate::medium_bounce::record_beam_emitters(&dc, &beams, &light_frames, &s, enc, &mut timer);
+            let emitters = [&beam_emitters.scatter[..], &beam_emitters.landing_glow[..]].concat();
+            crate::medium_bounce::record_surfaces(&dc, &eye, bf, &emitters, enc, &mut timer);
         }
         ctx.end_scope();
         ctx.begin_scope("composite", enc);
         let composited = crate::passes::record_composite(&dc, &eye, &light_frames, &s, enc, &mut timer);
         let crate::passes::Composited { full, caustic, segments: eye_segments } = composited;
         if let Some(bf) = bounce {
-            crate::medium_bounce::record(&dc, &eye, bf, &s, (&full, &caustic), &eye_segments, enc, &mut timer);
+            let landing = &beam_emitters.landing;
+            crate::medium_bounce::record(&dc, &eye, bf, &s, (&full, &caustic), &eye_segments, landing, enc, &mut timer);
         }
         crate::beams::record_gather(&dc, &eye, &beams, &s, (&full, &caustic), &eye_segments, enc, &mut timer);
         if let Some(sp) = self.spheres.as_ref().filter(|_| scene.medium.is_some() && !records.is_empty()) {

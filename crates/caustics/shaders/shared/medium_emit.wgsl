@@ -31,6 +31,11 @@ struct EmitParams {
     // `medium_bounce_glow`: the light's first surface VPL and its VPLs.
     vpl_offset: u32,
     vpl_count: u32,
+    // 1: the emitters' light is caustic light (their `caustic` = their flux).
+    caustic: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Per bin: flux r, g, b; grey flux times the normalized position x, y, z, its square x, y, z
@@ -113,9 +118,9 @@ fn emit_deposit(x: vec3f, flux: vec3f, dir: vec3f) {
 }
 
 // `emit_pass` 2: bin `bin`'s emitter: full = the flux, caustic = 0 (light scattered in the
-// medium before it reaches a surface is not the caustic map's first diffuse hit), position = the
-// flux-weighted mean, r2 = 2 * the weighted variance + (slice length)^2 / 12, nrm = the
-// flux-weighted mean direction.
+// medium before it reaches a surface is not the caustic map's first diffuse hit) or, with
+// `ep.caustic`, the flux, position = the flux-weighted mean, r2 = 2 * the weighted variance +
+// (slice length)^2 / 12 (one slice: no range, 0), nrm = the flux-weighted mean direction.
 fn emit_resolve(bin: u32) {
     if (bin >= ep.bins) { return; }
     let w = bin * EMIT_WORDS;
@@ -136,13 +141,17 @@ fn emit_resolve(bin: u32) {
             m[k] = emit_read(w + 18u + 2u * k) / grey * 2.0 - 1.0;
         }
         let range_at = ep.bins * EMIT_WORDS;
-        let d_lo = bitcast<f32>(~atomicLoad(&sums[range_at]));
-        let slice_len = (bitcast<f32>(atomicLoad(&sums[range_at + 1u])) - d_lo) / f32(ep.slices);
+        var slice_len = 0.0;
+        if (ep.slices > 1u) {
+            let d_lo = bitcast<f32>(~atomicLoad(&sums[range_at]));
+            slice_len = (bitcast<f32>(atomicLoad(&sums[range_at + 1u])) - d_lo) / f32(ep.slices);
+        }
         var dir = vec3f(0.0, 0.0, 1.0);
         if (dot(m, m) > 1e-12) { dir = normalize(m); }
         v.pos = vec4f(ep.lo.xyz + mean * size, 2.0 * var_w + slice_len * slice_len / 12.0);
         v.nrm = vec4f(dir, 0.0);
         v.full = vec4f(flux, 0.0);
+        if (ep.caustic != 0u) { v.caustic = v.full; }
     }
     vpls[bin] = v;
 }

@@ -476,6 +476,10 @@ pub struct EmitParams {
     /// `medium_bounce_glow`: the light's first surface VPL and its VPLs.
     pub vpl_offset: u32,
     pub vpl_count: u32,
+    /// 1: the emitters' light is caustic light (their `caustic` = their flux): the beams'
+    /// landing emitters.
+    pub caustic: u32,
+    pub _pad: [u32; 3],
 }
 
 /// Segments kept per specular pixel (`EYE_SEGMENTS` in `shaders/shared/medium.wgsl`).
