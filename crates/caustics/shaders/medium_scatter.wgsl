@@ -265,14 +265,13 @@ struct Along {
 // scattering toward o and (`whole`) the whole segment's optical depth, one midpoint rule in
 // `mp.steps` steps for both.
 fn heterogeneous_along(o: vec3f, d: vec3f, seg: vec2f, scatter: bool, whole: bool) -> Along {
-    let cam = o;
     let lo = mp.lo.xyz;
     let hi = mp.hi.xyz;
     // A spot light's rule runs inside its cone (`cone_clip`); the attenuation then takes the
     // whole segment's optical depth by a march of its own, and the rule starts from the
     // optical depth before the cone.
     var lit = seg;
-    if (scatter && light.info.y == LIGHT_SPOT) { lit = cone_clip(cam, d, seg); }
+    if (scatter && light.info.y == LIGHT_SPOT) { lit = cone_clip(o, d, seg); }
     let clipped = lit.x != seg.x || lit.y != seg.y;
     let n = max(mp.steps, 1u);
     let dt = max(lit.y - lit.x, 0.0) / f32(n);
@@ -280,10 +279,10 @@ fn heterogeneous_along(o: vec3f, d: vec3f, seg: vec2f, scatter: bool, whole: boo
     var tau = 0.0;
     var acc = vec3f(0.0);
     if (lit.y > lit.x) {
-        if (lit.x > seg.x) { tau = grid_optical_depth(density, cam + d * seg.x, cam + d * lit.x, lo, hi, n); }
+        if (lit.x > seg.x) { tau = grid_optical_depth(density, o + d * seg.x, o + d * lit.x, lo, hi, n); }
         for (var i = 0u; i < n; i++) {
             let t = lit.x + (f32(i) + 0.5) * dt;
-            let x = cam + d * t;
+            let x = o + d * t;
             let rho = grid_density(density, x, lo, hi);
             let tau_here = tau + 0.5 * rho * dt;
             tau += rho * dt;
@@ -298,6 +297,6 @@ fn heterogeneous_along(o: vec3f, d: vec3f, seg: vec2f, scatter: bool, whole: boo
     var r: Along;
     r.l = mp.sigma_s.rgb * acc * dt;
     r.tau = tau;
-    if (clipped && whole) { r.tau = grid_optical_depth(density, cam + d * seg.x, cam + d * seg.y, lo, hi, n); }
+    if (clipped && whole) { r.tau = grid_optical_depth(density, o + d * seg.x, o + d * seg.y, lo, hi, n); }
     return r;
 }

@@ -246,22 +246,23 @@ fn record_emitter_passes(
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
-    let pipelines: Vec<_> = (0..3)
+    // (only the passes recorded: the variants share one layout)
+    let pipelines: Vec<_> = (first_pass..3)
         .map(|p| {
             let mut c = consts.to_vec();
             c.push(("emit_pass", p as f64));
-            ctx.compute_pipeline_with(stage, &c)
+            (p, ctx.compute_pipeline_with(stage, &c))
         })
         .collect();
-    let bg = crate::gpu::bind(ctx, &pipelines[0], stage, entries);
-    for (p, pl) in pipelines.iter().enumerate().skip(first_pass) {
+    let bg = crate::gpu::bind(ctx, &pipelines[0].1, stage, entries);
+    for (p, pl) in &pipelines {
         let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(stage),
             timestamp_writes: timer.compute(stage),
         });
         cp.set_pipeline(pl);
         cp.set_bind_group(0, &bg, &[]);
-        match (p, samples) {
+        match (*p, samples) {
             (2, _) => cp.dispatch_workgroups(bins.div_ceil(64), 1, 1),
             (_, Ok((args, at))) => cp.dispatch_workgroups_indirect(args, at),
             (_, Err(groups)) => cp.dispatch_workgroups(groups, 1, 1),

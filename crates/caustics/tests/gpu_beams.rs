@@ -909,7 +909,7 @@ fn a_deep_hierarchys_list_holds_every_beam_once() {
 
 #[test]
 fn beams_are_deterministic_create_nothing_after_the_first_frame_and_bad_settings_are_named() {
-    use caustics::renderer::{FrameRequest, Renderer};
+    use caustics::renderer::Renderer;
     let Some(ctx) = gpu() else { return };
     let sc = ball_in_fog(14.0, 16, 12);
     let s = render_settings(BeamSettings::default());
@@ -921,14 +921,7 @@ fn beams_are_deterministic_create_nothing_after_the_first_frame_and_bad_settings
     assert_eq!(a.beams[0].1, b.beams[0].1);
     // The renderer's steady state: nothing created after the first frame.
     let mut r = Renderer::with_context(ctx.clone(), sc.clone(), s.clone()).unwrap();
-    let frame = |r: &mut Renderer| {
-        let before = r.created();
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        r.encode(&mut enc, FrameRequest { stats: false }).unwrap();
-        let created = (r.created() - before).total();
-        ctx.queue.submit([enc.finish()]);
-        created
-    };
+    let frame = common::created_by_a_frame;
     assert!(frame(&mut r) > 0);
     assert_eq!(frame(&mut r), 0);
     // Nor does the driver keep memory per frame: lavapipe (Mesa 22.3) compiled and kept a shader
@@ -2008,7 +2001,7 @@ fn surface_caustic_from_beams_stops_at_the_receiver_the_beams_land_on() {
 
 #[test]
 fn surface_caustic_from_beams_is_deterministic_and_creates_nothing_after_the_first_frame() {
-    use caustics::renderer::{FrameRequest, Renderer};
+    use caustics::renderer::Renderer;
     use caustics::settings::SurfaceCaustics;
     let Some(ctx) = gpu() else { return };
     // In fog: the surface caustic and the volume caustic from the same beams.
@@ -2035,14 +2028,7 @@ fn surface_caustic_from_beams_is_deterministic_and_creates_nothing_after_the_fir
     println!("caustic image sum: surface + volume {sw:.4}, surface only (--no-beams) {so:.4}");
     assert!(so > 0.0 && sw > so);
     let mut r = Renderer::with_context(ctx.clone(), sc.clone(), s.clone()).unwrap();
-    let frame = |r: &mut Renderer| {
-        let before = r.created();
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        r.encode(&mut enc, FrameRequest { stats: false }).unwrap();
-        let created = (r.created() - before).total();
-        ctx.queue.submit([enc.finish()]);
-        created
-    };
+    let frame = common::created_by_a_frame;
     assert!(frame(&mut r) > 0);
     assert_eq!(frame(&mut r), 0);
 }

@@ -222,16 +222,6 @@ fn single_scattering_from_a_directional_light_matches_the_reference() {
     assert!(g.caustic.pixels.iter().flatten().all(|&v| v == 0.0));
 }
 
-/// What a renderer creates in one frame (its pool's new resources).
-fn created_by_a_frame(ctx: &caustics::gpu::GpuContext, r: &mut Renderer) -> u64 {
-    let before = r.created();
-    let mut enc = ctx.device.create_command_encoder(&Default::default());
-    r.encode(&mut enc, FrameRequest { stats: false }).unwrap();
-    let created = (r.created() - before).total();
-    ctx.queue.submit([enc.finish()]);
-    created
-}
-
 #[test]
 fn a_renderer_with_a_medium_creates_nothing_after_its_first_frame() {
     let Some(ctx) = gpu() else { return };
@@ -240,10 +230,10 @@ fn a_renderer_with_a_medium_creates_nothing_after_its_first_frame() {
         let second = sc.lights[0].clone();
         sc.lights.push(second);
         let mut r = Renderer::with_context(ctx.clone(), sc, settings()).unwrap();
-        assert!(created_by_a_frame(&ctx, &mut r) > 0);
-        assert_eq!(created_by_a_frame(&ctx, &mut r), 0);
+        assert!(common::created_by_a_frame(&mut r) > 0);
+        assert_eq!(common::created_by_a_frame(&mut r), 0);
         r.invalidate();
-        assert_eq!(created_by_a_frame(&ctx, &mut r), 0);
+        assert_eq!(common::created_by_a_frame(&mut r), 0);
     }
 }
 
@@ -358,8 +348,8 @@ fn a_renderer_with_a_density_grid_creates_nothing_after_its_first_frame() {
     let Some(ctx) = gpu() else { return };
     let sc = with_grid(shaft_scene(""), puff());
     let mut r = Renderer::with_context(ctx.clone(), sc, settings()).unwrap();
-    assert!(created_by_a_frame(&ctx, &mut r) > 0);
-    assert_eq!(created_by_a_frame(&ctx, &mut r), 0);
+    assert!(common::created_by_a_frame(&mut r) > 0);
+    assert_eq!(common::created_by_a_frame(&mut r), 0);
 }
 
 /// `scenes/glass_sphere_fog.json` without its ball, at 32 × 32: a spot light over a floor of

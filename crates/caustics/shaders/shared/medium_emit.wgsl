@@ -42,6 +42,9 @@ struct EmitParams {
 // and (direction + 1) / 2 x, y, z: 12 sums of two words.
 const EMIT_WORDS: u32 = 24u;
 
+// (The 64-bit fixed-point add of `shared/splat.wgsl`'s `add64` and `trace.wgsl`'s `add_fixed`,
+// on this stage's `sums`: WGSL passes no pointer to a storage array of atomics to a shared
+// function without the unrestricted-pointer-parameters extension.)
 fn emit_add(word: u32, value: f32) {
     let v = max(value * ep.scale, 0.0);
     let hi = floor(v / 4294967296.0);

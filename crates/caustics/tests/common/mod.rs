@@ -39,3 +39,15 @@ pub fn single_scattering_reference(
         ..Default::default()
     }
 }
+
+/// What a renderer creates in one frame (its pool's new resources): encode, submit.
+#[allow(dead_code)]
+pub fn created_by_a_frame(r: &mut caustics::renderer::Renderer) -> u64 {
+    let ctx = r.context().clone();
+    let before = r.created();
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    r.encode(&mut enc, caustics::renderer::FrameRequest { stats: false }).unwrap();
+    let created = (r.created() - before).total();
+    ctx.queue.submit([enc.finish()]);
+    created
+}
