@@ -274,6 +274,15 @@ enum Command {
         /// --no-glass-reflection, like for like).
         #[arg(long)]
         no_partial_reflections: bool,
+        /// CPU backend, scenes with a medium and glass or mirrors: photons per light traced as
+        /// photon beams for the caustic light seen in the medium through specular surfaces
+        /// (light, glass, fog, glass, camera); 0 leaves that light out.
+        #[arg(long, default_value_t = 1 << 18)]
+        medium_beams: u64,
+        /// CPU backend: the photon beams' kernel radius in metres (0: half a pixel's footprint
+        /// at the specular objects).
+        #[arg(long, default_value_t = 0.0)]
+        medium_beam_radius: f32,
         /// The same as --technique caustic-spheres (kept as an alias): the caustics of
         /// directional lights come from precomputed caustic spheres (cached; built first if
         /// needed) in one eye-space pass; spot and point lights get basic caustic maps.
@@ -567,6 +576,8 @@ fn run(cli: Cli) -> Result<()> {
             single_scattering,
             caustic_paths,
             no_partial_reflections,
+            medium_beams,
+            medium_beam_radius,
             caustic_spheres,
             sphere_args,
         } => {
@@ -714,6 +725,8 @@ fn run(cli: Cli) -> Result<()> {
                         // default caustic map size when none is given).
                         spill_faces: scene.lights.iter().any(|l| settings.uses_spill_face(&scene, l)),
                         partial_reflections: !no_partial_reflections,
+                        medium_beam_photons: medium_beams,
+                        medium_beam_radius,
                         ..Default::default()
                     };
                     let t0 = std::time::Instant::now();

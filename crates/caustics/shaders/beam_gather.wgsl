@@ -9,9 +9,10 @@
 // one pixel at once, with the chunk's dispatch size; invocation i takes the i-th pixel of
 // `composite`'s list of specular pixels) each
 // invocation gathers along its pixel's kept segment k beyond the specular surface
-// (`EyeSegment`, shared/medium.wgsl), weighted by the path's weight, into the full image (the
-// caustic-only image is zero where the camera sees glass). The hulls draw only the camera
-// rays; these segments are gathered either way.
+// (`EyeSegment`, shared/medium.wgsl), weighted by the path's weight, into the full and the
+// caustic-only image (light -> specular -> medium -> specular -> camera is caustic light: the CPU
+// reference renders it with photon beams, caustics_reference::reference::photon_beams). The
+// hulls draw only the camera rays; these segments are gathered either way.
 
 #import beams
 #import medium
@@ -91,4 +92,5 @@ fn along_segment(i: u32) {
     if (all(acc == vec3f(0.0))) { return; }
     let idx = spec_list[i];
     out_full[idx] += vec4f(e.w * acc, 0.0);
+    out_caustic[idx] += vec4f(e.w * acc, 0.0);
 }

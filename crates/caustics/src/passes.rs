@@ -733,6 +733,23 @@ impl RenderSettings {
         if (c.width as u64 * c.height as u64 * 16) > max_bind {
             return cl("camera.size", "the image exceeds this adapter's storage-binding limit".into());
         }
+        // The medium beyond glass keeps `EYE_SEGMENTS` segments per pixel (`composite`).
+        let seg_bytes = c.width as u64
+            * c.height as u64
+            * crate::gpu::types::EYE_SEGMENTS
+            * std::mem::size_of::<crate::gpu::types::EyeSegmentGpu>() as u64;
+        if self.medium_segments_active(scene) && seg_bytes > max_bind {
+            return cl(
+                "camera.size",
+                format!(
+                    "{}x{} with a medium needs {} MiB of segments beyond glass, over this adapter's {} MiB storage-binding limit (render smaller, or without the medium beyond glass: --no-medium-beyond-specular)",
+                    c.width,
+                    c.height,
+                    seg_bytes >> 20,
+                    max_bind >> 20
+                ),
+            );
+        }
         Ok(())
     }
 }

@@ -321,3 +321,44 @@ fn directional_light_single_scattering_matches_the_closed_form() {
         assert!((got / want - 1.0).abs() < 0.01, "channel {c}: {got} vs {want}");
     }
 }
+
+#[test]
+fn photon_beams_agree_with_light_tracing_in_the_medium() {
+    // The photon beams (`reference::photon_beams`) render the volume caustic the camera sees
+    // through glass, which light tracing cannot connect to. Their estimate is checked where
+    // both apply: the volume caustic seen directly, once by light tracing (photons scattered in
+    // the medium, connected to the camera) and once by the camera rays gathering the beams
+    // (`medium_beams_direct`). Single scattering, a Henyey-Greenstein medium with coloured
+    // coefficients.
+    let sc = scene(&format!(
+        r#"{{ "schema_version": 1, "name": "volume caustic",
+  "camera": {{ "position": [0, -0.6, 4], "look_at": [0, -0.6, 0], "fov_y_deg": 36, "width": 24, "height": 18 }},
+  "lights": [ {{ "type": "spot", "position": [0, 3, 0], "direction": [0, -1, 0], "cone_angle_deg": 12, "intensity": 20 }} ],
+  "materials": {{ "glass": {{ "type": "dielectric", "ior": 1.5 }} }},
+  "objects": [ {BALL} ],
+  "medium": {{ "sigma_s": [0.2, 0.3, 0.15], "sigma_a": 0.02, "phase": {{ "type": "hg", "g": 0.3 }},
+              "bounds": {{ "min": [-3, -3, -3], "max": [3, 4, 5] }} }} }}"#
+    ));
+    let s = ReferenceSettings { medium_beam_photons: 1 << 18, ..settings(1 << 22, 16, true) };
+    let tracing = reference::render(&sc, &s).unwrap();
+    let beams = reference::render(&sc, &ReferenceSettings { medium_beams_direct: true, ..s.clone() }).unwrap();
+    // Without the beams, that setting leaves the volume caustic out: the test would fail.
+    let none =
+        reference::render(&sc, &ReferenceSettings { medium_beam_photons: 0, medium_beams_direct: true, ..s }).unwrap();
+    let sum = |img: &caustics::image_io::Image| {
+        img.pixels.iter().fold(glam::DVec3::ZERO, |s, p| s + Vec3::from(*p).as_dvec3())
+    };
+    let (a, b) = (sum(&tracing.caustic), sum(&beams.caustic));
+    println!("volume caustic: light tracing {a:?}, photon beams {b:?}, ratio {:?}", b / a);
+    for c in 0..3 {
+        assert!(a[c] > 0.0 && (b[c] / a[c] - 1.0).abs() < 0.02, "channel {c}: {} vs {}", b[c], a[c]);
+    }
+    assert!(sum(&none.caustic).max_element() < 0.05 * a.max_element());
+    // Row by row (the caustic's profile along the axis), the green channel.
+    let w = sc.camera.width as usize;
+    for (y, (ra, rb)) in tracing.caustic.pixels.chunks(w).zip(beams.caustic.pixels.chunks(w)).enumerate() {
+        let (ra, rb): (f64, f64) = (ra.iter().map(|p| p[1] as f64).sum(), rb.iter().map(|p| p[1] as f64).sum());
+        println!("row {y}: light tracing {ra:.5}, beams {rb:.5}");
+        assert!((rb - ra).abs() < 0.08 * ra + 0.02 * a[1] / 18.0, "row {y}: {rb} vs {ra}");
+    }
+}

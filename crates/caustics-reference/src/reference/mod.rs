@@ -22,6 +22,7 @@ pub mod emit;
 pub mod geometry;
 pub mod medium;
 pub mod optics;
+pub mod photon_beams;
 pub mod sampling;
 pub mod spheres;
 pub mod trace;
@@ -76,7 +77,22 @@ pub struct ReferenceSettings {
     /// `--no-glass-reflection` on the GPU the like-for-like comparison of docs/benchmarks.md).
     /// The camera paths (the `nocaustic` image) do not depend on it.
     pub partial_reflections: bool,
+    /// Scenes with a medium and specular objects: photons per light traced as photon beams
+    /// ([`photon_beams`]) for the caustic light the camera sees in the medium through specular
+    /// surfaces (light → specular → medium → specular → camera); 0 leaves those paths out.
+    pub medium_beam_photons: u64,
+    /// The photon beams' kernel radius (m); 0: half a pixel's footprint at the specular objects
+    /// ([`photon_beams::auto_radius`]).
+    pub medium_beam_radius: f32,
+    /// For the photon beams' test: the camera sees the medium's caustic light directly through
+    /// the beams too, instead of through the photons' camera connections (both estimate the same
+    /// light, light → specular → medium → camera).
+    #[doc(hidden)]
+    pub medium_beams_direct: bool,
 }
+
+/// The most photon beams per light the reference accepts (memory: about 100 bytes a beam).
+pub const MAX_BEAM_PHOTONS: u64 = 1 << 24;
 
 impl Default for ReferenceSettings {
     fn default() -> Self {
@@ -90,6 +106,9 @@ impl Default for ReferenceSettings {
             caustic_paths: CausticPaths::All,
             spill_faces: false,
             partial_reflections: true,
+            medium_beam_photons: 1 << 18,
+            medium_beam_radius: 0.0,
+            medium_beams_direct: false,
         }
     }
 }
@@ -106,6 +125,18 @@ impl ReferenceSettings {
         }
         if self.max_depth == 0 || self.max_depth > 1024 {
             return e("--max-depth", format!("must be between 1 and 1024 (got {})", self.max_depth));
+        }
+        if self.medium_beam_photons > MAX_BEAM_PHOTONS {
+            return e(
+                "--medium-beams",
+                format!("must be between 0 and 2^24 per light (got {})", self.medium_beam_photons),
+            );
+        }
+        if !(self.medium_beam_radius >= 0.0 && self.medium_beam_radius.is_finite()) {
+            return e(
+                "--medium-beam-radius",
+                format!("must be 0 (automatic) or a positive length in metres (got {})", self.medium_beam_radius),
+            );
         }
         if self.caustic_map_size == 0 || self.caustic_map_size > 16384 {
             return e(
@@ -139,6 +170,11 @@ pub struct ReferenceStats {
     pub rays_per_second: f64,
     /// Photon paths per second in the photon pass.
     pub photon_paths_per_second: f64,
+    /// Photon beams kept for the medium seen through specular surfaces, their kernel radius
+    /// (m), and the seconds their photons' tracing and indexing took (0, 0, 0: none).
+    pub medium_beams: u64,
+    pub medium_beam_radius: f32,
+    pub medium_beam_seconds: f64,
 }
 
 impl std::fmt::Display for ReferenceStats {
@@ -161,7 +197,15 @@ impl std::fmt::Display for ReferenceStats {
             self.triangles,
             self.bvh_seconds,
             self.seconds
-        )
+        )?;
+        if self.medium_beams > 0 {
+            write!(
+                f,
+                "; {} photon beams (radius {:.4} m) in {:.2} s",
+                self.medium_beams, self.medium_beam_radius, self.medium_beam_seconds
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -209,6 +253,7 @@ fn tracer<'a>(scene: &'a Scene, accel: &'a Accel, settings: &ReferenceSettings) 
     t.single_scattering = settings.medium_single_scattering_only;
     t.caustic_paths = settings.caustic_paths;
     t.partial_reflections = settings.partial_reflections;
+    t.beams_direct = settings.medium_beams_direct;
     t
 }
 
@@ -273,8 +318,9 @@ pub fn render_with_progress(
     let (w, h) = (scene.camera.width as u64, scene.camera.height as u64);
     let lights_with_photons =
         (0..=scene.lights.len()).filter(|&li| caustic_emitter(scene, li).is_some()).count() as u64;
+    let beam_photons = if wants_beams(scene, settings) { settings.medium_beam_photons } else { 0 };
     progress.total.store(
-        lights_with_photons * settings.photons_per_light + w * h * settings.camera_spp as u64,
+        lights_with_photons * (settings.photons_per_light + beam_photons) + w * h * settings.camera_spp as u64,
         Ordering::Relaxed,
     );
     progress.done.store(0, Ordering::Relaxed);
@@ -282,18 +328,34 @@ pub fn render_with_progress(
     let t0 = Instant::now();
     let accel = Accel::new(scene);
     let bvh_seconds = t0.elapsed().as_secs_f64();
-    let tracer = tracer(scene, &accel, settings);
-    let photons = photon_pass(scene, &tracer, settings, true, true, progress)?;
+    let mut tracer = tracer(scene, &accel, settings);
+    let mut photons = photon_pass(scene, &tracer, settings, true, true, progress)?;
+    let tb = Instant::now();
+    let (beams, beam_rays) = if beam_photons > 0 { beam_pass(scene, &tracer, settings, progress)? } else { (None, 0) };
+    let medium_beam_seconds = tb.elapsed().as_secs_f64();
+    let (medium_beams, medium_beam_radius) = beams.as_ref().map_or((0, 0.0), |b| (b.beams().len() as u64, b.radius()));
+    tracer.beams = beams;
     let t1 = Instant::now();
-    let (nocaustic, nocaustic_variance, camera_rays) = camera_pass(scene, &tracer, settings, progress)?;
+    let cam = camera_pass(scene, &tracer, settings, progress)?;
     let camera_seconds = t1.elapsed().as_secs_f64();
+    let (nocaustic, nocaustic_variance, camera_rays) = (cam.image, cam.variance, cam.rays);
+    // The beams' light seen through specular surfaces is caustic light (its first surface is
+    // specular); its variance is independent of the photons'.
+    if let Some((c, v)) = cam.caustic {
+        for (p, q) in photons.caustic.pixels.iter_mut().zip(&c.pixels) {
+            (0..3).for_each(|k| p[k] += q[k]);
+        }
+        for (p, q) in photons.variance.pixels.iter_mut().zip(&v.pixels) {
+            (0..3).for_each(|k| p[k] += q[k]);
+        }
+    }
     let mut image = nocaustic.clone();
     for (p, c) in image.pixels.iter_mut().zip(&photons.caustic.pixels) {
         for k in 0..3 {
             p[k] += c[k];
         }
     }
-    let rays = photons.rays + camera_rays;
+    let rays = photons.rays + beam_rays + camera_rays;
     let busy = photons.seconds + camera_seconds;
     let stats = ReferenceStats {
         photon_paths: photons.paths,
@@ -308,6 +370,9 @@ pub fn render_with_progress(
         seconds: t0.elapsed().as_secs_f64(),
         rays_per_second: rays as f64 / busy.max(1e-9),
         photon_paths_per_second: photons.paths as f64 / photons.seconds.max(1e-9),
+        medium_beams,
+        medium_beam_radius,
+        medium_beam_seconds,
     };
     Ok(ReferenceOutput {
         image,
@@ -344,7 +409,7 @@ pub fn caustic_deposits(scene: &Scene, settings: &ReferenceSettings, light: usiz
     let accel = Accel::new(scene);
     let tracer = tracer(scene, &accel, settings);
     let Some(emitter) = caustic_emitter(scene, light) else { return Ok(Vec::new()) };
-    let targets = PhotonTargets { camera: false, map: None, record_deposits: true };
+    let targets = PhotonTargets { camera: false, map: None, record_deposits: true, record_beams: false };
     let n = settings.photons_per_light;
     let chunks: Vec<u64> = (0..n.div_ceil(CHUNK)).collect();
     let outs: Vec<PhotonOut> = chunks
@@ -418,6 +483,60 @@ fn trace_range(
     out
 }
 
+/// Whether a rendering traces photon beams: a medium, specular objects, and the light they
+/// carry in the image's class of caustic paths.
+fn wants_beams(scene: &Scene, settings: &ReferenceSettings) -> bool {
+    scene.medium.is_some()
+        && settings.medium_beam_photons > 0
+        && settings.caustic_paths.keeps(false)
+        && specular_sphere(scene).is_some()
+}
+
+/// Trace [`ReferenceSettings::medium_beam_photons`] photons per light (their own stratified
+/// samples and seed, the same emission as the caustic photons) and keep their flights through
+/// the medium as photon beams. Returns the indexed beams and the rays traced.
+fn beam_pass(
+    scene: &Scene,
+    tracer: &Tracer,
+    settings: &ReferenceSettings,
+    progress: &Progress,
+) -> Result<(Option<photon_beams::PhotonBeams>, u64)> {
+    let (Some(medium), Some((focus, _))) = (&scene.medium, specular_sphere(scene)) else { return Ok((None, 0)) };
+    let n = settings.medium_beam_photons;
+    let bs = ReferenceSettings { photons_per_light: n, seed: settings.seed ^ 0x6265_616d_7300, ..settings.clone() };
+    let targets = PhotonTargets { camera: false, map: None, record_deposits: false, record_beams: true };
+    let mut beams = Vec::new();
+    let mut rays = 0;
+    for li in 0..=scene.lights.len() {
+        let Some(em) = caustic_emitter(scene, li) else { continue };
+        let nchunks = n.div_ceil(CHUNK);
+        let mut c0 = 0;
+        while c0 < nchunks {
+            progress.check()?;
+            let c1 = (c0 + WAVE).min(nchunks);
+            let outs: Vec<PhotonOut> = (c0..c1)
+                .into_par_iter()
+                .map(|c| trace_range(tracer, &em, &bs, li, c * CHUNK..((c + 1) * CHUNK).min(n), &targets))
+                .collect();
+            // In chunk order: the beams do not depend on the thread count.
+            for o in outs {
+                rays += o.rays;
+                beams.extend(o.beams);
+            }
+            progress.add((c1 * CHUNK).min(n) - c0 * CHUNK);
+            c0 = c1;
+        }
+    }
+    let radius = if settings.medium_beam_radius > 0.0 {
+        settings.medium_beam_radius
+    } else {
+        photon_beams::auto_radius(&scene.camera, focus)
+    };
+    // Boxes of at most a sixteenth of the medium's diagonal.
+    let piece = (medium.bounds_max - medium.bounds_min).length() / 16.0;
+    Ok((Some(photon_beams::PhotonBeams::new(beams, radius, piece)), rays))
+}
+
 struct PhotonResult {
     caustic: Image,
     variance: Image,
@@ -461,7 +580,7 @@ fn photon_pass(
         for (li, em) in emitters.iter().enumerate() {
             let Some(em) = em else { continue };
             let map = if maps && li < views.len() { Some((&views[li], size)) } else { None };
-            let targets = PhotonTargets { camera, map, record_deposits: false };
+            let targets = PhotonTargets { camera, map, record_deposits: false, record_beams: false };
             let (start, end) = (n * b / batches, n * (b + 1) / batches);
             paths += end - start;
             let nchunks = (end - start).div_ceil(CHUNK);
@@ -525,64 +644,84 @@ fn photon_pass(
     Ok(PhotonResult { caustic, variance, maps, paths, rays, seconds: t0.elapsed().as_secs_f64() })
 }
 
+/// What the camera paths render.
+struct CameraResult {
+    /// The non-caustic image and its per-pixel variance.
+    image: Image,
+    variance: Image,
+    /// The caustic light gathered from the photon beams and its variance (with beams only).
+    caustic: Option<(Image, Image)>,
+    rays: u64,
+}
+
 /// The non-caustic image: `camera_spp` camera paths per pixel, stratified in the pixel; and
-/// the variance of each pixel's value.
+/// the variance of each pixel's value; with photon beams, the caustic light the same paths
+/// gather from them.
 fn camera_pass(
     scene: &Scene,
     tracer: &Tracer,
     settings: &ReferenceSettings,
     progress: &Progress,
-) -> Result<(Image, Image, u64)> {
+) -> Result<CameraResult> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let spp = settings.camera_spp;
-    type Row = (Vec<[f32; 3]>, Vec<[f32; 3]>, u64);
+    // Per pixel: mean and variance of the mean, of both parts.
+    type Px = ([f32; 3], [f32; 3], [f32; 3], [f32; 3]);
+    type Row = (Vec<Px>, u64);
+    let stats = |acc: glam::DVec3, acc2: glam::DVec3| {
+        let n = spp as f64;
+        let mean = acc / n;
+        let v =
+            if spp > 1 { ((acc2 - acc * mean) / (n * (n - 1.0))).max(glam::DVec3::ZERO) } else { glam::DVec3::ZERO };
+        (mean.as_vec3().to_array(), v.as_vec3().to_array())
+    };
     let rows: Vec<Row> = (0..h)
         .into_par_iter()
         .map(|y| {
             let mut row = Vec::with_capacity(w as usize);
-            let mut var = Vec::with_capacity(w as usize);
             let mut rays = 0;
             if progress.is_cancelled() {
-                return (row, var, rays);
+                return (row, rays);
             }
             for x in 0..w {
                 let pix = (y * w + x) as u64;
                 let scramble = hash(&[settings.seed, 0xCA3E, pix]);
-                let mut acc = glam::DVec3::ZERO;
-                let mut acc2 = glam::DVec3::ZERO;
+                let (mut acc, mut acc2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+                let (mut cacc, mut cacc2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
                 for s in 0..spp as u64 {
                     let u = sobol_2d(s, scramble);
                     let mut rng = PathRng::new(hash(&[settings.seed, 0xCA3F, pix, s]));
-                    let (l, r) = tracer.trace_camera(x as f32 + u.x, y as f32 + u.y, &mut rng);
+                    let (l, lc, r) = tracer.trace_camera(x as f32 + u.x, y as f32 + u.y, &mut rng);
                     rays += r;
-                    let l = l.as_dvec3();
+                    let (l, lc) = (l.as_dvec3(), lc.as_dvec3());
                     acc += l;
                     acc2 += l * l;
+                    cacc += lc;
+                    cacc2 += lc * lc;
                 }
-                let n = spp as f64;
-                let mean = acc / n;
-                let v = if spp > 1 {
-                    ((acc2 - acc * mean) / (n * (n - 1.0))).max(glam::DVec3::ZERO)
-                } else {
-                    glam::DVec3::ZERO
-                };
-                row.push(mean.as_vec3().to_array());
-                var.push(v.as_vec3().to_array());
+                let (m, v) = stats(acc, acc2);
+                let (cm, cv) = stats(cacc, cacc2);
+                row.push((m, v, cm, cv));
             }
             progress.add(w as u64 * spp as u64);
-            (row, var, rays)
+            (row, rays)
         })
         .collect();
     progress.check()?;
     let mut img = Image::new(w, h);
     let mut vimg = Image::new(w, h);
+    let mut cimg = Image::new(w, h);
+    let mut cvimg = Image::new(w, h);
     let mut rays = 0;
-    for (y, (row, var, r)) in rows.into_iter().enumerate() {
+    for (y, (row, r)) in rows.into_iter().enumerate() {
         rays += r;
-        img.pixels[y * w as usize..(y + 1) * w as usize].copy_from_slice(&row);
-        vimg.pixels[y * w as usize..(y + 1) * w as usize].copy_from_slice(&var);
+        for (x, (m, v, cm, cv)) in row.into_iter().enumerate() {
+            let i = y * w as usize + x;
+            (img.pixels[i], vimg.pixels[i], cimg.pixels[i], cvimg.pixels[i]) = (m, v, cm, cv);
+        }
     }
-    Ok((img, vimg, rays))
+    let caustic = tracer.beams.is_some().then_some((cimg, cvimg));
+    Ok(CameraResult { image: img, variance: vimg, caustic, rays })
 }
 
 /// Morton code of a point of the unit square (16 bits per axis).

@@ -49,6 +49,12 @@ impl PathRng {
     pub fn next_2d(&mut self) -> Vec2 {
         Vec2::new(self.next_f32(), self.next_f32())
     }
+    /// An independent stream derived from this one's state (`salt` tells forks apart), which
+    /// leaves this one as it was: estimates added to a path draw from a fork, so the path's own
+    /// numbers, and the image without them, do not change.
+    pub fn fork(&self, salt: u64) -> PathRng {
+        PathRng::new(mix64(self.key ^ mix64(self.counter ^ salt.wrapping_mul(0xd6e8_feb8_6659_fd93))))
+    }
 }
 
 /// Second dimension of the Sobol sequence (the first is the bit-reversed index).

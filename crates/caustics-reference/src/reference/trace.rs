@@ -5,9 +5,11 @@
 //! light is specular is caustic light; the camera paths add up direct lighting (next-event
 //! estimation to the delta lights, with shadow rays that stop at any surface, glass included)
 //! at every diffuse vertex, which is exactly the light whose first bounce is diffuse. So the
-//! two parts never overlap and together are the whole image, except caustics seen through a
-//! specular chain from the camera (specular → diffuse → specular → camera), which neither
-//! renders (the references lack them too: the specular mask marks those pixels).
+//! two parts never overlap and together are the whole image, except caustics on surfaces seen
+//! through a specular chain from the camera (specular → diffuse → specular → camera), which
+//! neither renders (the references lack them too: the specular mask marks those pixels). In a
+//! medium, the volume caustic seen through a specular chain (specular → medium → specular →
+//! camera) is gathered by the camera paths from photon beams ([`super::photon_beams`]).
 //! [`CausticPaths`] restricts the photons' camera connections to one class of paths (the
 //! GPU's: the first diffuse hit only) or to the rest.
 //!
@@ -30,6 +32,7 @@
 use super::geometry::{Accel, Hit, spawn};
 use super::medium::{Flight, Media};
 use super::optics::{fresnel_conductor, fresnel_dielectric, reflect, refract};
+use super::photon_beams::{PhotonBeam, PhotonBeams};
 use super::sampling::{PathRng, cosine_hemisphere};
 use caustics::lightspace::LightView;
 use caustics::scene::{Camera, Light, Material, Scene};
@@ -107,12 +110,13 @@ pub struct Deposit {
 ///
 /// The GPU renders caustic light as its caustic maps hold it: the irradiance at each photon's
 /// first diffuse hit, shaded where the camera sees that surface directly (`shade_receivers`);
-/// its caustic-only image is zero where the camera sees a specular surface first
-/// (`composite.wgsl`), as this reference's is (a camera connection stops at glass). So
-/// [`CausticPaths::FirstDiffuse`] is its like-for-like class, L S+ D E. The rest, which no GPU
-/// technique renders: light that leaves the first diffuse surface again (diffuse
+/// its caustic-only image has no surface caustic where the camera sees a specular surface first
+/// (`composite.wgsl`), as this reference's has none (a camera connection stops at glass). So
+/// [`CausticPaths::FirstDiffuse`] is its like-for-like class, L S+ D E. The rest, which the
+/// GPU's caustic maps do not hold: light that leaves the first diffuse surface again (diffuse
 /// interreflection, floor → glass → floor, ...: L S+ D (S|D)* D E) and, in a medium, light
-/// scattered in the medium after the specular chain (volume caustics, and surfaces lit by
+/// scattered in the medium after the specular chain (volume caustics, which the GPU renders
+/// with beams, also seen through glass: the photon beams here; and surfaces lit by
 /// them). `All` = `FirstDiffuse` + `Rest`, photon by photon: the photons take the same random
 /// choices in every mode (a connection outside the class is made and dropped).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -142,7 +146,7 @@ impl CausticPaths {
     /// Whether a connection to the camera belongs to the class; `first` says whether it is
     /// the one at the photon's first diffuse hit through a purely specular chain.
     #[inline]
-    fn keeps(self, first: bool) -> bool {
+    pub(crate) fn keeps(self, first: bool) -> bool {
         match self {
             CausticPaths::All => true,
             CausticPaths::FirstDiffuse => first,
@@ -159,6 +163,9 @@ pub struct PhotonOut {
     /// (face, texel, irradiance contribution).
     pub map: Vec<(u32, u32, Vec3)>,
     pub deposits: Vec<Deposit>,
+    /// The photons' flights through the medium after their first specular interaction
+    /// (`PhotonTargets::record_beams`).
+    pub beams: Vec<PhotonBeam>,
     pub rays: u64,
 }
 
@@ -167,6 +174,8 @@ pub struct PhotonTargets<'a> {
     pub camera: bool,
     pub map: Option<(&'a LightView, u32)>,
     pub record_deposits: bool,
+    /// Keep the photons' flights through the medium as photon beams ([`super::photon_beams`]).
+    pub record_beams: bool,
 }
 
 pub struct Tracer<'a> {
@@ -184,6 +193,13 @@ pub struct Tracer<'a> {
     /// Caustic photons reflect partially at dielectric interfaces (with probability F); off,
     /// they transmit with weight 1 − F (`ReferenceSettings::partial_reflections`).
     pub partial_reflections: bool,
+    /// The caustic photons' beams, gathered by camera paths that reach the medium through
+    /// specular surfaces (light → specular → medium → specular → camera); `None`: those paths
+    /// are not rendered.
+    pub beams: Option<PhotonBeams>,
+    /// The beams also give the medium's caustic light the camera sees directly, and the
+    /// photons' connections from medium scattering points are dropped (for the beams' test).
+    pub beams_direct: bool,
 }
 
 impl<'a> Tracer<'a> {
@@ -199,6 +215,8 @@ impl<'a> Tracer<'a> {
             single_scattering: false,
             caustic_paths: CausticPaths::All,
             partial_reflections: true,
+            beams: None,
+            beams_direct: false,
         }
     }
 
@@ -244,6 +262,11 @@ impl<'a> Tracer<'a> {
                     // single scattering, after its one scattering event: it only attenuates.
                     flux *= m.transmittance(o, d, t_hit, rng);
                 } else {
+                    if t.record_beams
+                        && let Some((t0, t1)) = m.clip(o, d, t_hit)
+                    {
+                        out.beams.push(PhotonBeam { o: o + d * t0, d, len: t1 - t0, flux });
+                    }
                     match m.sample(o, d, t_hit, rng) {
                         Flight::Pass { weight } => flux *= weight,
                         Flight::Scatter { t: ts, weight } => {
@@ -253,7 +276,7 @@ impl<'a> Tracer<'a> {
                             if t.camera {
                                 let n0 = out.cam.len();
                                 self.connect_camera_medium(m, x, d, flux, rng, out);
-                                if !paths.keeps(false) {
+                                if !paths.keeps(false) || self.beams_direct {
                                     out.cam.truncate(n0);
                                 }
                             }
@@ -432,8 +455,11 @@ impl<'a> Tracer<'a> {
         (l, rays)
     }
 
-    /// Radiance along the camera ray through image point (x, y), without caustic light.
-    /// Returns (radiance, rays traced).
+    /// Radiance along the camera ray through image point (x, y), without caustic light, and the
+    /// caustic light it gathers from the photon beams ([`Self::beams`]) on flights through the
+    /// medium reached through specular surfaces alone (light → specular → medium → specular →
+    /// camera, which the photons' camera connections cannot render). Returns (radiance, caustic
+    /// radiance from the beams, rays traced).
     ///
     /// The environment light: a ray that escapes before any diffuse vertex sees it (background,
     /// reflections, refractions); at a diffuse vertex it is sampled by next-event estimation
@@ -441,7 +467,7 @@ impl<'a> Tracer<'a> {
     /// away, combined by multiple importance sampling (power heuristic). A ray that escapes
     /// after specular bounces that follow a diffuse vertex carries environment light whose
     /// first surface is specular: caustic light, which the photons render.
-    pub fn trace_camera(&self, x: f32, y: f32, rng: &mut PathRng) -> (Vec3, u64) {
+    pub fn trace_camera(&self, x: f32, y: f32, rng: &mut PathRng) -> (Vec3, Vec3, u64) {
         let mut o = self.cam.pos;
         let mut d = self.scene.camera.ray_dir(x, y);
         let mut beta = Vec3::ONE;
@@ -454,6 +480,11 @@ impl<'a> Tracer<'a> {
         // Whether the path has scattered in the medium (with single scattering, later flights
         // only attenuate).
         let mut scattered = false;
+        // Caustic light from the photon beams, and whether the path has met specular surfaces
+        // only (at least one) so far.
+        let mut lc = Vec3::ZERO;
+        let mut specular_only = false;
+        let beams = self.beams.as_ref().filter(|_| self.caustic_paths.keeps(false));
         for depth in 0..self.max_depth {
             rays += 1;
             let hit = self.accel.intersect(o, d, f32::INFINITY);
@@ -461,6 +492,14 @@ impl<'a> Tracer<'a> {
                 && !self.in_dielectric(d, hit.as_ref())
             {
                 let t_hit = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
+                if (specular_only || (self.beams_direct && depth == 0))
+                    && let Some(b) = beams
+                {
+                    // From a fork: the path's own numbers stay those of a rendering without
+                    // beams (heterogeneous media draw for the transmittances).
+                    let mut g = rng.fork(0x6265_616d);
+                    lc += beta * b.gather(m, o, d, t_hit, &mut g).0;
+                }
                 let flight = if scattered && self.single_scattering {
                     Flight::Pass { weight: m.transmittance(o, d, t_hit, rng) }
                 } else {
@@ -475,6 +514,7 @@ impl<'a> Tracer<'a> {
                         rays += r;
                         l += beta * ls;
                         scattered = true;
+                        specular_only = false;
                         if depth + 1 >= self.max_depth {
                             break;
                         }
@@ -510,6 +550,7 @@ impl<'a> Tracer<'a> {
                     rays += r;
                     l += beta * albedo * e / PI;
                     seen_diffuse = true;
+                    specular_only = false;
                     if last {
                         break;
                     }
@@ -525,6 +566,7 @@ impl<'a> Tracer<'a> {
                 m => {
                     let Some((nd, w)) = scatter_specular(m, d, ng, ns, front, rng, true) else { break };
                     beta *= w;
+                    specular_only = !seen_diffuse && !scattered;
                     d = nd;
                     bsdf_pdf = None;
                     o = spawn(h.p, h.ng, d);
@@ -534,7 +576,7 @@ impl<'a> Tracer<'a> {
                 }
             }
         }
-        (l, rays)
+        (l, lc, rays)
     }
 
     /// Irradiance (W/m²) at `p` straight from the lights, on the side of `ng` (shading cosine
