@@ -416,10 +416,14 @@ pub(crate) fn record_surfaces(
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
-    let lists =
-        std::iter::once((&bf.shafts, bf.shaft_count)).chain(bf.glow.iter().chain(beam_vpls).map(|(b, n)| (b, *n)));
-    for (vpls, count) in lists {
-        record_surface_gather(dc, eye, vpls, count, enc, timer);
+    // The shaft and glow emitters stand for fog filling the space (the layer gain applies);
+    // the beams' for the volume caustic's light.
+    let fog = std::iter::once((&bf.shafts, bf.shaft_count)).chain(bf.glow.iter().map(|(b, n)| (b, *n)));
+    for (vpls, count) in fog {
+        record_surface_gather(dc, eye, vpls, count, true, enc, timer);
+    }
+    for (vpls, count) in beam_vpls {
+        record_surface_gather(dc, eye, vpls, *count, false, enc, timer);
     }
 }
 
@@ -428,6 +432,7 @@ fn record_surface_gather(
     eye: &EyeFrame,
     vpls: &wgpu::Buffer,
     count: u32,
+    layers: bool,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -446,6 +451,8 @@ fn record_surface_gather(
             height: cam.height,
             count,
             heterogeneous,
+            layers: u32::from(layers),
+            _pad: [0; 3],
         }),
     );
     let pl = ctx.compute_pipeline("medium_bounce_surfaces");

@@ -420,12 +420,13 @@ fn light_between_a_lit_floor_and_the_fog_matches_the_reference() {
         let Err(e) = render(&ctx, &sc, &bad) else { panic!("a setting out of range was accepted") };
         assert!(e.to_string().contains("medium_bounce_"), "{e}");
     }
-    // Measured (lavapipe): with the passes fog 0.998, floor 0.978; without them fog 0.788,
+    // Measured (lavapipe): with the passes fog 0.998, floor 0.990; without them fog 0.788,
     // floor 0.802. The floor rows were 0.944 before the glow's light on the floor (light ->
-    // floor -> fog -> floor, `medium_bounce_glow`); 0.969 with half its blocks and slices.
+    // floor -> fog -> floor, `medium_bounce_glow`; 0.969 with half its blocks and slices),
+    // 0.978 before the emitters' near-field layer gain (`medium_bounce_surfaces.wgsl`).
     let (with, without) = (ratios[0], ratios[1]);
     assert!((with.0 - 1.0).abs() < 0.05, "fog rows: {}", with.0);
-    assert!(with.1 > 0.955 && with.1 < 1.01, "floor rows: {}", with.1);
+    assert!(with.1 > 0.98 && with.1 < 1.01, "floor rows: {}", with.1);
     // Without the passes the test fails: the fog's glow is missing.
     assert!(without.0 < 0.9 && without.1 < 0.88, "without the passes: {without:?}");
 }
@@ -494,12 +495,12 @@ fn light_between_a_lit_floor_and_layered_fog_matches_the_reference() {
     }
     let sc = with_grid(lit_floor_fog_scene(), DensityGrid::new(dims, v).unwrap());
     let ratios = lit_floor_ratios(&ctx, &sc, "layered fog", |_, _| {});
-    // Measured (lavapipe): with the passes fog 1.004, floor 0.960; without them 0.794, 0.780.
-    // The floor rows were 0.923 before the glow's light on the floor (`medium_bounce_glow`);
-    // what remains is larger than in the even fog: the dense layer's glow is nearer the floor,
-    // where the emitters' bins are coarsest for it.
+    // Measured (lavapipe): with the passes fog 1.004, floor 0.978; without them 0.794, 0.780.
+    // The floor rows were 0.923 before the glow's light on the floor (`medium_bounce_glow`),
+    // 0.960 before the emitters' near-field layer gain; what remains is larger than in the even
+    // fog: the dense layer's glow is nearer the floor, where the emitters' bins are coarsest.
     let (with, without) = (ratios[0], ratios[1]);
-    assert!((with.0 - 1.0).abs() < 0.05 && with.1 > 0.94 && with.1 < 1.02, "{ratios:?}");
+    assert!((with.0 - 1.0).abs() < 0.05 && with.1 > 0.965 && with.1 < 1.02, "{ratios:?}");
     assert!(without.0 < 0.85 && without.1 < 0.85, "{ratios:?}");
 }
 

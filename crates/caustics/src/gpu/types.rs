@@ -283,6 +283,10 @@ pub struct SurfaceBounceParams {
     pub count: u32,
     /// 1: heterogeneous medium, 0: homogeneous.
     pub heterogeneous: u32,
+    /// 1: the emitters stand for fog filling the space (shafts, glow): their near field gets
+    /// the layer gain (`layer_gain` in the shader); 0: the beams' emitters (caustic light).
+    pub layers: u32,
+    pub _pad: [u32; 3],
 }
 
 /// `medium_bounce` (shaders/medium_bounce.wgsl).
