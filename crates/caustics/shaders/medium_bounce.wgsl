@@ -5,8 +5,9 @@
 // squared radius r2).
 // Per pixel, the camera ray's segment in the medium (as `medium_scatter`: from the camera to the
 // first surface it sees, clipped to the box), a midpoint rule in `bp.steps` equal steps of
-//   sigma_s(x) sum_v phase(cos) F_v cos_v / (pi (d^2 + r2_v)) T(v -> x) T(camera -> x),
-// with d the distance from the VPL to x, cos_v the cosine at the VPL (zero behind it) and
+//   sigma_s(x) sum_v phase(cos) F_v cos_v / (pi (d^2 + r2_v)) G_v T(v -> x) T(camera -> x),
+// G_v the near-field layer gain at x's height above the VPL's plane (`layer_gain`,
+// shared/medium_bounce.wgsl), with d the distance from the VPL to x, cos_v the cosine at the VPL (zero behind it) and
 // cos the scattering angle's (between the VPL-to-x direction and the direction to the camera).
 // T in a homogeneous medium: exp(-sigma_t * length in the box); heterogeneous: the camera's
 // optical depth by the same midpoint rule, the VPL's by a `BOUNCE_GRID_STEPS`-step march.
@@ -157,7 +158,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(workgroup_id) wg: ve
                         if (!in_box(v.pos.xyz, lo, hi)) { len = box_length(v.pos.xyz, x, lo, hi); }
                         od = bp.sigma_t.rgb * len;
                     }
-                    let g = phase(dot(u, -d)) * cos_v / (PI * (d2 + v.pos.w)) * exp(-od);
+                    let g = phase(dot(u, -d)) * cos_v / (PI * (d2 + v.pos.w)) * layer_gain(cos_v * dist, v.pos.w) * exp(-od);
                     sf += v.full.rgb * g;
                     sc += v.caustic.rgb * g;
                 }

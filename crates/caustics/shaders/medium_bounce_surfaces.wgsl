@@ -7,7 +7,10 @@
 // turned toward the camera, albedo rho), added into the eye's radiance (not the caustic-only
 // image: the shaft is direct light):
 //   rho / pi * sum_v F_v phase(w_v . u) max(n . -u, 0) / (d^2 + r2_v) G_v T(v -> y),
-// G_v the near-field layer gain of the shaft and glow emitters (`layer_gain`, 1 for the beams'),
+// G_v the near-field layer gain of the shaft and glow emitters (`layer_gain`,
+// shared/medium_bounce.wgsl; 1 for the beams': they bin a focused cone's light whose spread r2
+// is much wider than the light near the floor, and the gain spread it too far: the volume
+// caustic's floor light 1.03 -> 1.15 of the reference's in `gpu_medium`),
 // u the unit direction from the VPL to y, d the distance, w_v the light's direction of travel
 // there, T the transmittance (homogeneous: exp(-sigma_t * length in the box); heterogeneous: a
 // `BOUNCE_GRID_STEPS`-step march). Runs before `composite`, so surfaces seen through glass and
@@ -46,25 +49,6 @@ struct SurfaceBounceParams {
 @group(0) @binding(4) var<storage, read> materials: array<MaterialGpu>;
 @group(0) @binding(5) var<storage, read_write> radiance: array<vec4f>;
 @group(0) @binding(6) var density: texture_3d<f32>;
-
-// The near field of the emitters' sum. A layer of emitters parallel to the surface at height h,
-// each spread over r2 (the VPL's `pos.w`), lit with the kernel cos_y / (d^2 + r2), gives the
-// surface g(h / r) = (h / r) atan(r / h) of the irradiance of the continuous layer it stands
-// for (integrate h / (sqrt(s^2 + h^2) (s^2 + h^2 + r^2)) over the plane at distance s): 0.65 at
-// h = 0.67 r, the slice of a shaft just above the floor, 0.93 at h = 2 r, 1 far away. Fog fills
-// the space around a surface with such layers (emitters binned by light-face block and slice),
-// so each emitter's light is divided by g of its own height above the surface's plane (1 / g
-// also restores the total flux a single emitter sends onto an unbounded plane, F / 2). Only for
-// the shaft and glow emitters (`layers`): the beams' emitters bin a focused cone's light whose
-// spread r2 is much wider than the light near the floor, and the gain spread it too far (the
-// volume caustic's floor light 1.03 -> 1.15 of the reference's in `gpu_medium`). Bounded at
-// 1 / G_MIN for emitters nearly in the surface's plane.
-const LAYER_G_MIN: f32 = 0.1;
-fn layer_gain(h: f32, r2: f32) -> f32 {
-    if (r2 <= 0.0) { return 1.0; }
-    let t = h / sqrt(r2);
-    return 1.0 / max(t * atan(1.0 / max(t, 1e-6)), LAYER_G_MIN);
-}
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(local_invocation_index) li: u32) {
