@@ -34,6 +34,7 @@
 #import coverage
 #import shapes
 #import raytrace
+#import medium
 #import trace
 
 @group(0) @binding(0) var<uniform> light: LightGpu;

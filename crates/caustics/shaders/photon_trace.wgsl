@@ -16,6 +16,7 @@
 
 #import shapes
 #import raytrace
+#import medium
 #import trace
 
 struct TraceParams {

@@ -4,11 +4,13 @@
 // light through glass arrives only as caustic. Shadows: 3x3 PCF with a normal offset. Caustics:
 // bilinear in the light-space irradiance map, over the texels whose receiver point is the
 // shaded point (so caustics do not leak onto surfaces the light cannot see).
-// In a medium, both are attenuated by the transmittance from the light (a directional light:
-// from where its line back from the point leaves the medium's box) to the point (the
-// caustic along the straight line too): exp(-sigma_t d) in a homogeneous medium, the ray march
-// `grid_optical_depth` in `medium_grid.y` steps through the density grid in a heterogeneous
-// one. Run once per light; adds into `radiance` (full) and `caustic` (caustic light only).
+// In a medium, the direct light is attenuated by the transmittance from the light (a
+// directional light: from where its line back from the point leaves the medium's box) to the
+// point: exp(-sigma_t d) in a homogeneous medium, the ray march `grid_optical_depth` in
+// `medium_grid.y` steps through the density grid in a heterogeneous one. The caustic: in a
+// homogeneous medium the photons carried their own path's transmittance into the map
+// (shared/trace.wgsl, `land_photon`); in a heterogeneous one it is attenuated along the same
+// straight line (which runs through the caster: an approximation). Run once per light; adds into `radiance` (full) and `caustic` (caustic light only).
 // An environment region's light spreads its caustic over the region's sub-directions
 // (`taps`, src/env_taps.rs); every other light has no taps.
 // Tiles (`sp.tiles`, RenderSettings::shading_tiles): per tile of SHADE_TILE^2 texels, whether the
@@ -235,7 +237,9 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
             tr = exp(-sp.sigma_t.rgb * od);
         }
         e *= tr;
-        ec *= tr;
+        // Where the photons carried their own path's transmittance into the map (a homogeneous
+        // medium, light.medium_lo.w: shared/trace.wgsl), the caustic is not attenuated again.
+        if (light.medium_lo.w < 0.5) { ec *= tr; }
     }
     let albedo = mat.a.rgb / PI;
     let idx = gid.y * sp.width + gid.x;

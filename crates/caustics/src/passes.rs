@@ -483,6 +483,7 @@ fn light_gpu(
     multi_bounce: f32,
     lens: f32,
     crop: [f32; 4],
+    medium: Option<&crate::scene::Medium>,
 ) -> LightGpu {
     let mut faces = [FaceGpu { world_to_clip: [[0.0; 4]; 4], clip_to_world: [[0.0; 4]; 4], origin: [0.0; 4] }; 6];
     for (f, face) in view.faces.iter().enumerate() {
@@ -510,6 +511,14 @@ fn light_gpu(
         extra: [caster_radius, view.scene_radius, view.tan_half_fov, multi_bounce],
         splat: [lens, if view.has_spill() { SPILL_FACE_PRESENT as f32 } else { 0.0 }, 0.0, 0.0],
         crop,
+        // Photons carry their path's transmittance in a homogeneous medium only (a density
+        // grid would need the photon stages to march it).
+        medium_lo: match medium {
+            Some(m) if m.density.is_none() => m.bounds_min.extend(1.0).to_array(),
+            _ => [0.0; 4],
+        },
+        medium_hi: medium.map_or([0.0; 4], |m| m.bounds_max.extend(0.0).to_array()),
+        medium_sigma_t: medium.map_or([0.0; 4], |m| (m.sigma_s + m.sigma_a).extend(0.0).to_array()),
     }
 }
 
@@ -908,8 +917,21 @@ pub(crate) fn light_record(
         }
         _ => FULL_FACE,
     };
-    let lg =
-        light_gpu(&view, light, fc.n, fc.m, fc.g, s.splat_sigma, scale, fc.caster_radius, fc.multi_bounce, lens, crop);
+    let medium = scene.medium.as_ref();
+    let lg = light_gpu(
+        &view,
+        light,
+        fc.n,
+        fc.m,
+        fc.g,
+        s.splat_sigma,
+        scale,
+        fc.caster_radius,
+        fc.multi_bounce,
+        lens,
+        crop,
+        medium,
+    );
     (view, lg, scale)
 }
 

@@ -32,6 +32,13 @@ struct LightGpu {
     // The NDC rectangle (lo.x, lo.y, hi.x, hi.y) photon_trace spreads its N x N grid over: the
     // casters' box for a directional light under the basic technique, else (-1, -1, 1, 1).
     crop: vec4f,
+    // A homogeneous medium's box (medium_lo.w = 1: photons carry their path's transmittance
+    // into the caustic map, shared/trace.wgsl `land_photon`; 0: no medium, or a density grid:
+    // the caustic is attenuated along the straight line from the light where it is used) and
+    // sigma_t (rgb, 1/m).
+    medium_lo: vec4f,
+    medium_hi: vec4f,
+    medium_sigma_t: vec4f,
 }
 
 // A traced photon: where it lands in the caustic map (continuous texel coordinates, face) and

@@ -797,11 +797,33 @@ fn beam_diameter(f: u32, hit: vec3f, dir: vec3f, m: f32, uv: vec2f) -> f32 {
 // sig): its caustic-map position and splat data (the lens equations' beam diameter, lens being
 // the first caster's optical power and lens_front its first surface point, or the ray
 // differentials' footprint), booked as landed, or as outside the map where no face sees p.
-fn land_photon(layer: u32, p: vec3f, dir: vec3f, flux: vec3f, sig: u32, lens: vec4f, lens_front: vec3f, cell: vec2f) -> Photon {
+// In a homogeneous medium (light.medium_lo.w = 1; stages that import `trace` import `medium`
+// before it): the photon's path length in the medium's box outside dielectrics, from the light
+// (a directional light: from where its line leaves the box, `light_path_start`) through every
+// segment between interfaces that does not run inside a dielectric, to the receiver. The photon
+// lands with its flux times exp(-sigma_t * length), so the caustic map holds the light that
+// arrives, as the CPU reference's does (the straight line from the light, which its consumers
+// used before, runs through the glass: the caustic under a ball lost e^(-sigma_t * 2R)).
+var<private> trace_fog: f32 = 0.0;
+
+fn fog_add(a: vec3f, b: vec3f) {
+    if (light.medium_lo.w > 0.5) { trace_fog += box_length(a, b, light.medium_lo.xyz, light.medium_hi.xyz); }
+}
+
+// The first segment: from the light to the first caster point p.
+fn fog_begin(p: vec3f) {
+    trace_fog = 0.0;
+    if (light.medium_lo.w > 0.5) { fog_add(light_path_start(light, p, light.medium_lo.xyz, light.medium_hi.xyz), p); }
+}
+
+fn land_photon(layer: u32, p: vec3f, dir: vec3f, flux_in: vec3f, sig: u32, lens: vec4f, lens_front: vec3f, cell: vec2f) -> Photon {
     var out: Photon;
     out.face = INVALID;
     out.flux = vec4f(0.0);
-    let total = flux.r + flux.g + flux.b;
+    // The bookkeeping counts the optics' flux; the map gets what the medium lets through.
+    let total = flux_in.r + flux_in.g + flux_in.b;
+    var flux = flux_in;
+    if (light.medium_lo.w > 0.5) { flux *= exp(-light.medium_sigma_t.rgb * trace_fog); }
     let m = f32(light.info.w);
     for (var f = 0u; f < light.info.x; f++) {
         let q = project_face(light.faces[f], p, m);
@@ -851,6 +873,7 @@ fn trace_photon_image(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var flux = cell_flux(layer, ndc, cell, d);
     let total_in = flux.r + flux.g + flux.b;
     if (total_in <= 0.0) { return out; }
+    fog_begin(front.p);
     // The cell's rays: across the whole cell along each grid axis (central differences).
     rd_begin(layer, ndc, cell, a);
     // Flux onto the casters is booked once, by the transmitted branch.
@@ -901,7 +924,9 @@ fn trace_photon_image(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
                 if (m.object != INVALID && materials[m.object].kind.z == SHAPE_MESH) { next = m; }
             }
         }
+        // (o is where the photon left the last interface: outside any dielectric)
         if (next.object != INVALID) {
+            fog_add(o, next.p);
             hit_p = next.p;
             hit_n = next.n;
             obj = next.object;
@@ -909,6 +934,7 @@ fn trace_photon_image(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
         }
         // Landing (a further caster after the last bounce followed is ignored).
         if (hit.w < 0.5) { add_fixed(8u, total); return out; }
+        fog_add(o, hit.xyz);
         return land_photon(layer, hit.xyz, dir, flux, sig, lens, front.p, cell);
     }
     return out;
@@ -998,6 +1024,7 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var flux = cell_flux(layer, ndc, cell, d);
     let total_in = flux.r + flux.g + flux.b;
     if (total_in <= 0.0) { return out; }
+    fog_begin(first.p);
     rd_begin(layer, ndc, cell, a);
     // Booked once, by the transmitted branch's pass.
     if (!trace_reflect && !trace_internal_branch && !trace_residual) { add_fixed(0u, total_in); }
@@ -1084,12 +1111,15 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
         rd_from = h.p;
         depth++;
         if (flux.r + flux.g + flux.b <= 0.0) { return out; }
+        // Inside a dielectric after entering it, or reflecting inside it: no medium there.
+        let inside = mat.kind.x == KIND_DIELECTRIC && (front != reflected);
         h = scene_hit(o, dir, 1e30);
         if (h.object == INVALID) {
             if (trace_internal_branch && depth <= 1u || residual_covered(chosen)) { return out; }
             add_fixed(8u, flux.r + flux.g + flux.b);
             return out;
         }
+        if (!inside) { fog_add(o, h.p); }
     }
     if (residual_covered(chosen)) { return out; }
     let total = flux.r + flux.g + flux.b;

@@ -34,6 +34,12 @@ pub struct LightGpu {
     /// over: the casters' box for a directional light traced by the basic technique, else the
     /// whole face (-1, -1, 1, 1).
     pub crop: [f32; 4],
+    /// A homogeneous medium's box (`medium_lo.w` = 1: the photons carry their path's
+    /// transmittance into the caustic map; 0: no medium, or a density grid, whose consumers
+    /// attenuate the caustic along the straight line from the light) and sigma_t (rgb, 1/m).
+    pub medium_lo: [f32; 4],
+    pub medium_hi: [f32; 4],
+    pub medium_sigma_t: [f32; 4],
 }
 
 #[repr(C)]
