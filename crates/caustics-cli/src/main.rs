@@ -283,6 +283,15 @@ enum Command {
         /// at the specular objects).
         #[arg(long, default_value_t = 0.0)]
         medium_beam_radius: f32,
+        /// CPU backend, scenes with glass or mirrors: photons per light whose first diffuse hits
+        /// are kept for the caustic seen on surfaces through specular surfaces (light, glass,
+        /// floor, glass, camera); 0 leaves that light out.
+        #[arg(long, default_value_t = 1 << 18)]
+        specular_view_photons: u64,
+        /// CPU backend: their kernel radius in metres (0: a pixel's footprint at the specular
+        /// objects).
+        #[arg(long, default_value_t = 0.0)]
+        specular_view_radius: f32,
         /// The same as --technique caustic-spheres (kept as an alias): the caustics of
         /// directional lights come from precomputed caustic spheres (cached; built first if
         /// needed) in one eye-space pass; spot and point lights get basic caustic maps.
@@ -578,6 +587,8 @@ fn run(cli: Cli) -> Result<()> {
             no_partial_reflections,
             medium_beams,
             medium_beam_radius,
+            specular_view_photons,
+            specular_view_radius,
             caustic_spheres,
             sphere_args,
         } => {
@@ -727,6 +738,8 @@ fn run(cli: Cli) -> Result<()> {
                         partial_reflections: !no_partial_reflections,
                         medium_beam_photons: medium_beams,
                         medium_beam_radius,
+                        specular_view_photons,
+                        specular_view_radius,
                         ..Default::default()
                     };
                     let t0 = std::time::Instant::now();

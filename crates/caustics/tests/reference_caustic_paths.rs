@@ -118,3 +118,79 @@ fn first_diffuse_is_the_splat_of_the_first_diffuse_hits() {
     assert!(total > 0.0);
     assert!(diff <= 1e-5 * total, "L1 difference {diff} of {total}");
 }
+
+#[test]
+fn deposits_gathered_through_glass_agree_with_light_tracing() {
+    // The floor caustic the camera sees through the ball (light -> glass -> floor -> glass ->
+    // camera) comes from the deposits of `reference::view_photons`, gathered at the camera
+    // path's first diffuse vertex after a specular chain; light tracing cannot connect through
+    // glass. The estimate is checked where both apply: the caustic seen directly, once by the
+    // photons' camera connections and once by the camera rays gathering the deposits
+    // (`gather_direct`). The built-in glass ball over its floor, 48 x 48.
+    let s = ReferenceSettings {
+        photons_per_light: 1 << 21,
+        camera_spp: 16,
+        specular_view_photons: 1 << 20,
+        ..settings(CausticPaths::All)
+    };
+    let tracing = reference::render(&scene(), &s).unwrap();
+    let gathered = reference::render(&scene(), &ReferenceSettings { gather_direct: true, ..s.clone() }).unwrap();
+    let none =
+        reference::render(&scene(), &ReferenceSettings { gather_direct: true, specular_view_photons: 0, ..s.clone() })
+            .unwrap();
+    let (a, b) = (sum(&tracing.caustic), sum(&gathered.caustic));
+    println!("floor caustic: light tracing {a:.5}, deposits {b:.5}, ratio {:.4}", b / a);
+    // Measured: 1.005; the blocks within 1 %.
+    assert!(a > 0.0 && (b / a - 1.0).abs() < 0.02, "{b} vs {a}");
+    // Without the deposits that setting leaves the floor caustic out.
+    assert!(sum(&none.caustic) < 0.05 * a, "{}", sum(&none.caustic));
+    // By 8-pixel blocks holding a tenth of the image's caustic or more.
+    let w = 48usize;
+    let block = |img: &caustics::image_io::Image, bx: usize, by: usize| -> f64 {
+        (0..8)
+            .flat_map(|y| (0..8).map(move |x| (x, y)))
+            .map(|(x, y)| img.pixels[(by * 8 + y) * w + bx * 8 + x][1] as f64)
+            .sum()
+    };
+    for by in 0..6 {
+        for bx in 0..6 {
+            let (p, q) = (block(&tracing.caustic, bx, by), block(&gathered.caustic, bx, by));
+            if p > 0.1 * a / 3.0 {
+                println!("block ({bx}, {by}): light tracing {p:.5}, deposits {q:.5}");
+                assert!((q / p - 1.0).abs() < 0.05, "block ({bx}, {by}): {q} vs {p}");
+            }
+        }
+    }
+    // The default rendering now shows the floor caustic through the ball, which light tracing
+    // alone left black: what the deposits add lies inside the ball's disk on the image, and
+    // nowhere clearly outside it.
+    let plain = reference::render(&scene(), &ReferenceSettings { specular_view_photons: 0, ..s }).unwrap();
+    let sc = scene();
+    let cam = CamProj::new(&sc.camera);
+    let (center, radius) = match sc.objects[0].shape {
+        caustics::scene::Shape::Sphere { center, radius } => (center, radius),
+        _ => panic!("the built-in scene's first object is its ball"),
+    };
+    let (mut inside, mut outside) = (0.0f64, 0.0f64);
+    for y in 0..48u32 {
+        for x in 0..48u32 {
+            let d = sc.camera.ray_dir(x as f32 + 0.5, y as f32 + 0.5);
+            // The pixel's ray meets the ball where its distance to the centre is under R.
+            let oc = center - cam.pos;
+            let miss = (oc - d * oc.dot(d)).length();
+            let i = (y * 48 + x) as usize;
+            let added = (tracing.caustic.pixels[i][1] - plain.caustic.pixels[i][1]) as f64;
+            // (pixels on the disk's rim, partly the ball's, are left out)
+            if miss < radius {
+                inside += added
+            } else if miss > 1.1 * radius {
+                outside += added.abs()
+            }
+        }
+    }
+    println!(
+        "the caustic through the ball: {inside:.4} ({:.2} % of the image's), elsewhere {outside:.2e}",
+        inside / a * 100.0
+    );
+    assert!(inside > 0.01 * a && outside < 1e-6 * a, "{inside} {outside}");
+}

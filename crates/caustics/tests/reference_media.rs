@@ -328,7 +328,7 @@ fn photon_beams_agree_with_light_tracing_in_the_medium() {
     // through glass, which light tracing cannot connect to. Their estimate is checked where
     // both apply: the volume caustic seen directly, once by light tracing (photons scattered in
     // the medium, connected to the camera) and once by the camera rays gathering the beams
-    // (`medium_beams_direct`). Single scattering, a Henyey-Greenstein medium with coloured
+    // (`gather_direct`). Single scattering, a Henyey-Greenstein medium with coloured
     // coefficients.
     let sc = scene(&format!(
         r#"{{ "schema_version": 1, "name": "volume caustic",
@@ -341,10 +341,9 @@ fn photon_beams_agree_with_light_tracing_in_the_medium() {
     ));
     let s = ReferenceSettings { medium_beam_photons: 1 << 18, ..settings(1 << 22, 16, true) };
     let tracing = reference::render(&sc, &s).unwrap();
-    let beams = reference::render(&sc, &ReferenceSettings { medium_beams_direct: true, ..s.clone() }).unwrap();
+    let beams = reference::render(&sc, &ReferenceSettings { gather_direct: true, ..s.clone() }).unwrap();
     // Without the beams, that setting leaves the volume caustic out: the test would fail.
-    let none =
-        reference::render(&sc, &ReferenceSettings { medium_beam_photons: 0, medium_beams_direct: true, ..s }).unwrap();
+    let none = reference::render(&sc, &ReferenceSettings { medium_beam_photons: 0, gather_direct: true, ..s }).unwrap();
     let sum = |img: &caustics::image_io::Image| {
         img.pixels.iter().fold(glam::DVec3::ZERO, |s, p| s + Vec3::from(*p).as_dvec3())
     };

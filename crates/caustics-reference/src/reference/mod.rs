@@ -26,6 +26,7 @@ pub mod photon_beams;
 pub mod sampling;
 pub mod spheres;
 pub mod trace;
+pub mod view_photons;
 
 use caustics::error::{Error, Result};
 use caustics::image_io::Image;
@@ -84,11 +85,17 @@ pub struct ReferenceSettings {
     /// The photon beams' kernel radius (m); 0: half a pixel's footprint at the specular objects
     /// ([`photon_beams::auto_radius`]).
     pub medium_beam_radius: f32,
-    /// For the photon beams' test: the camera sees the medium's caustic light directly through
-    /// the beams too, instead of through the photons' camera connections (both estimate the same
-    /// light, light → specular → medium → camera).
+    /// Scenes with specular objects: photons per light whose first diffuse hits are kept
+    /// ([`view_photons`]) for the caustic the camera sees on surfaces through specular surfaces
+    /// (light → glass → floor → glass → camera); 0 leaves that light out.
+    pub specular_view_photons: u64,
+    /// Their kernel radius (m); 0: a pixel's footprint at the specular objects.
+    pub specular_view_radius: f32,
+    /// For the tests of the photon beams and the deposits: the camera sees the caustic light
+    /// directly through them too, instead of through the photons' camera connections from
+    /// medium scattering points and first diffuse hits (both estimate the same light).
     #[doc(hidden)]
-    pub medium_beams_direct: bool,
+    pub gather_direct: bool,
 }
 
 /// The most photon beams per light the reference accepts (memory: about 100 bytes a beam).
@@ -108,7 +115,9 @@ impl Default for ReferenceSettings {
             partial_reflections: true,
             medium_beam_photons: 1 << 18,
             medium_beam_radius: 0.0,
-            medium_beams_direct: false,
+            specular_view_photons: 1 << 18,
+            specular_view_radius: 0.0,
+            gather_direct: false,
         }
     }
 }
@@ -130,6 +139,18 @@ impl ReferenceSettings {
             return e(
                 "--medium-beams",
                 format!("must be between 0 and 2^24 per light (got {})", self.medium_beam_photons),
+            );
+        }
+        if self.specular_view_photons > MAX_BEAM_PHOTONS {
+            return e(
+                "--specular-view-photons",
+                format!("must be between 0 and 2^24 per light (got {})", self.specular_view_photons),
+            );
+        }
+        if !(self.specular_view_radius >= 0.0 && self.specular_view_radius.is_finite()) {
+            return e(
+                "--specular-view-radius",
+                format!("must be 0 (automatic) or a positive length in metres (got {})", self.specular_view_radius),
             );
         }
         if !(self.medium_beam_radius >= 0.0 && self.medium_beam_radius.is_finite()) {
@@ -175,6 +196,10 @@ pub struct ReferenceStats {
     pub medium_beams: u64,
     pub medium_beam_radius: f32,
     pub medium_beam_seconds: f64,
+    /// Deposits kept for the surfaces seen through specular surfaces and their kernel radius
+    /// (m) (0, 0: none); their tracing's seconds are in `medium_beam_seconds`.
+    pub view_deposits: u64,
+    pub view_radius: f32,
 }
 
 impl std::fmt::Display for ReferenceStats {
@@ -199,11 +224,17 @@ impl std::fmt::Display for ReferenceStats {
             self.seconds
         )?;
         if self.medium_beams > 0 {
+            write!(f, "; {} photon beams (radius {:.4} m)", self.medium_beams, self.medium_beam_radius)?;
+        }
+        if self.view_deposits > 0 {
             write!(
                 f,
-                "; {} photon beams (radius {:.4} m) in {:.2} s",
-                self.medium_beams, self.medium_beam_radius, self.medium_beam_seconds
+                "; {} deposits for the surfaces seen through glass (radius {:.4} m)",
+                self.view_deposits, self.view_radius
             )?;
+        }
+        if self.medium_beams > 0 || self.view_deposits > 0 {
+            write!(f, " in {:.2} s", self.medium_beam_seconds)?;
         }
         Ok(())
     }
@@ -221,7 +252,10 @@ pub struct ReferenceOutput {
     /// Everything else (camera paths), W/(m² sr).
     pub nocaustic: Image,
     /// Per pixel and channel: the estimated variance of `caustic`'s value (the variance of the
-    /// mean over [`CAUSTIC_BATCHES`] independent batches of photons), (W/(m² sr))².
+    /// mean over [`CAUSTIC_BATCHES`] independent batches of photons), (W/(m² sr))²; where the
+    /// camera sees caustic light through glass (gathered from the deposits and photon beams),
+    /// plus the camera samples' variance of that part, not the noise of the deposits and beams
+    /// themselves.
     pub caustic_variance: Image,
     /// Per pixel and channel: the estimated variance of `nocaustic`'s value (sample variance
     /// of the camera paths / spp; an over-estimate, since the paths are stratified).
@@ -253,7 +287,7 @@ fn tracer<'a>(scene: &'a Scene, accel: &'a Accel, settings: &ReferenceSettings) 
     t.single_scattering = settings.medium_single_scattering_only;
     t.caustic_paths = settings.caustic_paths;
     t.partial_reflections = settings.partial_reflections;
-    t.beams_direct = settings.medium_beams_direct;
+    t.gather_direct = settings.gather_direct;
     t
 }
 
@@ -319,8 +353,10 @@ pub fn render_with_progress(
     let lights_with_photons =
         (0..=scene.lights.len()).filter(|&li| caustic_emitter(scene, li).is_some()).count() as u64;
     let beam_photons = if wants_beams(scene, settings) { settings.medium_beam_photons } else { 0 };
+    let view_photons = if wants_view_photons(scene, settings) { settings.specular_view_photons } else { 0 };
     progress.total.store(
-        lights_with_photons * (settings.photons_per_light + beam_photons) + w * h * settings.camera_spp as u64,
+        lights_with_photons * (settings.photons_per_light + beam_photons + view_photons)
+            + w * h * settings.camera_spp as u64,
         Ordering::Relaxed,
     );
     progress.done.store(0, Ordering::Relaxed);
@@ -332,9 +368,12 @@ pub fn render_with_progress(
     let mut photons = photon_pass(scene, &tracer, settings, true, true, progress)?;
     let tb = Instant::now();
     let (beams, beam_rays) = if beam_photons > 0 { beam_pass(scene, &tracer, settings, progress)? } else { (None, 0) };
+    let (view, view_rays) = if view_photons > 0 { view_pass(scene, &tracer, settings, progress)? } else { (None, 0) };
     let medium_beam_seconds = tb.elapsed().as_secs_f64();
     let (medium_beams, medium_beam_radius) = beams.as_ref().map_or((0, 0.0), |b| (b.beams().len() as u64, b.radius()));
+    let (view_deposits, view_radius) = view.as_ref().map_or((0, 0.0), |v| (v.len() as u64, v.radius()));
     tracer.beams = beams;
+    tracer.view_photons = view;
     let t1 = Instant::now();
     let cam = camera_pass(scene, &tracer, settings, progress)?;
     let camera_seconds = t1.elapsed().as_secs_f64();
@@ -355,7 +394,7 @@ pub fn render_with_progress(
             p[k] += c[k];
         }
     }
-    let rays = photons.rays + beam_rays + camera_rays;
+    let rays = photons.rays + beam_rays + view_rays + camera_rays;
     let busy = photons.seconds + camera_seconds;
     let stats = ReferenceStats {
         photon_paths: photons.paths,
@@ -373,6 +412,8 @@ pub fn render_with_progress(
         medium_beams,
         medium_beam_radius,
         medium_beam_seconds,
+        view_deposits,
+        view_radius,
     };
     Ok(ReferenceOutput {
         image,
@@ -483,6 +524,44 @@ fn trace_range(
     out
 }
 
+/// Trace `n` caustic photons per light, a set of their own (the same emission as the caustic
+/// photons, stratified samples of their own under the seed `settings.seed ^ salt`), into
+/// `targets` (beams or deposits, no camera connections). Their beams, deposits and rays, in
+/// chunk order: they do not depend on the thread count.
+fn extra_photons(
+    scene: &Scene,
+    tracer: &Tracer,
+    settings: &ReferenceSettings,
+    n: u64,
+    salt: u64,
+    targets: &PhotonTargets,
+    progress: &Progress,
+) -> Result<PhotonOut> {
+    let es = ReferenceSettings { photons_per_light: n, seed: settings.seed ^ salt, ..settings.clone() };
+    let mut all = PhotonOut::default();
+    for li in 0..=scene.lights.len() {
+        let Some(em) = caustic_emitter(scene, li) else { continue };
+        let nchunks = n.div_ceil(CHUNK);
+        let mut c0 = 0;
+        while c0 < nchunks {
+            progress.check()?;
+            let c1 = (c0 + WAVE).min(nchunks);
+            let outs: Vec<PhotonOut> = (c0..c1)
+                .into_par_iter()
+                .map(|c| trace_range(tracer, &em, &es, li, c * CHUNK..((c + 1) * CHUNK).min(n), targets))
+                .collect();
+            for o in outs {
+                all.rays += o.rays;
+                all.beams.extend(o.beams);
+                all.deposits.extend(o.deposits);
+            }
+            progress.add((c1 * CHUNK).min(n) - c0 * CHUNK);
+            c0 = c1;
+        }
+    }
+    Ok(all)
+}
+
 /// Whether a rendering traces photon beams: a medium, specular objects, and the light they
 /// carry in the image's class of caustic paths.
 fn wants_beams(scene: &Scene, settings: &ReferenceSettings) -> bool {
@@ -502,31 +581,10 @@ fn beam_pass(
     progress: &Progress,
 ) -> Result<(Option<photon_beams::PhotonBeams>, u64)> {
     let (Some(medium), Some((focus, _))) = (&scene.medium, specular_sphere(scene)) else { return Ok((None, 0)) };
-    let n = settings.medium_beam_photons;
-    let bs = ReferenceSettings { photons_per_light: n, seed: settings.seed ^ 0x6265_616d_7300, ..settings.clone() };
     let targets = PhotonTargets { camera: false, map: None, record_deposits: false, record_beams: true };
-    let mut beams = Vec::new();
-    let mut rays = 0;
-    for li in 0..=scene.lights.len() {
-        let Some(em) = caustic_emitter(scene, li) else { continue };
-        let nchunks = n.div_ceil(CHUNK);
-        let mut c0 = 0;
-        while c0 < nchunks {
-            progress.check()?;
-            let c1 = (c0 + WAVE).min(nchunks);
-            let outs: Vec<PhotonOut> = (c0..c1)
-                .into_par_iter()
-                .map(|c| trace_range(tracer, &em, &bs, li, c * CHUNK..((c + 1) * CHUNK).min(n), &targets))
-                .collect();
-            // In chunk order: the beams do not depend on the thread count.
-            for o in outs {
-                rays += o.rays;
-                beams.extend(o.beams);
-            }
-            progress.add((c1 * CHUNK).min(n) - c0 * CHUNK);
-            c0 = c1;
-        }
-    }
+    let out =
+        extra_photons(scene, tracer, settings, settings.medium_beam_photons, 0x6265_616d_7300, &targets, progress)?;
+    let (beams, rays) = (out.beams, out.rays);
     let radius = if settings.medium_beam_radius > 0.0 {
         settings.medium_beam_radius
     } else {
@@ -535,6 +593,33 @@ fn beam_pass(
     // Boxes of at most a sixteenth of the medium's diagonal.
     let piece = (medium.bounds_max - medium.bounds_min).length() / 16.0;
     Ok((Some(photon_beams::PhotonBeams::new(beams, radius, piece)), rays))
+}
+
+/// Whether a rendering keeps deposits for the surfaces seen through specular surfaces:
+/// specular objects, and that light in the image's class of caustic paths.
+fn wants_view_photons(scene: &Scene, settings: &ReferenceSettings) -> bool {
+    settings.specular_view_photons > 0 && settings.caustic_paths.keeps(false) && specular_sphere(scene).is_some()
+}
+
+/// Trace [`ReferenceSettings::specular_view_photons`] photons per light (their own samples and
+/// seed) and keep their first diffuse hits. Returns the indexed deposits and the rays traced.
+fn view_pass(
+    scene: &Scene,
+    tracer: &Tracer,
+    settings: &ReferenceSettings,
+    progress: &Progress,
+) -> Result<(Option<view_photons::ViewPhotons>, u64)> {
+    let Some((focus, _)) = specular_sphere(scene) else { return Ok((None, 0)) };
+    let targets = PhotonTargets { camera: false, map: None, record_deposits: true, record_beams: false };
+    let out =
+        extra_photons(scene, tracer, settings, settings.specular_view_photons, 0x7669_6577_0000, &targets, progress)?;
+    let (deposits, rays) = (out.deposits, out.rays);
+    let radius = if settings.specular_view_radius > 0.0 {
+        settings.specular_view_radius
+    } else {
+        2.0 * photon_beams::auto_radius(&scene.camera, focus)
+    };
+    Ok((Some(view_photons::ViewPhotons::new(deposits, radius)), rays))
 }
 
 struct PhotonResult {
@@ -720,7 +805,7 @@ fn camera_pass(
             (img.pixels[i], vimg.pixels[i], cimg.pixels[i], cvimg.pixels[i]) = (m, v, cm, cv);
         }
     }
-    let caustic = tracer.beams.is_some().then_some((cimg, cvimg));
+    let caustic = (tracer.beams.is_some() || tracer.view_photons.is_some()).then_some((cimg, cvimg));
     Ok(CameraResult { image: img, variance: vimg, caustic, rays })
 }
 
@@ -755,7 +840,9 @@ mod progress_tests {
         let (s, rs) = small(1 << 14);
         let p = Progress::new();
         let a = render_with_progress(&s, &rs, &p).expect("render");
-        assert_eq!(p.total(), (1 << 14) + 24 * 16 * 2);
+        // The caustic photons, the deposits' own photons (the ball: specular objects) and the
+        // camera paths.
+        assert_eq!(p.total(), (1 << 14) + rs.specular_view_photons + 24 * 16 * 2);
         assert_eq!(p.done(), p.total());
         assert_eq!(p.fraction(), 1.0);
         let b = render(&s, &rs).expect("render");

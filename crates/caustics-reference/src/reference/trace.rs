@@ -5,11 +5,12 @@
 //! light is specular is caustic light; the camera paths add up direct lighting (next-event
 //! estimation to the delta lights, with shadow rays that stop at any surface, glass included)
 //! at every diffuse vertex, which is exactly the light whose first bounce is diffuse. So the
-//! two parts never overlap and together are the whole image, except caustics on surfaces seen
-//! through a specular chain from the camera (specular → diffuse → specular → camera), which
-//! neither renders (the references lack them too: the specular mask marks those pixels). In a
-//! medium, the volume caustic seen through a specular chain (specular → medium → specular →
-//! camera) is gathered by the camera paths from photon beams ([`super::photon_beams`]).
+//! two parts never overlap and together are the whole image. Caustics seen through a specular
+//! chain from the camera, which no light-tracing connection reaches (glass stops it), are
+//! gathered by the camera paths: on surfaces (specular → diffuse → specular → camera) from the
+//! deposits of [`super::view_photons`], in a medium (specular → medium → specular → camera) from
+//! the photon beams of [`super::photon_beams`]. (The Mitsuba references lack the first: their
+//! specular mask marks those pixels.)
 //! [`CausticPaths`] restricts the photons' camera connections to one class of paths (the
 //! GPU's: the first diffuse hit only) or to the rest.
 //!
@@ -34,6 +35,7 @@ use super::medium::{Flight, Media};
 use super::optics::{fresnel_conductor, fresnel_dielectric, reflect, refract};
 use super::photon_beams::{PhotonBeam, PhotonBeams};
 use super::sampling::{PathRng, cosine_hemisphere};
+use super::view_photons::ViewPhotons;
 use caustics::lightspace::LightView;
 use caustics::scene::{Camera, Light, Material, Scene};
 use glam::Vec3;
@@ -197,9 +199,14 @@ pub struct Tracer<'a> {
     /// specular surfaces (light → specular → medium → specular → camera); `None`: those paths
     /// are not rendered.
     pub beams: Option<PhotonBeams>,
-    /// The beams also give the medium's caustic light the camera sees directly, and the
-    /// photons' connections from medium scattering points are dropped (for the beams' test).
-    pub beams_direct: bool,
+    /// The caustic photons' first diffuse hits, gathered by camera paths that reach a diffuse
+    /// surface through specular surfaces (light → specular → surface → specular → camera);
+    /// `None`: those paths are not rendered.
+    pub view_photons: Option<ViewPhotons>,
+    /// The beams and the deposits also give the caustic light the camera sees directly, and
+    /// the photons' connections from medium scattering points and first diffuse hits are
+    /// dropped (for the tests of the two estimates against light tracing).
+    pub gather_direct: bool,
 }
 
 impl<'a> Tracer<'a> {
@@ -216,7 +223,8 @@ impl<'a> Tracer<'a> {
             caustic_paths: CausticPaths::All,
             partial_reflections: true,
             beams: None,
-            beams_direct: false,
+            view_photons: None,
+            gather_direct: false,
         }
     }
 
@@ -276,7 +284,7 @@ impl<'a> Tracer<'a> {
                             if t.camera {
                                 let n0 = out.cam.len();
                                 self.connect_camera_medium(m, x, d, flux, rng, out);
-                                if !paths.keeps(false) || self.beams_direct {
+                                if !paths.keeps(false) || self.gather_direct {
                                     out.cam.truncate(n0);
                                 }
                             }
@@ -331,7 +339,7 @@ impl<'a> Tracer<'a> {
                         // are the same in every mode.
                         let n0 = out.cam.len();
                         self.connect_camera(h.p, ng, ns, albedo, flux, rng, out);
-                        if !paths.keeps(first) {
+                        if !paths.keeps(first) || (self.gather_direct && diffuse_seen == 0) {
                             out.cam.truncate(n0);
                         }
                     }
@@ -485,6 +493,7 @@ impl<'a> Tracer<'a> {
         let mut lc = Vec3::ZERO;
         let mut specular_only = false;
         let beams = self.beams.as_ref().filter(|_| self.caustic_paths.keeps(false));
+        let view_photons = self.view_photons.as_ref().filter(|_| self.caustic_paths.keeps(false));
         for depth in 0..self.max_depth {
             rays += 1;
             let hit = self.accel.intersect(o, d, f32::INFINITY);
@@ -492,7 +501,7 @@ impl<'a> Tracer<'a> {
                 && !self.in_dielectric(d, hit.as_ref())
             {
                 let t_hit = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
-                if (specular_only || (self.beams_direct && depth == 0))
+                if (specular_only || (self.gather_direct && depth == 0))
                     && let Some(b) = beams
                 {
                     // From a fork: the path's own numbers stay those of a rendering without
@@ -545,6 +554,11 @@ impl<'a> Tracer<'a> {
             let (ng, ns) = if front { (h.ng, h.ns) } else { (-h.ng, -h.ns) };
             match self.mats[h.object as usize] {
                 Material::Diffuse { albedo } => {
+                    if (specular_only || (self.gather_direct && depth == 0))
+                        && let Some(v) = view_photons
+                    {
+                        lc += beta * albedo / PI * v.irradiance(h.p, ng, h.object);
+                    }
                     let last = depth + 1 >= self.max_depth;
                     let (e, r) = self.direct_irradiance(h.p, h.ng, ng, ns, last, rng);
                     rays += r;
