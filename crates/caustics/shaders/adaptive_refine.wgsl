@@ -61,6 +61,8 @@
 @group(0) @binding(19) var<storage, read> bvh_nodes: array<BvhNode>;
 @group(0) @binding(20) var<storage, read> bvh_tris: array<BvhTri>;
 @group(0) @binding(21) var<storage, read> bvh_instances: array<BvhInstance>;
+// The medium's density grid (1 x 1 x 1 without one): photons march it (shared/trace.wgsl).
+@group(0) @binding(22) var density_grid: texture_3d<f32>;
 
 // The points of the current cluster traced so far: the corner lattice of its children (point
 // (a, b), a, b in 0..2, at a + 3 b) and the children's centres (child q at KIDS + q, child q

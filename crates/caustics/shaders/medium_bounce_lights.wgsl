@@ -9,8 +9,7 @@
 //   direct flux  = I(w) cos / r^2 * area * shadow   (directional: E cos * area)
 //   caustic flux = caustic irradiance (the light's map) * area
 // both times the transmittance from the light to the texel (as `shade_receivers` attenuates
-// them; the caustic only in a heterogeneous medium: in a homogeneous one the photons carried
-// their own path's, shared/trace.wgsl), area = the receiver area the texel covers (`texel_area`). The reflected flux rho *
+// them; not the caustic: the photons carried their own path's, shared/trace.wgsl), area = the receiver area the texel covers (`texel_area`). The reflected flux rho *
 // (direct + caustic) leaves the surface as a Lambertian emitter. The block's sums become one VPL:
 //   full    = sum of the reflected flux (W, rgb), into the full image;
 //   caustic = the part of it that came as caustic, into the caustic-only image;
@@ -161,9 +160,8 @@ fn main(@builtin(workgroup_id) wid: vec3u, @builtin(local_invocation_index) i: u
         }
         let area = texel_area(light.faces[f], p, n, f32(m));
         let rho = materials[u32(r.w)].a.rgb;
-        // The caustic map holds the light that arrives where the photons carried their path's
-        // transmittance (light.medium_lo.w, a homogeneous medium: shared/trace.wgsl); with a
-        // density grid it is attenuated along the straight line, as the direct light.
+        // The caustic map holds the light that arrives: the photons carried their path's
+        // transmittance (light.medium_lo.w: shared/trace.wgsl).
         let tc = select(tr, vec3f(1.0), light.medium_lo.w > 0.5);
         let full = rho * (e_direct * tr + ec * tc) * area;
         let caus = rho * ec * tc * area;

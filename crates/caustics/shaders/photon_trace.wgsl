@@ -50,6 +50,8 @@ struct TraceParams {
 @group(0) @binding(15) var<storage, read> bvh_nodes: array<BvhNode>;
 @group(0) @binding(16) var<storage, read> bvh_tris: array<BvhTri>;
 @group(0) @binding(17) var<storage, read> bvh_instances: array<BvhInstance>;
+// The medium's density grid (1 x 1 x 1 without one): photons march it (shared/trace.wgsl).
+@group(0) @binding(18) var density_grid: texture_3d<f32>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3u) {

@@ -7,10 +7,9 @@
 // In a medium, the direct light is attenuated by the transmittance from the light (a
 // directional light: from where its line back from the point leaves the medium's box) to the
 // point: exp(-sigma_t d) in a homogeneous medium, the ray march `grid_optical_depth` in
-// `medium_grid.y` steps through the density grid in a heterogeneous one. The caustic: in a
-// homogeneous medium the photons carried their own path's transmittance into the map
-// (shared/trace.wgsl, `land_photon`); in a heterogeneous one it is attenuated along the same
-// straight line (which runs through the caster: an approximation). Run once per light; adds into `radiance` (full) and `caustic` (caustic light only).
+// `medium_grid.y` steps through the density grid in a heterogeneous one. The caustic is not:
+// the photons carried their own path's transmittance into the map (shared/trace.wgsl,
+// `land_photon`; the straight line would run through the caster). Run once per light; adds into `radiance` (full) and `caustic` (caustic light only).
 // An environment region's light spreads its caustic over the region's sub-directions
 // (`taps`, src/env_taps.rs); every other light has no taps.
 // Tiles (`sp.tiles`, RenderSettings::shading_tiles): per tile of SHADE_TILE^2 texels, whether the
@@ -237,8 +236,8 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
             tr = exp(-sp.sigma_t.rgb * od);
         }
         e *= tr;
-        // Where the photons carried their own path's transmittance into the map (a homogeneous
-        // medium, light.medium_lo.w: shared/trace.wgsl), the caustic is not attenuated again.
+        // The photons carried their own path's transmittance into the map (light.medium_lo.w:
+        // shared/trace.wgsl): the caustic is not attenuated again.
         if (light.medium_lo.w < 0.5) { ec *= tr; }
     }
     let albedo = mat.a.rgb / PI;

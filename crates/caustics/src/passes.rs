@@ -484,6 +484,7 @@ fn light_gpu(
     lens: f32,
     crop: [f32; 4],
     medium: Option<&crate::scene::Medium>,
+    grid_steps: u32,
 ) -> LightGpu {
     let mut faces = [FaceGpu { world_to_clip: [[0.0; 4]; 4], clip_to_world: [[0.0; 4]; 4], origin: [0.0; 4] }; 6];
     for (f, face) in view.faces.iter().enumerate() {
@@ -511,14 +512,12 @@ fn light_gpu(
         extra: [caster_radius, view.scene_radius, view.tan_half_fov, multi_bounce],
         splat: [lens, if view.has_spill() { SPILL_FACE_PRESENT as f32 } else { 0.0 }, 0.0, 0.0],
         crop,
-        // Photons carry their path's transmittance in a homogeneous medium only (a density
-        // grid would need the photon stages to march it).
-        medium_lo: match medium {
-            Some(m) if m.density.is_none() => m.bounds_min.extend(1.0).to_array(),
-            _ => [0.0; 4],
-        },
+        // Photons carry their path's transmittance (w: 1 homogeneous, 2 a density grid marched
+        // in `medium_light_steps` steps per segment, in sigma_t's w).
+        medium_lo: medium
+            .map_or([0.0; 4], |m| m.bounds_min.extend(if m.density.is_some() { 2.0 } else { 1.0 }).to_array()),
         medium_hi: medium.map_or([0.0; 4], |m| m.bounds_max.extend(0.0).to_array()),
-        medium_sigma_t: medium.map_or([0.0; 4], |m| (m.sigma_s + m.sigma_a).extend(0.0).to_array()),
+        medium_sigma_t: medium.map_or([0.0; 4], |m| (m.sigma_s + m.sigma_a).extend(grid_steps as f32).to_array()),
     }
 }
 
@@ -931,6 +930,7 @@ pub(crate) fn light_record(
         lens,
         crop,
         medium,
+        s.medium_light_steps,
     );
     (view, lg, scale)
 }
@@ -1039,6 +1039,7 @@ pub(crate) fn record_light(
         Some(v) => [&v[0], &v[1], &v[2], &v[3]],
         None => [&fpv, &fnv, &bpv, &bnv],
     };
+    let density = density_view(ctx, &dc.geo.density);
     let emit = crate::techniques::Emit {
         ctx,
         settings: s,
@@ -1054,6 +1055,7 @@ pub(crate) fn record_light(
         recv_nrm: &rnv,
         materials: &dc.geo.materials,
         bvh: [&dc.geo.bvh_nodes, &dc.geo.bvh_tris, &dc.geo.bvh_instances],
+        density: &density,
         stats: &stats,
         accum: &accum,
         splat_targets: &splat_targets,

@@ -32,10 +32,9 @@ struct LightGpu {
     // The NDC rectangle (lo.x, lo.y, hi.x, hi.y) photon_trace spreads its N x N grid over: the
     // casters' box for a directional light under the basic technique, else (-1, -1, 1, 1).
     crop: vec4f,
-    // A homogeneous medium's box (medium_lo.w = 1: photons carry their path's transmittance
-    // into the caustic map, shared/trace.wgsl `land_photon`; 0: no medium, or a density grid:
-    // the caustic is attenuated along the straight line from the light where it is used) and
-    // sigma_t (rgb, 1/m).
+    // The medium's box (medium_lo.w: 0 none, 1 homogeneous, 2 a density grid; with one, photons
+    // carry their path's transmittance into the caustic map, shared/trace.wgsl `land_photon`)
+    // and sigma_t (rgb, 1/m; w: the grid's march steps per path segment).
     medium_lo: vec4f,
     medium_hi: vec4f,
     medium_sigma_t: vec4f,

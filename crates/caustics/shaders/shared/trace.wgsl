@@ -797,8 +797,10 @@ fn beam_diameter(f: u32, hit: vec3f, dir: vec3f, m: f32, uv: vec2f) -> f32 {
 // sig): its caustic-map position and splat data (the lens equations' beam diameter, lens being
 // the first caster's optical power and lens_front its first surface point, or the ray
 // differentials' footprint), booked as landed, or as outside the map where no face sees p.
-// In a homogeneous medium (light.medium_lo.w = 1; stages that import `trace` import `medium`
-// before it): the photon's path length in the medium's box outside dielectrics, from the light
+// In a medium (light.medium_lo.w > 0; stages that import `trace` import `medium` before it and
+// bind the density grid as `density_grid`): the photon's optical path (length in the medium's
+// box, times the density where a grid gives one, marched in medium_sigma_t.w steps per segment)
+// outside dielectrics, from the light
 // (a directional light: from where its line leaves the box, `light_path_start`) through every
 // segment between interfaces that does not run inside a dielectric, to the receiver. The photon
 // lands with its flux times exp(-sigma_t * length), so the caustic map holds the light that
@@ -807,7 +809,11 @@ fn beam_diameter(f: u32, hit: vec3f, dir: vec3f, m: f32, uv: vec2f) -> f32 {
 var<private> trace_fog: f32 = 0.0;
 
 fn fog_add(a: vec3f, b: vec3f) {
-    if (light.medium_lo.w > 0.5) { trace_fog += box_length(a, b, light.medium_lo.xyz, light.medium_hi.xyz); }
+    if (light.medium_lo.w > 1.5) {
+        trace_fog += grid_optical_depth(density_grid, a, b, light.medium_lo.xyz, light.medium_hi.xyz, u32(light.medium_sigma_t.w));
+    } else if (light.medium_lo.w > 0.5) {
+        trace_fog += box_length(a, b, light.medium_lo.xyz, light.medium_hi.xyz);
+    }
 }
 
 // The first segment: from the light to the first caster point p.

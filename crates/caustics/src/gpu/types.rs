@@ -34,9 +34,9 @@ pub struct LightGpu {
     /// over: the casters' box for a directional light traced by the basic technique, else the
     /// whole face (-1, -1, 1, 1).
     pub crop: [f32; 4],
-    /// A homogeneous medium's box (`medium_lo.w` = 1: the photons carry their path's
-    /// transmittance into the caustic map; 0: no medium, or a density grid, whose consumers
-    /// attenuate the caustic along the straight line from the light) and sigma_t (rgb, 1/m).
+    /// The medium's box (`medium_lo.w`: 0 none, 1 homogeneous, 2 a density grid; with one the
+    /// photons carry their path's transmittance into the caustic map) and sigma_t (rgb, 1/m;
+    /// w: the grid's march steps per path segment).
     pub medium_lo: [f32; 4],
     pub medium_hi: [f32; 4],
     pub medium_sigma_t: [f32; 4],

@@ -266,6 +266,7 @@ impl Adaptive {
                     e.bvh[0].as_entire_binding(),
                     e.bvh[1].as_entire_binding(),
                     e.bvh[2].as_entire_binding(),
+                    wgpu::BindingResource::TextureView(e.density),
                 ],
             );
             let sbg = setup(LevelParams { level: p.level(grid * 2), ..lp });

@@ -166,6 +166,9 @@ pub(crate) struct Emit<'a> {
     pub materials: &'a wgpu::Buffer,
     /// The scene's BVH for the exact tracer: nodes, triangles, instances (`crate::accel`).
     pub bvh: [&'a wgpu::Buffer; 3],
+    /// The medium's density grid (1 x 1 x 1 without one): photons march it for their path's
+    /// transmittance (shared/trace.wgsl, `fog_add`).
+    pub density: &'a wgpu::TextureView,
     pub stats: &'a wgpu::Buffer,
     pub accum: &'a wgpu::Buffer,
     /// The splat mode's extra buffers (multi-resolution maps).
@@ -236,6 +239,7 @@ impl Emit<'_> {
                 self.bvh[0].as_entire_binding(),
                 self.bvh[1].as_entire_binding(),
                 self.bvh[2].as_entire_binding(),
+                wgpu::BindingResource::TextureView(self.density),
             ],
         )
     }
