@@ -161,10 +161,9 @@ fn main(@builtin(workgroup_id) wid: vec3u, @builtin(local_invocation_index) i: u
         let area = texel_area(light.faces[f], p, n, f32(m));
         let rho = materials[u32(r.w)].a.rgb;
         // The caustic map holds the light that arrives: the photons carried their path's
-        // transmittance (light.medium_lo.w: shared/trace.wgsl).
-        let tc = select(tr, vec3f(1.0), light.medium_lo.w > 0.5);
-        let full = rho * (e_direct * tr + ec * tc) * area;
-        let caus = rho * ec * tc * area;
+        // transmittance (shared/trace.wgsl).
+        let full = rho * (e_direct * tr + ec) * area;
+        let caus = rho * ec * area;
         let w = full.r + full.g + full.b;
         if (w <= 0.0) { continue; }
         let d = p - c;

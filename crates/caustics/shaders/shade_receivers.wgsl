@@ -235,10 +235,9 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
             let od = grid_optical_depth(density, lp, p, sp.medium_lo.xyz, sp.medium_hi.xyz, sp.medium_grid.y);
             tr = exp(-sp.sigma_t.rgb * od);
         }
+        // (Only the direct light: the photons carried their own path's transmittance into the
+        // caustic map, shared/trace.wgsl.)
         e *= tr;
-        // The photons carried their own path's transmittance into the map (light.medium_lo.w:
-        // shared/trace.wgsl): the caustic is not attenuated again.
-        if (light.medium_lo.w < 0.5) { ec *= tr; }
     }
     let albedo = mat.a.rgb / PI;
     let idx = gid.y * sp.width + gid.x;

@@ -191,15 +191,16 @@ pub struct ReferenceStats {
     pub rays_per_second: f64,
     /// Photon paths per second in the photon pass.
     pub photon_paths_per_second: f64,
-    /// Photon beams kept for the medium seen through specular surfaces, their kernel radius
-    /// (m), and the seconds their photons' tracing and indexing took (0, 0, 0: none).
+    /// Photon beams kept for the medium seen through specular surfaces and their kernel radius
+    /// (m) (0, 0: none).
     pub medium_beams: u64,
     pub medium_beam_radius: f32,
-    pub medium_beam_seconds: f64,
     /// Deposits kept for the surfaces seen through specular surfaces and their kernel radius
-    /// (m) (0, 0: none); their tracing's seconds are in `medium_beam_seconds`.
+    /// (m) (0, 0: none).
     pub view_deposits: u64,
     pub view_radius: f32,
+    /// Seconds the beams' and the deposits' own photons took to trace and index.
+    pub gather_photon_seconds: f64,
 }
 
 impl std::fmt::Display for ReferenceStats {
@@ -234,7 +235,7 @@ impl std::fmt::Display for ReferenceStats {
             )?;
         }
         if self.medium_beams > 0 || self.view_deposits > 0 {
-            write!(f, " in {:.2} s", self.medium_beam_seconds)?;
+            write!(f, " in {:.2} s", self.gather_photon_seconds)?;
         }
         Ok(())
     }
@@ -369,7 +370,7 @@ pub fn render_with_progress(
     let tb = Instant::now();
     let (beams, beam_rays) = if beam_photons > 0 { beam_pass(scene, &tracer, settings, progress)? } else { (None, 0) };
     let (view, view_rays) = if view_photons > 0 { view_pass(scene, &tracer, settings, progress)? } else { (None, 0) };
-    let medium_beam_seconds = tb.elapsed().as_secs_f64();
+    let gather_photon_seconds = tb.elapsed().as_secs_f64();
     let (medium_beams, medium_beam_radius) = beams.as_ref().map_or((0, 0.0), |b| (b.beams().len() as u64, b.radius()));
     let (view_deposits, view_radius) = view.as_ref().map_or((0, 0.0), |v| (v.len() as u64, v.radius()));
     tracer.beams = beams;
@@ -378,8 +379,8 @@ pub fn render_with_progress(
     let cam = camera_pass(scene, &tracer, settings, progress)?;
     let camera_seconds = t1.elapsed().as_secs_f64();
     let (nocaustic, nocaustic_variance, camera_rays) = (cam.image, cam.variance, cam.rays);
-    // The beams' light seen through specular surfaces is caustic light (its first surface is
-    // specular); its variance is independent of the photons'.
+    // The light the camera gathers through specular surfaces (beams, deposits) is caustic light
+    // (its first surface is specular); its variance is independent of the photons'.
     if let Some((c, v)) = cam.caustic {
         for (p, q) in photons.caustic.pixels.iter_mut().zip(&c.pixels) {
             (0..3).for_each(|k| p[k] += q[k]);
@@ -411,9 +412,9 @@ pub fn render_with_progress(
         photon_paths_per_second: photons.paths as f64 / photons.seconds.max(1e-9),
         medium_beams,
         medium_beam_radius,
-        medium_beam_seconds,
         view_deposits,
         view_radius,
+        gather_photon_seconds,
     };
     Ok(ReferenceOutput {
         image,
@@ -562,6 +563,11 @@ fn extra_photons(
     Ok(all)
 }
 
+/// A kernel radius setting: the given length, or `auto` where it is 0.
+fn or_auto(set: f32, auto: f32) -> f32 {
+    if set > 0.0 { set } else { auto }
+}
+
 /// Whether a rendering traces photon beams: a medium, specular objects, and the light they
 /// carry in the image's class of caustic paths.
 fn wants_beams(scene: &Scene, settings: &ReferenceSettings) -> bool {
@@ -585,11 +591,7 @@ fn beam_pass(
     let out =
         extra_photons(scene, tracer, settings, settings.medium_beam_photons, 0x6265_616d_7300, &targets, progress)?;
     let (beams, rays) = (out.beams, out.rays);
-    let radius = if settings.medium_beam_radius > 0.0 {
-        settings.medium_beam_radius
-    } else {
-        photon_beams::auto_radius(&scene.camera, focus)
-    };
+    let radius = or_auto(settings.medium_beam_radius, photon_beams::auto_radius(&scene.camera, focus));
     // Boxes of at most a sixteenth of the medium's diagonal.
     let piece = (medium.bounds_max - medium.bounds_min).length() / 16.0;
     Ok((Some(photon_beams::PhotonBeams::new(beams, radius, piece)), rays))
@@ -614,11 +616,7 @@ fn view_pass(
     let out =
         extra_photons(scene, tracer, settings, settings.specular_view_photons, 0x7669_6577_0000, &targets, progress)?;
     let (deposits, rays) = (out.deposits, out.rays);
-    let radius = if settings.specular_view_radius > 0.0 {
-        settings.specular_view_radius
-    } else {
-        2.0 * photon_beams::auto_radius(&scene.camera, focus)
-    };
+    let radius = or_auto(settings.specular_view_radius, 2.0 * photon_beams::auto_radius(&scene.camera, focus));
     Ok((Some(view_photons::ViewPhotons::new(deposits, radius)), rays))
 }
 
@@ -734,14 +732,15 @@ struct CameraResult {
     /// The non-caustic image and its per-pixel variance.
     image: Image,
     variance: Image,
-    /// The caustic light gathered from the photon beams and its variance (with beams only).
+    /// The caustic light gathered from the photon beams and deposits and its variance (with
+    /// either only).
     caustic: Option<(Image, Image)>,
     rays: u64,
 }
 
 /// The non-caustic image: `camera_spp` camera paths per pixel, stratified in the pixel; and
-/// the variance of each pixel's value; with photon beams, the caustic light the same paths
-/// gather from them.
+/// the variance of each pixel's value; with photon beams or deposits, the caustic light the
+/// same paths gather from them.
 fn camera_pass(
     scene: &Scene,
     tracer: &Tracer,

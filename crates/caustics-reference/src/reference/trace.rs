@@ -347,7 +347,7 @@ impl<'a> Tracer<'a> {
                     if depth + 1 >= self.max_depth {
                         break;
                     }
-                    if paths == CausticPaths::FirstDiffuse {
+                    if paths == CausticPaths::FirstDiffuse || !(t.camera || t.record_beams) {
                         // Nothing later is kept (the maps and deposits take the first diffuse
                         // hit only).
                         break;
@@ -464,10 +464,10 @@ impl<'a> Tracer<'a> {
     }
 
     /// Radiance along the camera ray through image point (x, y), without caustic light, and the
-    /// caustic light it gathers from the photon beams ([`Self::beams`]) on flights through the
-    /// medium reached through specular surfaces alone (light → specular → medium → specular →
-    /// camera, which the photons' camera connections cannot render). Returns (radiance, caustic
-    /// radiance from the beams, rays traced).
+    /// caustic light it gathers where it has met specular surfaces alone (at least one), which
+    /// the photons' camera connections cannot render: from the photon beams ([`Self::beams`])
+    /// along its flights through the medium, from the deposits ([`Self::view_photons`]) at its
+    /// first diffuse vertex. Returns (radiance, gathered caustic radiance, rays traced).
     ///
     /// The environment light: a ray that escapes before any diffuse vertex sees it (background,
     /// reflections, refractions); at a diffuse vertex it is sampled by next-event estimation
@@ -488,22 +488,22 @@ impl<'a> Tracer<'a> {
         // Whether the path has scattered in the medium (with single scattering, later flights
         // only attenuate).
         let mut scattered = false;
-        // Caustic light from the photon beams, and whether the path has met specular surfaces
-        // only (at least one) so far.
+        // Caustic light from the photon beams and deposits, and whether the path has met
+        // specular surfaces only (at least one) so far.
         let mut lc = Vec3::ZERO;
         let mut specular_only = false;
         let beams = self.beams.as_ref().filter(|_| self.caustic_paths.keeps(false));
         let view_photons = self.view_photons.as_ref().filter(|_| self.caustic_paths.keeps(false));
         for depth in 0..self.max_depth {
             rays += 1;
+            // Whether this vertex gathers (the tests' `gather_direct`: also the camera's own).
+            let gathers = specular_only || (self.gather_direct && depth == 0);
             let hit = self.accel.intersect(o, d, f32::INFINITY);
             if let Some(m) = &self.media
                 && !self.in_dielectric(d, hit.as_ref())
             {
                 let t_hit = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
-                if (specular_only || (self.gather_direct && depth == 0))
-                    && let Some(b) = beams
-                {
+                if gathers && let Some(b) = beams {
                     // From a fork: the path's own numbers stay those of a rendering without
                     // beams (heterogeneous media draw for the transmittances).
                     let mut g = rng.fork(0x6265_616d);
@@ -554,9 +554,7 @@ impl<'a> Tracer<'a> {
             let (ng, ns) = if front { (h.ng, h.ns) } else { (-h.ng, -h.ns) };
             match self.mats[h.object as usize] {
                 Material::Diffuse { albedo } => {
-                    if (specular_only || (self.gather_direct && depth == 0))
-                        && let Some(v) = view_photons
-                    {
+                    if gathers && let Some(v) = view_photons {
                         lc += beta * albedo / PI * v.irradiance(h.p, ng, h.object);
                     }
                     let last = depth + 1 >= self.max_depth;
