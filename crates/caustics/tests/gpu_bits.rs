@@ -1,0 +1,217 @@
+//! The frame's bits: every catalogue scene under each photon technique, each surface-caustic
+//! source and (for scenes with directional or environment light) caustic spheres, rendered small,
+//! hashed (FNV-1a of the radiance and caustic-only images and the caustic flux words) and
+//! compared with `tests/data/image_bits.json`. A refactor must leave every hash as it was; a
+//! change that alters pixels on purpose rewrites the file in its own commit
+//! (`CAUSTICS_ACCEPT_BITS=1 cargo test --release --test gpu_bits`) and says why.
+//!
+//! The hashes hold for one adapter and driver (recorded in the file): on another the test prints
+//! why it does not compare and passes (floating-point results differ between drivers).
+
+mod common;
+use caustics::Scene;
+use caustics::caustic_spheres::{CausticSpheres, SphereSettings};
+use caustics::render::{RenderSettings, SurfaceCaustics, Technique};
+use caustics::renderer::Renderer;
+use caustics::scene::Light;
+use caustics_reference::reference::Progress;
+use caustics_reference::reference::spheres;
+use common::gpu;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+/// The variants each scene is rendered under: (name, technique, surface caustics).
+const VARIANTS: &[(&str, Technique, SurfaceCaustics)] = &[
+    ("basic", Technique::Basic, SurfaceCaustics::Photons),
+    ("hierarchical", Technique::Hierarchical, SurfaceCaustics::Photons),
+    ("adaptive-level", Technique::AdaptiveLevel, SurfaceCaustics::Photons),
+    ("adaptive-error", Technique::AdaptiveError, SurfaceCaustics::Photons),
+    ("surface-beams", Technique::Basic, SurfaceCaustics::Beams),
+    ("caustic-spheres", Technique::CausticSpheres, SurfaceCaustics::Photons),
+];
+
+fn fnv1a(h: &mut u64, bytes: &[u8]) {
+    for b in bytes {
+        *h ^= u64::from(*b);
+        *h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+}
+
+fn data_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/image_bits.json")
+}
+
+fn scenes_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
+}
+
+/// Tiny tables: this test checks bits, not the tables' accuracy.
+fn sphere_settings() -> SphereSettings {
+    SphereSettings { directions: 3, spheres: 4, width: 16, height: 16, photons: 1 << 12, max_depth: 8 }
+}
+
+fn has_directional_light(s: &Scene) -> bool {
+    s.environment.is_some() || s.lights.iter().any(|l| matches!(l, Light::Directional { .. }))
+}
+
+/// The hash of one render, or `invalid` where the settings refuse the scene.
+fn render_hash(ctx: &caustics::gpu::GpuContext, scene: &Scene, technique: Technique, surface: SurfaceCaustics) -> String {
+    let settings = RenderSettings {
+        photons: 64,
+        caustic_map_size: 64,
+        shadow_map_size: 128,
+        technique,
+        surface_caustics: surface,
+        medium_steps: 16,
+        medium_light_steps: 4,
+        ..Default::default()
+    };
+    let mut r = match Renderer::with_context(ctx.clone(), scene.clone(), settings) {
+        Ok(r) => r,
+        Err(_) => return "invalid".into(),
+    };
+    if technique == Technique::CausticSpheres {
+        let mut tables = Vec::new();
+        for (oi, o) in scene.objects.iter().enumerate() {
+            if o.caustic_caster && scene.material_of(o).is_specular() {
+                let t = spheres::precompute(scene, oi, &sphere_settings(), None, &Progress::new()).unwrap();
+                tables.push((oi, Arc::new(t) as Arc<CausticSpheres>));
+            }
+        }
+        if r.set_caustic_spheres(tables, caustics::caustic_spheres::Blend::Triangle, false).is_err() {
+            return "invalid".into();
+        }
+    }
+    let out = match r.render_once() {
+        Ok(o) => o,
+        Err(_) => return "invalid".into(),
+    };
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for img in [&out.image, &out.caustic] {
+        for p in &img.pixels {
+            for c in p {
+                fnv1a(&mut h, &c.to_le_bytes());
+            }
+        }
+    }
+    for words in out.caustic_flux_bits.iter().flatten() {
+        fnv1a(&mut h, &words.to_le_bytes());
+    }
+    format!("{h:016x}")
+}
+
+/// The recorded file: the adapter it holds for and the hashes by `scene/variant`.
+#[derive(serde::Serialize, serde::Deserialize, Default)]
+struct Recorded {
+    adapter: String,
+    driver: String,
+    hashes: BTreeMap<String, String>,
+}
+
+fn adapter_of(ctx: &caustics::gpu::GpuContext) -> (String, String) {
+    (ctx.info.name.clone(), format!("{} {}", ctx.info.driver, ctx.info.driver_info))
+}
+
+fn accepting() -> bool {
+    std::env::var("CAUSTICS_ACCEPT_BITS").is_ok_and(|v| v == "1")
+}
+
+/// New hashes gathered while accepting (every scene's test adds its own; the last one to finish
+/// writes the file).
+static ACCEPTED: Mutex<Option<(Recorded, usize)>> = Mutex::new(None);
+
+fn check(name: &str) {
+    let Some(ctx) = gpu() else { return };
+    let mut scene = Scene::load(&scenes_dir().join(format!("{name}.json"))).unwrap();
+    scene.camera.height = (scene.camera.height * 32 / scene.camera.width).max(1);
+    scene.camera.width = 32;
+    let directional = has_directional_light(&scene);
+    let mut got = BTreeMap::new();
+    for (variant, technique, surface) in VARIANTS {
+        if *technique == Technique::CausticSpheres && !directional {
+            continue;
+        }
+        got.insert(format!("{name}/{variant}"), render_hash(&ctx, &scene, *technique, *surface));
+    }
+    let (adapter, driver) = adapter_of(&ctx);
+    if accepting() {
+        let mut acc = ACCEPTED.lock().unwrap();
+        let (rec, done) = acc.get_or_insert_with(|| {
+            (Recorded { adapter: adapter.clone(), driver: driver.clone(), ..Default::default() }, 0)
+        });
+        rec.hashes.extend(got);
+        *done += 1;
+        if *done == SCENES.len() {
+            let text = serde_json::to_string_pretty(rec).unwrap() + "\n";
+            std::fs::create_dir_all(data_path().parent().unwrap()).unwrap();
+            std::fs::write(data_path(), text).unwrap();
+            eprintln!("wrote {}", data_path().display());
+        }
+        return;
+    }
+    let rec: Recorded = serde_json::from_str(&std::fs::read_to_string(data_path()).unwrap()).unwrap();
+    if rec.adapter != adapter || rec.driver != driver {
+        eprintln!(
+            "not comparing image bits: recorded on {} ({}), this adapter is {adapter} ({driver})",
+            rec.adapter, rec.driver
+        );
+        return;
+    }
+    let mut wrong = Vec::new();
+    for (k, v) in &got {
+        match rec.hashes.get(k) {
+            Some(want) if want == v => {}
+            Some(want) => wrong.push(format!("{k}: {v}, recorded {want}")),
+            None => wrong.push(format!("{k}: {v}, not recorded")),
+        }
+    }
+    assert!(wrong.is_empty(), "image bits changed:\n{}", wrong.join("\n"));
+}
+
+macro_rules! scenes {
+    ($($name:ident),* $(,)?) => {
+        const SCENES: &[&str] = &[$(stringify!($name)),*];
+        $(#[test] fn $name() { check(stringify!($name)); })*
+    };
+}
+
+scenes!(
+    a_glass_sphere,
+    b_mirror_ring,
+    ball_over_bunny,
+    bunny_over_ball,
+    dragon_spheres,
+    glass_buddha,
+    glass_bunny,
+    glass_dragon,
+    glass_dragon_fog,
+    glass_sphere,
+    glass_sphere_3dir,
+    glass_sphere_fog,
+    glass_sphere_fog_sun,
+    glass_sphere_sky,
+    glass_sphere_studio,
+    mirror_ring,
+    smoke_puff,
+    stacked_balls,
+    stacked_balls_fog,
+    two_spheres,
+    volume_caustic_fog,
+);
+
+/// Every scene of the catalogue has its test (a new scene must be added above).
+#[test]
+fn every_catalogue_scene_is_hashed() {
+    let mut on_disk: Vec<String> = std::fs::read_dir(scenes_dir())
+        .unwrap()
+        .filter_map(|e| {
+            let p = e.unwrap().path();
+            (p.extension()? == "json").then(|| p.file_stem().unwrap().to_string_lossy().into_owned())
+        })
+        .collect();
+    on_disk.sort();
+    let mut listed: Vec<String> = SCENES.iter().map(|s| s.to_string()).collect();
+    listed.sort();
+    assert_eq!(on_disk, listed);
+}
