@@ -37,7 +37,7 @@ fn main() {
     let ctx = caustics::gpu::GpuContext::new(None).unwrap();
     let mut s = caustics::render::RenderSettings::default();
     if transmitted {
-        s.dielectric_reflection = false;
+        s.photons.reflection = false;
         s.beams.reflection = false;
     }
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<u32>().ok());

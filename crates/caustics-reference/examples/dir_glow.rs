@@ -68,10 +68,13 @@ fn main() {
 
     let ctx = caustics::gpu::GpuContext::new(None).unwrap();
     let base = caustics::render::RenderSettings {
-        photons: grid,
-        caustic_map_size: m,
-        shadow_map_size: 1024,
-        max_depth: std::env::var("MAX_DEPTH").map_or(16, |v| v.parse().unwrap()),
+        photons: caustics::settings::PhotonSettings {
+            count: grid,
+            caustic_map_size: m,
+            max_depth: std::env::var("MAX_DEPTH").map_or(16, |v| v.parse().unwrap()),
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 1024, ..Default::default() },
         ..Default::default()
     };
     let variants: [(&str, bool, bool, bool); 4] = [
@@ -83,9 +86,12 @@ fn main() {
     let mut prev = [0.0f64; 8];
     for (name, refl, internal, residual) in variants {
         let s = caustics::render::RenderSettings {
-            dielectric_reflection: refl,
-            internal_reflection: internal,
-            residual_branches: residual,
+            photons: caustics::settings::PhotonSettings {
+                reflection: refl,
+                internal_reflection: internal,
+                residual,
+                ..base.photons
+            },
             ..base.clone()
         };
         let mut r = caustics::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s).unwrap();

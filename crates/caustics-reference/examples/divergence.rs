@@ -65,11 +65,14 @@ fn main() {
     let m: u32 = a[3].parse().unwrap();
     let ctx = caustics::gpu::GpuContext::new(None).unwrap();
     let s = RenderSettings {
-        photons: n,
-        caustic_map_size: m,
-        shadow_map_size: 512,
-        splat: SplatMode::Differential,
-        dielectric_reflection: false,
+        photons: caustics::settings::PhotonSettings {
+            count: n,
+            caustic_map_size: m,
+            splat: SplatMode::Differential,
+            reflection: false,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
         ..Default::default()
     };
     let out = render_inspect(&ctx, &scene, &s, Inspect { photons: true, ..Default::default() }).unwrap();

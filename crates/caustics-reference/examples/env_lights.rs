@@ -101,13 +101,14 @@ fn main() {
     for &(d, rule, env_taps, sph) in &runs {
         let d_num = d;
         let s = caustics::render::RenderSettings {
-            technique: if sph { caustics::render::Technique::CausticSpheres } else { Default::default() },
-            env_split: rule,
-            env_taps,
-            photons: grid,
-            caustic_map_size: std::env::var("CAUSTIC_MAP").map_or(512, |v| v.parse().unwrap()),
-            shadow_map_size: 1024,
-            env_lights: d,
+            photons: caustics::settings::PhotonSettings {
+                technique: if sph { caustics::render::Technique::CausticSpheres } else { Default::default() },
+                count: grid,
+                caustic_map_size: std::env::var("CAUSTIC_MAP").map_or(512, |v| v.parse().unwrap()),
+                ..Default::default()
+            },
+            shading: caustics::settings::ShadingSettings { shadow_map_size: 1024, ..Default::default() },
+            environment: caustics::settings::EnvironmentSettings { split: rule, taps: env_taps, lights: d },
             ..Default::default()
         };
         let mut r = caustics::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s).unwrap();

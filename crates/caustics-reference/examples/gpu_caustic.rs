@@ -15,16 +15,25 @@ fn main() {
     scene.camera.height = scene.camera.height.min(320);
     let ctx = caustics::gpu::GpuContext::new(None).expect("a GPU adapter");
     let s = RenderSettings {
-        photons: a[1].parse().unwrap(),
-        caustic_map_size: a[2].parse().unwrap(),
-        shadow_map_size: 1024,
-        technique: Technique::Basic,
-        tracer: Tracer::Exact,
-        residual_branches: a[3] == "residual",
+        photons: caustics::settings::PhotonSettings {
+            count: a[1].parse().unwrap(),
+            caustic_map_size: a[2].parse().unwrap(),
+            technique: Technique::Basic,
+            tracer: Tracer::Exact,
+            residual: a[3] == "residual",
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 1024, ..Default::default() },
         ..Default::default()
     };
     let s = match a.get(5) {
-        Some(m) => RenderSettings { splat: caustics::splat::SplatMode::parse(m).expect("a splat mode"), ..s },
+        Some(m) => RenderSettings {
+            photons: caustics::settings::PhotonSettings {
+                splat: caustics::splat::SplatMode::parse(m).expect("a splat mode"),
+                ..s.photons
+            },
+            ..s
+        },
         None => s,
     };
     let out = caustics::render::render(&ctx, &scene, &s).expect("gpu render");

@@ -10,11 +10,14 @@ fn main() {
     let ctx = caustics::gpu::GpuContext::new(None).unwrap();
     for mode in [SplatMode::ThinLens, SplatMode::ThickLens, SplatMode::Differential] {
         let s = RenderSettings {
-            photons: n,
-            caustic_map_size: m,
-            shadow_map_size: 512,
-            splat: mode,
-            dielectric_reflection: false,
+            photons: caustics::settings::PhotonSettings {
+                count: n,
+                caustic_map_size: m,
+                splat: mode,
+                reflection: false,
+                ..Default::default()
+            },
+            shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
             ..Default::default()
         };
         let out = render_inspect(&ctx, &scene, &s, Inspect { photons: true, ..Default::default() }).unwrap();

@@ -10,7 +10,7 @@ fn main() {
     let ctx = caustics::gpu::GpuContext::new(None).unwrap();
     let mut s = caustics::render::RenderSettings::default();
     if let Some(n) = args.get(3) {
-        s.photons = n.parse().unwrap();
+        s.photons.count = n.parse().unwrap();
     }
     let t = std::time::Instant::now();
     let (r, dump) = caustics::render::render_dump(&ctx, &scene, &s).unwrap();

@@ -61,10 +61,13 @@ fn main() {
             })
             .collect();
         let s = RenderSettings {
-            photons: 64,
-            technique: Technique::CausticSpheres,
-            caustic_map_size: 128,
-            shadow_map_size: 512,
+            photons: caustics::settings::PhotonSettings {
+                count: 64,
+                technique: Technique::CausticSpheres,
+                caustic_map_size: 128,
+                ..Default::default()
+            },
+            shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
             ..Default::default()
         };
         let mut r = Renderer::with_context(ctx.clone(), scene.clone(), s).unwrap();

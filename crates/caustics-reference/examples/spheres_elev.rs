@@ -38,9 +38,12 @@ fn main() {
         let mut sc = scene.clone();
         sc.lights = vec![Light::Directional { direction: dir, irradiance: Vec3::splat(1.0) }];
         let s = RenderSettings {
-            technique: Technique::CausticSpheres,
-            photons: 64,
-            shadow_map_size: 1024,
+            photons: caustics::settings::PhotonSettings {
+                technique: Technique::CausticSpheres,
+                count: 64,
+                ..Default::default()
+            },
+            shading: caustics::settings::ShadingSettings { shadow_map_size: 1024, ..Default::default() },
             ..Default::default()
         };
         let mut r = caustics::renderer::Renderer::with_context(ctx.clone(), sc.clone(), s).unwrap();

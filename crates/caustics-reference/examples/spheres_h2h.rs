@@ -43,10 +43,13 @@ fn main() {
             })
             .collect();
         let base = RenderSettings {
-            photons,
-            technique: Technique::AdaptiveLevel,
-            caustic_map_size: 512,
-            shadow_map_size: 1024,
+            photons: caustics::settings::PhotonSettings {
+                count: photons,
+                technique: Technique::AdaptiveLevel,
+                caustic_map_size: 512,
+                ..Default::default()
+            },
+            shading: caustics::settings::ShadingSettings { shadow_map_size: 1024, ..Default::default() },
             ..Default::default()
         };
         let run = |s: RenderSettings| {
@@ -65,7 +68,13 @@ fn main() {
             (best, out.unwrap())
         };
         let (ma, oa) = run(base.clone());
-        let (ms, os) = run(RenderSettings { technique: caustics::render::Technique::CausticSpheres, ..base });
+        let (ms, os) = run(RenderSettings {
+            photons: caustics::settings::PhotonSettings {
+                technique: caustics::render::Technique::CausticSpheres,
+                ..base.photons
+            },
+            ..base
+        });
         let t = std::time::Instant::now();
         let r = reference::render(
             &scene,

@@ -86,10 +86,13 @@ fn main() {
         }
         for spill in [SpillFaces::Off, SpillFaces::Auto] {
             let s = RenderSettings {
-                photons: grid,
-                caustic_map_size: map,
-                tracer: Tracer::Exact,
-                spill_faces: spill,
+                photons: caustics::settings::PhotonSettings {
+                    count: grid,
+                    caustic_map_size: map,
+                    tracer: Tracer::Exact,
+                    ..Default::default()
+                },
+                shading: caustics::settings::ShadingSettings { spill_faces: spill, ..Default::default() },
                 ..Default::default()
             };
             let faces = s.light_view(&scene, &scene.lights[0]).faces.len();
@@ -128,10 +131,13 @@ fn time_frames(ctx: &caustics::gpu::GpuContext, path: &str, grid: u32, map: u32,
         .into_iter()
         .map(|spill| {
             let s = RenderSettings {
-                photons: grid,
-                caustic_map_size: map,
-                tracer: Tracer::Exact,
-                spill_faces: spill,
+                photons: caustics::settings::PhotonSettings {
+                    count: grid,
+                    caustic_map_size: map,
+                    tracer: Tracer::Exact,
+                    ..Default::default()
+                },
+                shading: caustics::settings::ShadingSettings { spill_faces: spill, ..Default::default() },
                 ..Default::default()
             };
             let mut r = caustics::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s).expect("renderer");

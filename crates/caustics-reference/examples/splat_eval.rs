@@ -30,10 +30,13 @@ fn main() {
         for &n in &grids {
             for &mode in &modes {
                 let s = RenderSettings {
-                    photons: n,
-                    caustic_map_size: m,
-                    shadow_map_size: 512,
-                    splat: mode,
+                    photons: caustics::settings::PhotonSettings {
+                        count: n,
+                        caustic_map_size: m,
+                        splat: mode,
+                        ..Default::default()
+                    },
+                    shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
                     ..Default::default()
                 };
                 // Warm-up render, then the measured one.

@@ -49,7 +49,11 @@ fn main() {
     let Some(Light::Spot { position: p0, direction: d0, .. }) = base.lights.first().cloned() else {
         panic!("the scene's first light must be a spot light")
     };
-    let s = RenderSettings { photons: 128, caustic_map_size: map, shadow_map_size: 512, splat, ..Default::default() };
+    let s = RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 128, caustic_map_size: map, splat, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
+        ..Default::default()
+    };
     let ctx = caustics::gpu::GpuContext::new(None).unwrap();
     let mut filter = TemporalFilter::new(TemporalSettings::default());
     let jump = frames * 3 / 4;

@@ -126,12 +126,15 @@ fn main() {
                 continue;
             }
             let s = RenderSettings {
-                photons: grid,
-                caustic_map_size: map,
-                shadow_map_size: 1024,
-                technique,
-                tracer,
-                first_hit_from_buffer,
+                photons: caustics::settings::PhotonSettings {
+                    count: grid,
+                    caustic_map_size: map,
+                    technique,
+                    tracer,
+                    ..Default::default()
+                },
+                shading: caustics::settings::ShadingSettings { shadow_map_size: 1024, ..Default::default() },
+                testing: caustics::settings::TestingSettings { first_hit_from_buffer, ..Default::default() },
                 ..Default::default()
             };
             let gpu = caustics::render::render(&ctx, &scene, &s).expect("gpu render");
