@@ -44,6 +44,15 @@ fn document() -> String {
         md += help(&[&sub]).trim_end();
         md += "\n```\n";
     }
+    // Every key `--set` and `--settings` take, with its default.
+    let out = Command::new(env!("CARGO_BIN_EXE_caustics")).args(["render", "--print-settings"]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    md += "\n## Every setting and its default\n\n";
+    md += "`caustics render --print-settings` (the keys are documented on the library's settings \
+           sections, `caustics::settings`; `cpu` and `spheres` are the command line's own: the CPU \
+           reference backend and the caustic spheres' tables):\n\n```json\n";
+    md += String::from_utf8(out.stdout).unwrap().trim_end();
+    md += "\n```\n";
     md
 }
 
