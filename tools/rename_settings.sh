@@ -3,6 +3,7 @@
 # `s.medium_steps` -> `s.medium.steps`, `s.photons` -> `s.photons.count`, ... Idempotent: run it
 # again after merging a branch that still uses the flat names. Usage:
 #   tools/rename_settings.sh [FILE...]     (default: every .rs file under crates/caustics/src)
+# Literals: tools/rename_settings_literals.py FILE... (before this script).
 # Names that other structs share (photons, technique, tracer, splat, max_depth) are renamed only
 # with the receivers that hold settings in each file; the compiler finds any left over.
 set -euo pipefail
@@ -69,3 +70,8 @@ for f in "${files[@]}"; do
         s/($r)\.max_depth\b/$1.photons.max_depth/g;
     ' "$f"
 done
+
+# Struct literals with the flat names (`RenderSettings { photons: 256, .. }`) are rewritten into
+# sections by tools/rename_settings_literals.py (only tests, examples and the command line have
+# them). The new lines can be long: format.
+cargo fmt --all
