@@ -69,7 +69,7 @@ impl std::fmt::Display for BeamVolume {
 }
 
 /// Volume caustics by adaptive beam tracing (Liktor & Dachsbacher 2011; `crate::beams`,
-/// docs/architecture.md "Volume caustics from beams"). Used in scenes with a participating
+/// docs/beams.md "Volume caustics from beams"). Used in scenes with a participating
 /// medium and a specular caster, for every spot and point light.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]

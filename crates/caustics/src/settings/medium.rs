@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 #[serde(default, deny_unknown_fields)]
 pub struct MediumSettings {
     /// Steps of the camera ray march that adds the lights' single scattering (`medium_scatter`,
-    /// docs/architecture.md), 1 to 4096.
+    /// docs/media.md), 1 to 4096.
     pub steps: u32,
     /// Heterogeneous media (a density grid): steps of each ray march for the transmittance
     /// toward a light (per camera-ray step in `medium_scatter`, per surface point in
@@ -17,7 +17,7 @@ pub struct MediumSettings {
     /// The light diffuse surfaces reflect into the medium (light → floor → fog → camera, and the
     /// caustic's: light → glass → floor → fog → camera) comes from virtual point lights, one per
     /// block of each light face's receiver map: this many blocks per side
-    /// (`medium_bounce_lights`, docs/architecture.md "Light reflected into the medium"), 0 to
+    /// (`medium_bounce_lights`, docs/media.md "Light between surfaces and the medium"), 0 to
     /// 64; 0 leaves that light out.
     pub bounce_grid: u32,
     /// Steps of the camera ray march that gathers the virtual point lights (`medium_bounce`),
@@ -25,7 +25,7 @@ pub struct MediumSettings {
     pub bounce_steps: u32,
     /// The medium along the camera paths beyond their first specular surface (through glass, in
     /// mirrors): `composite` attenuates what they see, and the medium's passes add the light
-    /// scattered along them (`EyeSegment`, docs/architecture.md "The medium beyond the first
+    /// scattered along them (`EyeSegment`, docs/media.md "The medium beyond the first
     /// specular surface"). Default on; off, glass shows what lies behind it as if the medium
     /// ended at its surface (cheaper).
     pub beyond_specular: bool,
