@@ -61,14 +61,14 @@ for cfg in "16 3 0.05" "64 0 0.05" "16 2 0.05" "16 2 0.03" "24 1 0.05" "32 0 0.0
     set -- $cfg
     run 60 "$B" bench --frames 12 scenes/volume_caustic_fog.json "${A[@]}" --technique basic --photons 1024 \
         --size 1920x1080 --phases full,camera --beam-grid "$1" --beam-levels "$2" \
-        --beam-linearity-threshold "$3" --medium-bounce-grid 0 --out "$OUT/beams_$1_$2_$3"
+        --set beams.linearity_threshold="$3" --set medium.bounce_grid=0 --out "$OUT/beams_$1_$2_$3"
 done
 run 40 "$B" render scenes/volume_caustic_fog.json "${A[@]}" --size 1920x1080 -o "$OUT/fog_1080.png"
 # The lit floor's glow (medium_bounce_* passes: GPU ms per pass in the render's table), on and off.
 run 40 "$B" render scenes/glass_sphere_fog.json "${A[@]}" --size 1920x1080 -o "$OUT/sphere_fog_1080.png"
-run 40 "$B" render scenes/glass_sphere_fog.json "${A[@]}" --size 1920x1080 --medium-bounce-grid 0 -o "$OUT/sphere_fog_1080_noglow.png"
+run 40 "$B" render scenes/glass_sphere_fog.json "${A[@]}" --size 1920x1080 --set medium.bounce_grid=0 -o "$OUT/sphere_fog_1080_noglow.png"
 # The medium beyond glass (`medium_*_segments`, `beam_gather_segments` in the table), off.
-run 40 "$B" render scenes/glass_sphere_fog.json "${A[@]}" --size 1920x1080 --no-medium-beyond-specular -o "$OUT/sphere_fog_1080_nobeyond.png"
+run 40 "$B" render scenes/glass_sphere_fog.json "${A[@]}" --size 1920x1080 --set medium.beyond_specular=false -o "$OUT/sphere_fog_1080_nobeyond.png"
 # The frame loop of the fog scene with everything on (camera-only frames keep the lights' VPLs).
 run 60 "$B" bench --frames 12 scenes/glass_sphere_fog.json "${A[@]}" --technique basic --photons 1024 \
     --size 1920x1080 --phases full,camera --out "$OUT/sphere_fog_loop"

@@ -21,29 +21,14 @@ use std::path::PathBuf;
 pub struct BenchArgs {
     /// Scene file (JSON); the built-in glass-ball scene if omitted.
     scene: Option<PathBuf>,
-    /// Techniques to compare, comma-separated: basic, hierarchical, adaptive-level, adaptive-error,
-    /// caustic-spheres (the sphere options below).
+    /// Techniques to compare, comma-separated: the names `render --technique` takes (basic,
+    /// hierarchical, adaptive-level, adaptive-error, caustic-spheres, beams: basic with the
+    /// surface caustics from beams, instead of basic), or none (with --cpu-photons).
     #[arg(long, default_value = "basic,hierarchical,adaptive-level,adaptive-error")]
     technique: String,
     /// Equivalent photon grids: a range of powers of two `LO..HI`, or a comma-separated list.
     #[arg(long, default_value = "256..4096")]
     photons: String,
-    /// Caustic map size per light-view face (texels).
-    #[arg(long, default_value_t = 1024)]
-    caustic_map: u32,
-    /// Memory for photon storage, MiB.
-    #[arg(long, default_value_t = 64)]
-    photon_memory: u64,
-    /// Adaptive techniques: the coarse grid the hierarchy starts from.
-    #[arg(long, default_value_t = 64)]
-    base_grid: u32,
-    /// Maximal caustic map error: convergence tolerance in caustic-map texels (0: one texel).
-    #[arg(long, default_value_t = 0.0)]
-    max_error_tolerance: f32,
-    /// Maximal caustic map error: check every level as the paper does (no skipping of the levels
-    /// where a cluster's spread predicts no convergence).
-    #[arg(long)]
-    no_error_skip: bool,
     /// Camera image size WxH (small: the bench is about the caustic map).
     #[arg(long, default_value = "64x64", value_parser = crate::parse_size)]
     size: (u32, u32),
@@ -56,13 +41,6 @@ pub struct BenchArgs {
     /// Adapter to use (a part of its name, see `caustics info`).
     #[arg(long)]
     adapter: Option<String>,
-    /// Splat mode for every technique: fixed, multires, thin-lens, thick-lens, triangles.
-    #[arg(long, default_value = "triangles")]
-    splat: String,
-    /// Photon tracer for every technique (the two side by side against the CPU reference:
-    /// the retired `tracers` example, docs/benchmarks.md).
-    #[arg(long, default_value = "exact", value_parser = crate::tracer_parser())]
-    tracer: caustics::render::Tracer,
     /// Also time the CPU reference renderer with this many photon paths per light, on one
     /// thread and on all (photon paths and rays per second; written to bench_SCENE_cpu.md).
     /// With `--technique none` only the CPU reference is timed.
@@ -78,27 +56,14 @@ pub struct BenchArgs {
     /// `camera`, `light`, `object` (all four if omitted).
     #[arg(long, default_value = "full,camera,light,object")]
     phases: String,
-    /// Caustic spheres (`--technique caustic-spheres`): the precomputed tables' settings.
     #[command(flatten)]
-    sphere_args: crate::spheres::SphereArgs,
-    /// Where the caustic on diffuse surfaces of spot and point lights comes from.
-    #[arg(long, default_value = "photons", value_parser = crate::surface_caustics_parser())]
-    surface_caustics: caustics::render::SurfaceCaustics,
-    /// Spill faces of spot lights (auto, off, on; see `caustics render --help`).
-    #[arg(long, default_value = "auto", value_parser = crate::spill_faces_parser())]
-    spill_faces: caustics::render::SpillFaces,
-    /// The volume caustic's beams (scenes with a medium; see `caustics render --help`).
-    #[command(flatten)]
-    beams: crate::BeamArgs,
-    /// Scenes with a medium: the light lit surfaces and the medium exchange, virtual point
-    /// lights per side of each light face (0: off, to time the beams alone; see `caustics
-    /// render --help`).
-    #[arg(long, default_value_t = 16)]
-    medium_bounce_grid: u32,
-    /// Scenes with a medium: leave out the medium beyond the first specular surface (see
-    /// `caustics render --help`).
-    #[arg(long)]
-    no_medium_beyond_specular: bool,
+    settings: crate::settings_args::SettingsArgs,
+    /// The settings every run starts from (`settings` resolved).
+    #[arg(skip)]
+    base: RenderSettings,
+    /// The caustic spheres' tables (`--technique caustic-spheres`; `--set spheres.KEY=VALUE`).
+    #[arg(skip)]
+    spheres: crate::spheres::SphereArgs,
 }
 
 fn parse_grids(s: &str) -> Result<Vec<u32>> {
@@ -137,7 +102,17 @@ fn is_photon_pass(name: &str) -> bool {
     name.starts_with("photon_") || name.starts_with("adaptive_") || name.starts_with("hcm_") || name == "coverage_mip"
 }
 
-pub fn run(a: &BenchArgs) -> Result<()> {
+pub fn run(mut a: BenchArgs) -> Result<()> {
+    let resolved = a.settings.resolve(RenderSettings::default(), None)?;
+    if a.settings.print_settings {
+        println!("{}", serde_json::to_string_pretty(&resolved.to_json())?);
+        return Ok(());
+    }
+    (a.base, a.spheres) = (resolved.render, resolved.spheres);
+    if a.technique != "none" && techniques(&a.technique)?.1 {
+        a.base.surface_caustics = caustics::render::SurfaceCaustics::Beams;
+    }
+    let a = &a;
     if a.frames > 0 {
         return crate::bench::frame_loop(a);
     }
@@ -147,7 +122,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     if a.technique == "none" {
         return Ok(());
     }
-    let (techniques, grids, splat, scene) = setup(a)?;
+    let (techniques, grids, scene) = setup(a)?;
     let ctx = caustics::gpu::GpuContext::new(a.adapter.as_deref())?;
     let adapter = format!("{} ({:?}, {})", ctx.info.name, ctx.info.backend, ctx.info.driver);
     println!("scene: {} ({}), adapter: {adapter}", scene.name, scene.source);
@@ -158,11 +133,14 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     for &n in &grids {
         for &t in &techniques {
             let s = RenderSettings {
-                shadow_map_size: 1024,
-                // Table 1 counts one photon per cell, as the paper (which has no reflected
-                // branch at glass) does: the transmitted branch only.
-                dielectric_reflection: false,
-                ..settings(a, t, n, splat)
+                photons: caustics::settings::PhotonSettings {
+                    // Table 1 counts one photon per cell, as the paper (which has no reflected
+                    // branch at glass) does: the transmitted branch only.
+                    reflection: false,
+                    ..settings(a, t, n).photons
+                },
+                shading: caustics::settings::ShadingSettings { shadow_map_size: 1024, ..settings(a, t, n).shading },
+                ..settings(a, t, n)
             };
             if n > t.max_photons() {
                 skipped.push((t, n, format!("{t} supports grids up to {}", t.max_photons())));
@@ -176,7 +154,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 let rendered = if t == Technique::CausticSpheres {
                     caustics::renderer::Renderer::with_context(ctx.clone(), scene.clone(), s.clone()).and_then(
                         |mut r| {
-                            crate::spheres::attach(&mut r, &scene, &a.sphere_args, &mut sphere_tables)?;
+                            crate::spheres::attach(&mut r, &scene, &a.spheres, &mut sphere_tables)?;
                             r.render_once()
                         },
                     )
@@ -272,20 +250,20 @@ fn markdown(
     let _ = writeln!(
         s,
         "Adapter: {adapter}. Caustic map {0}x{0}, photon memory {1} MiB, base grid {2}, splat {7}, tracer {9}, max-error tolerance {3} texels (0: one texel){8}, camera {4}x{5}. Coverage (casters in the light's view): **{6:.2} %**.\n",
-        a.caustic_map,
-        a.photon_memory,
-        a.base_grid,
-        a.max_error_tolerance,
+        a.base.photons.caustic_map_size,
+        a.base.photons.memory >> 20,
+        a.base.adaptive.base_grid,
+        a.base.adaptive.error_tolerance,
         a.size.0,
         a.size.1,
         100.0 * coverage,
-        a.splat,
-        if a.no_error_skip {
+        a.base.photons.splat,
+        if !a.base.testing.error_skip_hopeless {
             ", every level checked (the paper's traversal)"
         } else {
             ", hopeless check levels skipped"
         },
-        a.tracer,
+        a.base.photons.tracer,
     );
     let _ = writeln!(s, "## Photons splatted (Table 1 of Wyman & Nichols 2009)\n");
     let mut head = String::from("| photon grid | relevant |");
@@ -444,11 +422,11 @@ fn to_json(scene: &str, adapter: &str, a: &BenchArgs, runs: &[Run], skipped: &[(
     json!({
         "scene": scene,
         "adapter": adapter,
-        "caustic_map": a.caustic_map,
-        "photon_memory_mib": a.photon_memory,
-        "base_grid": a.base_grid,
-        "max_error_tolerance": a.max_error_tolerance,
-        "error_skip_hopeless": !a.no_error_skip,
+        "caustic_map": a.base.photons.caustic_map_size,
+        "photon_memory_mib": a.base.photons.memory >> 20,
+        "base_grid": a.base.adaptive.base_grid,
+        "max_error_tolerance": a.base.adaptive.error_tolerance,
+        "error_skip_hopeless": a.base.testing.error_skip_hopeless,
         "runs": rows,
         "not_run": skipped.iter().map(|(t, n, why)| json!({"technique": t.name(), "photon_grid": n, "why": why})).collect::<Vec<_>>(),
     })
@@ -685,37 +663,35 @@ impl Phase {
 }
 
 /// The render settings both benchmarks give technique `t` at grid `n`.
-fn settings(a: &BenchArgs, t: Technique, n: u32, splat: caustics::splat::SplatMode) -> RenderSettings {
-    RenderSettings {
-        photons: n,
-        technique: t,
-        base_grid: a.base_grid,
-        max_error_tolerance: a.max_error_tolerance,
-        error_skip_hopeless: !a.no_error_skip,
-        caustic_map_size: a.caustic_map,
-        photon_memory: a.photon_memory.saturating_mul(1 << 20),
-        splat,
-        tracer: a.tracer,
-        surface_caustics: a.surface_caustics,
-        spill_faces: a.spill_faces,
-        beams: a.beams.settings(),
-        medium_bounce_grid: a.medium_bounce_grid,
-        medium_beyond_specular: !a.no_medium_beyond_specular,
-        ..Default::default()
-    }
+fn settings(a: &BenchArgs, t: Technique, n: u32) -> RenderSettings {
+    let mut s = a.base.clone();
+    s.photons.count = n;
+    s.photons.technique = t;
+    s
 }
 
-/// What both benchmarks parse first: the techniques, photon grids, splat mode and scene (image
-/// size applied), and the output folder made.
-fn setup(a: &BenchArgs) -> Result<(Vec<Technique>, Vec<u32>, caustics::splat::SplatMode, Scene)> {
-    let techniques: Vec<Technique> = a
-        .technique
+/// The techniques of `--technique` (a comma list of the names `render --technique` takes), and
+/// whether `beams` was among them (basic, with the surface caustics from the beams).
+fn techniques(list: &str) -> Result<(Vec<Technique>, bool)> {
+    let choices: Vec<crate::settings_args::TechniqueChoice> = list
         .split(',')
-        .map(|t| Technique::parse(t).with_context(|| format!("--technique: unknown technique \"{t}\"")))
+        .map(|t| {
+            crate::settings_args::TechniqueChoice::parse(t)
+                .with_context(|| format!("--technique: unknown technique \"{t}\""))
+        })
         .collect::<Result<_>>()?;
+    let beams = choices.iter().any(|c| c.beams);
+    if beams && choices.iter().any(|c| !c.beams && c.technique == Technique::Basic) {
+        bail!("--technique: beams is basic with the surface caustics from beams; give basic or beams, not both");
+    }
+    Ok((choices.iter().map(|c| c.technique).collect(), beams))
+}
+
+/// What both benchmarks parse first: the techniques, photon grids and scene (image
+/// size applied), and the output folder made.
+fn setup(a: &BenchArgs) -> Result<(Vec<Technique>, Vec<u32>, Scene)> {
+    let (techniques, _) = techniques(&a.technique)?;
     let grids = parse_grids(&a.photons)?;
-    let splat = caustics::splat::SplatMode::parse(&a.splat)
-        .with_context(|| format!("--splat: unknown splat mode \"{}\"", a.splat))?;
     let mut scene = match &a.scene {
         Some(p) => Scene::load(p)?,
         None => Scene::default_scene(),
@@ -725,13 +701,13 @@ fn setup(a: &BenchArgs) -> Result<(Vec<Technique>, Vec<u32>, caustics::splat::Sp
     }
     (scene.camera.width, scene.camera.height) = a.size;
     std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
-    Ok((techniques, grids, splat, scene))
+    Ok((techniques, grids, scene))
 }
 
 /// `caustics bench --frames N`: the frame loop of the persistent renderer, phase by phase.
 pub fn frame_loop(a: &BenchArgs) -> Result<()> {
     use caustics::renderer::Renderer;
-    let (techniques, grids, splat, scene) = setup(a)?;
+    let (techniques, grids, scene) = setup(a)?;
     let phase_names = parse_phases(&a.phases)?;
     let mut ctx = Some(caustics::gpu::GpuContext::new(a.adapter.as_deref())?);
     let adapter = {
@@ -748,7 +724,7 @@ pub fn frame_loop(a: &BenchArgs) -> Result<()> {
     let bar = crate::progress::steps(total, "frames");
     for &t in &techniques {
         for &n in &grids {
-            let s = settings(a, t, n, splat);
+            let s = settings(a, t, n);
             let r = match renderer.as_mut() {
                 Some(r) => {
                     r.set_settings(s)?;
@@ -756,7 +732,7 @@ pub fn frame_loop(a: &BenchArgs) -> Result<()> {
                 }
                 None => renderer.insert(Renderer::with_context(ctx.take().unwrap(), scene.clone(), s)?),
             };
-            crate::spheres::attach(r, &scene, &a.sphere_args, &mut sphere_tables)?;
+            crate::spheres::attach(r, &scene, &a.spheres, &mut sphere_tables)?;
             let mut phases = Vec::new();
             for &name in &phase_names {
                 // Every phase starts from the scene as loaded.
@@ -818,7 +794,7 @@ fn frame_markdown(scene: &str, adapter: &str, a: &BenchArgs, runs: &[(Technique,
     let _ = writeln!(
         s,
         "Adapter: {adapter}. Camera {}x{}, caustic map {2}x{2}, splat {3}, {4} frames per phase (the first apart). {FULL_NOTE}\n",
-        a.size.0, a.size.1, a.caustic_map, a.splat, a.frames
+        a.size.0, a.size.1, a.base.photons.caustic_map_size, a.base.photons.splat, a.frames
     );
     let _ = writeln!(
         s,
@@ -933,8 +909,8 @@ fn frame_json(scene: &str, adapter: &str, a: &BenchArgs, runs: &[(Technique, u32
         "scene": scene,
         "adapter": adapter,
         "camera": [a.size.0, a.size.1],
-        "caustic_map": a.caustic_map,
-        "splat": a.splat,
+        "caustic_map": a.base.photons.caustic_map_size,
+        "splat": a.base.photons.splat.name(),
         "frames_per_phase": a.frames,
         "full_phase": FULL_NOTE,
         "frame_ms": "host clock from encode() to the GPU's completion of the submitted encoder",

@@ -1,6 +1,6 @@
-//! The beams' part of `caustics bench` (scenes with a medium, or `--surface-caustics beams`):
+//! The beams' part of `caustics bench` (scenes with a medium, or `--set surface_caustics=beams`):
 //! per run, the beams kept per refinement level, the fragments their hulls shaded
-//! (`--beam-volume hulls`) and the GPU milliseconds of each beam pass (`beam_refine` summed over
+//! (`beams.volume` hulls) and the GPU milliseconds of each beam pass (`beam_refine` summed over
 //! its levels, `beam_shrink` (the parts of last-level triangles), `beam_order` with its
 //! `beam_order_runs`, `beam_gather` and `beam_surface` summed over their chunks,
 //! `beam_surface_raster` (the surface caustic's hulls), `beam_hull`, `beam_raster` and
@@ -39,7 +39,7 @@ pub fn markdown<'a>(runs: impl Iterator<Item = (String, &'a GpuRender)>) -> Stri
                 let heads: Vec<String> = PASSES.iter().map(|p| format!(" {p} ms |")).collect();
                 let _ = writeln!(
                     s,
-                    "\n## Volume caustics (beams)\n\nBeams kept per refinement level (all branches), beams rendered, beams the energy cutoff shortened or dropped (`--beam-cutoff`), fragments their hulls shaded (`--beam-volume hulls`) and those of them that added light, and GPU ms per beam pass (timestamp queries; \"-\": not timed or not run).\n\n| run | light | kept per level | beams | cut | hull fragments | of them lit |{}\n| --- | ---: | --- | ---: | ---: | ---: | ---: |{}",
+                    "\n## Volume caustics (beams)\n\nBeams kept per refinement level (all branches), beams rendered, beams the energy cutoff shortened or dropped (`beams.cutoff`), fragments their hulls shaded (`beams.volume` hulls) and those of them that added light, and GPU ms per beam pass (timestamp queries; \"-\": not timed or not run).\n\n| run | light | kept per level | beams | cut | hull fragments | of them lit |{}\n| --- | ---: | --- | ---: | ---: | ---: | ---: |{}",
                     heads.concat(),
                     " ---: |".repeat(PASSES.len())
                 );

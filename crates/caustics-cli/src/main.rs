@@ -6,6 +6,7 @@ mod bench;
 mod bench_beams;
 mod compare;
 mod progress;
+mod settings_args;
 mod spheres;
 mod view;
 
@@ -22,6 +23,8 @@ use std::process::ExitCode;
 #[command(after_help = "Examples:
   caustics render                                   the built-in scene (a glass ball) to caustics.png
   caustics render scenes/mirror_ring.json -o ring.exr --photons 2048
+  caustics render scenes/smoke_puff.json --set beams.cutoff=0.01 --set medium.bounce_grid=0
+  caustics render --print-settings > my.json; caustics render --settings my.json
   caustics render scenes/glass_bunny.json --dump dump/   also writes the light-space buffers
   caustics render scenes/glass_sphere.json --backend cpu -o reference.exr
   caustics compare out.exr references/a_glass_sphere_caustic.exr --mask references/a_glass_sphere_specmask.png
@@ -40,265 +43,36 @@ enum Backend {
     Cpu,
 }
 
-/// `--technique`: one of the library's photon techniques, or `beams` (adaptive beam tracing for
-/// the caustics of spot and point lights on surfaces as in the medium, no photon maps: the same
-/// as `--surface-caustics beams` with the basic technique for the lights beams do not cover).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct TechniqueChoice {
-    pub technique: caustics::render::Technique,
-    pub beams: bool,
-}
-
-impl TechniqueChoice {
-    /// The settings' technique and where the surface caustic comes from (`beams` overrides
-    /// `surface`).
-    pub fn apply(
-        self,
-        surface: caustics::render::SurfaceCaustics,
-    ) -> (caustics::render::Technique, caustics::render::SurfaceCaustics) {
-        (self.technique, if self.beams { caustics::render::SurfaceCaustics::Beams } else { surface })
-    }
-}
-
-/// `--technique`: the library's techniques, by name, with their help (a new technique needs
-/// no edit here), and `beams`.
-pub(crate) fn technique_parser() -> impl clap::builder::TypedValueParser<Value = TechniqueChoice> {
-    use caustics::render::Technique as T;
-    use clap::builder::TypedValueParser;
-    let mut values: Vec<clap::builder::PossibleValue> =
-        T::ALL.iter().map(|t| clap::builder::PossibleValue::new(t.name()).help(t.describe())).collect();
-    values.push(clap::builder::PossibleValue::new("beams").help(
-        "Adaptive beam tracing (Liktor & Dachsbacher 2011): the caustics of spot and point lights on surfaces and in the medium from beams, no photon maps (the same as --surface-caustics beams; directional lights: basic)",
-    ));
-    clap::builder::PossibleValuesParser::new(values).map(|s| match T::parse(&s) {
-        Some(technique) => TechniqueChoice { technique, beams: false },
-        None => TechniqueChoice { technique: T::Basic, beams: true },
-    })
-}
-
-/// `--tracer`: the library's photon tracers, by name, with their help.
-pub(crate) fn tracer_parser() -> impl clap::builder::TypedValueParser<Value = caustics::render::Tracer> {
-    use caustics::render::Tracer as T;
-    use clap::builder::TypedValueParser;
-    clap::builder::PossibleValuesParser::new(
-        T::ALL.map(|t| clap::builder::PossibleValue::new(t.name()).help(t.describe())),
-    )
-    .map(|s| T::parse(&s).expect("a listed tracer"))
-}
-
-/// `--splat`: the library's splat modes, by name, with their help.
-pub(crate) fn splat_parser() -> impl clap::builder::TypedValueParser<Value = caustics::render::SplatMode> {
-    use caustics::render::SplatMode as S;
-    use clap::builder::TypedValueParser;
-    clap::builder::PossibleValuesParser::new(
-        S::ALL.map(|m| clap::builder::PossibleValue::new(m.name()).help(m.describe())),
-    )
-    .map(|s| S::parse(&s).expect("a listed splat mode"))
-}
-
-/// `--surface-caustics`: where the caustic on surfaces comes from, by name, with its help.
-pub(crate) fn surface_caustics_parser()
--> impl clap::builder::TypedValueParser<Value = caustics::render::SurfaceCaustics> {
-    use caustics::render::SurfaceCaustics as S;
-    use clap::builder::TypedValueParser;
-    clap::builder::PossibleValuesParser::new(
-        S::ALL.map(|m| clap::builder::PossibleValue::new(m.name()).help(m.describe())),
-    )
-    .map(|s| S::parse(&s).expect("a listed source"))
-}
-
-/// `--beam-volume`: how the volume caustic's beams reach the pixels, by name, with its help.
-pub(crate) fn beam_volume_parser() -> impl clap::builder::TypedValueParser<Value = caustics::render::BeamVolume> {
-    use caustics::render::BeamVolume as V;
-    use clap::builder::TypedValueParser;
-    clap::builder::PossibleValuesParser::new(
-        V::ALL.map(|m| clap::builder::PossibleValue::new(m.name()).help(m.describe())),
-    )
-    .map(|s| V::parse(&s).expect("a listed way"))
-}
-
-/// `--spill-faces`: whether spot lights get a spill face, by name.
-pub(crate) fn spill_faces_parser() -> impl clap::builder::TypedValueParser<Value = caustics::render::SpillFaces> {
-    use caustics::render::SpillFaces as S;
-    use clap::builder::TypedValueParser;
-    clap::builder::PossibleValuesParser::new(S::ALL.map(|m| m.name())).map(|s| S::parse(&s).expect("a listed value"))
-}
-
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to PNG (tone-mapped) or EXR (linear radiance, W/(m^2 sr)).
     Render {
         /// Scene file (JSON, see docs/scene-format.md); the built-in glass-ball scene if omitted.
         scene: Option<PathBuf>,
-        /// Output image (.png or .exr).
+        /// Output image (.png or .exr; an EXR's header holds the settings it was rendered with).
         #[arg(short, long, default_value = "caustics.png")]
         output: PathBuf,
-        /// Photon grid size N per light-view face (N x N photons), 16 to 8192 (adaptive: the
-        /// equivalent finest grid, a power of two up to 65536).
-        #[arg(long, default_value_t = 1024)]
-        photons: u32,
         /// Image size WxH, overriding the scene's camera.
         #[arg(long, value_parser = parse_size)]
         size: Option<(u32, u32)>,
-        #[arg(long, default_value = "basic", value_parser = technique_parser())]
-        technique: TechniqueChoice,
-        /// How photons are splatted into the caustic map.
-        #[arg(long, default_value = "triangles", value_parser = splat_parser())]
-        splat: caustics::render::SplatMode,
-        /// How photons are traced from the first caster to the receiver.
-        #[arg(long, default_value = "exact", value_parser = tracer_parser())]
-        tracer: caustics::render::Tracer,
-        /// Exact tracer: specular interactions a photon path may have (1 to 64).
-        #[arg(long, default_value_t = caustics::render::RenderSettings::default().max_depth)]
-        max_depth: u32,
-        /// Trace only the light transmitted at glass, not the second photon per cell that carries
-        /// the light reflected at the first dielectric surface (half the cost; every technique:
-        /// the beams then make only their transmitted branch).
-        #[arg(long)]
-        no_glass_reflection: bool,
-        /// Do not rasterize the light's second caster layer (the casters behind the nearest one;
-        /// drawn only for scenes with caster meshes and two casters or more): a mesh hidden from
-        /// the light behind another caster is then missed by the photons (for comparisons).
-        #[arg(long)]
-        no_light_second_layer: bool,
-        /// Segments around tessellated spheres and cylinders (rasterization only; the CPU
-        /// reference intersects them exactly).
-        #[arg(long, default_value_t = 192)]
-        tessellation: u32,
-        /// Adaptive techniques: the coarse photon grid the hierarchy starts from.
-        #[arg(long, default_value_t = 64)]
-        base_grid: u32,
-        /// Maximal caustic map error: a cluster converges when its photons land within this many
-        /// caustic-map texels (0: in one texel).
-        #[arg(long, default_value_t = 0.0)]
-        max_error_tolerance: f32,
-        /// Maximal caustic map error with caustic triangles: also stop refining a cluster whose
-        /// cell quad maps linearly, its corners' and children's landing points within this many
-        /// texels of the bilinear interpolation of its corners (0: off, the paper's rule alone).
-        #[arg(long, default_value_t = 0.0)]
-        quad_linearity: f32,
-        /// Maximal caustic map error: check convergence for clusters whose photons lie on a grid
-        /// of at least this size (Wyman & Nichols: 512).
-        #[arg(long, default_value_t = 512)]
-        error_check_grid: u32,
-        /// Maximal caustic map error: check every level from --error-check-grid on, as the paper
-        /// does, instead of skipping the levels where a cluster's spread predicts no convergence.
-        #[arg(long)]
-        no_error_skip: bool,
         #[arg(long, value_enum, default_value = "auto")]
         backend: Backend,
-        /// Caustic map size per light-view face (texels, a multiple of 16); default 1024, or the
-        /// largest that fits the adapter (point lights need six faces).
+        /// Adapter to use (a part of its name, see `caustics info`).
         #[arg(long)]
-        caustic_map: Option<u32>,
-        /// Shadow map size per light-view face (texels).
-        #[arg(long, default_value_t = 2048)]
-        shadow_map: u32,
-        /// Scenes with a medium: ray-march steps of the lights' single scattering along each
-        /// camera ray (GPU; 1 to 4096).
-        #[arg(long, default_value_t = 64)]
-        medium_steps: u32,
-        /// Heterogeneous media (a density grid): ray-march steps of each transmittance toward a
-        /// light (GPU; 1 to 1024).
-        #[arg(long, default_value_t = 16)]
-        medium_light_steps: u32,
-        /// Scenes with a medium: light between the diffuse surfaces and the medium (light →
-        /// floor → fog, light → fog → floor) from virtual point lights, this many blocks per
-        /// side of each light face (GPU; 0 to 64, 0: off).
-        #[arg(long, default_value_t = 16)]
-        medium_bounce_grid: u32,
-        /// Steps of the camera ray march that gathers the light the surfaces reflect into the
-        /// medium (GPU; 1 to 4096).
-        #[arg(long, default_value_t = 8)]
-        medium_bounce_steps: u32,
-        /// Scenes with a medium: leave out the medium along the camera rays beyond their first
-        /// specular surface (glass then shows what lies behind it unattenuated and without the
-        /// fog's light; GPU, cheaper).
-        #[arg(long)]
-        no_medium_beyond_specular: bool,
-        /// Scenes with an environment light: the directional lights it is segmented into on
-        /// the GPU (cube-map median cut; 1 to 256).
-        #[arg(long, default_value_t = caustics::settings::DEFAULT_ENV_LIGHTS)]
-        env_lights: u32,
-        /// Sub-directions each environment region's caustic is spread over (GPU; 0 to 32,
-        /// 0: one direction per region).
-        #[arg(long, default_value_t = caustics::settings::DEFAULT_ENV_TAPS)]
-        env_taps: u32,
-        #[command(flatten)]
-        beams: BeamArgs,
-        /// Where the caustic on diffuse surfaces of spot and point lights comes from: the photon
-        /// caustic maps, or the beams of adaptive beam tracing (GPU; scenes with a specular
-        /// caster, with or without a medium; their photon maps are then not traced).
-        #[arg(long, default_value = "photons", value_parser = surface_caustics_parser())]
-        surface_caustics: caustics::render::SurfaceCaustics,
-        /// Spill faces of spot lights: a second, wider light face that receives the caustic
-        /// light glass bends outside the spot's view (auto: where a specular caster is in the
-        /// spot's view and the scene reaches beyond it, caustic maps up to 1024²). The CPU
-        /// backend gives its caustic maps the same faces.
-        #[arg(long, default_value = "auto", value_parser = spill_faces_parser())]
-        spill_faces: caustics::render::SpillFaces,
-        /// Gaussian splat standard deviation (caustic-map texels).
-        #[arg(long, default_value_t = 1.0)]
-        splat_sigma: f32,
-        /// Memory for photon storage, MiB (basic: one batch of the grid; hierarchical: a dense
-        /// tile; adaptive: the photon hierarchy of one batch).
-        #[arg(long, default_value_t = 64)]
-        photon_memory: u64,
+        adapter: Option<String>,
         /// Write the intermediate buffers (light-space normals, depths, caustic maps) here.
         #[arg(long)]
         dump: Option<PathBuf>,
         /// Also write the caustic light alone (same format as the output) to this file.
         #[arg(long)]
         caustic_output: Option<PathBuf>,
-        /// Adapter to use (a part of its name, see `caustics info`).
+        /// CPU backend: camera samples per pixel (the `cpu` section: `--set cpu.KEY=VALUE`).
         #[arg(long)]
-        adapter: Option<String>,
-        /// CPU backend: camera samples per pixel.
-        #[arg(long, default_value_t = 16)]
-        spp: u32,
-        /// CPU backend: random seed.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// CPU backend: render a participating medium with single scattering only.
-        #[arg(long)]
-        single_scattering: bool,
-        /// CPU backend: which caustic paths the caustic light (--caustic-output, and the image)
-        /// holds: all; first-diffuse (light, specular chain, the first diffuse surface, camera:
-        /// what the GPU renders); rest (the others: diffuse interreflection of caustic light,
-        /// volume caustics).
-        #[arg(long, default_value = "all", value_parser = ["all", "first-diffuse", "rest"])]
-        caustic_paths: String,
-        /// CPU backend: caustic photons transmit at every dielectric interface with weight
-        /// 1 - F (total internal reflection still reflects) instead of reflecting partially:
-        /// the light the GPU's transmitted branch carries (compare with the GPU's
-        /// --no-glass-reflection, like for like).
-        #[arg(long)]
-        no_partial_reflections: bool,
-        /// CPU backend, scenes with a medium and glass or mirrors: photons per light traced as
-        /// photon beams for the caustic light seen in the medium through specular surfaces
-        /// (light, glass, fog, glass, camera); 0 leaves that light out.
-        #[arg(long, default_value_t = 1 << 18)]
-        medium_beams: u64,
-        /// CPU backend: the photon beams' kernel radius in metres (0: half a pixel's footprint
-        /// at the specular objects).
-        #[arg(long, default_value_t = 0.0)]
-        medium_beam_radius: f32,
-        /// CPU backend, scenes with glass or mirrors: photons per light whose first diffuse hits
-        /// are kept for the caustic seen on surfaces through specular surfaces (light, glass,
-        /// floor, glass, camera); 0 leaves that light out.
-        #[arg(long, default_value_t = 1 << 18)]
-        specular_view_photons: u64,
-        /// CPU backend: their kernel radius in metres (0: a pixel's footprint at the specular
-        /// objects).
-        #[arg(long, default_value_t = 0.0)]
-        specular_view_radius: f32,
-        /// The same as --technique caustic-spheres (kept as an alias): the caustics of
-        /// directional lights come from precomputed caustic spheres (cached; built first if
-        /// needed) in one eye-space pass; spot and point lights get basic caustic maps.
-        #[arg(long)]
-        caustic_spheres: bool,
+        spp: Option<u32>,
         #[command(flatten)]
-        sphere_args: spheres::SphereArgs,
+        grid: settings_args::GridArgs,
+        #[command(flatten)]
+        settings: Box<settings_args::SettingsArgs>,
     },
     /// Precompute the caustic spheres of a scene's caustic objects into the cache (what
     /// `render --technique caustic-spheres` loads).
@@ -321,10 +95,10 @@ enum Command {
     },
     /// Compare photon emission techniques on one scene (Table 1 of Wyman & Nichols 2009):
     /// photons splatted, relevant photons, coverage, GPU ms per pass, memory, batches.
-    Bench(bench::BenchArgs),
+    Bench(Box<bench::BenchArgs>),
     /// The interactive viewer: orbit, move lights and objects, switch techniques live, compare
     /// with the CPU reference (a window; needs a GPU adapter).
-    View(view::ViewArgs),
+    View(Box<view::ViewArgs>),
     /// List GPU adapters with their features and limits.
     Info,
 }
@@ -377,162 +151,20 @@ fn main() -> ExitCode {
     }
 }
 
-/// Volume caustics by adaptive beam tracing (scenes with a medium and a specular caster; GPU).
-/// A separate switch from --technique: the beams render the light focused into the medium,
-/// the photon technique the caustic on surfaces, and both run in the same frame.
-#[derive(clap::Args, Debug, Clone)]
-pub struct BeamArgs {
-    /// Do not render volume caustics (beams; `--surface-caustics beams` still builds them for
-    /// the surfaces).
-    #[arg(long)]
-    no_beams: bool,
-    /// Beams: cells per side of the coarse projected grid over each light face.
-    #[arg(long, default_value_t = 16)]
-    beam_grid: u32,
-    /// Beams: refinement levels (each splits a beam 1 -> 4); 0 for a regular grid.
-    #[arg(long, default_value_t = 3)]
-    beam_levels: u32,
-    /// Beams: split where the edges' first-surface normals differ by more (degrees).
-    #[arg(long, default_value_t = 25.0)]
-    beam_normal_threshold: f32,
-    /// Beams: split where the edges' distances to the first surface differ by more (fraction).
-    #[arg(long, default_value_t = 0.1)]
-    beam_depth_threshold: f32,
-    /// Beams: split where flux (relative to the face's) x convergence exceeds this.
-    #[arg(long, default_value_t = 0.05)]
-    beam_energy_threshold: f32,
-    /// Beams: split where the beam's width over its distance to the camera exceeds this (rad).
-    #[arg(long, default_value_t = 0.2)]
-    beam_camera_threshold: f32,
-    /// Beams: split where a beam misplaces more than this fraction of its triangle's light (the
-    /// exactly traced light of the triangle's centroid against the beam's); 0 turns it off.
-    #[arg(long, default_value_t = 0.05)]
-    beam_linearity_threshold: f32,
-    /// Beams: the residual branch's least probability of reflecting at a dielectric interface
-    /// (it reflects with max(F, p): the light reflected partially where no other branch follows
-    /// it, drawn at random per triangle); 0 turns it off, below 1.
-    #[arg(long, default_value_t = 0.3)]
-    beam_residual: f32,
-    /// Beams: the energy cutoff, a radiance in W/(m² sr): a beam diverging beyond its last
-    /// focus ends where the rest of its light, seen along it, is this (per beam; shorter hulls,
-    /// fewer fragments, some of a faint glow lost; beams lighting a surface with
-    /// `--surface-caustics beams` are not cut); 0 (default) draws every beam to its end.
-    #[arg(long, default_value_t = 0.0)]
-    beam_cutoff: f32,
-    /// Beams held per light (more is an overflow, reported as an error).
-    #[arg(long, default_value_t = 1 << 17)]
-    beam_capacity: u32,
-    /// Beams: midpoint-rule points per piece of a camera ray inside a beam.
-    #[arg(long, default_value_t = 4)]
-    beam_samples: u32,
-    /// Beams: camera rays per pixel side (box filter; n² per pixel).
-    #[arg(long, default_value_t = 1)]
-    beam_pixel_samples: u32,
-    /// Surface caustics from beams (`--surface-caustics beams`): points per pixel side on the
-    /// surface (box filter; n² per pixel), 1 to 8.
-    #[arg(long, default_value_t = 4)]
-    beam_surface_samples: u32,
-    /// Beams: integrate a beam over each pixel's footprint where its section, seen from the
-    /// camera, is narrower than this many pixels (near a focus); 0 turns it off (rays only).
-    #[arg(long, default_value_t = 2.0)]
-    beam_footprint: f32,
-    /// Beams: lines per side of a thin section in the footprint integral (lines²), 1 to 4.
-    #[arg(long, default_value_t = 2)]
-    beam_footprint_lines: u32,
-    /// Beams: beams per dispatch of the gather, as a multiple of what lavapipe's loop limit
-    /// allows; 0 chooses (1 on CPU adapters, 16 on GPUs), at most 1024.
-    #[arg(long, default_value_t = 0)]
-    beam_chunk_scale: u32,
-    /// Beams: how the volume caustic is drawn: the beams' hulls (indirect draws; need float32
-    /// blending), a per-pixel gather over all beams, or auto (hulls where the adapter can).
-    #[arg(long, default_value = "auto", value_parser = beam_volume_parser())]
-    beam_volume: caustics::render::BeamVolume,
-}
-
-impl BeamArgs {
-    pub fn settings(&self) -> caustics::settings::BeamSettings {
-        caustics::settings::BeamSettings {
-            enabled: !self.no_beams,
-            grid: self.beam_grid,
-            levels: self.beam_levels,
-            normal_threshold_deg: self.beam_normal_threshold,
-            depth_threshold: self.beam_depth_threshold,
-            energy_threshold: self.beam_energy_threshold,
-            camera_threshold: self.beam_camera_threshold,
-            linearity_threshold: self.beam_linearity_threshold,
-            capacity: self.beam_capacity,
-            samples: self.beam_samples,
-            pixel_samples: self.beam_pixel_samples,
-            surface_samples: self.beam_surface_samples,
-            reflection: true,
-            residual: self.beam_residual,
-            cutoff: self.beam_cutoff,
-            footprint: self.beam_footprint,
-            footprint_lines: self.beam_footprint_lines,
-            chunk_scale: self.beam_chunk_scale,
-            volume: self.beam_volume,
-        }
-    }
-}
-
-/// The library names a bad setting by its field (`<settings>`, `photons`); the user gave it as a
-/// flag: say so.
+/// The library names a GPU-less machine's way out; the command line has a flag for it.
 fn flag_names(e: &mut anyhow::Error) {
-    const FLAGS: &[(&str, &str)] = &[
-        ("photons", "--photons"),
-        ("base_grid", "--base-grid"),
-        ("caustic_map_size", "--caustic-map"),
-        ("max_error_tolerance", "--max-error-tolerance"),
-        ("photon_memory", "--photon-memory"),
-        ("quad_linearity", "--quad-linearity"),
-        ("shadow_map_size", "--shadow-map"),
-        ("medium_steps", "--medium-steps"),
-        ("medium_light_steps", "--medium-light-steps"),
-        ("medium_bounce_grid", "--medium-bounce-grid"),
-        ("medium_bounce_steps", "--medium-bounce-steps"),
-        ("env_lights", "--env-lights"),
-        ("env_taps", "--env-taps"),
-        ("beams.grid", "--beam-grid"),
-        ("beams.levels", "--beam-levels"),
-        ("beams.normal_threshold_deg", "--beam-normal-threshold"),
-        ("beams.depth_threshold", "--beam-depth-threshold"),
-        ("beams.energy_threshold", "--beam-energy-threshold"),
-        ("beams.camera_threshold", "--beam-camera-threshold"),
-        ("beams.linearity_threshold", "--beam-linearity-threshold"),
-        ("beams.capacity", "--beam-capacity"),
-        ("beams.residual", "--beam-residual"),
-        ("beams.cutoff", "--beam-cutoff"),
-        ("beams.samples", "--beam-samples"),
-        ("beams.pixel_samples", "--beam-pixel-samples"),
-        ("beams.surface_samples", "--beam-surface-samples"),
-        ("beams.footprint", "--beam-footprint"),
-        ("beams.footprint_lines", "--beam-footprint-lines"),
-        ("beams.chunk_scale", "--beam-chunk-scale"),
-        ("camera.size", "--size"),
-        ("splat_sigma", "--splat-sigma"),
-        ("max_depth", "--max-depth"),
-        ("tessellation", "--tessellation"),
-        ("adapter", "--adapter"),
-    ];
     if let Some(Error::NoAdapter(m)) = e.downcast_mut::<Error>()
         && m.ends_with("render with the CPU reference")
     {
         *m += " (`--backend cpu`)";
-    }
-    if let Some(Error::Input { file, field, .. }) = e.downcast_mut::<Error>()
-        && file == "<settings>"
-        && let Some((_, flag)) = FLAGS.iter().find(|(f, _)| f == field)
-    {
-        *file = "<command line>".into();
-        *field = flag.to_string();
     }
 }
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Info => info(),
-        Command::Bench(args) => bench::run(&args),
-        Command::View(args) => view::run(args),
+        Command::Bench(args) => bench::run(*args),
+        Command::View(args) => view::run(*args),
         Command::Precompute { scene, sphere_args } => {
             let scene = match &scene {
                 Some(p) => Scene::load(p)?,
@@ -545,59 +177,17 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Compare { a, b, mask, heatmap } => Ok(compare::run(&a, &b, mask.as_deref(), heatmap.as_deref())?),
-        Command::Render {
-            scene,
-            output,
-            photons,
-            size,
-            technique,
-            splat,
-            tracer,
-            max_depth,
-            no_glass_reflection,
-            no_light_second_layer,
-            tessellation,
-            base_grid,
-            max_error_tolerance,
-            quad_linearity,
-            error_check_grid,
-            no_error_skip,
-            backend,
-            caustic_map,
-            shadow_map,
-            medium_steps,
-            medium_light_steps,
-            medium_bounce_grid,
-            medium_bounce_steps,
-            no_medium_beyond_specular,
-            env_lights,
-            env_taps,
-            beams,
-            surface_caustics,
-            spill_faces,
-            splat_sigma,
-            photon_memory,
-            dump,
-            caustic_output,
-            adapter,
-            spp,
-            seed,
-            single_scattering,
-            caustic_paths,
-            no_partial_reflections,
-            medium_beams,
-            medium_beam_radius,
-            specular_view_photons,
-            specular_view_radius,
-            caustic_spheres,
-            sphere_args,
-        } => {
+        Command::Render { scene, output, size, backend, adapter, dump, caustic_output, spp, grid, settings } => {
+            let mut resolved = settings.resolve(RenderSettings::default(), Some(&grid))?;
+            resolved.cpu.spp = spp.unwrap_or(resolved.cpu.spp);
+            if settings.print_settings {
+                println!("{}", serde_json::to_string_pretty(&resolved.to_json())?);
+                return Ok(());
+            }
+            let cpu = resolved.cpu.clone();
+            let mut settings = resolved.render.clone();
+            let caustic_spheres = settings.photons.technique == caustics::render::Technique::CausticSpheres;
             check_output(&output)?;
-            // `--technique beams` is `--surface-caustics beams`; `--caustic-spheres` is
-            // `--technique caustic-spheres`.
-            let (technique, surface_caustics) = technique.apply(surface_caustics);
-            let technique = if caustic_spheres { caustics::render::Technique::CausticSpheres } else { technique };
-            let caustic_spheres = technique == caustics::render::Technique::CausticSpheres;
             if let Some(c) = &caustic_output {
                 check_output(c)?;
             }
@@ -612,39 +202,6 @@ fn run(cli: Cli) -> Result<()> {
                 scene.camera.width = w;
                 scene.camera.height = h;
             }
-            let mut settings = RenderSettings {
-                photons,
-                technique,
-                splat,
-                tracer,
-                max_depth,
-                dielectric_reflection: !no_glass_reflection,
-                light_second_layer: !no_light_second_layer,
-                tessellation: caustics::scene::Tessellation {
-                    sphere_segments: tessellation,
-                    cylinder_segments: tessellation.saturating_mul(8) / 3,
-                },
-                base_grid,
-                max_error_tolerance,
-                quad_linearity,
-                error_check_grid,
-                error_skip_hopeless: !no_error_skip,
-                caustic_map_size: caustic_map.unwrap_or(1024),
-                shadow_map_size: shadow_map,
-                medium_steps,
-                medium_light_steps,
-                medium_bounce_grid,
-                medium_bounce_steps,
-                medium_beyond_specular: !no_medium_beyond_specular,
-                env_lights,
-                env_taps,
-                beams: caustics::settings::BeamSettings { reflection: !no_glass_reflection, ..beams.settings() },
-                surface_caustics,
-                spill_faces,
-                splat_sigma,
-                photon_memory: photon_memory.saturating_mul(1 << 20),
-                ..Default::default()
-            };
             let ctx = match backend {
                 Backend::Cpu => None,
                 Backend::Gpu => Some(caustics::gpu::GpuContext::new(adapter.as_deref())?),
@@ -661,9 +218,13 @@ fn run(cli: Cli) -> Result<()> {
             println!("scene: {} ({}), {}x{}", scene.name, scene.source, scene.camera.width, scene.camera.height);
             match ctx {
                 Some(ctx) => {
-                    if caustic_map.is_none() {
-                        settings.caustic_map_size = RenderSettings::fitting_caustic_map_size(&ctx, &scene, 1024);
+                    if !resolved.caustic_map_given {
+                        settings.photons.caustic_map_size =
+                            RenderSettings::fitting_caustic_map_size(&ctx, &scene, settings.photons.caustic_map_size);
                     }
+                    // What the image is rendered with, stored in its header (EXR).
+                    let used =
+                        settings_args::Resolved { render: settings.clone(), ..resolved.clone() }.to_json().to_string();
                     if !caustic_spheres {
                         progress::exit_on_ctrl_c();
                     }
@@ -678,7 +239,8 @@ fn run(cli: Cli) -> Result<()> {
                             .into());
                         }
                         _ if caustic_spheres => {
-                            let tables = spheres::build(&scene, &sphere_args)?;
+                            let sphere_args = &resolved.spheres;
+                            let tables = spheres::build(&scene, sphere_args)?;
                             progress::exit_on_ctrl_c();
                             let t0 = std::time::Instant::now();
                             let mut r = caustics::renderer::Renderer::with_context(
@@ -711,44 +273,52 @@ fn run(cli: Cli) -> Result<()> {
                     let wall = t0.elapsed().as_secs_f64() * 1e3;
                     report_gpu(&out, wall);
                     progress::begin_outputs();
-                    out.image.write(&output, scene.exposure)?;
+                    out.image.write_with_settings(&output, scene.exposure, Some(&used))?;
                     if let Some(c) = &caustic_output {
-                        out.caustic.write(c, scene.exposure)?;
+                        out.caustic.write_with_settings(c, scene.exposure, Some(&used))?;
                     }
                 }
                 None => {
                     if caustic_spheres {
                         eprintln!("notice: the CPU reference renders the exact caustics, not the caustic spheres");
                     }
-                    if surface_caustics != caustics::render::SurfaceCaustics::Photons {
+                    if settings.surface_caustics != caustics::render::SurfaceCaustics::Photons {
                         eprintln!(
-                            "notice: the CPU reference renders the exact caustics; --surface-caustics applies to the GPU"
+                            "notice: the CPU reference renders the exact caustics; surface_caustics applies to the GPU"
                         );
                     }
+                    let caustic_paths = caustics_reference::reference::CausticPaths::parse(&cpu.caustic_paths)
+                        .ok_or_else(|| {
+                            Error::input(
+                                "<command line>",
+                                "cpu.caustic_paths",
+                                format!("must be all, first-diffuse or rest (got \"{}\")", cpu.caustic_paths),
+                            )
+                        })?;
                     let rs = caustics_reference::reference::ReferenceSettings {
-                        photons_per_light: (photons as u64).pow(2),
-                        camera_spp: spp,
-                        seed,
-                        medium_single_scattering_only: single_scattering,
-                        caustic_paths: caustics_reference::reference::CausticPaths::parse(&caustic_paths)
-                            .expect("a listed class"),
+                        photons_per_light: (settings.photons.count as u64).pow(2),
+                        camera_spp: cpu.spp,
+                        seed: cpu.seed,
+                        medium_single_scattering_only: cpu.single_scattering,
+                        caustic_paths,
                         // The caustic maps get a spill face where the GPU's would (at the GPU's
                         // default caustic map size when none is given).
                         spill_faces: scene.lights.iter().any(|l| settings.uses_spill_face(&scene, l)),
-                        partial_reflections: !no_partial_reflections,
-                        medium_beam_photons: medium_beams,
-                        medium_beam_radius,
-                        specular_view_photons,
-                        specular_view_radius,
+                        partial_reflections: cpu.partial_reflections,
+                        medium_beam_photons: cpu.medium_beams,
+                        medium_beam_radius: cpu.medium_beam_radius,
+                        specular_view_photons: cpu.specular_view_photons,
+                        specular_view_radius: cpu.specular_view_radius,
                         ..Default::default()
                     };
+                    let used = resolved.to_json().to_string();
                     let t0 = std::time::Instant::now();
                     let out = progress::reference_render(&scene, &rs)?;
                     println!("backend: CPU reference, {:.1} s", t0.elapsed().as_secs_f64());
                     println!("{}", out.stats);
-                    out.image.write(&output, scene.exposure)?;
+                    out.image.write_with_settings(&output, scene.exposure, Some(&used))?;
                     if let Some(c) = &caustic_output {
-                        out.caustic.write(c, scene.exposure)?;
+                        out.caustic.write_with_settings(c, scene.exposure, Some(&used))?;
                     }
                 }
             }

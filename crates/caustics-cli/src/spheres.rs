@@ -11,29 +11,37 @@ use caustics_reference::reference::spheres::{Origin, load_or_precompute};
 use std::path::PathBuf;
 use std::sync::Arc;
 
-#[derive(clap::Args, Debug, Clone)]
+/// The caustic spheres' tables: `precompute`'s flags, and the `spheres` section of the other
+/// commands' settings (`--set spheres.directions=9`).
+#[derive(clap::Args, Debug, Clone, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SphereArgs {
     /// Caustic spheres: side N of the octahedral grid of precomputed light directions (odd, 3
     /// to 33; (N-1)^2 + 2 directions).
     #[arg(long, default_value_t = 7)]
     pub directions: u32,
     /// Caustic spheres: concentric spheres per object (radii by the paper's equation (1)).
+    #[serde(rename = "count")]
     #[arg(long, default_value_t = 16)]
     pub spheres: u32,
     /// Caustic spheres: longitudes x latitudes per sphere.
+    #[serde(rename = "size")]
     #[arg(long, default_value = "64x48", value_parser = crate::parse_size)]
     pub sphere_size: (u32, u32),
     /// Caustic spheres: photons traced per precomputed direction.
+    #[serde(rename = "photons")]
     #[arg(long, default_value_t = 1 << 18)]
     pub sphere_photons: u64,
     /// Caustic spheres: store the tables as half floats (half the disk and memory).
     #[arg(long)]
     pub half: bool,
     /// Caustic spheres: the cache folder.
+    #[serde(rename = "cache")]
     #[arg(long, default_value = ".caustics-cache")]
     pub sphere_cache: PathBuf,
     /// Caustic spheres: the compiled variant (every light summed into one table per object
     /// each frame, then one lookup per object and pixel) instead of a lookup per light.
+    #[serde(rename = "compiled")]
     #[arg(long)]
     pub sphere_compiled: bool,
 }
@@ -123,7 +131,7 @@ pub fn attach(
     args: &SphereArgs,
     tables: &mut Option<Vec<(usize, Arc<CausticSpheres>)>>,
 ) -> caustics::Result<()> {
-    if r.settings().technique != caustics::render::Technique::CausticSpheres {
+    if r.settings().photons.technique != caustics::render::Technique::CausticSpheres {
         return Ok(());
     }
     let t = match tables {

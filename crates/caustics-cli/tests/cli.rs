@@ -58,18 +58,113 @@ fn bad_output_and_settings_exit_2() {
     let e = run_err(&["render", "-o", tmp("x.txt").to_str().unwrap()]);
     assert!(e.contains(".png or .exr"), "{e}");
     let out = tmp("big.png");
+    // Settings errors name the setting by its path, whether a flag or `--set` gave it.
     let e = run_err(&["render", "--photons", "100000", "-o", out.to_str().unwrap()]);
-    assert!(e.contains("--photons"), "{e}");
+    assert!(e.contains("photons.count"), "{e}");
     assert!(!out.exists());
     let e = run_err(&["render", "--env-lights", "0", "-o", out.to_str().unwrap()]);
-    assert!(e.contains("--env-lights") && e.contains("1 to 256"), "{e}");
+    assert!(e.contains("environment.lights") && e.contains("1 to 256"), "{e}");
     assert!(!out.exists());
     let e = run_err(&["render", "--caustic-map", "100", "-o", out.to_str().unwrap()]);
-    assert!(e.contains("--caustic-map") && e.contains("multiple of 16"), "{e}");
+    assert!(e.contains("photons.caustic_map_size") && e.contains("multiple of 16"), "{e}");
     assert!(!out.exists());
-    let e = run_err(&["render", "--beam-cutoff=-0.001", "-o", out.to_str().unwrap()]);
-    assert!(e.contains("--beam-cutoff") && e.contains("at least 0"), "{e}");
+    let e = run_err(&["render", "--set", "beams.cutoff=-0.001", "-o", out.to_str().unwrap()]);
+    assert!(e.contains("beams.cutoff") && e.contains("at least 0"), "{e}");
     assert!(!out.exists());
+}
+
+#[test]
+fn a_bad_set_key_names_the_path_and_the_known_keys() {
+    let e = run_err(&["render", "--set", "beams.gird=8"]);
+    assert!(e.contains("beams.gird") && e.contains("known keys") && e.contains("grid"), "{e}");
+    let e = run_err(&["render", "--set", "nope.x=1"]);
+    assert!(e.contains("nope") && e.contains("photons") && e.contains("beams"), "{e}");
+    let e = run_err(&["bench", "--set", "cpu.sp=1"]);
+    assert!(e.contains("cpu.sp") && e.contains("spp"), "{e}");
+    let e = run_err(&["view", "--set", "photons.count=\"many\""]);
+    assert!(e.contains("photons.count"), "{e}");
+    let e = run_err(&["render", "--set", "photons.technique=nope"]);
+    assert!(e.contains("photons.technique") && e.contains("nope"), "{e}");
+    let e = run_err(&["render", "--set", "beams"]);
+    assert!(e.contains("SECTION.KEY=VALUE"), "{e}");
+}
+
+fn print_settings(args: &[&str]) -> serde_json::Value {
+    let out = caustics().args(args).arg("--print-settings").output().unwrap();
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// `--print-settings` prints every section; flags, `--set` and `--settings` land in the same
+/// keys, in the order file, flags, `--set`; `render`, `bench` and `view` read them alike.
+#[test]
+fn settings_come_from_flags_set_and_files_alike() {
+    let d = print_settings(&["render"]);
+    for section in ["photons", "adaptive", "shading", "medium", "environment", "beams", "cpu", "spheres"] {
+        assert!(d[section].is_object(), "no section {section}: {d}");
+    }
+    assert_eq!(d["photons"]["count"], 1024);
+    assert_eq!(d["photons"]["technique"], "basic");
+    let s = print_settings(&["render", "--photons", "256", "--technique", "beams", "--set", "beams.cutoff=0.5"]);
+    assert_eq!(s["photons"]["count"], 256);
+    assert_eq!(s["surface_caustics"], "beams");
+    assert_eq!(s["beams"]["cutoff"], 0.5);
+    let t =
+        print_settings(&["render", "--set", "photons.technique=hierarchical", "--set", "medium.beyond_specular=false"]);
+    assert_eq!(t["photons"]["technique"], "hierarchical");
+    assert_eq!(t["medium"]["beyond_specular"], false);
+    // A file of some keys over the defaults, then the flags and `--set` over the file.
+    let file = tmp("settings.json");
+    std::fs::write(
+        &file,
+        r#"{ "photons": { "count": 128, "splat": "fixed" }, "beams": { "grid": 4 }, "cpu": { "spp": 2 } }"#,
+    )
+    .unwrap();
+    let f = file.to_str().unwrap();
+    for cmd in ["render", "bench", "view"] {
+        let u = print_settings(&[cmd, "--settings", f, "--splat", "multires", "--set", "beams.levels=1"]);
+        assert_eq!(u["photons"]["splat"], "multires", "{cmd}");
+        assert_eq!(u["beams"]["grid"], 4, "{cmd}");
+        assert_eq!(u["beams"]["levels"], 1, "{cmd}");
+        assert_eq!(u["cpu"]["spp"], 2, "{cmd}");
+    }
+    assert_eq!(print_settings(&["render", "--settings", f])["photons"]["count"], 128);
+    // What one command prints, another reads back as it is.
+    std::fs::write(&file, serde_json::to_string(&s).unwrap()).unwrap();
+    assert_eq!(print_settings(&["render", "--settings", f]), s);
+    // A file with an unknown key names it.
+    std::fs::write(&file, r#"{ "beams": { "gird": 4 } }"#).unwrap();
+    let e = run_err(&["render", "--settings", f]);
+    assert!(e.contains("settings.json") && e.contains("gird"), "{e}");
+}
+
+/// Every EXR holds the settings it was rendered with in its header (CPU reference: no GPU
+/// needed), and they read back as a settings file.
+#[test]
+fn an_exr_holds_its_settings() {
+    let out = tmp("with_settings.exr");
+    let args = ["render", "--backend", "cpu", "--size", "8x6", "--photons", "16", "--spp", "1"];
+    let o = caustics().args(args).args(["--set", "beams.grid=5", "-o", out.to_str().unwrap()]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json = caustics_reference::io::read_exr_settings(&out).unwrap().expect("no settings in the EXR header");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["photons"]["count"], 16);
+    assert_eq!(v["beams"]["grid"], 5);
+    assert_eq!(v["cpu"]["spp"], 1);
+    let file = tmp("from_exr.json");
+    std::fs::write(&file, &json).unwrap();
+    assert_eq!(print_settings(&["render", "--settings", file.to_str().unwrap()]), v);
+}
+
+/// `render --help` shows the common flags only (the rest through `--set`).
+#[test]
+fn render_help_is_short() {
+    let out = caustics().args(["render", "--help"]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    // Flag lines (`  -o, --output <OUTPUT>`, `      --set ...`), not the lists of values (`- basic: ...`).
+    let flags = text.lines().map(str::trim_start).filter(|l| l.starts_with('-') && !l.starts_with("- ")).count();
+    assert!(flags <= 22, "{flags} flags in render --help:\n{text}");
+    assert!(text.contains("--set") && text.contains("--settings") && text.contains("--print-settings"), "{text}");
 }
 
 #[test]
@@ -210,8 +305,16 @@ fn sun_in_fog_renders_through_caustic_spheres() {
     let _ = std::fs::remove_dir_all(&cache);
     let (full, caustic) = (tmp("fog_sun.exr"), tmp("fog_sun_caustic.exr"));
     let mut args = vec!["render", scene, "--backend", "gpu", "--size", "32x32", "--technique", "caustic-spheres"];
-    args.extend_from_slice(&["--directions", "3", "--spheres", "4", "--sphere-size", "16x8"]);
-    args.extend_from_slice(&["--sphere-photons", "4096", "--sphere-cache", cache.to_str().unwrap()]);
+    let cache_key = format!("spheres.cache={}", cache.to_str().unwrap());
+    args.extend_from_slice(&[
+        "--set",
+        "spheres.directions=3",
+        "--set",
+        "spheres.count=4",
+        "--set",
+        "spheres.size=[16,8]",
+    ]);
+    args.extend_from_slice(&["--set", "spheres.photons=4096", "--set", &cache_key]);
     args.extend_from_slice(&["-o", full.to_str().unwrap(), "--caustic-output", caustic.to_str().unwrap()]);
     let out = caustics().args(&args).output().unwrap();
     if !out.status.success() {
@@ -234,21 +337,22 @@ fn sun_in_fog_renders_through_caustic_spheres() {
 }
 
 #[test]
-fn caustic_spheres_technique_and_its_alias_render_the_same_image() {
-    // `--caustic-spheres` is `--technique caustic-spheres`: the same bits (GPU; skipped
-    // without an adapter, as the render then says).
+fn caustic_spheres_by_flag_and_by_set_render_the_same_image() {
+    // `--technique caustic-spheres` is `--set photons.technique=caustic-spheres`: the same bits
+    // (GPU; skipped without an adapter, as the render then says).
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/glass_sphere_3dir.json");
     let cache = tmp("sphere-cache-alias");
     let _ = std::fs::remove_dir_all(&cache);
+    let cache_key = format!("spheres.cache={}", cache.to_str().unwrap());
     let run = |how: &[&str], out: &PathBuf| {
         let mut args = vec!["render", scene, "--backend", "gpu", "--size", "48x48", "--photons", "64"];
         args.extend_from_slice(how);
-        args.extend_from_slice(&["--directions", "3", "--spheres", "4", "--sphere-size", "16x8"]);
-        args.extend_from_slice(&["--sphere-photons", "4096", "--sphere-cache", cache.to_str().unwrap()]);
+        args.extend_from_slice(&["--set", "spheres.directions=3", "--set", "spheres.count=4"]);
+        args.extend_from_slice(&["--set", "spheres.size=[16,8]", "--set", "spheres.photons=4096", "--set", &cache_key]);
         args.extend_from_slice(&["-o", out.to_str().unwrap()]);
         caustics().args(&args).output().unwrap()
     };
-    let (a, b) = (tmp("spheres_technique.exr"), tmp("spheres_alias.exr"));
+    let (a, b) = (tmp("spheres_technique.exr"), tmp("spheres_set.exr"));
     let first = run(&["--technique", "caustic-spheres"], &a);
     if !first.status.success() {
         let err = String::from_utf8_lossy(&first.stderr);
@@ -256,14 +360,14 @@ fn caustic_spheres_technique_and_its_alias_render_the_same_image() {
         eprintln!("skipping: {err}");
         return;
     }
-    let second = run(&["--caustic-spheres"], &b);
+    let second = run(&["--set", "photons.technique=caustic-spheres"], &b);
     assert!(second.status.success(), "{}", String::from_utf8_lossy(&second.stderr));
-    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), "the alias renders other bits");
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), "the two spellings render other bits");
     let _ = std::fs::remove_dir_all(&cache);
 }
 
 /// `--technique beams` (the issue's name for adaptive beam tracing) renders what
-/// `--surface-caustics beams` does: the caustics of spot and point lights from beams on surfaces
+/// `--set surface_caustics=beams` does: the caustics of spot and point lights from beams on surfaces
 /// and in the fog, no photon maps; the same bytes. Skips without a GPU adapter, except in CI.
 #[test]
 fn technique_beams_is_surface_caustics_from_beams() {
@@ -284,8 +388,8 @@ fn technique_beams_is_surface_caustics_from_beams() {
         Some((std::fs::read(&out).unwrap(), stdout))
     };
     let Some((a, out_a)) = render("technique_beams.exr", &["--technique", "beams"]) else { return };
-    let (b, _) = render("surface_beams.exr", &["--surface-caustics", "beams"]).unwrap();
-    assert!(a == b, "--technique beams and --surface-caustics beams differ");
+    let (b, _) = render("surface_beams.exr", &["--set", "surface_caustics=beams"]).unwrap();
+    assert!(a == b, "--technique beams and --set surface_caustics=beams differ");
     assert!(out_a.contains("0 photons splatted"), "{out_a}");
     let (c, _) = render("photons.exr", &[]).unwrap();
     assert!(a != c, "the photon maps' surface caustic is the same as the beams'");

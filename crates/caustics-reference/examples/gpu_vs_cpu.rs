@@ -11,9 +11,8 @@ fn main() {
     let photons: u64 = a.get(4).map_or(4_000_000, |x| x.parse().unwrap());
     let ctx = caustics::gpu::GpuContext::new(None).unwrap();
     let s = caustics::render::RenderSettings {
-        photons: n,
-        caustic_map_size: m,
-        shadow_map_size: 512,
+        photons: caustics::settings::PhotonSettings { count: n, caustic_map_size: m, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
         ..Default::default()
     };
     let gpu = caustics::render::render(&ctx, &scene, &s).unwrap();

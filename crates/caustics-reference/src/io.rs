@@ -11,7 +11,29 @@ pub trait ImageIo: Sized {
     /// linear [0,1] through the sRGB curve).
     fn read(path: &Path) -> Result<Self>;
     /// Write EXR (linear radiance) or PNG (tone-mapped with `exposure`), chosen by extension.
-    fn write(&self, path: &Path, exposure: f32) -> Result<()>;
+    fn write(&self, path: &Path, exposure: f32) -> Result<()> {
+        self.write_with_settings(path, exposure, None)
+    }
+    /// [`ImageIo::write`], an EXR's header also holding `settings` (the JSON of the settings the
+    /// image was rendered with, in the attribute [`SETTINGS_ATTRIBUTE`]; [`read_exr_settings`]
+    /// reads it back). PNG files hold no settings.
+    fn write_with_settings(&self, path: &Path, exposure: f32, settings: Option<&str>) -> Result<()>;
+}
+
+/// The EXR header attribute (text) that holds the settings an image was rendered with, as JSON
+/// (`caustics render --settings` reads it back once saved to a file).
+pub const SETTINGS_ATTRIBUTE: &str = "caustics_settings";
+
+/// The settings JSON an EXR was rendered with ([`SETTINGS_ATTRIBUTE`]), if its header has them.
+pub fn read_exr_settings(path: &Path) -> Result<Option<String>> {
+    let file = path.display().to_string();
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| Error::input(&file, "", format!("cannot read EXR: {e}")))?;
+    let key = exr::meta::attribute::Text::new_or_panic(SETTINGS_ATTRIBUTE);
+    Ok(meta.headers.iter().find_map(|h| match h.own_attributes.other.get(&key) {
+        Some(exr::meta::attribute::AttributeValue::Text(t)) => Some(t.to_string()),
+        _ => None,
+    }))
 }
 
 impl ImageIo for Image {
@@ -33,10 +55,10 @@ impl ImageIo for Image {
         }
     }
 
-    fn write(&self, path: &Path, exposure: f32) -> Result<()> {
+    fn write_with_settings(&self, path: &Path, exposure: f32, settings: Option<&str>) -> Result<()> {
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         match ext.as_str() {
-            "exr" => write_atomically(path, |tmp| write_exr(self, tmp)),
+            "exr" => write_atomically(path, |tmp| write_exr(self, tmp, settings)),
             "png" => write_atomically(path, |tmp| {
                 let bytes: Vec<u8> = self.pixels.iter().flat_map(|p| tonemap(*p, exposure)).collect();
                 image::save_buffer_with_format(
@@ -54,7 +76,7 @@ impl ImageIo for Image {
     }
 }
 
-fn write_exr(img: &Image, path: &Path) -> std::result::Result<(), String> {
+fn write_exr(img: &Image, path: &Path, settings: Option<&str>) -> std::result::Result<(), String> {
     use exr::prelude::*;
     let w = img.width as usize;
     let px = &img.pixels;
@@ -62,12 +84,27 @@ fn write_exr(img: &Image, path: &Path) -> std::result::Result<(), String> {
         let c = px[p.y() * w + p.x()];
         (c[0], c[1], c[2])
     });
-    let layer = Layer::new(
-        (img.width as usize, img.height as usize),
-        LayerAttributes::named("caustics"),
-        Encoding::SMALL_LOSSLESS,
-        channels,
-    );
+    let mut attributes = LayerAttributes::named("caustics");
+    if let Some(json) = settings {
+        // EXR text is bytes of Latin-1: anything beyond ASCII is written as a JSON escape.
+        let ascii: String = json
+            .chars()
+            .flat_map(|c| {
+                if c.is_ascii() {
+                    vec![c]
+                } else {
+                    let mut units = [0u16; 2];
+                    c.encode_utf16(&mut units)
+                        .iter()
+                        .flat_map(|u| format!("\\u{u:04x}").chars().collect::<Vec<_>>())
+                        .collect()
+                }
+            })
+            .collect();
+        let text = exr::meta::attribute::Text::new_or_panic(ascii);
+        attributes.other.insert(Text::new_or_panic(crate::io::SETTINGS_ATTRIBUTE), AttributeValue::Text(text));
+    }
+    let layer = Layer::new((img.width as usize, img.height as usize), attributes, Encoding::SMALL_LOSSLESS, channels);
     exr::image::Image::from_layer(layer).write().to_file(path).map_err(|e| e.to_string())
 }
 

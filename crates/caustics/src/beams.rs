@@ -227,7 +227,7 @@ pub(crate) fn record_beams(
         // range keeps them exact in f32 (the eye passes' near plane can be very close).
         let cam = &dc.scene.camera;
         let rays = (cam.view_to_clip(0.1, 100.0) * cam.world_to_view()).inverse();
-        let mut bp = params(dc.scene, rays, b, s.max_depth, faces, slots);
+        let mut bp = params(dc.scene, rays, b, s.photons.max_depth, faces, slots);
         if count_fragments {
             bp.flags |= BEAM_FLAG_FRAGMENTS;
         }

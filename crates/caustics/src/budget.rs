@@ -312,7 +312,7 @@ impl BudgetController {
     /// photon grid (and tolerance) for the next frame. Returns true when it changed `settings`.
     pub fn update(&mut self, measured_ms: f64, settings: &mut RenderSettings) -> bool {
         self.frame += 1;
-        if self.technique != Some(settings.technique) {
+        if self.technique != Some(settings.photons.technique) {
             self.reset_ladder(settings);
             // The frame measured was rendered with settings the ladder may not contain.
             return self.apply(settings);
@@ -471,8 +471,8 @@ impl BudgetController {
     }
 
     fn reset_ladder(&mut self, settings: &RenderSettings) {
-        self.technique = Some(settings.technique);
-        self.levels = ladder(settings.technique, &self.settings);
+        self.technique = Some(settings.photons.technique);
+        self.levels = ladder(settings.photons.technique, &self.settings);
         let n = self.levels.len();
         self.seen = vec![None; n];
         self.blocked_until = vec![0; n];
@@ -486,12 +486,12 @@ impl BudgetController {
     /// The best level not above the settings' grid (and tolerance), or the lowest.
     fn nearest(&self, s: &RenderSettings) -> usize {
         let own = Level {
-            photons: s.photons,
-            tolerance: self.levels.first().and_then(|l| l.tolerance).map(|_| s.max_error_tolerance),
+            photons: s.photons.count,
+            tolerance: self.levels.first().and_then(|l| l.tolerance).map(|_| s.adaptive.error_tolerance),
         };
         let mut best = 0;
         for (j, l) in self.levels.iter().enumerate() {
-            if l.photons < s.photons || (l.photons == s.photons && l.work() <= own.work() * (1.0 + 1e-9)) {
+            if l.photons < s.photons.count || (l.photons == s.photons.count && l.work() <= own.work() * (1.0 + 1e-9)) {
                 best = j;
             }
         }
@@ -500,20 +500,20 @@ impl BudgetController {
 
     fn matches(&self, s: &RenderSettings) -> bool {
         let l = self.levels[self.current];
-        l.photons == s.photons && l.tolerance.is_none_or(|t| t == s.max_error_tolerance)
+        l.photons == s.photons.count && l.tolerance.is_none_or(|t| t == s.adaptive.error_tolerance)
     }
 
     fn apply(&mut self, s: &mut RenderSettings) -> bool {
         let l = self.levels[self.current];
         let mut changed = false;
-        if s.photons != l.photons {
-            s.photons = l.photons;
+        if s.photons.count != l.photons {
+            s.photons.count = l.photons;
             changed = true;
         }
         if let Some(t) = l.tolerance
-            && s.max_error_tolerance != t
+            && s.adaptive.error_tolerance != t
         {
-            s.max_error_tolerance = t;
+            s.adaptive.error_tolerance = t;
             changed = true;
         }
         if changed {

@@ -19,7 +19,7 @@
 //! the receiver point seen through the texel's centre.
 
 use crate::scene::{Light, Scene};
-use crate::settings::{RenderSettings, SpillFaces};
+pub use crate::settings::shading::MAX_AUTO_SPILL_MAP;
 use glam::{Mat4, Vec3, Vec4Swizzles};
 
 /// The widest spot cone drawn with one perspective view; wider ones use a cube.
@@ -242,46 +242,9 @@ pub const CUBE_DIRS: [(Vec3, Vec3); 6] = [
     (Vec3::NEG_Z, Vec3::NEG_Y),
 ];
 
-/// The largest caustic map for which [`SpillFaces::Auto`] adds spill faces (each adds a layer
-/// to every per-face map of its light).
-pub const MAX_AUTO_SPILL_MAP: u32 = 1024;
-
-impl RenderSettings {
-    /// Whether the GPU gives `light` a spill face under these settings: a spot light of up to
-    /// 75° whose surface caustic is not drawn by the beams (then it has no photon map; the
-    /// beams' stages run over the emitting faces, `LightView::emit_faces`), and for
-    /// [`SpillFaces::Auto`] only where a specular caster is in the spot's view, the scene's
-    /// bounds reach beyond it and the caustic map is at most [`MAX_AUTO_SPILL_MAP`]².
-    pub fn uses_spill_face(&self, scene: &Scene, light: &Light) -> bool {
-        let spot = matches!(light, Light::Spot { cone_angle, .. } if cone_angle.to_degrees() <= MAX_SPOT_FRUSTUM_DEG);
-        if !spot || self.surface_caustics_from_beams(light) {
-            return false;
-        }
-        match self.spill_faces {
-            SpillFaces::Off => false,
-            SpillFaces::On => true,
-            SpillFaces::Auto => {
-                self.caustic_map_size <= MAX_AUTO_SPILL_MAP
-                    && bounds_beyond_spot(scene, light)
-                    && casters_in_view(scene, &LightView::new(scene, light).faces[0])
-            }
-        }
-    }
-
-    /// The light view the GPU uses for `light`: [`LightView::with_spill`] where
-    /// [`RenderSettings::uses_spill_face`], else [`LightView::new`].
-    pub fn light_view(&self, scene: &Scene, light: &Light) -> LightView {
-        if self.uses_spill_face(scene, light) {
-            LightView::with_spill(scene, light)
-        } else {
-            LightView::new(scene, light)
-        }
-    }
-}
-
 /// Whether the box of the scene's casters reaches into `face`'s view (conservatively: a box
 /// with a corner behind the eye counts as in view).
-fn casters_in_view(scene: &Scene, face: &LightFace) -> bool {
+pub(crate) fn casters_in_view(scene: &Scene, face: &LightFace) -> bool {
     match caster_box(scene, face) {
         CasterBox::NoCasters => false,
         CasterBox::Behind => true,

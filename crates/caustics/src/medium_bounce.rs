@@ -43,7 +43,7 @@ use glam::Vec3;
 /// material that reflects.
 pub(crate) fn wanted(scene: &crate::scene::Scene, s: &RenderSettings) -> bool {
     let Some(m) = &scene.medium else { return false };
-    s.medium_bounce_grid > 0
+    s.medium.bounce_grid > 0
         && m.sigma_s.max_element() > 0.0
         && scene.objects.iter().any(|o| {
             matches!(scene.materials.get(o.material), Some(crate::scene::Material::Diffuse { albedo }) if albedo.max_element() > 0.0)
@@ -93,7 +93,7 @@ pub(crate) fn record_lights(
     }
     let m = dc.scene.medium.as_ref()?;
     let ctx = dc.ctx;
-    let k = s.medium_bounce_grid;
+    let k = s.medium.bounce_grid;
     let surface_count: u32 = lights.iter().map(|lf| lf.faces * k * k).sum();
     let shaft_count = surface_count * SHAFT_SLICES;
     let vpl_size = std::mem::size_of::<VplGpu>() as u64;
@@ -114,9 +114,9 @@ pub(crate) fn record_lights(
                     hi,
                     sigma_t,
                     grid: k,
-                    shadow_size: s.shadow_map_size,
+                    shadow_size: s.shading.shadow_map_size,
                     heterogeneous,
-                    light_steps: s.medium_light_steps,
+                    light_steps: s.medium.light_steps,
                     offset,
                     _pad: [0; 3],
                     sigma_s,
@@ -326,11 +326,11 @@ pub(crate) fn record_beam_emitters(
             (vpls, bins)
         };
         if s.beams_volume_active(dc.scene) {
-            out.scatter.push(emit(format!("medium_bounce_beams{fi}"), (s.medium_bounce_grid, BEAM_EMIT_SLICES), None));
+            out.scatter.push(emit(format!("medium_bounce_beams{fi}"), (s.medium.bounce_grid, BEAM_EMIT_SLICES), None));
         }
         if s.beams_surface_active(dc.scene) {
             let (vpls, bins) =
-                emit(format!("medium_bounce_landing{fi}"), (s.medium_bounce_grid, 1), Some(landing_bounds));
+                emit(format!("medium_bounce_landing{fi}"), (s.medium.bounce_grid, 1), Some(landing_bounds));
             let label = format!("medium_bounce_landing_glow{fi}");
             out.landing_glow.push(record_glow_of(dc, m, lf, s, (&vpls, 0, bins), &label, enc, timer));
             out.landing.push((vpls, bins));
@@ -364,7 +364,7 @@ fn record_glow(
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) -> Vec<(wgpu::Buffer, u32)> {
-    let k = s.medium_bounce_grid;
+    let k = s.medium.bounce_grid;
     let mut offset = 0;
     let mut out = Vec::new();
     for (li, lf) in lights.iter().enumerate() {
@@ -391,7 +391,7 @@ fn record_glow_of(
     let ctx = dc.ctx;
     let density = density_view(ctx, &dc.geo.density);
     let (params, sums, vpls, bins) =
-        emitter_buffers(ctx, label, m, lf, (s.medium_bounce_grid, GLOW_SLICES), (offset, count), None);
+        emitter_buffers(ctx, label, m, lf, (s.medium.bounce_grid, GLOW_SLICES), (offset, count), None);
     let entries = [
         lf.light_buf.as_entire_binding(),
         params.as_entire_binding(),
@@ -531,7 +531,7 @@ fn record_camera_gather(
             sigma_t,
             width: w,
             height: h,
-            steps: s.medium_bounce_steps,
+            steps: s.medium.bounce_steps,
             count,
             heterogeneous,
             _pad: [0; 3],

@@ -15,7 +15,7 @@
 //!    and reflection), in scenes with a medium `medium_scatter` per light (attenuation and
 //!    single scattering along the camera rays), and `display` ([`record_composite`]).
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::gpu::pool::LayoutOf;
 use crate::gpu::types::*;
 use crate::gpu::{GpuContext, PassTimer};
@@ -23,7 +23,7 @@ use crate::image_io::Image;
 use crate::lightspace::{CasterBox, LightView, caster_box};
 use crate::output::FluxStats;
 use crate::scene::{Light, Material, Scene, Tessellation};
-use crate::settings::{SplatMode, Technique};
+use crate::settings::Technique;
 use glam::{Mat4, Vec3};
 use std::ops::Range;
 
@@ -582,186 +582,6 @@ pub(crate) fn bytes_to_image(data: &[u8], w: u32, h: u32) -> Image {
     Image { width: w, height: h, pixels: px.iter().map(|p| [p[0], p[1], p[2]]).collect() }
 }
 
-impl RenderSettings {
-    /// The largest caustic map (power of two, at most `preferred`) whose accumulation buffer
-    /// fits this adapter's storage-binding limit for every light of `scene` (a point light's
-    /// cube has six faces).
-    pub fn fitting_caustic_map_size(ctx: &GpuContext, scene: &Scene, preferred: u32) -> u32 {
-        let max_bind = ctx.device.limits().max_storage_buffer_binding_size;
-        let faces = scene.lights.iter().map(|l| LightView::new(scene, l).faces.len() as u64).max().unwrap_or(1);
-        let mut m = preferred.next_power_of_two().min(2048);
-        while m > 16 && (m as u64).pow(2) * faces * 24 > max_bind {
-            m /= 2;
-        }
-        m
-    }
-
-    /// Check the settings against the adapter's limits; errors name the setting (the command line turns it into its flag).
-    pub fn validate(&self, ctx: &GpuContext, scene: &Scene) -> Result<()> {
-        let cl = |f: &str, m: String| Err(Error::input("<settings>", f, m));
-        let t = &self.tessellation;
-        if !(8..=8192).contains(&t.sphere_segments) || !(8..=8192).contains(&t.cylinder_segments) {
-            return cl("tessellation", format!("must be 8 to 8192 segments (got {})", t.sphere_segments));
-        }
-        let max_n = self.technique.max_photons();
-        if !(16..=max_n).contains(&self.photons) {
-            return cl(
-                "photons",
-                format!("the {} photon grid must be 16 to {max_n} per side (got {})", self.technique, self.photons),
-            );
-        }
-        if !(1..=64).contains(&self.max_depth) {
-            return cl("max_depth", format!("must be 1 to 64 interactions (got {})", self.max_depth));
-        }
-        if !(self.quad_linearity >= 0.0 && self.quad_linearity <= 1e6) {
-            return cl("quad_linearity", format!("must be 0 or more texels (got {})", self.quad_linearity));
-        }
-        if self.quad_linearity > 0.0
-            && !(self.technique == Technique::AdaptiveError && self.splat == SplatMode::Triangles)
-        {
-            return cl(
-                "quad_linearity",
-                "needs --technique adaptive-error with --splat triangles (it stops on cell quads)".to_string(),
-            );
-        }
-        if !(self.max_error_tolerance >= 0.0 && self.max_error_tolerance <= 1e6) {
-            return cl("max_error_tolerance", format!("must be 0 or more texels (got {})", self.max_error_tolerance));
-        }
-        let max_tex = ctx.device.limits().max_texture_dimension_2d;
-        // A multiple of 16: the map is copied into its texture row by row, and a copy's rows
-        // must be a multiple of 256 bytes (16 RGBA32F texels).
-        if !(16..=2048).contains(&self.caustic_map_size)
-            || self.caustic_map_size > max_tex
-            || !self.caustic_map_size.is_multiple_of(16)
-        {
-            return cl(
-                "caustic_map_size",
-                format!(
-                    "must be a multiple of 16 from 16 to {} texels (got {})",
-                    max_tex.min(2048),
-                    self.caustic_map_size
-                ),
-            );
-        }
-        if !(16..=max_tex).contains(&self.shadow_map_size) {
-            return cl("shadow_map_size", format!("must be 16 to {max_tex} texels (got {})", self.shadow_map_size));
-        }
-        if !(1..=4096).contains(&self.medium_steps) {
-            return cl("medium_steps", format!("must be 1 to 4096 (got {})", self.medium_steps));
-        }
-        if !(1..=1024).contains(&self.medium_light_steps) {
-            return cl("medium_light_steps", format!("must be 1 to 1024 (got {})", self.medium_light_steps));
-        }
-        if self.medium_bounce_grid > 64 {
-            return cl("medium_bounce_grid", format!("must be 0 to 64 (got {})", self.medium_bounce_grid));
-        }
-        if !(1..=4096).contains(&self.medium_bounce_steps) {
-            return cl("medium_bounce_steps", format!("must be 1 to 4096 (got {})", self.medium_bounce_steps));
-        }
-        if let Some(g) = scene.medium.as_ref().and_then(|m| m.density.as_ref()) {
-            let max3 = ctx.device.limits().max_texture_dimension_3d;
-            if g.dims.iter().any(|&n| n > max3) {
-                return Err(crate::Error::input(
-                    &scene.source,
-                    "medium.density.path",
-                    format!(
-                        "the density grid's {}×{}×{} voxels exceed this adapter's 3D texture limit {max3}",
-                        g.dims[0], g.dims[1], g.dims[2]
-                    ),
-                ));
-            }
-        }
-        if !(1..=256).contains(&self.env_lights) {
-            return cl("env_lights", format!("must be 1 to 256 directional lights (got {})", self.env_lights));
-        }
-        if self.env_taps as usize > crate::gpu::types::MAX_ENV_TAPS {
-            let max = crate::gpu::types::MAX_ENV_TAPS;
-            return cl("env_taps", format!("must be 0 to {max} sub-directions per region (got {})", self.env_taps));
-        }
-        if let Err((field, msg)) = self.beams.validate() {
-            return cl(field, msg);
-        }
-        let hull_parts = crate::gpu::types::BEAM_HULL_PARTS as usize;
-        let beam_record = std::mem::size_of::<crate::gpu::types::BeamGpu>()
-            .max(hull_parts * std::mem::size_of::<crate::gpu::types::BeamHull>());
-        let beam_bytes = u64::from(self.beams.capacity) * beam_record as u64;
-        let max_bind = ctx.device.limits().max_storage_buffer_binding_size;
-        if beam_bytes > max_bind {
-            return cl(
-                "beams.capacity",
-                format!(
-                    "{} beams need {} MiB, over this adapter's {} MiB storage-binding limit",
-                    self.beams.capacity,
-                    beam_bytes >> 20,
-                    max_bind >> 20
-                ),
-            );
-        }
-        if let Some(why) = self.beams.volume.unsupported(ctx) {
-            return cl("beams.volume", why);
-        }
-        if !(self.splat_sigma > 0.1 && self.splat_sigma <= 16.0) {
-            return cl("splat_sigma", format!("must lie in (0.1, 16] texels (got {})", self.splat_sigma));
-        }
-        let c = &scene.camera;
-        if c.width > max_tex || c.height > max_tex {
-            return cl(
-                "camera.size",
-                format!("{}x{} exceeds this adapter's texture limit {max_tex}", c.width, c.height),
-            );
-        }
-        let faces = scene.lights.iter().map(|l| self.light_view(scene, l).faces.len() as u64).max().unwrap_or(1);
-        let accum = (self.caustic_map_size as u64).pow(2) * faces * 24;
-        if accum > max_bind {
-            return cl(
-                "caustic_map_size",
-                format!(
-                    "a {0}x{0} caustic map with {faces} face(s) needs {1} MiB, over this adapter's {2} MiB storage-binding limit",
-                    self.caustic_map_size,
-                    accum >> 20,
-                    max_bind >> 20
-                ),
-            );
-        }
-        if self.photon_memory < 64 * 32 {
-            return cl("photon_memory", "must be at least 2 KiB".into());
-        }
-        if self.technique.emission() == Technique::Basic && self.photon_memory > max_bind {
-            return cl("photon_memory", format!("must be between 2 KiB and {} MiB", max_bind >> 20));
-        }
-        match self.technique {
-            Technique::Basic | Technique::CausticSpheres => {}
-            Technique::Hierarchical => {
-                crate::techniques::hierarchical::HierarchicalPlan::new(self, max_bind)?;
-            }
-            Technique::AdaptiveLevel | Technique::AdaptiveError => {
-                crate::techniques::adaptive::AdaptivePlan::new(self, max_bind)?;
-            }
-        }
-        if (c.width as u64 * c.height as u64 * 16) > max_bind {
-            return cl("camera.size", "the image exceeds this adapter's storage-binding limit".into());
-        }
-        // The medium beyond glass keeps `EYE_SEGMENTS` segments per pixel (`composite`).
-        let seg_bytes = c.width as u64
-            * c.height as u64
-            * crate::gpu::types::EYE_SEGMENTS
-            * std::mem::size_of::<crate::gpu::types::EyeSegmentGpu>() as u64;
-        if self.medium_segments_active(scene) && seg_bytes > max_bind {
-            return cl(
-                "camera.size",
-                format!(
-                    "{}x{} with a medium needs {} MiB of segments beyond glass, over this adapter's {} MiB storage-binding limit (render smaller, or without the medium beyond glass: --no-medium-beyond-specular)",
-                    c.width,
-                    c.height,
-                    seg_bytes >> 20,
-                    max_bind >> 20
-                ),
-            );
-        }
-        Ok(())
-    }
-}
-
 /// What the passes of a frame share, derived from the scene and the settings.
 pub(crate) struct FrameConsts {
     /// Photon grid N, caster buffer size G, caustic map size M.
@@ -793,7 +613,7 @@ impl FrameConsts {
         let casters: Vec<_> =
             scene.objects.iter().filter(|o| o.caustic_caster && scene.material_of(o).is_specular()).collect();
         let meshes = casters.iter().any(|o| matches!(o.shape, crate::scene::Shape::Mesh(_)));
-        let layer2 = s.light_second_layer && casters.len() >= 2 && meshes;
+        let layer2 = s.testing.light_second_layer && casters.len() >= 2 && meshes;
         // Whether a photon leaving a caster can meet a caster again: not for a lone convex
         // caster (a sphere), where the search would only cost time.
         let multi_bounce = if casters.len() == 1 && matches!(casters[0].shape, crate::scene::Shape::Sphere { .. }) {
@@ -804,24 +624,24 @@ impl FrameConsts {
             1.0
         };
         FrameConsts {
-            n: s.photons,
-            g: s.photons.min(MAX_GBUFFER),
-            m: s.caustic_map_size,
+            n: s.photons.count,
+            g: s.photons.count.min(MAX_GBUFFER),
+            m: s.photons.caustic_map_size,
             layer2,
             multi_bounce,
             caster_radius: scene.caster_bounds().map_or(1.0, |(a, b)| (b - a).length() * 0.5),
-            reflect_branch: s.dielectric_reflection
+            reflect_branch: s.photons.reflection
                 && scene
                     .objects
                     .iter()
                     .any(|o| o.caustic_caster && matches!(scene.material_of(o), Material::Dielectric { .. })),
-            internal_branch: s.internal_reflection
-                && s.tracer == crate::settings::Tracer::Exact
+            internal_branch: s.photons.internal_reflection
+                && s.photons.tracer == crate::settings::Tracer::Exact
                 && scene.objects.iter().any(|o| matches!(scene.material_of(o), Material::Dielectric { .. })),
-            residual_branch: s.residual_branches
-                && s.tracer == crate::settings::Tracer::Exact
+            residual_branch: s.photons.residual
+                && s.photons.tracer == crate::settings::Tracer::Exact
                 && scene.objects.iter().any(|o| matches!(scene.material_of(o), Material::Dielectric { .. })),
-            caustic_spheres: s.technique == Technique::CausticSpheres,
+            caustic_spheres: s.photons.technique == Technique::CausticSpheres,
         }
     }
 }
@@ -903,7 +723,7 @@ pub(crate) fn light_record(
 ) -> (LightView, LightGpu, f64) {
     let view = s.light_view(scene, light);
     let scale = (1u64 << 52) as f64 / flux_bound(&view, light);
-    let lens = s.splat.lens_flag(s.technique);
+    let lens = s.photons.splat.lens_flag(s.photons.technique);
     // A directional light's view covers the whole scene: the basic technique's dense grid is
     // spread over the casters only. The hierarchical technique keeps the whole face (its tiles
     // follow a coverage mip of the full grid, and its statistics and batch plan count whole-face
@@ -911,7 +731,7 @@ pub(crate) fn light_record(
     // Spot and point lights keep the whole face (their views already frame the light's cone or
     // cube).
     let crop = match light {
-        Light::Directional { .. } if s.technique.emission() == Technique::Basic => {
+        Light::Directional { .. } if s.photons.technique.emission() == Technique::Basic => {
             photon_crop(scene, &view.faces[0], fc.n, fc.g)
         }
         _ => FULL_FACE,
@@ -923,14 +743,14 @@ pub(crate) fn light_record(
         fc.n,
         fc.m,
         fc.g,
-        s.splat_sigma,
+        s.photons.splat_sigma,
         scale,
         fc.caster_radius,
         fc.multi_bounce,
         lens,
         crop,
         medium,
-        s.medium_light_steps,
+        s.medium.light_steps,
     );
     (view, lg, scale)
 }
@@ -981,7 +801,7 @@ pub(crate) fn record_light(
     // receives (shadow, receiver and caustic maps).
     let ne = view.emit_faces as u32;
     let light_buf = ctx.uniform("light", bytemuck::bytes_of(lg));
-    let shadow = texture(ctx, "light_shadow", s.shadow_map_size, s.shadow_map_size, nf, DEPTH_FORMAT);
+    let shadow = texture(ctx, "light_shadow", s.shading.shadow_map_size, s.shading.shadow_map_size, nf, DEPTH_FORMAT);
     let recv = GBuffer::new(ctx, "light_receivers", m, m, nf);
     let front = GBuffer::new(ctx, "light_caster_front", g, g, ne);
     let back = GBuffer::new(ctx, "light_caster_back", g, g, ne);
@@ -1031,7 +851,7 @@ pub(crate) fn record_light(
     let accum = ctx.buffer("caustic_flux", texels * 24, usage);
     let irradiance = ctx.buffer("caustic_irradiance", texels * 16, usage);
     let stats = ctx.buffer("flux_stats", crate::output::FLUX_STATS_BYTES, usage);
-    let splat_targets = crate::splat::SplatTargets::new(ctx, s.splat, texels, nf);
+    let splat_targets = crate::splat::SplatTargets::new(ctx, s.photons.splat, texels, nf);
     let [fpv, fnv, bpv, bnv, rpv, rnv] =
         [&front.pos, &front.nrm, &back.pos, &back.nrm, &recv.pos, &recv.nrm].map(|t| array_view(ctx, t));
     let l2v = layer2_bufs.as_ref().map(|(f2, b2)| [&f2.pos, &f2.nrm, &b2.pos, &b2.nrm].map(|t| array_view(ctx, t)));
@@ -1100,7 +920,8 @@ pub(crate) fn record_light(
     if let Some(t) = temporal {
         t.record(ctx, enc, Some(timer), li, &irradiance, m, nf);
     }
-    let (caustic_mask, shadow_tiles) = record_tiles(ctx, (m, s.shadow_map_size, nf), &irradiance, &shadow, enc, timer);
+    let (caustic_mask, shadow_tiles) =
+        record_tiles(ctx, (m, s.shading.shadow_map_size, nf), &irradiance, &shadow, enc, timer);
     let irradiance_tex = ctx.texture(
         "caustic_irradiance",
         wgpu::Extent3d { width: m, height: m, depth_or_array_layers: nf },
@@ -1218,14 +1039,14 @@ pub(crate) fn record_shade(
         bytemuck::bytes_of(&ShadeParams {
             width: w,
             height: h,
-            shadow_size: s.shadow_map_size,
-            tiles: s.shading_tiles as u32,
+            shadow_size: s.shading.shadow_map_size,
+            tiles: s.testing.shading_tiles as u32,
             camera: cam.position.extend(1.0).to_array(),
             medium_lo: dc.scene.medium.as_ref().map_or([0.0; 4], |m| m.bounds_min.extend(1.0).to_array()),
             medium_hi: dc.scene.medium.as_ref().map_or([0.0; 4], |m| m.bounds_max.extend(1.0).to_array()),
             sigma_t: dc.scene.medium.as_ref().map_or([0.0; 4], |m| (m.sigma_s + m.sigma_a).extend(0.0).to_array()),
             medium_grid: match dc.scene.medium.as_ref().and_then(|m| m.density.as_ref()) {
-                Some(_) => [1, s.medium_light_steps, 0, 0],
+                Some(_) => [1, s.medium.light_steps, 0, 0],
                 None => [0; 4],
             },
         }),
@@ -1410,11 +1231,11 @@ fn record_medium(
                 sigma_t: (m.sigma_s + m.sigma_a).extend(0.0).to_array(),
                 width: w,
                 height: h,
-                steps: s.medium_steps,
+                steps: s.medium.steps,
                 flags,
-                shadow_size: s.shadow_map_size,
+                shadow_size: s.shading.shadow_map_size,
                 grid: u32::from(m.density.is_some()),
-                light_steps: s.medium_light_steps,
+                light_steps: s.medium.light_steps,
                 _pad: 0,
             }),
         );
@@ -1486,7 +1307,7 @@ pub(crate) fn record_composite(
         Some(m) => (
             m.bounds_min.extend(0.0).to_array(),
             m.bounds_max.extend(f32::from(u8::from(m.density.is_some()))).to_array(),
-            (m.sigma_s + m.sigma_a).extend(s.medium_steps as f32).to_array(),
+            (m.sigma_s + m.sigma_a).extend(s.medium.steps as f32).to_array(),
         ),
         None => ([0.0; 4], [0.0; 4], [0.0; 4]),
     };

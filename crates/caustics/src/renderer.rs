@@ -370,15 +370,15 @@ impl Renderer {
     /// Segment the environment for the current `env_lights` setting, in the map's own frame,
     /// unless that is done already (once per D).
     fn refresh_env_segments(&mut self) {
-        let key = (self.settings.env_lights, self.settings.env_split);
+        let key = (self.settings.environment.lights, self.settings.environment.split);
         if self.env_segments.as_ref().is_none_or(|(k, _)| *k != key) {
             self.env_segments = Some((key, self.env_segments()));
         }
-        let tkey = (key, self.settings.env_taps);
+        let tkey = (key, self.settings.environment.taps);
         if let Some(env) = &self.scene.environment
             && self.env_taps.as_ref().is_none_or(|(k, _)| *k != tkey)
         {
-            let taps = crate::env_taps::region_taps(env, &self.env_segments(), self.settings.env_taps as usize);
+            let taps = crate::env_taps::region_taps(env, &self.env_segments(), self.settings.environment.taps as usize);
             self.env_taps = Some((tkey, Arc::new(taps)));
         }
     }
@@ -407,7 +407,7 @@ impl Renderer {
         let Some(env) = &self.scene.environment else {
             return Arc::new(Vec::new());
         };
-        let key = (self.settings.env_lights, self.settings.env_split);
+        let key = (self.settings.environment.lights, self.settings.environment.split);
         match &self.env_segments {
             Some((k, segs)) if *k == key => segs.clone(),
             _ => Arc::new(environment_lights::segment_map_with(env, key.0 as usize, key.1)),
@@ -456,9 +456,9 @@ impl Renderer {
         let objects: Vec<usize> = sp.objects.iter().map(|o| o.0).collect();
         let mut key: Vec<u32> = vec![
             env.rotate_y.to_bits(),
-            self.settings.env_lights,
-            self.settings.env_split as u32,
-            self.settings.env_taps,
+            self.settings.environment.lights,
+            self.settings.environment.split as u32,
+            self.settings.environment.taps,
         ];
         for t in &self.transforms {
             key.extend(t.to_cols_array().iter().map(|v| v.to_bits()));
@@ -472,8 +472,8 @@ impl Renderer {
         // The drawn (non-black) regions in the order of the light list, each cut into its
         // sub-regions where it has taps (the order of `spread_lights`' lights): a sub-region
         // below a floor is hidden even where its region is partly seen.
-        let taps = self.env_taps.as_ref().map(|(_, t)| t.clone()).filter(|_| self.settings.env_taps >= 2);
-        let k = (self.settings.env_taps as usize).min(crate::gpu::types::MAX_ENV_TAPS);
+        let taps = self.env_taps.as_ref().map(|(_, t)| t.clone()).filter(|_| self.settings.environment.taps >= 2);
+        let k = (self.settings.environment.taps as usize).min(crate::gpu::types::MAX_ENV_TAPS);
         let mut parts = Vec::new();
         for (i, region) in self.env_segments().iter().enumerate() {
             if region.facing.max_element() <= 0.0 {
@@ -667,7 +667,7 @@ impl Renderer {
         let enc = encoder;
         let ctx = self.ctx.clone();
         let mut s = self.settings.clone();
-        let spheres_on = s.technique == crate::settings::Technique::CausticSpheres;
+        let spheres_on = s.photons.technique == crate::settings::Technique::CausticSpheres;
         // The scene as drawn: its lights, then the environment's directional lights.
         let full = Scene { lights: self.lights_now(), ..self.scene.clone() };
         if spheres_on && self.spheres.is_none() {
@@ -680,9 +680,12 @@ impl Renderer {
         let sphere_vis = if spheres_on { self.sphere_visibility()? } else { None };
         // Geometry: uploaded once (again when the tessellation changes); moved objects rewrite
         // their transforms and analytic shapes.
-        if self.geometry.as_ref().is_none_or(|(t, _)| *t != s.tessellation) {
+        if self.geometry.as_ref().is_none_or(|(t, _)| *t != s.shading.tessellation) {
             ctx.drop_scopes("");
-            self.geometry = Some((s.tessellation, crate::passes::upload_geometry(&ctx, &self.base, &s.tessellation)));
+            self.geometry = Some((
+                s.shading.tessellation,
+                crate::passes::upload_geometry(&ctx, &self.base, &s.shading.tessellation),
+            ));
             self.objects_dirty = true;
             self.lights.iter_mut().for_each(|l| *l = None);
         }
@@ -699,7 +702,7 @@ impl Renderer {
         let fc = FrameConsts::new(scene, &s);
         // The lights' caustic maps (spot and point lights under caustic spheres) use the
         // emission technique; `fc` keeps which directional lights skip their photons.
-        s.technique = s.technique.emission();
+        s.photons.technique = s.photons.technique.emission();
         let raster = crate::passes::raster_pipelines(&ctx);
         let dc = DrawCtx { ctx: &ctx, geo, scene };
 
@@ -788,7 +791,7 @@ impl Renderer {
             // The environment's regions spread over their sub-directions (`env_taps`).
             // (`sphere_visibility` has one value per such light.)
             let sphere_lights = match (&self.scene.environment, &self.env_taps) {
-                (Some(env), Some((_, taps))) if s.env_taps >= 2 => {
+                (Some(env), Some((_, taps))) if s.environment.taps >= 2 => {
                     let drawn: Vec<bool> = self.env_segments().iter().map(|l| l.facing.max_element() > 0.0).collect();
                     let rot = environment_lights::rotation(env.rotate_y);
                     crate::caustic_spheres::gpu::spread_lights(&scene.lights, n_own, taps, &drawn, rot)
@@ -841,7 +844,7 @@ impl Renderer {
                 &dc,
                 &eye,
                 vol,
-                s.medium_steps,
+                s.medium.steps,
                 (&full, &caustic),
                 enc,
                 &mut timer,
@@ -984,15 +987,15 @@ impl Renderer {
                 ..Default::default()
             };
             stats.technique = TechniqueStats {
-                technique: self.settings.technique,
-                grid: self.settings.photons,
+                technique: self.settings.photons.technique,
+                grid: self.settings.photons.count,
                 ..Default::default()
             };
             for (p, pieces) in job.pendings {
                 let bytes: Vec<Vec<u8>> = pieces.iter().map(|&(off, size)| piece(off, size)).collect();
                 match p.finish(&bytes) {
                     // The lights report their emission technique; the frame's is the setting.
-                    Ok(t) => stats.technique.merge(&TechniqueStats { technique: self.settings.technique, ..t }),
+                    Ok(t) => stats.technique.merge(&TechniqueStats { technique: self.settings.photons.technique, ..t }),
                     Err(e) => {
                         let m = e.to_string();
                         self.last_error = Some(m.clone());
@@ -1089,7 +1092,7 @@ impl Renderer {
     /// Read light `light`'s caustic irradiance maps back, one image per face (blocking).
     pub fn read_caustic_maps(&self, light: usize) -> Result<Vec<Image>> {
         let lf = self.light_frame(light)?;
-        let m = self.settings.caustic_map_size;
+        let m = self.settings.photons.caustic_map_size;
         let texels = m as u64 * m as u64;
         let irr = self.ctx.read_buffer(&lf.irradiance, texels * lf.faces as u64 * 16)?;
         Ok((0..lf.faces as u64)
@@ -1100,7 +1103,7 @@ impl Renderer {
     /// Read light `light`'s raw fixed-point flux per texel (r, g, b words per texel, all faces).
     pub fn read_caustic_flux_bits(&self, light: usize) -> Result<Vec<u64>> {
         let lf = self.light_frame(light)?;
-        let m = self.settings.caustic_map_size as u64;
+        let m = self.settings.photons.caustic_map_size as u64;
         let acc = self.ctx.read_buffer(&lf.accum, m * m * lf.faces as u64 * 24)?;
         Ok(acc.chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().unwrap())).collect())
     }
@@ -1163,7 +1166,7 @@ impl Renderer {
         let beams = self.beam_frames.iter().map(|f| crate::beams::read_frame(&ctx, f)).collect::<Result<Vec<_>>>()?;
         if let Some(b) = beams.iter().find(|b| b.0.overflow > 0) {
             return Err(Error::Device(format!(
-                "beam buffer overflow: {} beams did not fit (capacity {}; raise BeamSettings::capacity, --beam-capacity)",
+                "beam buffer overflow: {} beams did not fit (capacity {}; raise beams.capacity)",
                 b.0.overflow, self.settings.beams.capacity
             )));
         }

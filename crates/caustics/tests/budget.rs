@@ -44,14 +44,17 @@ fn optimum(levels: &[Level], target: f64, cost: impl Fn(&Level) -> f64) -> usize
 }
 
 fn settings(t: Technique, photons: u32) -> RenderSettings {
-    RenderSettings { technique: t, photons, ..Default::default() }
+    RenderSettings {
+        photons: caustics::settings::PhotonSettings { technique: t, count: photons, ..Default::default() },
+        ..Default::default()
+    }
 }
 
 /// `overhead + k · work`, with the work of the controller's prior (N², over sqrt(1 + tolerance)
 /// for maximal caustic map error).
 fn grid_cost(s: &RenderSettings, k: f64, overhead: f64) -> f64 {
-    let tol = if s.technique == Technique::AdaptiveError { Some(s.max_error_tolerance) } else { None };
-    overhead + k * Level { photons: s.photons, tolerance: tol }.work()
+    let tol = if s.photons.technique == Technique::AdaptiveError { Some(s.adaptive.error_tolerance) } else { None };
+    overhead + k * Level { photons: s.photons.count, tolerance: tol }.work()
 }
 
 #[test]
@@ -144,8 +147,8 @@ fn bounded_changes_when_a_level_straddles_the_band() {
     // 1024² costs 1.08 × target: predicted over target from 512², never entered from below; to
     // make it straddle, the model is made to under-predict it: cost jumps past 512².
     let (_, changed, _) = simulate(&mut c, &mut s, 400, |_, s| {
-        let n = s.photons as f64;
-        let base = if s.photons >= 1024 { 1.08 * target * (n / 1024.0).powi(2) } else { 2e-6 * n * n };
+        let n = s.photons.count as f64;
+        let base = if s.photons.count >= 1024 { 1.08 * target * (n / 1024.0).powi(2) } else { 2e-6 * n * n };
         base * (1.0 + 0.12 * noise.next())
     });
     assert!(changed.len() <= 12, "{} changes: {changed:?}", changed.len());
@@ -211,11 +214,11 @@ fn respects_limits_and_reports_quality() {
     let mut c = BudgetController::new(b.clone());
     let mut s = settings(Technique::Hierarchical, 512);
     simulate(&mut c, &mut s, 20, |_, s| grid_cost(s, 1e-3, 5.0));
-    assert_eq!(s.photons, 64);
+    assert_eq!(s.photons.count, 64);
     let mut c = BudgetController::new(BudgetSettings { target_ms: 1e6, ..b });
     let mut s = settings(Technique::Hierarchical, 64);
     simulate(&mut c, &mut s, 20, |_, s| grid_cost(s, 1e-6, 0.0));
-    assert_eq!(s.photons, 1024);
+    assert_eq!(s.photons.count, 1024);
     // The error model: one pair assumes error ∝ 1/N; two grids fit the exponent.
     let q = c.quality();
     assert_eq!((q.grid, q.photons, q.estimated_error), (1024, 1 << 20, None));
@@ -230,9 +233,9 @@ fn respects_limits_and_reports_quality() {
     // Adaptive-error: the tolerance is set along with the grid.
     let mut c = BudgetController::new(BudgetSettings::new(1e6));
     let mut s = settings(Technique::AdaptiveError, 64);
-    s.max_error_tolerance = 3.0;
+    s.adaptive.error_tolerance = 3.0;
     simulate(&mut c, &mut s, 20, |_, s| grid_cost(s, 1e-9, 0.0));
-    assert_eq!((s.photons, s.max_error_tolerance), (4096, 0.0));
+    assert_eq!((s.photons.count, s.adaptive.error_tolerance), (4096, 0.0));
 }
 
 /// Single-frame spikes (5× the frame's cost, as a page fault or another process gives) do not
@@ -251,7 +254,7 @@ fn single_frame_spikes_do_not_move_the_controller() {
             // Frames rendered with the current grid (the first after a change is not measured).
             let (mut grid, mut at_grid) = (0, 0);
             let (levels, changed, _) = simulate(&mut c, &mut s, 200, |f, s| {
-                (grid, at_grid) = if s.photons == grid { (grid, at_grid + 1) } else { (s.photons, 1) };
+                (grid, at_grid) = if s.photons.count == grid { (grid, at_grid + 1) } else { (s.photons.count, 1) };
                 let spike = if spikes && (at_grid == 2 || f % 23 == 22) { 5.0 } else { 1.0 };
                 spike * grid_cost(s, 1e-5, overhead) * (1.0 + 0.05 * noise.next())
             });

@@ -18,19 +18,20 @@ fn scene() -> Scene {
 
 fn settings(t: Technique, n: u32) -> RenderSettings {
     RenderSettings {
-        photons: n,
-        technique: t,
-        base_grid: 32,
-        caustic_map_size: 256,
-        shadow_map_size: 256,
-        // Fixed splats for every technique, so that their maps compare bit for bit (caustic
         // triangles, the default, draw different quads per technique: tested below).
-        splat: caustics::splat::SplatMode::Fixed,
-        // The transmitted branch only (the reflected branch at glass is tested separately; the
         // exact tracer's internal branch is another traversal, gpu_exact.rs).
-        dielectric_reflection: false,
-        internal_reflection: false,
-        residual_branches: false,
+        photons: caustics::settings::PhotonSettings {
+            count: n,
+            technique: t,
+            caustic_map_size: 256, // Fixed splats for every technique, so that their maps compare bit for bit (caustic
+            splat: caustics::splat::SplatMode::Fixed, // The transmitted branch only (the reflected branch at glass is tested separately; the
+            reflection: false,
+            internal_reflection: false,
+            residual: false,
+            ..Default::default()
+        },
+        adaptive: caustics::settings::AdaptiveSettings { base_grid: 32, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
         ..Default::default()
     }
 }
@@ -118,7 +119,10 @@ fn the_reflected_branch_at_glass_matches_the_dense_grid() {
     // grid's, bit for bit, and holds more flux than the transmitted branch alone.
     let Some(ctx) = gpu() else { return };
     let s = scene();
-    let with = |t| RenderSettings { dielectric_reflection: true, ..settings(t, 128) };
+    let with = |t| RenderSettings {
+        photons: caustics::settings::PhotonSettings { reflection: true, ..settings(t, 128).photons },
+        ..settings(t, 128)
+    };
     let basic = render(&ctx, &s, &with(Technique::Basic)).unwrap();
     let transmitted = render(&ctx, &s, &settings(Technique::Basic, 128)).unwrap();
     for t in [Technique::AdaptiveLevel, Technique::Hierarchical] {
@@ -137,8 +141,14 @@ fn both_metrics_conserve_flux() {
     let s = scene();
     let level = render(&ctx, &s, &settings(Technique::AdaptiveLevel, 512)).unwrap();
     // Check convergence from the 128^2 level on with a 2-texel tolerance, so that clusters merge.
-    let set =
-        RenderSettings { error_check_grid: 128, max_error_tolerance: 2.0, ..settings(Technique::AdaptiveError, 512) };
+    let set = RenderSettings {
+        adaptive: caustics::settings::AdaptiveSettings {
+            check_grid: 128,
+            error_tolerance: 2.0,
+            ..settings(Technique::AdaptiveError, 512).adaptive
+        },
+        ..settings(Technique::AdaptiveError, 512)
+    };
     let err = render(&ctx, &s, &set).unwrap();
     let (e0, l0) = total_flux(&level);
     let (e1, l1) = total_flux(&err);
@@ -164,9 +174,26 @@ fn skipping_hopeless_checks_traces_less_and_keeps_the_map() {
     let Some(ctx) = gpu() else { return };
     let s = scene();
     // Check from the 128^2 level on, so that several levels are checked and can be skipped.
-    let base =
-        RenderSettings { error_check_grid: 128, caustic_map_size: 1024, ..settings(Technique::AdaptiveError, 1024) };
-    let paper = render(&ctx, &s, &RenderSettings { error_skip_hopeless: false, ..base.clone() }).unwrap();
+    let base = RenderSettings {
+        photons: caustics::settings::PhotonSettings {
+            caustic_map_size: 1024,
+            ..settings(Technique::AdaptiveError, 1024).photons
+        },
+        adaptive: caustics::settings::AdaptiveSettings {
+            check_grid: 128,
+            ..settings(Technique::AdaptiveError, 1024).adaptive
+        },
+        ..settings(Technique::AdaptiveError, 1024)
+    };
+    let paper = render(
+        &ctx,
+        &s,
+        &RenderSettings {
+            testing: caustics::settings::TestingSettings { error_skip_hopeless: false, ..base.testing },
+            ..base.clone()
+        },
+    )
+    .unwrap();
     let skip = render(&ctx, &s, &base).unwrap();
     let (tp, ts) = (paper.technique.photons_traced, skip.technique.photons_traced);
     let (sp, ss) = (paper.technique.photons_splatted, skip.technique.photons_splatted);
@@ -194,24 +221,27 @@ fn batching_gives_the_same_map() {
     for t in [Technique::AdaptiveLevel, Technique::AdaptiveError, Technique::Hierarchical] {
         let mut set = settings(t, 512);
         if t == Technique::AdaptiveError {
-            set.error_check_grid = 128;
-            set.max_error_tolerance = 1.0;
+            set.adaptive.check_grid = 128;
+            set.adaptive.error_tolerance = 1.0;
         }
         let one = render(&ctx, &s, &set).unwrap();
-        let small = RenderSettings { photon_memory: 256 << 10, ..set.clone() };
+        let small = RenderSettings {
+            photons: caustics::settings::PhotonSettings { memory: 256 << 10, ..set.photons },
+            ..set.clone()
+        };
         let many = render(&ctx, &s, &small).unwrap();
         eprintln!(
             "{t}: {} batch(es) in {} KiB vs {} in {} KiB; peak {} vs {} bytes",
             one.technique.batches,
-            set.photon_memory >> 10,
+            set.photons.memory >> 10,
             many.technique.batches,
-            small.photon_memory >> 10,
+            small.photons.memory >> 10,
             one.technique.peak_photon_bytes,
             many.technique.peak_photon_bytes
         );
         assert!(many.technique.batches > one.technique.batches, "{t}: the small budget must split into batches");
-        assert!(many.technique.peak_photon_bytes <= small.photon_memory, "{t}: peak over the budget");
-        assert!(many.technique.photon_bytes <= small.photon_memory, "{t}: allocation over the budget");
+        assert!(many.technique.peak_photon_bytes <= small.photons.memory, "{t}: peak over the budget");
+        assert!(many.technique.photon_bytes <= small.photons.memory, "{t}: allocation over the budget");
         assert!(many.caustic_flux_bits == one.caustic_flux_bits, "{t}: batching changed the map");
         assert_eq!(many.technique.photons_splatted, one.technique.photons_splatted, "{t}");
     }
@@ -222,7 +252,10 @@ fn a_budget_too_small_for_one_batch_is_an_input_error() {
     let Some(ctx) = gpu() else { return };
     let s = scene();
     for t in [Technique::AdaptiveLevel, Technique::AdaptiveError] {
-        let set = RenderSettings { photon_memory: 4 << 10, ..settings(t, 16384) };
+        let set = RenderSettings {
+            photons: caustics::settings::PhotonSettings { memory: 4 << 10, ..settings(t, 16384).photons },
+            ..settings(t, 16384)
+        };
         let e = render(&ctx, &s, &set).unwrap_err();
         assert!(e.is_input(), "{e}");
         let msg = e.to_string();
@@ -230,9 +263,24 @@ fn a_budget_too_small_for_one_batch_is_an_input_error() {
     }
     // Grids beyond what a technique supports, and grids that are not powers of two.
     for set in [
-        RenderSettings { photons: 16384, ..settings(Technique::Basic, 16384) },
-        RenderSettings { photons: 1000, ..settings(Technique::AdaptiveLevel, 1000) },
-        RenderSettings { photons: 131072, ..settings(Technique::AdaptiveError, 131072) },
+        RenderSettings {
+            photons: caustics::settings::PhotonSettings { count: 16384, ..settings(Technique::Basic, 16384).photons },
+            ..settings(Technique::Basic, 16384)
+        },
+        RenderSettings {
+            photons: caustics::settings::PhotonSettings {
+                count: 1000,
+                ..settings(Technique::AdaptiveLevel, 1000).photons
+            },
+            ..settings(Technique::AdaptiveLevel, 1000)
+        },
+        RenderSettings {
+            photons: caustics::settings::PhotonSettings {
+                count: 131072,
+                ..settings(Technique::AdaptiveError, 131072).photons
+            },
+            ..settings(Technique::AdaptiveError, 131072)
+        },
     ] {
         assert!(render(&ctx, &s, &set).unwrap_err().is_input());
     }
@@ -245,7 +293,14 @@ fn camera_motion_leaves_the_caustic_map_unchanged() {
     let mut b = scene();
     b.camera.position = glam::Vec3::new(2.5, 1.5, -2.0);
     for t in [Technique::AdaptiveLevel, Technique::AdaptiveError] {
-        let set = RenderSettings { error_check_grid: 128, max_error_tolerance: 1.0, ..settings(t, 512) };
+        let set = RenderSettings {
+            adaptive: caustics::settings::AdaptiveSettings {
+                check_grid: 128,
+                error_tolerance: 1.0,
+                ..settings(t, 512).adaptive
+            },
+            ..settings(t, 512)
+        };
         let ra = render(&ctx, &a, &set).unwrap();
         let ra2 = render(&ctx, &a, &set).unwrap();
         let rb = render(&ctx, &b, &set).unwrap();
@@ -278,7 +333,14 @@ fn sphere() -> Scene {
 /// and a Gaussian are clipped differently (measured: ratio 1.00018). The exact tracer under the
 /// adaptive techniques is covered by the other tests of this file and by gpu_exact.rs.
 fn with_splat(t: Technique, n: u32, splat: caustics::splat::SplatMode) -> RenderSettings {
-    RenderSettings { splat, tracer: caustics::render::Tracer::ImageSpace, ..settings(t, n) }
+    RenderSettings {
+        photons: caustics::settings::PhotonSettings {
+            splat,
+            tracer: caustics::render::Tracer::ImageSpace,
+            ..settings(t, n).photons
+        },
+        ..settings(t, n)
+    }
 }
 
 /// Flux in the caustic map (fixed-point units, r + g + b).
@@ -331,23 +393,43 @@ fn adaptive_caustic_triangles_conserve_flux_and_beat_fixed_splats() {
     // corners counted in the budget) changes nothing.
     let again = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Triangles)).unwrap();
     assert!(again.caustic_flux_bits == tri.caustic_flux_bits, "not bit-identical run to run");
-    let small = RenderSettings { photon_memory: 64 << 10, ..with_splat(Technique::AdaptiveLevel, n, Triangles) };
+    let small = RenderSettings {
+        photons: caustics::settings::PhotonSettings {
+            memory: 64 << 10,
+            ..with_splat(Technique::AdaptiveLevel, n, Triangles).photons
+        },
+        ..with_splat(Technique::AdaptiveLevel, n, Triangles)
+    };
     let many = render(&ctx, &s, &small).unwrap();
     eprintln!(
         "{} batch(es) in {} KiB, peak {} bytes",
         many.technique.batches,
-        small.photon_memory >> 10,
+        small.photons.memory >> 10,
         many.technique.peak_photon_bytes
     );
     assert!(many.technique.batches > tri.technique.batches);
-    assert!(many.technique.peak_photon_bytes <= small.photon_memory);
-    assert!(many.technique.photon_bytes <= small.photon_memory);
+    assert!(many.technique.peak_photon_bytes <= small.photons.memory);
+    assert!(many.technique.photon_bytes <= small.photons.memory);
     assert!(many.caustic_flux_bits == tri.caustic_flux_bits, "batching changed the map");
     // The hierarchical technique's dual quads (from the dense tile), tile by tile.
     for memory in [64u64 << 20, 256 << 10] {
-        let set = RenderSettings { photon_memory: memory, ..with_splat(Technique::Hierarchical, n, Triangles) };
+        let set = RenderSettings {
+            photons: caustics::settings::PhotonSettings {
+                memory,
+                ..with_splat(Technique::Hierarchical, n, Triangles).photons
+            },
+            ..with_splat(Technique::Hierarchical, n, Triangles)
+        };
         let h = render(&ctx, &s, &set).unwrap();
-        let hfix = render(&ctx, &s, &RenderSettings { splat: Fixed, ..set.clone() }).unwrap();
+        let hfix = render(
+            &ctx,
+            &s,
+            &RenderSettings {
+                photons: caustics::settings::PhotonSettings { splat: Fixed, ..set.photons },
+                ..set.clone()
+            },
+        )
+        .unwrap();
         let ratio = map_flux(&h) / map_flux(&hfix);
         let vs_dense = caustics_reference::metrics::map_agreement(&h.caustic_maps[0][0], &dense.caustic_maps[0][0]);
         let err = caustics_reference::metrics::map_agreement(&h.caustic_maps[0][0], &reference);
@@ -376,8 +458,14 @@ fn thin_light_from_cell_quads_stays_smooth() {
     use caustics::splat::SplatMode::Triangles;
     let Some(ctx) = gpu() else { return };
     let s = sphere();
-    let set =
-        |t| RenderSettings { dielectric_reflection: true, caustic_map_size: 512, ..with_splat(t, 512, Triangles) };
+    let set = |t| RenderSettings {
+        photons: caustics::settings::PhotonSettings {
+            reflection: true,
+            caustic_map_size: 512,
+            ..with_splat(t, 512, Triangles).photons
+        },
+        ..with_splat(t, 512, Triangles)
+    };
     let dense = render(&ctx, &s, &set(Technique::Basic)).unwrap();
     let b = &dense.caustic_maps[0][0];
     let (w, h) = (b.width as i64, b.height as i64);
@@ -423,8 +511,11 @@ fn maximal_error_caustic_triangles_conserve_flux() {
     let s = sphere();
     let n = 512;
     let set = |splat, linearity| RenderSettings {
-        error_check_grid: 128,
-        quad_linearity: linearity,
+        adaptive: caustics::settings::AdaptiveSettings {
+            check_grid: 128,
+            quad_linearity: linearity,
+            ..with_splat(Technique::AdaptiveError, n, splat).adaptive
+        },
         ..with_splat(Technique::AdaptiveError, n, splat)
     };
     let fixed = render(&ctx, &s, &set(Fixed, 0.0)).unwrap();
@@ -461,7 +552,13 @@ fn maximal_error_caustic_triangles_conserve_flux() {
     assert!(splatted(&tri) < splatted(&level) * 3 / 4, "clusters must merge");
     assert!(splatted(&linear) < splatted(&tri), "the linearity rule must merge more");
     // The option is for adaptive-error with triangles only.
-    let bad = RenderSettings { quad_linearity: 0.5, ..with_splat(Technique::AdaptiveLevel, n, Triangles) };
+    let bad = RenderSettings {
+        adaptive: caustics::settings::AdaptiveSettings {
+            quad_linearity: 0.5,
+            ..with_splat(Technique::AdaptiveLevel, n, Triangles).adaptive
+        },
+        ..with_splat(Technique::AdaptiveLevel, n, Triangles)
+    };
     assert!(render(&ctx, &s, &bad).unwrap_err().is_input());
 }
 
@@ -472,7 +569,13 @@ fn cell_quads_conserve_flux_with_a_point_light() {
     use caustics::splat::SplatMode::{Fixed, Triangles};
     let Some(ctx) = gpu() else { return };
     let s = catalogue("two_spheres", 32);
-    let set = |splat| RenderSettings { caustic_map_size: 128, ..with_splat(Technique::AdaptiveLevel, 128, splat) };
+    let set = |splat| RenderSettings {
+        photons: caustics::settings::PhotonSettings {
+            caustic_map_size: 128,
+            ..with_splat(Technique::AdaptiveLevel, 128, splat).photons
+        },
+        ..with_splat(Technique::AdaptiveLevel, 128, splat)
+    };
     let fixed = render(&ctx, &s, &set(Fixed)).unwrap();
     let tri = render(&ctx, &s, &set(Triangles)).unwrap();
     let ratio = map_flux(&tri) / map_flux(&fixed);
@@ -493,9 +596,15 @@ fn cell_quads_on_a_mesh_are_deterministic_and_conserve_flux_at_a_large_map() {
     let Some(ctx) = gpu() else { return };
     let s = catalogue("glass_bunny", 16);
     let set = |splat| RenderSettings {
-        caustic_map_size: 1024,
-        shadow_map_size: 256,
-        splat,
+        photons: caustics::settings::PhotonSettings {
+            caustic_map_size: 1024,
+            splat,
+            ..settings(Technique::AdaptiveLevel, 128).photons
+        },
+        shading: caustics::settings::ShadingSettings {
+            shadow_map_size: 256,
+            ..settings(Technique::AdaptiveLevel, 128).shading
+        },
         ..settings(Technique::AdaptiveLevel, 128)
     };
     let quads = set(caustics::splat::SplatMode::Triangles);

@@ -21,7 +21,11 @@ fn scene(name: &str) -> Scene {
 }
 
 fn settings(n: u32, m: u32) -> RenderSettings {
-    RenderSettings { photons: n, caustic_map_size: m, shadow_map_size: 512, ..Default::default() }
+    RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: n, caustic_map_size: m, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
+        ..Default::default()
+    }
 }
 
 fn small(mut s: Scene, w: u32) -> Scene {
@@ -64,9 +68,12 @@ fn flux_in_caustic_map_matches_fresnel_optics() {
     let s = small(Scene::default_scene(), 64);
     // The transmitted branch alone (no reflected, internal or residual pass): T(in) T(out).
     let transmitted_only = RenderSettings {
-        dielectric_reflection: false,
-        internal_reflection: false,
-        residual_branches: false,
+        photons: caustics::settings::PhotonSettings {
+            reflection: false,
+            internal_reflection: false,
+            residual: false,
+            ..settings(512, 512).photons
+        },
         ..settings(512, 512)
     };
     let out = render(&ctx, &s, &transmitted_only).unwrap();
@@ -99,7 +106,14 @@ fn flux_in_caustic_map_matches_fresnel_optics() {
 
     // With the reflected branch: what lands or leaves the scene is the transmitted flux plus the
     // flux the ball reflects, I F(theta) integrated over its solid angle.
-    let two = RenderSettings { internal_reflection: false, residual_branches: false, ..settings(512, 512) };
+    let two = RenderSettings {
+        photons: caustics::settings::PhotonSettings {
+            internal_reflection: false,
+            residual: false,
+            ..settings(512, 512).photons
+        },
+        ..settings(512, 512)
+    };
     let both = render(&ctx, &s, &two).unwrap().flux[0];
     let reflected = ball_reflected_flux(120.0, d, 0.5, 1.5);
     let out_of_ball = both.landed + both.lost_no_receiver + both.lost_outside;
@@ -291,10 +305,22 @@ fn settings_over_the_limits_are_input_errors() {
     let Some(ctx) = gpu() else { return };
     let s = Scene::default_scene();
     for bad in [
-        RenderSettings { photons: 100_000, ..Default::default() },
-        RenderSettings { photons: 0, ..Default::default() },
-        RenderSettings { caustic_map_size: 8, ..Default::default() },
-        RenderSettings { splat_sigma: 0.0, ..Default::default() },
+        RenderSettings {
+            photons: caustics::settings::PhotonSettings { count: 100_000, ..Default::default() },
+            ..Default::default()
+        },
+        RenderSettings {
+            photons: caustics::settings::PhotonSettings { count: 0, ..Default::default() },
+            ..Default::default()
+        },
+        RenderSettings {
+            photons: caustics::settings::PhotonSettings { caustic_map_size: 8, ..Default::default() },
+            ..Default::default()
+        },
+        RenderSettings {
+            photons: caustics::settings::PhotonSettings { splat_sigma: 0.0, ..Default::default() },
+            ..Default::default()
+        },
     ] {
         let e = render(&ctx, &s, &bad).unwrap_err();
         assert!(e.is_input(), "{e}");
@@ -403,7 +429,15 @@ fn directly_lit_floor_matches_the_inverse_square_law_without_dark_pixels() {
     }
     let axis = (target - lp).normalize();
     let falloff_cos = 18f32.to_radians().cos();
-    let out = render(&ctx, &s, &RenderSettings { shadow_map_size: 4096, ..settings(256, 256) }).unwrap();
+    let out = render(
+        &ctx,
+        &s,
+        &RenderSettings {
+            shading: caustics::settings::ShadingSettings { shadow_map_size: 4096, ..settings(256, 256).shading },
+            ..settings(256, 256)
+        },
+    )
+    .unwrap();
     let cam = &s.camera;
     let (w, h) = (cam.width, cam.height);
     let tan_y = (cam.fov_y_deg.to_radians() * 0.5).tan();

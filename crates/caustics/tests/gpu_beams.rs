@@ -414,7 +414,12 @@ fn ball_in_fog(falloff_start: f32, w: u32, h: u32) -> Scene {
 }
 
 fn render_settings(b: BeamSettings) -> RenderSettings {
-    RenderSettings { photons: 64, caustic_map_size: 64, shadow_map_size: 256, beams: b, ..Default::default() }
+    RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 64, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
+        beams: b,
+        ..Default::default()
+    }
 }
 
 #[test]
@@ -1808,9 +1813,12 @@ fn ball_at_45(w: u32, h: u32, table: bool) -> Scene {
 
 fn surface_settings(sc: caustics::settings::SurfaceCaustics) -> RenderSettings {
     RenderSettings {
+        photons: caustics::settings::PhotonSettings {
+            count: 256,
+            caustic_map_size: 256,
+            ..render_settings(BeamSettings::default()).photons
+        },
         surface_caustics: sc,
-        photons: 256,
-        caustic_map_size: 256,
         ..render_settings(BeamSettings::default())
     }
 }
@@ -2171,7 +2179,10 @@ fn surface_caustic_energy_against_the_cpu_reference() {
     let ratio = |s: RenderSettings| total(&render(&ctx, &sc, &s).unwrap().caustic) / reference;
     let spill = ratio(surface_settings(SurfaceCaustics::Photons));
     let no_spill = ratio(RenderSettings {
-        spill_faces: caustics::render::SpillFaces::Off,
+        shading: caustics::settings::ShadingSettings {
+            spill_faces: caustics::render::SpillFaces::Off,
+            ..surface_settings(SurfaceCaustics::Photons).shading
+        },
         ..surface_settings(SurfaceCaustics::Photons)
     });
     let beams = ratio(surface_settings(SurfaceCaustics::Beams));
@@ -2366,7 +2377,7 @@ fn a_mesh_casters_silhouette_triangles_all_get_their_parts() {
     let t0: Vec<_> = list.iter().filter(|b| b.branch == 0 && b.layer == 0).collect();
     let beams: f64 = t0.iter().map(|b| f64::from(b.flux.x)).sum();
     let floor: f64 = t0.iter().filter(|b| b.land == 1).map(|b| f64::from(b.flux.x)).sum();
-    let (cpu, cpu_floor) = transmitted_flux(&sc, 400, RenderSettings::default().max_depth, 1);
+    let (cpu, cpu_floor) = transmitted_flux(&sc, 400, RenderSettings::default().photons.max_depth, 1);
     println!("transmitted beams {beams:.4} W, CPU {cpu:.4} W: {:.4}", beams / cpu);
     println!("on the floor {floor:.4} W, CPU {cpu_floor:.4} W: {:.4}", floor / cpu_floor);
     assert!((beams / cpu - 1.0).abs() < 0.03, "transmitted beams carry {beams} W of {cpu} W");
@@ -2380,7 +2391,7 @@ fn a_mesh_casters_silhouette_triangles_all_get_their_parts() {
     // 2026-12-06) the layer-1 beams carried 0.690 of 0.788 W (0.876). Measured (lavapipe):
     // 0.783 W, 0.99.
     let l1: f64 = list.iter().filter(|b| b.branch == 0 && b.layer == 1).map(|b| f64::from(b.flux.x)).sum();
-    let cpu_l1 = layer1_flux(&sc, 400, RenderSettings::default().max_depth);
+    let cpu_l1 = layer1_flux(&sc, 400, RenderSettings::default().photons.max_depth);
     println!("transmitted layer 1: beams {l1:.4} W, CPU {cpu_l1:.4} W: {:.4}", l1 / cpu_l1);
     assert!((l1 / cpu_l1 - 1.0).abs() < 0.03, "transmitted layer-1 beams carry {l1} W of {cpu_l1} W");
     // Parts whose own beam would be degenerate get a thin one: almost none is dropped.
@@ -2391,7 +2402,7 @@ fn a_mesh_casters_silhouette_triangles_all_get_their_parts() {
     // the dragon the light inside it crosses the dragon more often than at its corners); with
     // orphans-only parts (beam_refine's PART_ORPHANS) they carry 0.952 and 0.956 (measured
     // 2026-12-05, lavapipe; reflected at interactions 0 and 1: 0.980, 0.974).
-    let cpu = branch_flux(&sc, 400, RenderSettings::default().max_depth);
+    let cpu = branch_flux(&sc, 400, RenderSettings::default().photons.max_depth);
     let got: Vec<f64> = (0..6u32)
         .map(|br| list.iter().filter(|b| b.branch == br && b.layer == 0).map(|b| f64::from(b.flux.x)).sum())
         .collect();

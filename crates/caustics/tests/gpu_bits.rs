@@ -65,13 +65,15 @@ fn render_hash(
     surface: SurfaceCaustics,
 ) -> String {
     let settings = RenderSettings {
-        photons: 64,
-        caustic_map_size: 64,
-        shadow_map_size: 128,
-        technique,
+        photons: caustics::settings::PhotonSettings {
+            count: 64,
+            caustic_map_size: 64,
+            technique,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 128, ..Default::default() },
+        medium: caustics::settings::MediumSettings { steps: 16, light_steps: 4, ..Default::default() },
         surface_caustics: surface,
-        medium_steps: 16,
-        medium_light_steps: 4,
         ..Default::default()
     };
     let mut r = match Renderer::with_context(ctx.clone(), scene.clone(), settings) {

@@ -33,7 +33,10 @@ fn frame_ms(r: &mut Renderer) -> f64 {
 }
 
 fn cost(r: &mut Renderer, photons: u32) -> f64 {
-    let s = RenderSettings { photons, ..r.settings().clone() };
+    let s = RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: photons, ..r.settings().photons },
+        ..r.settings().clone()
+    };
     r.set_settings(s).unwrap();
     frame_ms(r); // settles (pipelines, resources)
     let mut v: Vec<f64> = (0..3).map(|_| frame_ms(r)).collect();
@@ -47,10 +50,13 @@ fn budget_settles_on_a_real_scene() {
     let mut scene = caustics::Scene::default_scene();
     (scene.camera.width, scene.camera.height) = (160, 120);
     let settings = RenderSettings {
-        technique: Technique::AdaptiveLevel,
-        photons: 128,
-        caustic_map_size: 128,
-        shadow_map_size: 512,
+        photons: caustics::settings::PhotonSettings {
+            technique: Technique::AdaptiveLevel,
+            count: 128,
+            caustic_map_size: 128,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx, scene, settings).unwrap();
@@ -64,13 +70,16 @@ fn budget_settles_on_a_real_scene() {
     let b = BudgetSettings { min_photons: 64, max_photons: 1024, window: 3, ..BudgetSettings::new(target) };
     let band = b.band;
     let mut c = BudgetController::new(b);
-    let mut s = RenderSettings { photons: 64, ..r.settings().clone() };
+    let mut s = RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 64, ..r.settings().photons },
+        ..r.settings().clone()
+    };
     r.set_settings(s.clone()).unwrap();
     let mut last_change = 0;
     let mut trace = Vec::new();
     for f in 1..=40 {
         let t = frame_ms(&mut r);
-        trace.push((s.photons, t));
+        trace.push((s.photons.count, t));
         if c.update(t, &mut s) {
             r.set_settings(s.clone()).unwrap();
             last_change = f;

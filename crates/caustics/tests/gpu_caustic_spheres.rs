@@ -76,10 +76,13 @@ fn render_samples(
     samples: u32,
 ) -> caustics::render::GpuRender {
     let s = RenderSettings {
-        photons: 64,
-        caustic_map_size: 128,
-        shadow_map_size: 256,
-        technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings {
+            count: 64,
+            caustic_map_size: 128,
+            technique: Technique::CausticSpheres,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), scene.clone(), s).unwrap();
@@ -197,10 +200,13 @@ fn steady_frames_create_nothing() {
     let Some(ctx) = gpu() else { return };
     let l = Vec3::new(0.2, -1.0, 0.1).normalize();
     let s = RenderSettings {
-        photons: 64,
-        caustic_map_size: 128,
-        shadow_map_size: 256,
-        technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings {
+            count: 64,
+            caustic_map_size: 128,
+            technique: Technique::CausticSpheres,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), scene(&[(l, [1.0; 3])]), s).unwrap();
@@ -271,10 +277,13 @@ fn half_float_table_matches_f32() {
     let Some(ctx) = gpu() else { return };
     let sc = scene(&[(Vec3::new(0.3, -1.0, 0.2).normalize(), [2.0, 1.0, 0.5])]);
     let s = RenderSettings {
-        photons: 64,
-        caustic_map_size: 128,
-        shadow_map_size: 256,
-        technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings {
+            count: 64,
+            caustic_map_size: 128,
+            technique: Technique::CausticSpheres,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
         ..Default::default()
     };
     let run = |half: bool| {
@@ -311,7 +320,11 @@ fn technique_adds_spheres_to_basic_caustic_maps_of_spot_lights() {
     let mut spot_only = scene(&[dir]);
     spot_only.lights = vec![spot];
     let out = render(&ctx, &both, None);
-    let s = RenderSettings { photons: 64, caustic_map_size: 128, shadow_map_size: 256, ..Default::default() };
+    let s = RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 128, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
+        ..Default::default()
+    };
     let basic = caustics::render::render(&ctx, &spot_only, &s).unwrap();
     let gather = render(&ctx, &scene(&[dir]), None).caustic;
     // The spot light's photons are the basic technique's, the directional light's none.
@@ -336,7 +349,14 @@ fn technique_adds_spheres_to_basic_caustic_maps_of_spot_lights() {
 #[test]
 fn technique_without_tables_is_refused() {
     let Some(ctx) = gpu() else { return };
-    let s = RenderSettings { photons: 64, technique: Technique::CausticSpheres, ..Default::default() };
+    let s = RenderSettings {
+        photons: caustics::settings::PhotonSettings {
+            count: 64,
+            technique: Technique::CausticSpheres,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
     let mut r = Renderer::with_context(ctx.clone(), scene(&[(Vec3::NEG_Y, [1.0; 3])]), s).unwrap();
     let Err(e) = r.render_once() else { panic!("no tables: an error expected") };
     assert!(e.to_string().contains("set_caustic_spheres"), "{e}");
@@ -355,10 +375,13 @@ fn occlusion_stack_overflows_are_reported() {
     let tess = caustics::scene::Tessellation { sphere_segments: 64, cylinder_segments: 64 };
     sc.objects[k].shape = caustics::scene::Shape::Mesh(Arc::new(sc.objects[k].shape.tessellate(&tess)));
     let s = RenderSettings {
-        photons: 64,
-        caustic_map_size: 128,
-        shadow_map_size: 256,
-        technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings {
+            count: 64,
+            caustic_map_size: 128,
+            technique: Technique::CausticSpheres,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), sc, s).unwrap();
@@ -387,10 +410,13 @@ fn compiled_variant_matches_the_direct_one() {
     ];
     let sc = scene(&lights);
     let s = RenderSettings {
-        photons: 64,
-        caustic_map_size: 128,
-        shadow_map_size: 256,
-        technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings {
+            count: 64,
+            caustic_map_size: 128,
+            technique: Technique::CausticSpheres,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), sc, s).unwrap();
@@ -501,10 +527,13 @@ fn region_visibility_scales_each_regions_caustic_through_spheres() {
     let bright = [(above.0, above.1, Vec3::splat(2500.0)), (open.0, open.1, Vec3::new(1000.0, 3000.0, 2000.0))];
     let (env, lights) = env_scene(&bright, plate);
     let s = RenderSettings {
-        photons: 64,
-        caustic_map_size: 128,
-        shadow_map_size: 256,
-        technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings {
+            count: 64,
+            caustic_map_size: 128,
+            technique: Technique::CausticSpheres,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), env.clone(), s).unwrap();

@@ -44,7 +44,11 @@ fn scene(objects: &str) -> Scene {
 }
 
 fn settings() -> RenderSettings {
-    RenderSettings { photons: 64, caustic_map_size: 64, shadow_map_size: 256, ..Default::default() }
+    RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 64, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
+        ..Default::default()
+    }
 }
 
 #[test]
@@ -239,7 +243,10 @@ fn one_bright_texel_casts_the_caustic_of_a_directional_light() {
         -dir.x, -dir.y, -dir.z, e.x, e.y, e.z
     );
     let b = Scene::from_json(&json(&directional), "b.json", &base).unwrap();
-    let st = RenderSettings { photons: 128, caustic_map_size: 128, ..settings() };
+    let st = RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 128, caustic_map_size: 128, ..settings().photons },
+        ..settings()
+    };
     let ga = render(&ctx, &a, &st).unwrap();
     let gb = render(&ctx, &b, &st).unwrap();
     let sum = |i: &caustics::image_io::Image| i.pixels.iter().map(|p| Vec3::from_array(*p)).sum::<Vec3>();
@@ -266,7 +273,10 @@ fn rotation_is_exact_and_creates_nothing() {
         r#"{FLOOR}, {{ "type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": "mirror" }}"#
     ));
     s.environment = Some(Arc::new(env.clone()));
-    let st = RenderSettings { env_lights: 6, ..settings() };
+    let st = RenderSettings {
+        environment: caustics::settings::EnvironmentSettings { lights: 6, ..settings().environment },
+        ..settings()
+    };
     let frame = |r: &mut Renderer| {
         let before = r.created().total();
         let mut enc = r.context().device.create_command_encoder(&Default::default());
@@ -287,7 +297,11 @@ fn rotation_is_exact_and_creates_nothing() {
     assert!(turned.pixels == fresh.image.pixels, "turned and fresh renderers differ");
     // D = 6 → 12: more lights, then a steady state.
     let n6 = r.lights().len();
-    r.set_settings(RenderSettings { env_lights: 12, ..st }).unwrap();
+    r.set_settings(RenderSettings {
+        environment: caustics::settings::EnvironmentSettings { lights: 12, ..st.environment },
+        ..st
+    })
+    .unwrap();
     assert!(r.lights().len() > n6);
     frame(&mut r);
     assert_eq!(frame(&mut r), 0, "the second frame at D = 12 creates nothing");
@@ -407,7 +421,11 @@ fn a_broad_regions_caustic_spreads_like_the_reference() {
     let (e_ref, r_ref) = spread(&caustics_reference::reference::render(&s, &rs).unwrap().caustic);
     let mut got = Vec::new();
     for k in [0u32, 16] {
-        let st = RenderSettings { env_lights: 6, env_taps: k, photons: 128, caustic_map_size: 256, ..settings() };
+        let st = RenderSettings {
+            photons: caustics::settings::PhotonSettings { count: 128, caustic_map_size: 256, ..settings().photons },
+            environment: caustics::settings::EnvironmentSettings { lights: 6, taps: k, ..settings().environment },
+            ..settings()
+        };
         let mut r = Renderer::with_context(ctx.clone(), s.clone(), st).unwrap();
         assert_eq!(r.lights().len(), 1);
         let (e, r50) = spread(&r.render_once().unwrap().caustic);
@@ -451,7 +469,15 @@ fn region_lights_give_the_floor_the_maps_cosine_integral() {
     let want = exact * 0.5 / std::f32::consts::PI;
     let mut errs = Vec::new();
     for d in [12u32, 24, 48] {
-        let out = render(&ctx, &s, &RenderSettings { env_lights: d, ..settings() }).unwrap();
+        let out = render(
+            &ctx,
+            &s,
+            &RenderSettings {
+                environment: caustics::settings::EnvironmentSettings { lights: d, ..settings().environment },
+                ..settings()
+            },
+        )
+        .unwrap();
         let (mut n, mut worst, mut mean) = (0, 0.0f32, Vec3::ZERO);
         for y in 0..s.camera.height {
             for x in 0..s.camera.width {

@@ -17,7 +17,11 @@ fn golden(name: &str) {
     let mut s = Scene::load(&dir.join("../../scenes").join(format!("{name}.json"))).unwrap();
     s.camera.height = s.camera.height * 96 / s.camera.width;
     s.camera.width = 96;
-    let settings = RenderSettings { photons: 256, caustic_map_size: 256, shadow_map_size: 512, ..Default::default() };
+    let settings = RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 256, caustic_map_size: 256, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
+        ..Default::default()
+    };
     let out = render(&ctx, &s, &settings).unwrap();
     let path = dir.join("tests/golden").join(format!("{name}.exr"));
     if !path.exists() && std::env::var("CI").is_ok_and(|v| v == "true") {

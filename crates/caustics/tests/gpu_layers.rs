@@ -68,7 +68,11 @@ fn disc_difference(a: &Image, b: &Image) -> f64 {
 #[test]
 fn a_mesh_behind_a_glass_sphere_is_seen_through_it() {
     let Some(ctx) = gpu() else { return };
-    let s = RenderSettings { photons: 256, caustic_map_size: 256, shadow_map_size: 512, ..Default::default() };
+    let s = RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 256, caustic_map_size: 256, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
+        ..Default::default()
+    };
     let with = render(&ctx, &scene(true), &s).unwrap();
     let without = render(&ctx, &scene(false), &s).unwrap();
     let rs = ReferenceSettings { photons_per_light: 1 << 20, camera_spp: 16, ..Default::default() };
@@ -124,10 +128,9 @@ fn a_glass_ball_cut_by_the_frame_edge_is_not_black() {
     const N: u32 = 96;
     let scene = cut_ball_scene(N);
     let s = RenderSettings {
-        photons: 128,
-        caustic_map_size: 256,
-        shadow_map_size: 512,
-        env_lights: 4,
+        photons: caustics::settings::PhotonSettings { count: 128, caustic_map_size: 256, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
+        environment: caustics::settings::EnvironmentSettings { lights: 4, ..Default::default() },
         ..Default::default()
     };
     let gpu_out = render(&ctx, &scene, &s).unwrap();

@@ -135,15 +135,17 @@ fn quantile(v: &mut [f32], q: f32) -> f32 {
 /// (+x, +y) landed on the same face by the same path.
 fn measure(ctx: &caustics::gpu::GpuContext, scene: &Scene, mode: SplatMode, within: f32, n: u32) -> Measured {
     let s = RenderSettings {
-        photons: n,
-        caustic_map_size: M,
-        shadow_map_size: 256,
-        splat: mode,
-        technique: Technique::Basic,
-        // One branch (the transmitted one): one photon per cell.
-        dielectric_reflection: false,
-        internal_reflection: false,
-        residual_branches: false,
+        photons: caustics::settings::PhotonSettings {
+            count: n,
+            caustic_map_size: M,
+            splat: mode,
+            technique: Technique::Basic, // One branch (the transmitted one): one photon per cell.
+            reflection: false,
+            internal_reflection: false,
+            residual: false,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
         ..Default::default()
     };
     let out = render_inspect(ctx, scene, &s, Inspect { photons: true, ..Default::default() }).unwrap();

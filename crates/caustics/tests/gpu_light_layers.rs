@@ -100,11 +100,14 @@ fn photons_refract_through_a_mesh_hidden_behind_a_glass_sphere() {
     let Some(ctx) = gpu() else { return };
     let scene = scene();
     let settings = |second: bool| RenderSettings {
-        photons: 512,
-        caustic_map_size: M,
-        shadow_map_size: 256,
-        light_second_layer: second,
-        tracer: caustics::render::Tracer::ImageSpace,
+        photons: caustics::settings::PhotonSettings {
+            count: 512,
+            caustic_map_size: M,
+            tracer: caustics::render::Tracer::ImageSpace,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
+        testing: caustics::settings::TestingSettings { light_second_layer: second, ..Default::default() },
         ..Default::default()
     };
     let with = render(&ctx, &scene, &settings(true)).unwrap();
@@ -162,13 +165,16 @@ fn every_technique_traces_through_the_second_layer() {
     let Some(ctx) = gpu() else { return };
     let scene = scene();
     let settings = |t: Technique| RenderSettings {
-        photons: 256,
-        technique: t,
-        base_grid: 32,
-        caustic_map_size: 128,
-        shadow_map_size: 256,
-        splat: caustics::splat::SplatMode::Fixed,
-        tracer: caustics::render::Tracer::ImageSpace,
+        photons: caustics::settings::PhotonSettings {
+            count: 256,
+            technique: t,
+            caustic_map_size: 128,
+            splat: caustics::splat::SplatMode::Fixed,
+            tracer: caustics::render::Tracer::ImageSpace,
+            ..Default::default()
+        },
+        adaptive: caustics::settings::AdaptiveSettings { base_grid: 32, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
         ..Default::default()
     };
     let basic = render(&ctx, &scene, &settings(Technique::Basic)).unwrap();

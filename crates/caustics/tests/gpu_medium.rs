@@ -24,7 +24,11 @@ fn scene(json: &str) -> Scene {
 }
 
 fn settings() -> RenderSettings {
-    RenderSettings { photons: 64, caustic_map_size: 64, shadow_map_size: 512, ..Default::default() }
+    RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 64, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
+        ..Default::default()
+    }
 }
 
 /// A point light beside the camera and a lit diffuse wall 4 m away, with `medium` appended.
@@ -98,7 +102,15 @@ fn single_scattering_from_a_spot_matches_the_reference() {
     let Some(ctx) = gpu() else { return };
     for phase in [ISOTROPIC, r#"{ "type": "hg", "g": 0.5 }"#] {
         let sc = shaft_scene_with("", phase);
-        let g = render(&ctx, &sc, &RenderSettings { medium_steps: 256, ..settings() }).unwrap();
+        let g = render(
+            &ctx,
+            &sc,
+            &RenderSettings {
+                medium: caustics::settings::MediumSettings { steps: 256, ..settings().medium },
+                ..settings()
+            },
+        )
+        .unwrap();
         let rs = common::single_scattering_reference(1, 1 << 16, 3);
         let r = reference::render(&sc, &rs).unwrap();
         let mut worst = 0.0f32;
@@ -168,7 +180,16 @@ fn single_scattering_from_a_directional_light_matches_the_reference() {
     // the fog (the orthographic shadow map). The scene format accepts a directional light with
     // a medium.
     let sc = sun_fog_scene();
-    let g = render(&ctx, &sc, &RenderSettings { medium_steps: 256, shadow_map_size: 1024, ..settings() }).unwrap();
+    let g = render(
+        &ctx,
+        &sc,
+        &RenderSettings {
+            shading: caustics::settings::ShadingSettings { shadow_map_size: 1024, ..settings().shading },
+            medium: caustics::settings::MediumSettings { steps: 256, ..settings().medium },
+            ..settings()
+        },
+    )
+    .unwrap();
     let rs = common::single_scattering_reference(1, 1 << 14, 3);
     let r = reference::render(&sc, &rs).unwrap();
     let (mut sum_g, mut sum_r) = ([0f64; 3], [0f64; 3]);
@@ -252,7 +273,10 @@ fn absorption_through_a_density_grid_matches_the_closed_form() {
     let json = absorb_json;
     let vacuum = scene(&json(""));
     let fog = with_grid(scene(&json(ABSORBING)), DensityGrid::new([1, 1, 2], vec![0.3, 1.7]).unwrap());
-    let s = RenderSettings { medium_steps: 256, medium_light_steps: 256, ..settings() };
+    let s = RenderSettings {
+        medium: caustics::settings::MediumSettings { steps: 256, light_steps: 256, ..settings().medium },
+        ..settings()
+    };
     let a = render(&ctx, &vacuum, &s).unwrap();
     let b = render(&ctx, &fog, &s).unwrap();
     // ρ(z), and ∫ρ dz between two depths (exact for the piecewise linear ρ).
@@ -310,7 +334,15 @@ fn puff() -> DensityGrid {
 fn single_scattering_in_a_smoke_puff_matches_the_reference() {
     let Some(ctx) = gpu() else { return };
     let sc = with_grid(shaft_scene_with("", r#"{ "type": "hg", "g": 0.3 }"#), puff());
-    let g = render(&ctx, &sc, &RenderSettings { medium_steps: 256, medium_light_steps: 64, ..settings() }).unwrap();
+    let g = render(
+        &ctx,
+        &sc,
+        &RenderSettings {
+            medium: caustics::settings::MediumSettings { steps: 256, light_steps: 64, ..settings().medium },
+            ..settings()
+        },
+    )
+    .unwrap();
     let rs = common::single_scattering_reference(1, 1 << 15, 3);
     let r = reference::render(&sc, &rs).unwrap();
     // Pixels in the beam away from its edge (rows 3..9 of the centre columns), through the puff
@@ -338,7 +370,15 @@ fn single_scattering_in_a_smoke_puff_matches_the_reference() {
         shaft_scene_with("", r#"{ "type": "hg", "g": 0.3 }"#),
         DensityGrid::new([1, 1, 1], vec![0.2]).unwrap(),
     );
-    let h = render(&ctx, &haze, &RenderSettings { medium_steps: 256, medium_light_steps: 64, ..settings() }).unwrap();
+    let h = render(
+        &ctx,
+        &haze,
+        &RenderSettings {
+            medium: caustics::settings::MediumSettings { steps: 256, light_steps: 64, ..settings().medium },
+            ..settings()
+        },
+    )
+    .unwrap();
     let (a, b) = (g.image.get(8, 5)[1], h.image.get(8, 5)[1]);
     assert!(a > 1.5 * b, "through the puff {a}, haze alone {b}");
 }
@@ -386,7 +426,15 @@ fn lit_floor_ratios(
     let (fog_r, floor_r) = (rows_sum(&r.image, 0..12), rows_sum(&r.image, 18..32));
     let mut ratios = Vec::new();
     for grid in [16, 0] {
-        let g = render(ctx, sc, &RenderSettings { medium_bounce_grid: grid, ..settings() }).unwrap();
+        let g = render(
+            ctx,
+            sc,
+            &RenderSettings {
+                medium: caustics::settings::MediumSettings { bounce_grid: grid, ..settings().medium },
+                ..settings()
+            },
+        )
+        .unwrap();
         let (fog, floor) = (rows_sum(&g.image, 0..12) / fog_r, rows_sum(&g.image, 18..32) / floor_r);
         println!("{label}, medium_bounce_grid {grid}: GPU / reference: fog rows {fog:.4}, floor rows {floor:.4}");
         ratios.push((fog, floor));
@@ -409,13 +457,27 @@ fn light_between_a_lit_floor_and_the_fog_matches_the_reference() {
         // No caster: nothing in the caustic-only image.
         assert!(g.caustic.pixels.iter().flatten().all(|&v| v == 0.0));
         // The same bits in a second render (the VPLs' sums run in a fixed order).
-        let again = render(&ctx, &sc, &RenderSettings { medium_bounce_grid: grid, ..settings() }).unwrap();
+        let again = render(
+            &ctx,
+            &sc,
+            &RenderSettings {
+                medium: caustics::settings::MediumSettings { bounce_grid: grid, ..settings().medium },
+                ..settings()
+            },
+        )
+        .unwrap();
         assert!(again.image.pixels == g.image.pixels, "grid {grid}: a second render differs");
     });
     // Settings out of range are input errors naming the field.
     for bad in [
-        RenderSettings { medium_bounce_grid: 65, ..settings() },
-        RenderSettings { medium_bounce_steps: 0, ..settings() },
+        RenderSettings {
+            medium: caustics::settings::MediumSettings { bounce_grid: 65, ..settings().medium },
+            ..settings()
+        },
+        RenderSettings {
+            medium: caustics::settings::MediumSettings { bounce_steps: 0, ..settings().medium },
+            ..settings()
+        },
     ] {
         let Err(e) = render(&ctx, &sc, &bad) else { panic!("a setting out of range was accepted") };
         assert!(e.to_string().contains("medium_bounce_"), "{e}");
@@ -440,11 +502,24 @@ fn a_spot_shaft_needs_few_steps() {
     // midpoint rule, so a few steps give what many do, the shaft's edge included (a rule across
     // the edge leaves bands). The shaft scene has no object: its integrand is smooth inside.
     let sc = shaft_scene("");
-    let fine = render(&ctx, &sc, &RenderSettings { medium_steps: 512, ..settings() }).unwrap();
+    let fine = render(
+        &ctx,
+        &sc,
+        &RenderSettings {
+            medium: caustics::settings::MediumSettings { steps: 512, ..settings().medium },
+            ..settings()
+        },
+    )
+    .unwrap();
     let peak = fine.image.pixels.iter().map(|p| p[1]).fold(0.0f32, f32::max);
     let mut worsts = Vec::new();
     for steps in [4, 8, 16, 32] {
-        let coarse = render(&ctx, &sc, &RenderSettings { medium_steps: steps, ..settings() }).unwrap();
+        let coarse = render(
+            &ctx,
+            &sc,
+            &RenderSettings { medium: caustics::settings::MediumSettings { steps, ..settings().medium }, ..settings() },
+        )
+        .unwrap();
         let mut worst = 0.0f32;
         let mut at = 0;
         for (i, (a, b)) in coarse.image.pixels.iter().zip(&fine.image.pixels).enumerate() {
@@ -522,7 +597,15 @@ fn the_floor_caustics_glow_in_the_fog_matches_the_reference() {
     let want = rows(&r.caustic);
     let mut ratios = Vec::new();
     for grid in [16, 0] {
-        let g = render(&ctx, &sc, &RenderSettings { medium_bounce_grid: grid, ..settings() }).unwrap();
+        let g = render(
+            &ctx,
+            &sc,
+            &RenderSettings {
+                medium: caustics::settings::MediumSettings { bounce_grid: grid, ..settings().medium },
+                ..settings()
+            },
+        )
+        .unwrap();
         // No direct light reaches the floor or the fog: without the VPLs the full image is the
         // caustic one below the ball (whose lower half reflects the glowing fog into the full
         // image: the caustic-only image is zero where the camera sees glass). With them the
@@ -551,8 +634,8 @@ fn the_floor_caustics_glow_in_the_fog_matches_the_reference() {
     // it adds is the photon map's. (These rows also see the floor caustic at the horizon, which
     // the two draw differently: their glows are compared, not their images.)
     let beams = |grid| RenderSettings {
+        medium: caustics::settings::MediumSettings { bounce_grid: grid, ..settings().medium },
         surface_caustics: caustics::settings::SurfaceCaustics::Beams,
-        medium_bounce_grid: grid,
         ..settings()
     };
     let glow = (rows(&render(&ctx, &sc, &beams(16)).unwrap().caustic)
@@ -607,9 +690,15 @@ fn a_camera_move_keeps_the_lights_vpls_and_matches_a_fresh_renderer() {
     let want = fresh.read_image().unwrap();
     assert!(image.pixels == want.pixels, "the image differs from a fresh renderer's");
     // And the glow is in it: without the passes the image is darker.
-    let mut off =
-        Renderer::with_context(ctx.clone(), r.scene().clone(), RenderSettings { medium_bounce_grid: 0, ..settings() })
-            .unwrap();
+    let mut off = Renderer::with_context(
+        ctx.clone(),
+        r.scene().clone(),
+        RenderSettings {
+            medium: caustics::settings::MediumSettings { bounce_grid: 0, ..settings().medium },
+            ..settings()
+        },
+    )
+    .unwrap();
     frame(&mut off);
     let sum = |img: &caustics::image_io::Image| img.pixels.iter().flatten().map(|&v| v as f64).sum::<f64>();
     assert!(sum(&off.read_image().unwrap()) < 0.95 * sum(&image));
@@ -689,7 +778,15 @@ fn the_fog_behind_a_glass_ball_is_seen_through_it() {
         let again = render(&ctx, &sc, &settings()).unwrap();
         assert!(again.image.pixels == g.image.pixels, "{label}: a second render differs");
         // Switched off, the test fails: the ball shows the black floor behind it.
-        let off = render(&ctx, &sc, &RenderSettings { medium_beyond_specular: false, ..settings() }).unwrap();
+        let off = render(
+            &ctx,
+            &sc,
+            &RenderSettings {
+                medium: caustics::settings::MediumSettings { beyond_specular: false, ..settings().medium },
+                ..settings()
+            },
+        )
+        .unwrap();
         let off_ratio = disk_and_rest(&off.image).0 / rd;
         println!("{label}: without the segments, through the ball {off_ratio:.4}");
         assert!(off_ratio < 0.1, "{label}: {off_ratio}");
@@ -739,7 +836,15 @@ fn the_volume_caustic_seen_through_glass_matches_the_reference() {
     // one ray per pixel, the reference over the pixel; at 64 x 64 the rows agree better).
     assert!((gs / rs - 1.0).abs() < 0.05, "{}", gs / rs);
     // Without the segments the cone is not seen through the ball.
-    let off = render(&ctx, &sc, &RenderSettings { medium_beyond_specular: false, ..settings() }).unwrap();
+    let off = render(
+        &ctx,
+        &sc,
+        &RenderSettings {
+            medium: caustics::settings::MediumSettings { beyond_specular: false, ..settings().medium },
+            ..settings()
+        },
+    )
+    .unwrap();
     let off_sum: f64 = (6..15).map(|y| region(&off.caustic, y)).sum();
     assert!(off_sum < 0.05 * rs, "{off_sum} vs {rs}");
 }
@@ -792,7 +897,15 @@ fn the_volume_caustic_lights_the_floor_around_it_as_the_reference_does() {
         let want =
             rows(&reference::render(&lit, &rs).unwrap().image) - rows(&reference::render(&dark, &rs).unwrap().image);
         let g = render(&ctx, &lit, &settings()).unwrap();
-        let without = render(&ctx, &lit, &RenderSettings { medium_bounce_grid: 0, ..settings() }).unwrap();
+        let without = render(
+            &ctx,
+            &lit,
+            &RenderSettings {
+                medium: caustics::settings::MediumSettings { bounce_grid: 0, ..settings().medium },
+                ..settings()
+            },
+        )
+        .unwrap();
         let got = rows(&g.image) - rows(&without.image);
         println!("{label}: the floor's light from the volume caustic, GPU / reference: {:.4}", got / want);
         // Measured (lavapipe): even fog 1.033 (at 64 x 64 with 2^24 photons, 256 paths per

@@ -23,7 +23,11 @@ fn small(mut scene: Scene) -> Scene {
 }
 
 fn settings() -> RenderSettings {
-    RenderSettings { photons: 64, caustic_map_size: 64, shadow_map_size: 256, ..Default::default() }
+    RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 64, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
+        ..Default::default()
+    }
 }
 
 fn catalogue(name: &str) -> Scene {
@@ -105,7 +109,7 @@ fn steady_state_creates_nothing_and_redoes_only_what_changed() {
     assert_eq!(object.lights_redone, [true, true]);
     // A new setting makes what it needs once; the frames after it create nothing.
     let mut s = r.settings().clone();
-    s.splat = SplatMode::Fixed;
+    s.photons.splat = SplatMode::Fixed;
     r.set_settings(s).unwrap();
     let (_, created) = frame(&mut r);
     assert!(created > 0);
@@ -127,7 +131,7 @@ fn same_as_fresh(scene: Scene, object: usize, light_dx: f32, rotate: Quat) {
     r.set_object_transform(object, t).unwrap();
     frame(&mut r);
     let mut s = settings();
-    s.photons = 128;
+    s.photons.count = 128;
     r.set_settings(s.clone()).unwrap();
     frame(&mut r);
     let mut cam = scene.camera.clone();
@@ -218,10 +222,10 @@ fn bad_updates_are_input_errors() {
     assert!(r.set_object_transform(9, Affine3A::IDENTITY).unwrap_err().to_string().contains("objects[9]"));
     assert!(r.set_light(3, r.scene().lights[0].clone()).unwrap_err().is_input());
     let mut s = r.settings().clone();
-    s.photons = 3;
+    s.photons.count = 3;
     let e = r.set_settings(s).unwrap_err();
     assert!(e.to_string().contains("photons"), "{e}");
-    assert_eq!(r.settings().photons, 64, "a refused setting leaves the old one");
+    assert_eq!(r.settings().photons.count, 64, "a refused setting leaves the old one");
 }
 
 #[test]
@@ -253,7 +257,14 @@ fn adaptive_light_motion_creates_nothing() {
     // The adaptive hierarchy sizes its buffers from the casters' extent seen from the light: a
     // light moving a little keeps them.
     let Some(ctx) = gpu() else { return };
-    let s = RenderSettings { technique: caustics::render::Technique::AdaptiveLevel, photons: 512, ..settings() };
+    let s = RenderSettings {
+        photons: caustics::settings::PhotonSettings {
+            technique: caustics::render::Technique::AdaptiveLevel,
+            count: 512,
+            ..settings().photons
+        },
+        ..settings()
+    };
     let mut r = Renderer::with_context(ctx, catalogue("glass_sphere"), s).unwrap();
     frame(&mut r);
     for k in 1..6 {
@@ -279,7 +290,10 @@ fn adaptive_light_motion_creates_nothing() {
 /// vertices sending them elsewhere (measured at the default 16: 0.015).
 fn transform_matches_baked(scene: Scene, object: usize, t: Affine3A) {
     let Some(ctx) = gpu() else { return };
-    let settings = || RenderSettings { residual_branches: false, max_depth: 8, ..settings() };
+    let settings = || RenderSettings {
+        photons: caustics::settings::PhotonSettings { residual: false, max_depth: 8, ..settings().photons },
+        ..settings()
+    };
     let mut r = Renderer::with_context(ctx.clone(), scene.clone(), settings()).unwrap();
     r.set_object_transform(object, t).unwrap();
     frame(&mut r);
@@ -339,16 +353,24 @@ fn shading_tiles_change_no_bit() {
     // tiles of the map are unlit (with the reflected branches the spot's whole cone gets some
     // light, and every tile of this small map is lit).
     let s = RenderSettings {
-        caustic_map_size: 80,
-        shadow_map_size: 250,
-        dielectric_reflection: false,
-        internal_reflection: false,
-        residual_branches: false,
+        photons: caustics::settings::PhotonSettings {
+            caustic_map_size: 80,
+            reflection: false,
+            internal_reflection: false,
+            residual: false,
+            ..settings().photons
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 250, ..settings().shading },
         ..settings()
     };
-    assert!(s.shading_tiles, "on by default");
+    assert!(s.testing.shading_tiles, "on by default");
     let mut on = Renderer::with_context(ctx.clone(), scene.clone(), s.clone()).unwrap();
-    let mut off = Renderer::with_context(ctx, scene.clone(), RenderSettings { shading_tiles: false, ..s }).unwrap();
+    let mut off = Renderer::with_context(
+        ctx,
+        scene.clone(),
+        RenderSettings { testing: caustics::settings::TestingSettings { shading_tiles: false, ..s.testing }, ..s },
+    )
+    .unwrap();
     let img_bits = |i: caustics::image_io::Image| i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
     for k in 0..3 {
         let mut cam = scene.camera.clone();

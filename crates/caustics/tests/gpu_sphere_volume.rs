@@ -53,11 +53,14 @@ fn table() -> Arc<CausticSpheres> {
 
 fn render_gpu(ctx: &caustics::gpu::GpuContext, sc: &Scene, steps: u32) -> caustics::render::GpuRender {
     let s = RenderSettings {
-        photons: 64,
-        caustic_map_size: 64,
-        shadow_map_size: 256,
-        medium_steps: steps,
-        technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings {
+            count: 64,
+            caustic_map_size: 64,
+            technique: Technique::CausticSpheres,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
+        medium: caustics::settings::MediumSettings { steps, ..Default::default() },
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), sc.clone(), s).unwrap();

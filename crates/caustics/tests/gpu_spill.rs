@@ -52,11 +52,13 @@ fn spot_scene(cone: f32, y: f32, radius: f32, floor: f32) -> Scene {
 
 fn settings(spill: SpillFaces) -> RenderSettings {
     RenderSettings {
-        photons: 128,
-        caustic_map_size: 128,
-        shadow_map_size: 256,
-        tracer: Tracer::Exact,
-        spill_faces: spill,
+        photons: caustics::settings::PhotonSettings {
+            count: 128,
+            caustic_map_size: 128,
+            tracer: Tracer::Exact,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, spill_faces: spill, ..Default::default() },
         ..Default::default()
     }
 }
@@ -137,12 +139,30 @@ fn auto_rule() {
     let small = all_inside_spot();
     assert!(!s.uses_spill_face(&small, &small.lights[0]));
     // Off never, On where Auto would not; caustic maps over 1024² not under Auto.
-    assert!(!RenderSettings { spill_faces: SpillFaces::Off, ..s.clone() }.uses_spill_face(&bob, &bob.lights[0]));
-    assert!(RenderSettings { spill_faces: SpillFaces::On, ..s.clone() }.uses_spill_face(&small, &small.lights[0]));
-    assert!(!RenderSettings { caustic_map_size: 2048, ..s.clone() }.uses_spill_face(&bob, &bob.lights[0]));
+    assert!(
+        !RenderSettings {
+            shading: caustics::settings::ShadingSettings { spill_faces: SpillFaces::Off, ..s.shading },
+            ..s.clone()
+        }
+        .uses_spill_face(&bob, &bob.lights[0])
+    );
+    assert!(
+        RenderSettings {
+            shading: caustics::settings::ShadingSettings { spill_faces: SpillFaces::On, ..s.shading },
+            ..s.clone()
+        }
+        .uses_spill_face(&small, &small.lights[0])
+    );
+    assert!(
+        !RenderSettings {
+            photons: caustics::settings::PhotonSettings { caustic_map_size: 2048, ..s.photons },
+            ..s.clone()
+        }
+        .uses_spill_face(&bob, &bob.lights[0])
+    );
     // Lights whose surface caustic comes from beams: never.
     let beams = RenderSettings {
-        spill_faces: SpillFaces::On,
+        shading: caustics::settings::ShadingSettings { spill_faces: SpillFaces::On, ..s.shading },
         surface_caustics: caustics::render::SurfaceCaustics::Beams,
         ..s.clone()
     };

@@ -19,13 +19,16 @@ fn settings(n: u32, m: u32, splat: SplatMode) -> RenderSettings {
     // The transmitted branch only, so that every technique traces the same photons and the
     // splats are compared on one smooth photon map (the exact tracer's residual pass is random).
     RenderSettings {
-        photons: n,
-        caustic_map_size: m,
-        shadow_map_size: 256,
-        splat,
-        dielectric_reflection: false,
-        internal_reflection: false,
-        residual_branches: false,
+        photons: caustics::settings::PhotonSettings {
+            count: n,
+            caustic_map_size: m,
+            splat,
+            reflection: false,
+            internal_reflection: false,
+            residual: false,
+            ..Default::default()
+        },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
         ..Default::default()
     }
 }
@@ -44,7 +47,15 @@ fn every_mode_conserves_the_caustic_flux() {
     assert!(reference > 0.0);
     for t in [Technique::Basic, Technique::Hierarchical, Technique::AdaptiveLevel] {
         for mode in SplatMode::ALL {
-            let out = render(&ctx, &s, &RenderSettings { technique: t, ..settings(256, 256, mode) }).unwrap();
+            let out = render(
+                &ctx,
+                &s,
+                &RenderSettings {
+                    photons: caustics::settings::PhotonSettings { technique: t, ..settings(256, 256, mode).photons },
+                    ..settings(256, 256, mode)
+                },
+            )
+            .unwrap();
             let r = map_flux(&out) / reference;
             eprintln!("{t} {mode}: map flux / fixed splats' {r:.6}, landed {:.4} W", out.flux[0].landed);
             assert!((r - 1.0).abs() < 0.01, "{t} {mode}: map flux ratio {r}");
@@ -67,7 +78,15 @@ fn caustic_triangles_on_a_glass_slab_are_uniform() {
                    {"type":"rectangle","center":[0,0,0],"normal":[0,1,0],"size":[6,6],"material":"floor"}]}"#;
     let s = Scene::from_json(json, "slab", Path::new(".")).unwrap();
     let cv = |mode, technique, n| {
-        let out = render(&ctx, &s, &RenderSettings { technique, ..settings(n, 256, mode) }).unwrap();
+        let out = render(
+            &ctx,
+            &s,
+            &RenderSettings {
+                photons: caustics::settings::PhotonSettings { technique, ..settings(n, 256, mode).photons },
+                ..settings(n, 256, mode)
+            },
+        )
+        .unwrap();
         let map = &out.caustic_maps[0][0];
         // The texels well inside the slab's footprint (its light view: the middle of the map).
         let lum = map.luminance();

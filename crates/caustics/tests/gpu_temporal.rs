@@ -18,10 +18,12 @@ const M: u32 = 64;
 /// filtering is checked in `tests/gpu_spill.rs`).
 fn settings(m: u32) -> RenderSettings {
     RenderSettings {
-        photons: 128,
-        caustic_map_size: m,
-        shadow_map_size: 256,
-        spill_faces: caustics::render::SpillFaces::Off,
+        photons: caustics::settings::PhotonSettings { count: 128, caustic_map_size: m, ..Default::default() },
+        shading: caustics::settings::ShadingSettings {
+            shadow_map_size: 256,
+            spill_faces: caustics::render::SpillFaces::Off,
+            ..Default::default()
+        },
         ..Default::default()
     }
 }

@@ -30,32 +30,22 @@ use std::path::PathBuf;
 pub struct ViewArgs {
     /// Scene file (JSON, see docs/scene-format.md); the built-in glass-ball scene if omitted.
     pub scene: Option<PathBuf>,
-    /// Photon grid size N per light-view face (changeable in the panel).
-    #[arg(long, default_value_t = 512)]
-    pub photons: u32,
-    #[arg(long, default_value = "basic", value_parser = crate::technique_parser())]
-    pub technique: crate::TechniqueChoice,
-    #[arg(long, default_value = "triangles", value_parser = crate::splat_parser())]
-    pub splat: caustics::render::SplatMode,
     /// Initial window size WxH (logical pixels).
     #[arg(long, value_parser = crate::parse_size, default_value = "1280x800")]
     pub size: (u32, u32),
     /// Render this fraction of the view's pixels (0.25 to 1; lower is faster).
     #[arg(long, default_value_t = 1.0)]
     pub scale: f32,
-    /// Caustic map size per light-view face (texels); default 1024, or the largest that fits.
-    #[arg(long)]
-    pub caustic_map: Option<u32>,
     /// Adapter to use (a part of its name, see `caustics info`).
     #[arg(long)]
     pub adapter: Option<String>,
     /// Folder for screenshots (F12).
     #[arg(long, default_value = ".")]
     pub screenshot_dir: PathBuf,
-    /// Caustic spheres (`--technique caustic-spheres`, or switched to in the panel): the
-    /// precomputed tables' settings.
     #[command(flatten)]
-    pub sphere_args: crate::spheres::SphereArgs,
+    pub grid: crate::settings_args::GridArgs,
+    #[command(flatten)]
+    pub settings: crate::settings_args::SettingsArgs,
 }
 
 /// What the viewer starts with, checked before any window opens (bad input exits 2 without
@@ -63,6 +53,10 @@ pub struct ViewArgs {
 pub struct Start {
     pub scene: Scene,
     pub settings: RenderSettings,
+    /// The caustic map size was given: kept rather than fitted to the adapter.
+    pub caustic_map_given: bool,
+    /// The caustic spheres' tables (`--technique caustic-spheres`, or switched to in the panel).
+    pub spheres: crate::spheres::SphereArgs,
     pub args: ViewArgs,
 }
 
@@ -85,19 +79,30 @@ pub fn prepare(args: ViewArgs) -> Result<Start, Error> {
             format!("{} is not a folder", args.screenshot_dir.display()),
         ));
     }
-    let (technique, surface_caustics) = args.technique.apply(caustics::render::SurfaceCaustics::Photons);
-    let settings = RenderSettings {
-        photons: args.photons,
-        technique,
-        surface_caustics,
-        splat: args.splat,
-        caustic_map_size: args.caustic_map.unwrap_or(1024),
+    let resolved = args.settings.resolve(defaults(), Some(&args.grid))?;
+    Ok(Start {
+        scene,
+        settings: resolved.render,
+        caustic_map_given: resolved.caustic_map_given,
+        spheres: resolved.spheres,
+        args,
+    })
+}
+
+/// The viewer's defaults: a smaller photon grid than `render`'s (changeable in the panel).
+fn defaults() -> RenderSettings {
+    RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 512, ..Default::default() },
         ..Default::default()
-    };
-    Ok(Start { scene, settings, args })
+    }
 }
 
 pub fn run(args: ViewArgs) -> Result<()> {
+    if args.settings.print_settings {
+        let resolved = args.settings.resolve(defaults(), Some(&args.grid))?;
+        println!("{}", serde_json::to_string_pretty(&resolved.to_json())?);
+        return Ok(());
+    }
     let start = prepare(args)?;
     window::run(start)
 }

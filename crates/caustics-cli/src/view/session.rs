@@ -387,10 +387,10 @@ impl Session {
                 self.selection = s;
                 Ok(())
             }
-            Action::SetTechnique(t) => self.change_settings(|s| s.technique = t),
-            Action::SetSplat(m) => self.change_settings(|s| s.splat = m),
-            Action::SetTracer(t) => self.change_settings(|s| s.tracer = t),
-            Action::SetPhotons(n) => self.change_settings(|s| s.photons = n),
+            Action::SetTechnique(t) => self.change_settings(|s| s.photons.technique = t),
+            Action::SetSplat(m) => self.change_settings(|s| s.photons.splat = m),
+            Action::SetTracer(t) => self.change_settings(|s| s.photons.tracer = t),
+            Action::SetPhotons(n) => self.change_settings(|s| s.photons.count = n),
             Action::SetEnvironmentRotation(deg) => {
                 if self.renderer.environment_rotation() == Some(deg) {
                     return Ok(());
@@ -399,7 +399,7 @@ impl Session {
                 self.view_changed();
                 Ok(())
             }
-            Action::SetTolerance(t) => self.change_settings(|s| s.max_error_tolerance = t),
+            Action::SetTolerance(t) => self.change_settings(|s| s.adaptive.error_tolerance = t),
             Action::SetSettings(new) => self.change_settings(|s| *s = *new),
             Action::SetBudget(target) => {
                 match (target, &mut self.budget) {
@@ -631,7 +631,7 @@ impl Session {
         }
         self.dirty = self.settle > 0;
         self.settle = self.settle.saturating_sub(1);
-        if self.settings().technique == Technique::CausticSpheres && self.sphere_tables.is_none() {
+        if self.settings().photons.technique == Technique::CausticSpheres && self.sphere_tables.is_none() {
             // Blocks while a table is precomputed (a progress bar on the terminal; cached).
             if let Err(e) =
                 crate::spheres::attach(&mut self.renderer, &self.base, &self.sphere_args, &mut self.sphere_tables)

@@ -51,7 +51,11 @@ fn tmp(name: &str) -> PathBuf {
 
 /// Small and fast on a software rasterizer.
 fn small_settings() -> RenderSettings {
-    RenderSettings { photons: 64, caustic_map_size: 256, shadow_map_size: 512, ..Default::default() }
+    RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 256, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
+        ..Default::default()
+    }
 }
 
 fn session(d: &(wgpu::Device, wgpu::Queue)) -> Session {
@@ -99,7 +103,7 @@ fn scripted_session_matches_golden() {
 
     // Switch technique.
     s.act(Action::SetTechnique(Technique::AdaptiveLevel)).expect("technique");
-    assert_eq!(s.settings().technique, Technique::AdaptiveLevel);
+    assert_eq!(s.settings().photons.technique, Technique::AdaptiveLevel);
     frame(&mut s);
     s.wait_stats();
     let stats = s.stats.clone().expect("frame statistics");
@@ -420,7 +424,11 @@ fn painting_shows_the_display_texture_unchanged() {
 fn time_budget_lowers_the_grid_from_light_frames_only() {
     let Some(d) = device() else { return };
     let mut s = session(d);
-    s.act(Action::SetSettings(Box::new(RenderSettings { photons: 256, ..small_settings() }))).expect("settings");
+    s.act(Action::SetSettings(Box::new(RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 256, ..small_settings().photons },
+        ..small_settings()
+    })))
+    .expect("settings");
     frame(&mut s);
     s.act(Action::SetBudget(Some(0.01))).expect("budget");
     // Camera-only frames: the grid stays.
@@ -429,7 +437,7 @@ fn time_budget_lowers_the_grid_from_light_frames_only() {
         assert!(s.render().expect("frame"));
         s.wait_stats();
     }
-    assert_eq!(s.settings().photons, 256, "camera-only frames moved the budget");
+    assert_eq!(s.settings().photons.count, 256, "camera-only frames moved the budget");
     // Frames that redo the light: the grid goes down.
     for k in 0..30 {
         let mut l = s.scene().lights[0].clone();
@@ -441,8 +449,8 @@ fn time_budget_lowers_the_grid_from_light_frames_only() {
         s.wait_stats();
     }
     let q = s.budget().expect("budget on").quality();
-    assert!(s.settings().photons < 256, "the grid did not come down: {}", s.settings().photons);
-    assert_eq!(q.grid, s.settings().photons);
+    assert!(s.settings().photons.count < 256, "the grid did not come down: {}", s.settings().photons.count);
+    assert_eq!(q.grid, s.settings().photons.count);
     s.act(Action::SetBudget(None)).expect("off");
     assert!(s.budget().is_none());
 }
@@ -454,7 +462,10 @@ fn environment_rotation_turns_its_lights_live() {
     let Some(d) = device() else { return };
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/glass_sphere_sky.json");
     let scene = Scene::load(&path).unwrap();
-    let settings = RenderSettings { env_lights: 6, ..small_settings() };
+    let settings = RenderSettings {
+        environment: caustics::settings::EnvironmentSettings { lights: 6, ..small_settings().environment },
+        ..small_settings()
+    };
     let mut s = Session::new(&d.0, &d.1, scene, settings, tmp("")).expect("a session on the sky scene");
     s.act(Action::Resize { width: 48, height: 36 }).unwrap();
     frame(&mut s);
@@ -489,7 +500,10 @@ fn caustic_spheres_switch_loads_tables_and_follows_the_environment() {
     let Some(d) = device() else { return };
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/glass_sphere_sky.json");
     let scene = Scene::load(&path).unwrap();
-    let settings = RenderSettings { env_lights: 6, ..small_settings() };
+    let settings = RenderSettings {
+        environment: caustics::settings::EnvironmentSettings { lights: 6, ..small_settings().environment },
+        ..small_settings()
+    };
     let mut s = Session::new(&d.0, &d.1, scene, settings, tmp("")).expect("a session on the sky scene");
     s.sphere_args = crate::spheres::SphereArgs {
         directions: 3,
@@ -580,7 +594,7 @@ fn medium_density_and_beam_settings_change_live() {
     let sum = |img: &caustics::image_io::Image| -> f64 { img.pixels.iter().flatten().map(|&v| v as f64).sum() };
     let glowing = sum(&s.renderer().read_image().unwrap());
     let mut dark = s.settings().clone();
-    dark.medium_bounce_grid = 0;
+    dark.medium.bounce_grid = 0;
     s.act(Action::SetSettings(Box::new(dark))).unwrap();
     frame(&mut s);
     let unlit = sum(&s.renderer().read_image().unwrap());
@@ -588,13 +602,13 @@ fn medium_density_and_beam_settings_change_live() {
     // The medium beyond glass off ("fog seen through glass"): the pixels that see glass change.
     let beyond = s.renderer().read_image().unwrap();
     let mut near = s.settings().clone();
-    near.medium_beyond_specular = false;
+    near.medium.beyond_specular = false;
     s.act(Action::SetSettings(Box::new(near))).unwrap();
     frame(&mut s);
     let changed = s.renderer().read_image().unwrap().pixels.iter().zip(&beyond.pixels).filter(|(a, b)| a != b).count();
     assert!(changed > 0, "the medium beyond glass switched off changed no pixel");
     let mut back = s.settings().clone();
-    back.medium_beyond_specular = true;
+    back.medium.beyond_specular = true;
     s.act(Action::SetSettings(Box::new(back))).unwrap();
     frame(&mut s);
     // Beams off: the caustic light in the fog goes.

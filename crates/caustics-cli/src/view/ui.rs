@@ -346,31 +346,31 @@ fn side_panel(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
 
 fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
     let s = session.settings().clone();
-    let mut technique = s.technique;
+    let mut technique = s.photons.technique;
     egui::ComboBox::from_id_salt("technique").selected_text(technique.name()).show_ui(ui, |ui| {
         for t in Technique::ALL {
             ui.selectable_value(&mut technique, t, t.name());
         }
     });
-    if technique != s.technique {
+    if technique != s.photons.technique {
         act(session, Action::SetTechnique(technique));
     }
-    let mut splat = s.splat;
+    let mut splat = s.photons.splat;
     egui::ComboBox::from_id_salt("splat").selected_text(splat.name()).show_ui(ui, |ui| {
         for m in SplatMode::ALL {
             ui.selectable_value(&mut splat, m, m.name());
         }
     });
-    if splat != s.splat {
+    if splat != s.photons.splat {
         act(session, Action::SetSplat(splat));
     }
-    let mut tracer = s.tracer;
+    let mut tracer = s.photons.tracer;
     egui::ComboBox::from_id_salt("tracer").selected_text(format!("{} tracer", tracer.name())).show_ui(ui, |ui| {
         for t in caustics::render::Tracer::ALL {
             ui.selectable_value(&mut tracer, t, t.name()).on_hover_text(t.describe());
         }
     });
-    if tracer != s.tracer {
+    if tracer != s.photons.tracer {
         act(session, Action::SetTracer(tracer));
     }
     let mut surface = s.surface_caustics;
@@ -386,18 +386,18 @@ fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
         s2.surface_caustics = surface;
         act(session, Action::SetSettings(Box::new(s2)));
     }
-    let mut photons = s.photons;
+    let mut photons = s.photons.count;
     egui::ComboBox::from_id_salt("photons").selected_text(format!("{photons}² photons")).show_ui(ui, |ui| {
         for n in PHOTON_GRIDS {
             ui.selectable_value(&mut photons, n, format!("{n}²"));
         }
     });
-    if photons != s.photons {
+    if photons != s.photons.count {
         act(session, Action::SetPhotons(photons));
     }
-    let mut tol = s.max_error_tolerance;
+    let mut tol = s.adaptive.error_tolerance;
     let r = ui.add_enabled(
-        s.technique == Technique::AdaptiveError,
+        s.photons.technique == Technique::AdaptiveError,
         egui::Slider::new(&mut tol, 0.0..=8.0).text("max error tolerance (texels)"),
     );
     if released(&r) {
@@ -409,21 +409,21 @@ fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
         if r.changed() {
             act(session, Action::SetEnvironmentRotation(deg));
         }
-        let mut d = s.env_lights;
+        let mut d = s.environment.lights;
         let r = ui.add(egui::Slider::new(&mut d, 1..=96).text("environment lights"));
         if released(&r) {
             let mut s2 = s.clone();
-            s2.env_lights = d;
+            s2.environment.lights = d;
             act(session, Action::SetSettings(Box::new(s2)));
         }
     }
     medium_and_beams(ui, session);
-    let mut reflection = s.dielectric_reflection;
+    let mut reflection = s.photons.reflection;
     if ui.checkbox(&mut reflection, "light reflected at glass").changed() {
         let mut s2 = s.clone();
-        s2.dielectric_reflection = reflection;
+        s2.photons.reflection = reflection;
         // (every technique: the beams' reflected and residual branches too, as the CLI's
-        // --no-glass-reflection)
+        // photons.reflection = false)
         s2.beams.reflection = reflection;
         act(session, Action::SetSettings(Box::new(s2)));
     }
@@ -515,24 +515,30 @@ fn medium_controls(
         act(session, Action::SetMedium { sigma_s: m.sigma_s, sigma_a: m.sigma_a, phase });
     }
     let s = session.settings().clone();
-    let mut grid = s.medium_bounce_grid;
+    let mut grid = s.medium.bounce_grid;
     let r = ui.add(egui::Slider::new(&mut grid, 0..=32).text("lit-surface glow")).on_hover_text(
         "The light lit surfaces and the fog exchange: virtual point lights per side of each light face (0: off)",
     );
-    if released(&r) && grid != s.medium_bounce_grid {
+    if released(&r) && grid != s.medium.bounce_grid {
         act(
             session,
-            Action::SetSettings(Box::new(caustics::render::RenderSettings { medium_bounce_grid: grid, ..s.clone() })),
+            Action::SetSettings(Box::new(caustics::render::RenderSettings {
+                medium: caustics::settings::MediumSettings { bounce_grid: grid, ..s.medium },
+                ..s.clone()
+            })),
         );
     }
-    let mut beyond = s.medium_beyond_specular;
+    let mut beyond = s.medium.beyond_specular;
     let r = ui.checkbox(&mut beyond, "fog seen through glass").on_hover_text(
         "The medium along the camera rays beyond glass and mirrors: attenuation and the fog's light (off: cheaper)",
     );
     if r.changed() {
         act(
             session,
-            Action::SetSettings(Box::new(caustics::render::RenderSettings { medium_beyond_specular: beyond, ..s })),
+            Action::SetSettings(Box::new(caustics::render::RenderSettings {
+                medium: caustics::settings::MediumSettings { beyond_specular: beyond, ..s.medium },
+                ..s
+            })),
         );
     }
 }

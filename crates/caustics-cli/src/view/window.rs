@@ -53,7 +53,7 @@ pub fn run(start: Start) -> Result<()> {
 
 impl Running {
     fn new(event_loop: &ActiveEventLoop, start: Start) -> Result<Running> {
-        let Start { scene, settings, args } = start;
+        let Start { scene, settings, caustic_map_given, spheres, args } = start;
         let (w, h) = args.size;
         let window = Arc::new(
             event_loop
@@ -101,13 +101,16 @@ impl Running {
         };
         surface.configure(&device, &config);
         let mut settings = settings;
-        if args.caustic_map.is_none() {
+        if !caustic_map_given {
             let ctx = caustics::gpu::GpuContext::from_device(&device, &queue);
-            settings.caustic_map_size =
-                caustics::render::RenderSettings::fitting_caustic_map_size(&ctx, &scene, settings.caustic_map_size);
+            settings.photons.caustic_map_size = caustics::render::RenderSettings::fitting_caustic_map_size(
+                &ctx,
+                &scene,
+                settings.photons.caustic_map_size,
+            );
         }
         let mut session = Session::new(&device, &queue, scene, settings, args.screenshot_dir.clone())?;
-        session.sphere_args = args.sphere_args.clone();
+        session.sphere_args = spheres;
         let egui_ctx = egui::Context::default();
         let egui_state = egui_winit::State::new(
             egui_ctx.clone(),

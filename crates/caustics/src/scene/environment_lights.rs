@@ -153,7 +153,8 @@ pub fn segment(env: &Environment, d: usize) -> Vec<EnvironmentLight> {
 }
 
 /// Which region the median cut splits next.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum SplitRule {
     /// The paper's: the region of largest total `Σ L · Ω`, among those with any angular spread
     /// (so a one-texel sun is never cut into slivers).

@@ -217,7 +217,8 @@ impl Medium {
 }
 
 /// How finely analytic shapes are turned into triangles for rasterization.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Tessellation {
     /// Segments around a sphere's equator (half as many from pole to pole).
     pub sphere_segments: u32,

@@ -37,7 +37,7 @@ pub const BYTES_PER_QUAD: u64 = 32;
 
 /// Bytes per leaf photon of batch capacity for `settings`.
 pub fn bytes_per_photon(s: &RenderSettings) -> u64 {
-    BYTES_PER_PHOTON + if s.splat.cell_quads(s.technique) { BYTES_PER_QUAD } else { 0 }
+    BYTES_PER_PHOTON + if s.photons.splat.cell_quads(s.photons.technique) { BYTES_PER_QUAD } else { 0 }
 }
 /// The largest batch grid (the plan is S² words, and one workgroup walks it).
 const MAX_BATCH_GRID: u32 = 4096;
@@ -63,20 +63,26 @@ pub struct AdaptivePlan {
 impl AdaptivePlan {
     /// The plan for `settings`, or an input error naming the option at fault.
     pub fn new(s: &RenderSettings, max_bind: u64) -> Result<AdaptivePlan> {
-        let n = s.photons;
+        let n = s.photons.count;
         let cl = |f: &str, m: String| Err(Error::input("<settings>", f, m));
         if !n.is_power_of_two() || !(32..=65536).contains(&n) {
-            return cl("photons", format!("adaptive caustic maps need a power of two from 32 to 65536 (got {n})"));
+            return cl(
+                "photons.count",
+                format!("adaptive caustic maps need a power of two from 32 to 65536 (got {n})"),
+            );
         }
-        if !s.base_grid.is_power_of_two() || !(4..=4096).contains(&s.base_grid) {
-            return cl("base_grid", format!("must be a power of two from 4 to 4096 (got {})", s.base_grid));
+        if !s.adaptive.base_grid.is_power_of_two() || !(4..=4096).contains(&s.adaptive.base_grid) {
+            return cl(
+                "adaptive.base_grid",
+                format!("must be a power of two from 4 to 4096 (got {})", s.adaptive.base_grid),
+            );
         }
-        let base = s.base_grid.min(n / 2);
+        let base = s.adaptive.base_grid.min(n / 2);
         let per_photon = bytes_per_photon(s);
         let mut sb = base;
         loop {
             let plan_bytes = (sb as u64).pow(2) * 4;
-            let capacity = (s.photon_memory.saturating_sub(plan_bytes) / per_photon).min(max_bind / 32);
+            let capacity = (s.photons.memory.saturating_sub(plan_bytes) / per_photon).min(max_bind / 32);
             let cell = ((n / sb) as u64).pow(2);
             if cell * 2 <= capacity && capacity >= 64 {
                 return Ok(AdaptivePlan {
@@ -96,7 +102,7 @@ impl AdaptivePlan {
                         "{} KiB of photon memory is too small for even one batch of the {n}x{n} photon hierarchy \
                          (a batch must hold at least two {1}x{1} cells of {per_photon} bytes per photon, \
                          plus a {2}x{2} plan)",
-                        s.photon_memory >> 10,
+                        s.photons.memory >> 10,
                         n / sb,
                         sb
                     ),
@@ -138,7 +144,7 @@ impl Adaptive {
             plan.batch_leaves = need - cell;
         }
         let none = wgpu::BufferUsages::empty();
-        let quads = e.settings.splat.cell_quads(e.settings.technique);
+        let quads = e.settings.photons.splat.cell_quads(e.settings.photons.technique);
         Ok(Adaptive {
             corners: storage(e.ctx, "corners", if quads { plan.capacity * BYTES_PER_QUAD } else { 16 }, none),
             quads,
@@ -168,8 +174,8 @@ impl Adaptive {
             gbuffer: e.g,
             cell_capacity: p.capacity as u32,
             photon_capacity: p.capacity as u32,
-            tolerance: s.max_error_tolerance,
-            linearity: s.quad_linearity,
+            tolerance: s.adaptive.error_tolerance,
+            linearity: s.adaptive.quad_linearity,
             batch_grid: p.batch_grid,
             batch_leaves: p.batch_leaves as u32,
             max_batches,
@@ -227,9 +233,9 @@ impl Adaptive {
             if grid * 2 == p.n {
                 flags |= FLAG_LAST;
             }
-            if s.technique == Technique::AdaptiveError && grid * 2 >= s.error_check_grid {
+            if s.photons.technique == Technique::AdaptiveError && grid * 2 >= s.adaptive.check_grid {
                 flags |= FLAG_CHECK;
-                if s.error_skip_hopeless {
+                if s.testing.error_skip_hopeless {
                     flags |= FLAG_SKIP;
                 }
             }

@@ -21,7 +21,7 @@ impl Basic {
     pub fn batch_size(e: &Emit) -> u64 {
         let stride = std::mem::size_of::<Photon>() as u64;
         let max_bind = e.ctx.device.limits().max_storage_buffer_binding_size;
-        let cap = (e.settings.photon_memory.min(max_bind) / stride).min(65535 * 64);
+        let cap = (e.settings.photons.memory.min(max_bind) / stride).min(65535 * 64);
         (e.n as u64 * e.n as u64).min(cap).max(1)
     }
 
@@ -78,7 +78,7 @@ impl Basic {
                 photons: &self.photons,
                 carry,
                 n: e.n,
-                m: e.settings.caustic_map_size,
+                m: e.settings.photons.caustic_map_size,
                 rows: *rows,
             };
             let (traced, batches) = crate::splat::record_grid_triangles(&g, enc, timer, f);

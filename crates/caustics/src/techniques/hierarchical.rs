@@ -39,23 +39,29 @@ impl HierarchicalPlan {
     }
 
     pub fn new(s: &RenderSettings, max_bind: u64) -> Result<HierarchicalPlan> {
-        let n = s.photons;
+        let n = s.photons.count;
         let cl = |f: &str, m: String| Err(Error::input("<settings>", f, m));
         if !n.is_power_of_two() || n < 32 {
-            return cl("photons", format!("hierarchical caustic maps need a power of two from 32 to 8192 (got {n})"));
+            return cl(
+                "photons.count",
+                format!("hierarchical caustic maps need a power of two from 32 to 8192 (got {n})"),
+            );
         }
-        let quads = s.splat.cell_quads(s.technique);
+        let quads = s.photons.splat.cell_quads(s.photons.technique);
         let mut t = n.min(2048);
         loop {
-            let start = s.base_grid.min(t / 2).max(1);
+            let start = s.adaptive.base_grid.min(t / 2).max(1);
             let bytes = HierarchicalPlan::bytes_for(t, start, quads);
-            if bytes <= s.photon_memory && (t as u64).pow(2) * 32 <= max_bind {
+            if bytes <= s.photons.memory && (t as u64).pow(2) * 32 <= max_bind {
                 return Ok(HierarchicalPlan { n, tile: t, start, bytes, quads });
             }
             if t <= 8 {
                 return cl(
                     "photon_memory",
-                    format!("{} KiB is too small for one 8x8 tile of hierarchical caustic maps", s.photon_memory >> 10),
+                    format!(
+                        "{} KiB is too small for one 8x8 tile of hierarchical caustic maps",
+                        s.photons.memory >> 10
+                    ),
                 );
             }
             t /= 2;

@@ -112,20 +112,20 @@ pub(crate) struct Pipelines {
 impl Pipelines {
     /// `branches`: the frame's reflected, internal and residual passes (`FrameConsts`).
     pub fn new(ctx: &GpuContext, s: &RenderSettings, layer2: bool, branches: [bool; 3]) -> Pipelines {
-        let (t, splat) = (s.technique, s.splat);
+        let (t, splat) = (s.photons.technique, s.photons.splat);
         let hier = t != Technique::Basic;
         let p = |name: &str, on: bool| on.then(|| ctx.compute_pipeline(name));
         // The tracing stages are built for the splat mode (shared/trace.wgsl, trace_splat_mode),
         // which compiles out the lens and ray-differential code the mode does not use.
         // And for whether the light's second caster layer is used (trace_light_layer2).
         // And for the tracer (trace_exact, trace_max_depth).
-        let exact = s.tracer == crate::settings::Tracer::Exact;
+        let exact = s.photons.tracer == crate::settings::Tracer::Exact;
         let mode = [
             ("trace_splat_mode", f64::from(splat.lens_flag(t))),
             ("trace_light_layer2", f64::from(u8::from(layer2 && !exact))),
             ("trace_exact", f64::from(u8::from(exact))),
-            ("trace_max_depth", f64::from(s.max_depth)),
-            ("trace_first_hit_buffer", f64::from(u8::from(s.first_hit_from_buffer))),
+            ("trace_max_depth", f64::from(s.photons.max_depth)),
+            ("trace_first_hit_buffer", f64::from(u8::from(s.testing.first_hit_from_buffer))),
             ("trace_residual_pass", f64::from(u8::from(branches[2]))),
             ("trace_covered", f64::from(1 | u8::from(branches[0]) << 1 | u8::from(branches[1]) << 2)),
         ];
@@ -507,7 +507,7 @@ fn emission(t: Technique, e: &Emit) -> Result<Box<dyn Emission>> {
 
 /// Record the photon stage of one light: per face, the coverage mip, then the technique.
 pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, faces: u32) -> Result<Pending> {
-    let t = e.settings.technique;
+    let t = e.settings.photons.technique;
     let g = e.g;
     let cover = storage(e.ctx, "coverage", mip_words(g, 1) * 4, wgpu::BufferUsages::empty());
     let dummy = storage(e.ctx, "unused", 64, wgpu::BufferUsages::empty());
