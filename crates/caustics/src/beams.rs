@@ -342,9 +342,7 @@ fn record_light_beams(
             .bind("bp", &params)
             .bind("lv", &lvb)
             .bind("materials", &geo.materials)
-            .bind("bvh_nodes", &geo.bvh_nodes)
-            .bind("bvh_tris", &geo.bvh_tris)
-            .bind("bvh_instances", &geo.bvh_instances)
+            .bind_all(geo.bvh_bindings())
             .bind("work", &work)
             .bind("args", &args)
             .bind("slots", &slot_buf)
@@ -371,9 +369,7 @@ fn record_light_beams(
         .bind("light", light_buf)
         .bind("bp", &params)
         .bind("materials", &geo.materials)
-        .bind("bvh_nodes", &geo.bvh_nodes)
-        .bind("bvh_tris", &geo.bvh_tris)
-        .bind("bvh_instances", &geo.bvh_instances)
+        .bind_all(geo.bvh_bindings())
         .bind("parts", &parts)
         .bind("args", &args)
         .bind("slots", &slot_buf)
@@ -692,9 +688,9 @@ fn record_gather_chunks(
     let (chunks, dispatch, foot) = (&f.chunks, &f.dispatch, f.footprint);
     let slot = segs.map_or(-1.0, |(_, k)| f64::from(k));
     let (label, seg_bindings) = match segs {
-        Some((sg, _)) => ("beam_gather_segments", [&sg.list, &sg.count, &sg.segments]),
+        Some((sg, _)) => ("beam_gather_segments", sg.bindings()),
         // (the stage reads none of them along the camera rays)
-        None => ("beam_gather", [order, stats, order]),
+        None => ("beam_gather", [("spec_list", order), ("spec_count", stats), ("segments", order)]),
     };
     let foot_buf = ctx.constants("beam_footprint", bytemuck::cast_slice(&foot));
     // One dispatch per chunk of the ordered list (see beam_gather.wgsl and `Chunks`), its size
@@ -717,9 +713,7 @@ fn record_gather_chunks(
             .bind("density_grid", density)
             .bind("recv_nrm", eye_views[2].clone())
             .bind("spec_nrm", eye_views[3].clone())
-            .bind("spec_list", seg_bindings[0])
-            .bind("spec_count", seg_bindings[1])
-            .bind("segments", seg_bindings[2])
+            .bind_all(seg_bindings)
             .dispatch_indirect(enc, timer, dispatch, 12 * u64::from(c));
     }
 }

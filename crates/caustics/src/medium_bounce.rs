@@ -495,9 +495,7 @@ fn record_camera_gather(
         .bind("out_full", images.0)
         .bind("out_caustic", images.1)
         .bind("density", &density)
-        .bind("spec_list", &segs.list)
-        .bind("spec_count", &segs.count)
-        .bind("segments", &segs.segments)
+        .bind_all(segs.bindings())
         .group();
     pass.dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
     if segs.kept {

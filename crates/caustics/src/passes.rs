@@ -58,6 +58,11 @@ pub(crate) struct Geometry {
 }
 
 impl Geometry {
+    /// The BVH's buffers by the names the stages give them.
+    pub(crate) fn bvh_bindings(&self) -> [(&'static str, &wgpu::Buffer); 3] {
+        [("bvh_nodes", &self.bvh_nodes), ("bvh_tris", &self.bvh_tris), ("bvh_instances", &self.bvh_instances)]
+    }
+
     /// Write the BVH instances for the objects' transforms (from the scene file's pose).
     pub(crate) fn write_instances(&self, ctx: &GpuContext, transforms: &[glam::Affine3A]) {
         let inst = self.bvh.instance_records(transforms);
@@ -1054,8 +1059,7 @@ pub(crate) fn record_light(
         layer2: layer2_views,
         recv_pos: &rpv,
         recv_nrm: &rnv,
-        materials: &dc.geo.materials,
-        bvh: [&dc.geo.bvh_nodes, &dc.geo.bvh_tris, &dc.geo.bvh_instances],
+        geo: dc.geo,
         density: &density,
         stats: &stats,
         accum: &accum,
@@ -1320,6 +1324,14 @@ pub(crate) struct EyeSegments {
     pub segments: wgpu::Buffer,
 }
 
+impl EyeSegments {
+    /// The list of specular pixels, its count and the segments, by the names the stages that
+    /// read them give them.
+    pub(crate) fn bindings(&self) -> [(&'static str, &wgpu::Buffer); 3] {
+        [("spec_list", &self.list), ("spec_count", &self.count), ("segments", &self.segments)]
+    }
+}
+
 /// `medium_scatter` (scenes with a medium; nothing is recorded or requested otherwise): two
 /// dispatches per light (spot, point or directional) over the composited images. The first
 /// light's attenuates both images by the transmittance along each pixel's camera ray to its
@@ -1383,9 +1395,7 @@ fn record_medium(
             .bind("out_full", images.0)
             .bind("out_caustic", images.1)
             .bind("density", &density)
-            .bind("spec_list", &segs.list)
-            .bind("spec_count", &segs.count)
-            .bind("segments", &segs.segments)
+            .bind_all(segs.bindings())
             .group();
         pass.dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
         if scatters && segs.kept {
@@ -1501,9 +1511,7 @@ pub(crate) fn record_composite(
         .bind("out_full", &out_full)
         .bind("out_caustic", &out_caustic)
         .bind("env_map", &env_view)
-        .bind("bvh_nodes", &dc.geo.bvh_nodes)
-        .bind("bvh_tris", &dc.geo.bvh_tris)
-        .bind("bvh_instances", &dc.geo.bvh_instances)
+        .bind_all(dc.geo.bvh_bindings())
         .bind("spec_list", &spec_list)
         .bind("spec_count", &spec_count)
         .bind("segments", &segments)

@@ -319,9 +319,7 @@ pub(crate) fn record_gather(
         .bind("table", table)
         .bind("radiance", &eye.radiance)
         .bind("caustic", &eye.caustic)
-        .bind("bvh_nodes", &dc.geo.bvh_nodes)
-        .bind("bvh_tris", &dc.geo.bvh_tris)
-        .bind("bvh_instances", &dc.geo.bvh_instances)
+        .bind_all(dc.geo.bvh_bindings())
         .bind("gather_stats", &counters)
         .dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
     counters

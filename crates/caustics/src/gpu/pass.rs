@@ -218,6 +218,11 @@ impl<'a> Pass<'a> {
         self
     }
 
+    /// Bind each (name, resource) of `pairs`.
+    pub fn bind_all<R: Resource<'a>>(self, pairs: impl IntoIterator<Item = (&'a str, R)>) -> Pass<'a> {
+        pairs.into_iter().fold(self, |pass, (name, resource)| pass.bind(name, resource))
+    }
+
     /// The pipeline and bind group, checked against the stage's interface (panics on a
     /// mismatch, naming the stage and the binding).
     pub fn group(self) -> Bound {

@@ -177,11 +177,7 @@ impl Adaptive {
             grid_n: p.n,
             ..level_params(f)
         };
-        let setup = |label: &'static str, lp: LevelParams| {
-            let u = uniform(e.ctx, "adaptive_setup", bytemuck::bytes_of(&lp));
-            let pass = Pass::new(e.ctx, "adaptive_setup").label(label);
-            pass.bind("lp", &u).bind("ctrl", &ctrl_buf).bind("args", &self.args).group()
-        };
+        let setup = |label, lp| super::setup(e.ctx, &ctrl_buf, &self.args, label, lp);
         let u_plan = uniform(e.ctx, "adaptive_plan", bytemuck::bytes_of(&lp));
         let plan = Pass::new(e.ctx, "adaptive_plan")
             .bind("lp", &u_plan)

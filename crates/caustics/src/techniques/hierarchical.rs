@@ -122,11 +122,7 @@ impl Hierarchical {
             grid_n: p.n,
             ..level_params(f)
         };
-        let setup = |label: &'static str, lp: LevelParams| {
-            let u = uniform(e.ctx, "adaptive_setup", bytemuck::bytes_of(&lp));
-            let pass = Pass::new(e.ctx, "adaptive_setup").label(label);
-            pass.bind("lp", &u).bind("ctrl", &ctrl_buf).bind("args", &self.args).group()
-        };
+        let setup = |label, lp| super::setup(e.ctx, &ctrl_buf, &self.args, label, lp);
         let u_init = uniform(e.ctx, "hcm_init", bytemuck::bytes_of(&lp));
         // (the tile's mip in place of the coverage, and no batch plan)
         let init = Pass::new(e.ctx, "adaptive_init")

@@ -151,9 +151,8 @@ pub(crate) struct Emit<'a> {
     pub layer2: [&'a wgpu::TextureView; 4],
     pub recv_pos: &'a wgpu::TextureView,
     pub recv_nrm: &'a wgpu::TextureView,
-    pub materials: &'a wgpu::Buffer,
-    /// The scene's BVH for the exact tracer: nodes, triangles, instances (`crate::accel`).
-    pub bvh: [&'a wgpu::Buffer; 3],
+    /// The scene's materials and its BVH for the exact tracer (`crate::accel`).
+    pub geo: &'a crate::passes::Geometry,
     /// The medium's density grid (1 x 1 x 1 without one): photons march it for their path's
     /// transmittance (shared/trace.wgsl, `fog_add`).
     pub density: &'a wgpu::TextureView,
@@ -209,15 +208,13 @@ impl<'a> Emit<'a> {
             .bind("back_nrm", self.back_nrm)
             .bind("recv_pos", self.recv_pos)
             .bind("recv_nrm", self.recv_nrm)
-            .bind("materials", self.materials)
+            .bind("materials", &self.geo.materials)
             .bind("stats", self.stats)
             .bind("front_pos2", self.layer2[0])
             .bind("front_nrm2", self.layer2[1])
             .bind("back_pos2", self.layer2[2])
             .bind("back_nrm2", self.layer2[3])
-            .bind("bvh_nodes", self.bvh[0])
-            .bind("bvh_tris", self.bvh[1])
-            .bind("bvh_instances", self.bvh[2])
+            .bind_all(self.geo.bvh_bindings())
             .bind("density_grid", self.density)
     }
 }
@@ -288,6 +285,13 @@ impl Traversal<'_> {
         }
         self.splat.dispatch_indirect(enc, timer, self.args, ctrl::SPLAT_ARGS);
     }
+}
+
+/// `adaptive_setup` (labelled `label`) with level parameters `lp` over a traversal's control
+/// buffer and indirect arguments.
+pub(crate) fn setup(ctx: &GpuContext, ctrl: &wgpu::Buffer, args: &wgpu::Buffer, label: &str, lp: LevelParams) -> Bound {
+    let u = uniform(ctx, "adaptive_setup", bytemuck::bytes_of(&lp));
+    Pass::new(ctx, "adaptive_setup").label(label).bind("lp", &u).bind("ctrl", ctrl).bind("args", args).group()
 }
 
 pub(crate) const FLAG_LAST: u32 = 1;
