@@ -1,6 +1,6 @@
 # Caustic-region mask for `caustics compare --mask` (docs/benchmarks.md): needs numpy, pillow, OpenEXR (pip).
 # region_mask.py REF.exr GPU.exr MASK.png: black where the reference's or the GPU's caustic exceeds
-# 2 % of the reference's 99.5th-percentile luminance (as examples/tracers.rs' region), white elsewhere.
+# 2 % of the reference's 99.5th-percentile luminance (as the retired tracers example's region), white elsewhere.
 import sys, numpy as np, OpenEXR
 from PIL import Image
 def lum(p):

@@ -60,7 +60,7 @@ pub struct BenchArgs {
     #[arg(long, default_value = "triangles")]
     splat: String,
     /// Photon tracer for every technique (the two side by side against the CPU reference:
-    /// `cargo run --release -p caustics-reference --example tracers`).
+    /// the retired `tracers` example, docs/benchmarks.md).
     #[arg(long, default_value = "exact", value_parser = crate::tracer_parser())]
     tracer: caustics::render::Tracer,
     /// Also time the CPU reference renderer with this many photon paths per light, on one

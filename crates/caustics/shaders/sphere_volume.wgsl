@@ -4,7 +4,7 @@
 // the medium's box when it sees nothing), clipped to the box, marched in `vp.steps` equal
 // steps (midpoint rule, deterministic). At each step x, per record (directional light, caustic
 // object, blended stored direction) the spheres' stored value C(x) is the caustic light's
-// fluence per unit irradiance of the light (`docs/architecture.md`, "Volumetric caustics from
+// fluence per unit irradiance of the light (`docs/caustic-spheres.md`, "Volumetric caustics from
 // the spheres": a photon crossing a thin shell of thickness h at angle a to its normal runs
 // h/|cos a| inside it, so sum Phi/(A |cos a|) is the track-length estimate of the fluence),
 // and single scattering toward the camera adds

@@ -1,7 +1,7 @@
 //! Volume caustics by adaptive beam tracing (Liktor & Dachsbacher 2011): light focused by
 //! specular casters into a participating medium and scattered toward the camera.
 //!
-//! Per spot or point light, in scenes with a medium and a specular caster (docs/architecture.md,
+//! Per spot or point light, in scenes with a medium and a specular caster (docs/beams.md,
 //! "Volume caustics from beams"):
 //! 1. `beam_refine`, once per level: a projected grid of `BeamSettings::grid`² cells (two
 //!    triangles each) over every light face; each triangle's three edge rays are traced exactly
@@ -23,7 +23,7 @@
 //!
 //! The hull is the silhouette of the beam's convex hull grown by a pixel, drawn as a triangle
 //! fan, so every beam is met exactly once per pixel (a camera inside a beam included, no hull
-//! faces to choose); docs/architecture.md, "Volume caustics from beams", says why it replaces
+//! faces to choose); docs/beams.md, "Volume caustics from beams", says why it replaces
 //! the paper's six-triangle hull and prism.
 
 use crate::error::{Error, Result};
@@ -724,7 +724,7 @@ fn record_gather_chunks(
 ///
 /// Read from storage, not a uniform per chunk: lavapipe (Mesa 22.3) specializes a shader on the
 /// uniform values its loops read, compiling and keeping a new variant at every bind of a chunk
-/// (some 0.5 MB each, kept until the device is dropped: docs/architecture.md, "Beams: memory").
+/// (some 0.5 MB each, kept until the device is dropped: docs/beams.md, "Beams: memory").
 struct ChunkRecords {
     buffer: wgpu::Buffer,
     stride: u64,

@@ -1,5 +1,5 @@
 //! Light that diffuse surfaces and the medium exchange, with one scattering event in the
-//! medium (docs/architecture.md, "Light between surfaces and the medium"): light → floor → fog
+//! medium (docs/media.md, "Light between surfaces and the medium"): light → floor → fog
 //! → camera (and the caustic's light → glass → floor → fog → camera), light → fog → floor
 //! → camera, the glow's light back on the floor (light → floor → fog → floor → camera), and the
 //! volume caustic's light → glass → fog → floor → camera.

@@ -312,7 +312,7 @@ pub struct RenderSettings {
     pub photon_memory: u64,
     pub tessellation: Tessellation,
     /// Scenes with a participating medium: steps of the camera ray march that adds the lights'
-    /// single scattering (`medium_scatter`, docs/architecture.md), 1 to 4096.
+    /// single scattering (`medium_scatter`, docs/media.md), 1 to 4096.
     pub medium_steps: u32,
     /// Heterogeneous media (a density grid): steps of each ray march for the transmittance
     /// toward a light (per camera-ray step in `medium_scatter`, per surface point in
@@ -321,7 +321,7 @@ pub struct RenderSettings {
     /// Scenes with a medium: the light diffuse surfaces reflect into it (light → floor → fog
     /// → camera, and the caustic's: light → glass → floor → fog → camera) comes from virtual
     /// point lights, one per block of each light face's receiver map: this many blocks per side
-    /// (`medium_bounce_lights`, docs/architecture.md "Light reflected into the medium"), 0 to
+    /// (`medium_bounce_lights`, docs/media.md "Light between surfaces and the medium"), 0 to
     /// 64; 0 leaves that light out.
     pub medium_bounce_grid: u32,
     /// Steps of the camera ray march that gathers the virtual point lights (`medium_bounce`),
@@ -329,7 +329,7 @@ pub struct RenderSettings {
     pub medium_bounce_steps: u32,
     /// Scenes with a medium: the medium along the camera paths beyond their first specular
     /// surface (through glass, in mirrors): `composite` attenuates what they see, and the
-    /// medium's passes add the light scattered along them (`EyeSegment`, docs/architecture.md
+    /// medium's passes add the light scattered along them (`EyeSegment`, docs/media.md
     /// "The medium beyond the first specular surface"). Default on; off, glass shows what lies
     /// behind it as if the medium ended at its surface (cheaper).
     pub medium_beyond_specular: bool,
@@ -542,7 +542,7 @@ impl std::fmt::Display for BeamVolume {
 }
 
 /// Volume caustics by adaptive beam tracing (Liktor & Dachsbacher 2011; `crate::beams`,
-/// docs/architecture.md "Volume caustics from beams"). Used in scenes with a participating
+/// docs/beams.md "Volume caustics from beams"). Used in scenes with a participating
 /// medium and a specular caster, for every spot and point light.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BeamSettings {

@@ -593,7 +593,7 @@ fn reflected_silhouette_shrink_conserves_the_fresnel_flux() {
     // -0.74 %; since the parts' flux is corrected by the triangle's samples (2026-12-05):
     // -0.06 %, +0.02 % (the triangle's 16 samples alone, without the region's own light:
     // R +0.84 %). At 16² now R -0.28 %, TRT +0.52 % (before: -7.3 %, -2.0 %;
-    // docs/architecture.md, "Beams: accuracy").
+    // docs/beams.md, "Beams: accuracy").
     let sc = ball_in_fog(14.0, 8, 8);
     let (_, want) = fresnel_flux(0.0);
     let (_, band) = fresnel_flux(1.0 - 1.0 / 64.0);
@@ -926,7 +926,7 @@ fn beams_are_deterministic_create_nothing_after_the_first_frame_and_bad_settings
     assert_eq!(frame(&mut r), 0);
     // Nor does the driver keep memory per frame: lavapipe (Mesa 22.3) compiled and kept a shader
     // variant at every bind of a chunk whose constants were uniforms, some 1.8 GB a frame at the
-    // default capacity (docs/architecture.md, "Beams: memory"). Four full frames must not add a
+    // default capacity (docs/beams.md, "Beams: memory"). Four full frames must not add a
     // gigabyte (the binary's other tests, run alongside, peak at some 0.6 GB in all).
     match resident_mb() {
         Some(before) => {
@@ -1946,7 +1946,7 @@ fn surface_caustic_from_beams_matches_the_photon_map_and_replaces_it() {
     // view; +0.8 % without it: surface_caustic_energy_against_the_cpu_reference has both
     // against the CPU reference). Per pixel (relative L1, measured 0.19 over the region): the beams' affine model
     // turns the ball's rim light, spread far over the floor, into long thin beams (radial
-    // streaks, docs/architecture.md "Surface caustics from beams"), so the bound over the
+    // streaks, docs/beams.md "Surface caustics from beams"), so the bound over the
     // region is 0.25, and over the core, where the mapping is smooth, tighter (0.15).
     assert!((sb / sp - 1.0).abs() < 0.03, "sums {sb} {sp}");
     assert!(l1 < 0.25, "L1 {l1}");

@@ -351,7 +351,7 @@ fn light_through_two_meshes_in_a_row_matches_the_cpu_reference() {
 }
 
 /// The caustic region of a camera image: pixels where the reference's or the GPU's caustic
-/// exceeds 2 % of the reference's 99.5th-percentile luminance (as `examples/tracers.rs`).
+/// exceeds 2 % of the reference's 99.5th-percentile luminance (as the retired `tracers` example).
 fn caustic_region(
     cpu: &caustics::image_io::Image,
     gpu: &caustics::image_io::Image,

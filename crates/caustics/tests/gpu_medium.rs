@@ -513,7 +513,7 @@ fn the_floor_caustics_glow_in_the_fog_matches_the_reference() {
     // share of the VPLs' flux. Rows 13..18 see the fog over the caustic (the volume caustic
     // below the ball, from the beams, and the glow); the rows below see the floor, which the
     // reference also lights with the floor caustic's glow (light -> glass -> floor -> fog ->
-    // floor), the GPU does not (docs/architecture.md; the fog's caustic light on the floor,
+    // floor), the GPU does not (docs/media.md; the fog's caustic light on the floor,
     // light -> glass -> fog -> floor, is `medium_bounce_beams`', tested below).
     let sc = caustic_glow_scene();
     let rs = common::single_scattering_reference(1 << 20, 256, 7);

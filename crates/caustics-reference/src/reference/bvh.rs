@@ -952,7 +952,7 @@ fn box_hit_w4(n: &NodeW<4>, r: &Ray4, tmax: f32) -> (Vec4, u32) {
 
 impl Bvh {
     /// The former hand-written builder: top-down binned SAH, 16 bins, binary layout. Kept for
-    /// the benchmark's comparison (`examples/bvh_bench.rs`).
+    /// the benchmark's comparison (the retired `bvh_bench` example: docs/benchmarks.md, "Retired measurement programs").
     #[doc(hidden)]
     pub fn build_binned_sah(tris: Vec<[Vec3; 3]>) -> Bvh {
         let n = tris.len();

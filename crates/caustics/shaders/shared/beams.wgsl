@@ -1,5 +1,5 @@
 // Shared WGSL (`#import beams`): volume caustics by adaptive beam tracing (Liktor & Dachsbacher
-// 2011; docs/architecture.md, "Volume caustics from beams"). The records the beam stages share
+// 2011; docs/beams.md, "Volume caustics from beams"). The records the beam stages share
 // (src/gpu/types.rs mirrors them) and the exact trace of one beam edge.
 
 struct BeamParams {

@@ -569,7 +569,7 @@ impl GpuContext {
     /// For stages dispatched many times a frame with different bindings (the beams' chunks):
     /// lavapipe (Mesa 22.3) specializes a compute shader on the uniform values its loops and
     /// branches read, compiling a new variant at every bind and keeping each until the device
-    /// is dropped; storage reads are never specialized (docs/architecture.md, "Beams: memory").
+    /// is dropped; storage reads are never specialized (docs/beams.md, "Beams: memory").
     pub fn constants(&self, label: &str, contents: &[u8]) -> wgpu::Buffer {
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::UNIFORM;
         self.buffer_with(label, contents, usage, false)

@@ -1,6 +1,8 @@
 //! Every struct the GPU sees, `#[repr(C)]` + bytemuck, mirrored from `shaders/shared/common.wgsl`
-//! and the stage files. `tests/gpu_layout.rs` checks sizes and field offsets against the WGSL
-//! declarations with naga, so the two cannot drift apart silently.
+//! and the stage files. [`LAYOUTS`] lists each with its fields; `tests/shaders.rs` checks it
+//! against naga's layout of the WGSL declaration in every stage (the struct's size, and each
+//! member's name, offset and size), so the two cannot drift apart silently. [`Vertex`] has no
+//! WGSL struct: it is the vertex buffer that the raster stages' `vs_main` reads by location.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -723,7 +725,8 @@ pub const BEAM_ORDER_RUN: u32 = 4096;
 /// Side (texels) of the tiles of `caustic_mask` and `shadow_tiles`, which `shade_receivers` reads.
 pub const SHADE_TILE: u32 = 8;
 
-/// (name, value) of the constants the WGSL declares under the same name, for the layout test.
+/// (name, value) of the constants the WGSL declares under the same name: `tests/shaders.rs`
+/// checks that at least one stage declares each, and that every stage that does has this value.
 pub const CONSTANTS: &[(&str, u32)] = &[
     ("KIND_DIFFUSE", KIND_DIFFUSE),
     ("KIND_DIELECTRIC", KIND_DIELECTRIC),
@@ -787,50 +790,158 @@ pub struct TileParams {
     pub _pad: u32,
 }
 
-/// (Rust type name, WGSL struct name, size) for the layout test.
-pub const LAYOUTS: &[(&str, &str, usize)] = &[
-    ("FaceGpu", "Face", std::mem::size_of::<FaceGpu>()),
-    ("LightGpu", "LightGpu", std::mem::size_of::<LightGpu>()),
-    ("MaterialGpu", "MaterialGpu", std::mem::size_of::<MaterialGpu>()),
-    ("RasterView", "RasterView", std::mem::size_of::<RasterView>()),
-    ("TraceParams", "TraceParams", std::mem::size_of::<TraceParams>()),
-    ("Photon", "Photon", std::mem::size_of::<Photon>()),
-    ("SplatParams", "SplatParams", std::mem::size_of::<SplatParams>()),
-    ("CoverParams", "CoverParams", std::mem::size_of::<CoverParams>()),
-    ("LevelParams", "LevelParams", std::mem::size_of::<LevelParams>()),
-    ("CountParams", "ResolveParams", std::mem::size_of::<CountParams>()),
-    ("TemporalParams", "TemporalParams", std::mem::size_of::<TemporalParams>()),
-    ("ShadeParams", "ShadeParams", std::mem::size_of::<ShadeParams>()),
-    ("TileParams", "MaskParams", std::mem::size_of::<TileParams>()),
-    ("TileParams", "TileParams", std::mem::size_of::<TileParams>()),
-    ("EnvTap", "EnvTap", std::mem::size_of::<EnvTap>()),
-    ("EnvTapsGpu", "EnvTaps", std::mem::size_of::<EnvTapsGpu>()),
-    ("SphereGatherParams", "SphereGatherParams", std::mem::size_of::<SphereGatherParams>()),
-    ("SphereRecord", "SphereRecord", std::mem::size_of::<SphereRecord>()),
-    ("SphereCompileParams", "SphereCompileParams", std::mem::size_of::<SphereCompileParams>()),
-    ("SphereVolumeParams", "SphereVolumeParams", std::mem::size_of::<SphereVolumeParams>()),
-    ("CompositeParams", "CompositeParams", std::mem::size_of::<CompositeParams>()),
-    ("EyeSegmentGpu", "EyeSegment", std::mem::size_of::<EyeSegmentGpu>()),
-    ("EmitParams", "EmitParams", std::mem::size_of::<EmitParams>()),
-    ("MediumParams", "MediumParams", std::mem::size_of::<MediumParams>()),
-    ("BounceLightParams", "BounceLightParams", std::mem::size_of::<BounceLightParams>()),
-    ("VplGpu", "Vpl", std::mem::size_of::<VplGpu>()),
-    ("BounceParams", "BounceParams", std::mem::size_of::<BounceParams>()),
-    ("SurfaceBounceParams", "SurfaceBounceParams", std::mem::size_of::<SurfaceBounceParams>()),
-    ("BeamParams", "BeamParams", std::mem::size_of::<BeamParams>()),
-    ("BeamLevel", "BeamLevel", std::mem::size_of::<BeamLevel>()),
-    ("BeamTri", "BeamTri", std::mem::size_of::<BeamTri>()),
-    ("BeamPart", "BeamPart", std::mem::size_of::<BeamPart>()),
-    ("BeamGpu", "BeamGpu", std::mem::size_of::<BeamGpu>()),
-    ("BeamHull", "BeamHull", std::mem::size_of::<BeamHull>()),
-    ("TriParams", "TriParams", std::mem::size_of::<TriParams>()),
-    ("BlendParams", "BlendParams", std::mem::size_of::<BlendParams>()),
-    ("ObjectTransform", "ObjectTransform", std::mem::size_of::<ObjectTransform>()),
-    ("DisplayParams", "DisplayParams", std::mem::size_of::<DisplayParams>()),
-    ("BvhNode", "BvhNode", std::mem::size_of::<BvhNode>()),
-    ("RayQuery", "RayQuery", std::mem::size_of::<RayQuery>()),
-    ("RayResult", "RayResult", std::mem::size_of::<RayResult>()),
-    ("QueryParams", "QueryParams", std::mem::size_of::<QueryParams>()),
-    ("BvhTri", "BvhTri", std::mem::size_of::<BvhTri>()),
-    ("BvhInstance", "BvhInstance", std::mem::size_of::<BvhInstance>()),
-];
+/// One field of a Rust GPU struct as the layout test (`tests/shaders.rs`) compares it with the
+/// WGSL member or members it mirrors.
+#[derive(Debug, Clone, Copy)]
+pub struct FieldLayout {
+    /// The Rust field's name.
+    pub name: &'static str,
+    /// The WGSL members it mirrors, in order: one (of the same name, or renamed where the two
+    /// differ), or one per element of a Rust array that WGSL spells as separate members
+    /// (`_pad0`, `_pad1`, ...: a uniform buffer's arrays need a 16-byte stride, so WGSL writes
+    /// such arrays of scalars out member by member).
+    pub wgsl: &'static [&'static str],
+    /// `offset_of!` the field, in bytes.
+    pub offset: usize,
+    /// `size_of` the field's type.
+    pub size: usize,
+    /// Bytes from one element to the next: an array's element, else the whole type.
+    pub element: usize,
+    /// The scalar under the field's arrays (`f32`, `u32`, `i32`), or the nested GPU struct's Rust
+    /// name ([`GpuMember::LEAF`]).
+    pub leaf: &'static str,
+}
+
+/// A Rust GPU struct and the WGSL struct it mirrors, field by field ([`LAYOUTS`]).
+#[derive(Debug, Clone, Copy)]
+pub struct StructLayout {
+    /// The Rust struct's name.
+    pub rust: &'static str,
+    /// The WGSL struct's name (one Rust struct may mirror several: [`TileParams`]).
+    pub wgsl: &'static str,
+    /// `size_of` the Rust struct: the WGSL struct's span.
+    pub size: usize,
+    /// Every field, in declaration order.
+    pub fields: &'static [FieldLayout],
+}
+
+/// A type a GPU struct's field may have, as the layout test sees it: the scalar under its
+/// arrays and the size of one element. Implemented for the scalars, arrays of them, and the GPU
+/// structs nested in others.
+pub trait GpuMember {
+    /// `f32`, `u32`, `i32`, or a nested struct's Rust name.
+    const LEAF: &'static str;
+    /// An array's element size; the type's own size otherwise.
+    const ELEMENT: usize;
+}
+
+macro_rules! gpu_member {
+    ($($t:ty),*) => {$(
+        impl GpuMember for $t {
+            const LEAF: &'static str = stringify!($t);
+            const ELEMENT: usize = size_of::<$t>();
+        }
+    )*};
+}
+gpu_member!(f32, u32, i32, FaceGpu, EnvTap);
+
+impl<T: GpuMember, const N: usize> GpuMember for [T; N] {
+    const LEAF: &'static str = T::LEAF;
+    const ELEMENT: usize = size_of::<T>();
+}
+
+/// The [`FieldLayout`] of a field of `T`, its type read off `get` (a closure `|s| &s.field`,
+/// never called).
+const fn field<T, M: GpuMember>(
+    name: &'static str,
+    wgsl: &'static [&'static str],
+    offset: usize,
+    _get: fn(&T) -> &M,
+) -> FieldLayout {
+    FieldLayout { name, wgsl, offset, size: size_of::<M>(), element: M::ELEMENT, leaf: M::LEAF }
+}
+
+/// `layouts! { Rust as Wgsl { field, field => wgsl_name, field => [wgsl0, wgsl1] } ... }`: the
+/// [`LAYOUTS`] entry of each struct, one line each (`as Wgsl` where the names differ). Every
+/// field must be listed, in order: a field left out fails to compile, one out of order fails
+/// the layout test.
+macro_rules! layouts {
+    (@wgsl $rust:ident) => { stringify!($rust) };
+    (@wgsl $rust:ident $wgsl:ident) => { stringify!($wgsl) };
+    (@members $f:ident) => { &[stringify!($f)] };
+    (@members $f:ident $to:ident) => { &[stringify!($to)] };
+    (@members $f:ident [$($to:ident),+]) => { &[$(stringify!($to)),+] };
+    ($($rust:ident $(as $wgsl:ident)? { $($f:ident $(=> $to:tt)?),* $(,)? })*) => {
+        /// Every Rust struct the shaders read or write and the WGSL struct it mirrors, field by
+        /// field. `tests/shaders.rs` checks each against naga's layout of the WGSL in every
+        /// stage that declares it: the span, and every member's name, offset and size.
+        pub const LAYOUTS: &[StructLayout] = &[$(StructLayout {
+            rust: stringify!($rust),
+            wgsl: layouts!(@wgsl $rust $($wgsl)?),
+            size: size_of::<$rust>(),
+            fields: &[$(field(
+                stringify!($f),
+                layouts!(@members $f $($to)?),
+                std::mem::offset_of!($rust, $f),
+                |s: &$rust| &s.$f,
+            )),*],
+        }),*];
+        // `Pod` structs have no padding: the listed fields cover the struct only if none is
+        // missing.
+        $(const _: () = assert!(
+            0 $(+ field(stringify!($f), &[], 0, |s: &$rust| &s.$f).size)* == size_of::<$rust>(),
+            concat!("layouts!: a field of ", stringify!($rust), " is missing from its line"),
+        );)*
+    };
+}
+
+// Where a Rust field's name is not its WGSL member's: `=> name` renames it (the padding words'
+// numbering), `=> [a, b, ...]` maps a Rust array to as many WGSL members, one per element (arrays
+// of scalars in a uniform buffer need a 16-byte stride, so WGSL spells those out; the
+// indirect-dispatch words `groups_x`..; rows of matrices the shaders index by name).
+layouts! {
+    FaceGpu as Face { world_to_clip, clip_to_world, origin }
+    LightGpu { faces, info, power, axis, params, extra, splat, crop, medium_lo, medium_hi, medium_sigma_t }
+    MaterialGpu { kind, a, b, shape => [s0, s1, s2, s3] }
+    RasterView { world_to_clip }
+    TraceParams { face, batch_offset, batch_count, tile }
+    Photon { pos, face, _pad, flux }
+    SplatParams { groups => [groups_x, groups_y, groups_z], count }
+    CoverParams { face, level, size, src, dst, source, _pad => [_pad0, _pad1] }
+    LevelParams { face, level, grid, finest, gbuffer, flags, cell_capacity, photon_capacity, tolerance, batch_grid, batch_leaves, max_batches, tile_x, tile_y, grid_n, linearity }
+    CountParams as ResolveParams { count, _pad => [_pad0, _pad1, _pad2] }
+    TemporalParams { size, faces, has_history, stage, alpha, threshold, flags, _pad }
+    ShadeParams { width, height, shadow_size, tiles, camera, medium_lo, medium_hi, sigma_t, medium_grid }
+    TileParams as MaskParams { size, tiles, faces, _pad }
+    TileParams { size, tiles, faces, _pad }
+    EnvTap { rows => [r0, r1, r2], weight }
+    EnvTapsGpu as EnvTaps { centre, info, taps }
+    SphereGatherParams { width, height, records, samples, camera, medium_lo, medium_hi, sigma_t }
+    SphereRecord { to_obj, axes, rot, center, shape, irradiance, base }
+    SphereCompileParams { first, count, cells, out_base }
+    SphereVolumeParams { clip_to_world, camera, lo, hi, sigma_s, sigma_t, width, height, steps, records }
+    CompositeParams { world_to_clip, clip_to_world, camera, env_rotation, width, height, layer2, _pad, medium_lo, medium_hi, medium_sigma_t }
+    EyeSegmentGpu as EyeSegment { o, w, dir }
+    EmitParams { lo, hi, sigma_s, sigma_t, grid, faces, bins, slices, scale, heterogeneous, vpl_offset, vpl_count, caustic, _pad => [_pad0, _pad1, _pad2] }
+    MediumParams { clip_to_world, camera, lo, hi, sigma_s, sigma_t, width, height, steps, flags, shadow_size, grid, light_steps, _pad => _pad0 }
+    BounceLightParams { lo, hi, sigma_t, grid, shadow_size, heterogeneous, light_steps, offset, _pad => [_pad0, _pad1, _pad2], sigma_s }
+    VplGpu as Vpl { pos, nrm, full, caustic }
+    BounceParams { clip_to_world, camera, lo, hi, sigma_s, sigma_t, width, height, steps, count, heterogeneous, _pad => [_pad0, _pad1, _pad2] }
+    SurfaceBounceParams { lo, hi, sigma_t, camera, width, height, count, heterogeneous, layers, _pad => [_pad0, _pad1, _pad2] }
+    BeamParams { clip_to_world, camera, lo, hi, sigma_s, sigma_t, grid, levels, faces, max_depth, normal_cos, depth_rel, energy, camera_size, surface_samples, capacity, slots, samples, width, height, flags, pixel_samples, linearity, residual, cut, _pad => _pad2, world_to_clip }
+    BeamLevel { level, offset, next_offset, base_count }
+    BeamTri { a, b, c, id, face }
+    BeamPart { a, b, c, face, slot, level, kind }
+    BeamGpu { v => [v0, v1, v2], d => [d0, d1, d2], flux, bound, info }
+    BeamHull { info, p }
+    TriParams { n, r0, rows, quad_rows, cur_off, has_prev, max_edge, _pad }
+    BlendParams { count, pass_index, _pad => [_pad0, _pad1] }
+    ObjectTransform { model, normal }
+    DisplayParams { width, height, exposure, _pad }
+    BvhNode { lo, a, hi, count }
+    RayQuery { o, d }
+    RayResult { t, object, triangle, overflows, ng }
+    QueryParams { count, any_hit, _pad => [_pad0, _pad1] }
+    BvhTri { p0, p1, p2, n0, n1, n2 }
+    BvhInstance { to_object, to_world, lo, hi, root, first_tri, object, _pad }
+}

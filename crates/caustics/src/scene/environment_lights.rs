@@ -17,7 +17,7 @@
 //! `sqrt(2 Σ w · Σ w (1 − ω·ĉ))` (w the texel's `L · Ω`, ω its direction, ĉ the region's
 //! weighted centre): the flux-weighted direction error of standing for the region by one
 //! direction, linear in the angle as a caustic's displacement is (4 of 24 on both maps, the
-//! sun's light within 0.4° of it; `examples/env_segments.rs` of `caustics-reference`, table in
+//! sun's light within 0.4° of it; the retired `env_segments` example, table in
 //! `docs/benchmarks.md`). A region of one texel (a one-texel sun) has no spread and is never
 //! split; a black region neither. When no region has any spread left (a map black but for a
 //! few texels), the remaining splits go to the region of largest solid angle, so that `D`
