@@ -3,7 +3,9 @@
 //! hashed (FNV-1a of the radiance and caustic-only images and the caustic flux words) and
 //! compared with `tests/data/image_bits.json`. A refactor must leave every hash as it was; a
 //! change that alters pixels on purpose rewrites the file in its own commit
-//! (`CAUSTICS_ACCEPT_BITS=1 cargo test --release --test gpu_bits`) and says why.
+//! (`CAUSTICS_ACCEPT_BITS=1 cargo test --release --test gpu_bits -- --include-ignored`) and says
+//! why. CI runs the scenes that take seconds; `-- --include-ignored` runs every scene (about 20
+//! minutes on 2 cores).
 //!
 //! The hashes hold for one adapter and driver (recorded in the file): on another the test prints
 //! why it does not compare and passes (floating-point results differ between drivers).
@@ -56,7 +58,12 @@ fn has_directional_light(s: &Scene) -> bool {
 }
 
 /// The hash of one render, or `invalid` where the settings refuse the scene.
-fn render_hash(ctx: &caustics::gpu::GpuContext, scene: &Scene, technique: Technique, surface: SurfaceCaustics) -> String {
+fn render_hash(
+    ctx: &caustics::gpu::GpuContext,
+    scene: &Scene,
+    technique: Technique,
+    surface: SurfaceCaustics,
+) -> String {
     let settings = RenderSettings {
         photons: 64,
         caustic_map_size: 64,
@@ -117,9 +124,8 @@ fn accepting() -> bool {
     std::env::var("CAUSTICS_ACCEPT_BITS").is_ok_and(|v| v == "1")
 }
 
-/// New hashes gathered while accepting (every scene's test adds its own; the last one to finish
-/// writes the file).
-static ACCEPTED: Mutex<Option<(Recorded, usize)>> = Mutex::new(None);
+/// One test at a time rewrites the file while accepting.
+static WRITING: Mutex<()> = Mutex::new(());
 
 fn check(name: &str) {
     let Some(ctx) = gpu() else { return };
@@ -132,22 +138,30 @@ fn check(name: &str) {
         if *technique == Technique::CausticSpheres && !directional {
             continue;
         }
+        // The dragon in fog: beams over 100k triangles take minutes a variant on lavapipe; its
+        // other variants are the glass dragon's and the fog scenes'.
+        if name == "glass_dragon_fog" && *variant != "basic" {
+            continue;
+        }
+        let t0 = std::time::Instant::now();
         got.insert(format!("{name}/{variant}"), render_hash(&ctx, &scene, *technique, *surface));
+        eprintln!("{name}/{variant}: {:.1} s", t0.elapsed().as_secs_f64());
     }
     let (adapter, driver) = adapter_of(&ctx);
     if accepting() {
-        let mut acc = ACCEPTED.lock().unwrap();
-        let (rec, done) = acc.get_or_insert_with(|| {
-            (Recorded { adapter: adapter.clone(), driver: driver.clone(), ..Default::default() }, 0)
-        });
+        // Each scene's test adds its hashes to the file as it finishes (so a filtered run
+        // records just those scenes).
+        let _guard = WRITING.lock().unwrap();
+        let mut rec: Recorded = std::fs::read_to_string(data_path())
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .filter(|r: &Recorded| r.adapter == adapter && r.driver == driver)
+            .unwrap_or(Recorded { adapter, driver, ..Default::default() });
+        rec.hashes.retain(|k, _| !k.starts_with(&format!("{name}/")));
         rec.hashes.extend(got);
-        *done += 1;
-        if *done == SCENES.len() {
-            let text = serde_json::to_string_pretty(rec).unwrap() + "\n";
-            std::fs::create_dir_all(data_path().parent().unwrap()).unwrap();
-            std::fs::write(data_path(), text).unwrap();
-            eprintln!("wrote {}", data_path().display());
-        }
+        std::fs::create_dir_all(data_path().parent().unwrap()).unwrap();
+        std::fs::write(data_path(), serde_json::to_string_pretty(&rec).unwrap() + "\n").unwrap();
+        eprintln!("recorded {name} in {}", data_path().display());
         return;
     }
     let rec: Recorded = serde_json::from_str(&std::fs::read_to_string(data_path()).unwrap()).unwrap();
@@ -169,34 +183,41 @@ fn check(name: &str) {
     assert!(wrong.is_empty(), "image bits changed:\n{}", wrong.join("\n"));
 }
 
+/// Scenes whose variants render in seconds on lavapipe run in CI; the rest (meshes under beams,
+/// fog scenes: minutes on 2 cores) run with `-- --include-ignored` after every refactoring step.
 macro_rules! scenes {
-    ($($name:ident),* $(,)?) => {
-        const SCENES: &[&str] = &[$(stringify!($name)),*];
-        $(#[test] fn $name() { check(stringify!($name)); })*
+    (ci: $($fast:ident),* ; full: $($slow:ident),* $(,)?) => {
+        const SCENES: &[&str] = &[$(stringify!($fast),)* $(stringify!($slow)),*];
+        $(#[test] fn $fast() { check(stringify!($fast)); })*
+        $(
+            #[test]
+            #[ignore = "minutes on lavapipe: run with --include-ignored"]
+            fn $slow() { check(stringify!($slow)); }
+        )*
     };
 }
 
 scenes!(
-    a_glass_sphere,
+    ci: a_glass_sphere,
     b_mirror_ring,
-    ball_over_bunny,
+    glass_sphere,
+    glass_sphere_3dir,
+    glass_sphere_sky,
+    mirror_ring,
+    two_spheres;
+    full: ball_over_bunny,
     bunny_over_ball,
     dragon_spheres,
     glass_buddha,
     glass_bunny,
     glass_dragon,
     glass_dragon_fog,
-    glass_sphere,
-    glass_sphere_3dir,
     glass_sphere_fog,
     glass_sphere_fog_sun,
-    glass_sphere_sky,
     glass_sphere_studio,
-    mirror_ring,
     smoke_puff,
     stacked_balls,
     stacked_balls_fog,
-    two_spheres,
     volume_caustic_fog,
 );
 
