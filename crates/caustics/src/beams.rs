@@ -27,11 +27,12 @@
 //! the paper's six-triangle hull and prism.
 
 use crate::error::{Error, Result};
+use crate::gpu::pass::Pass;
 use crate::gpu::types::{
     BEAM_FLAG_CHAINS, BEAM_FLAG_FRAGMENTS, BEAM_FLAG_GRID, BEAM_FLAG_REFLECTION, BEAM_FLAG_SURFACE, BEAM_HULL_PARTS,
     BEAM_KINDS, BEAM_ORDER_RUN, BEAM_PARTS, BeamGpu, BeamHull, BeamLevel, BeamParams, BeamPart, BeamTri,
 };
-use crate::gpu::{GpuContext, PassTimer, bind};
+use crate::gpu::{GpuContext, PassTimer};
 use crate::image_io::Image;
 use crate::passes::{DrawCtx, EyeFrame, LightFrame, density_view, layer_view, upload_density};
 use crate::scene::{Light, Phase, Scene, Shape};
@@ -326,7 +327,6 @@ fn record_light_beams(
     // than the beam buffer holds (more are counted as an overflow).
     let parts =
         crate::gpu::storage(ctx, "beam_parts", cap.min(PARTS_MAX) * std::mem::size_of::<BeamPart>() as u64, storage);
-    let refine = ctx.compute_pipeline("beam_refine");
     let geo = dc.geo;
     let density = density_view(ctx, &geo.density);
     for l in 0..=levels {
@@ -337,48 +337,46 @@ fn record_light_beams(
             base_count: per_level(0) as u32,
         };
         let lvb = ctx.uniform("beam_level", bytemuck::bytes_of(&lv));
-        let bg = bind(
-            ctx,
-            &refine,
-            "beam_refine",
-            &[
-                light_buf.as_entire_binding(),
-                params.as_entire_binding(),
-                lvb.as_entire_binding(),
-                geo.materials.as_entire_binding(),
-                geo.bvh_nodes.as_entire_binding(),
-                geo.bvh_tris.as_entire_binding(),
-                geo.bvh_instances.as_entire_binding(),
-                work.as_entire_binding(),
-                args.as_entire_binding(),
-                slot_buf.as_entire_binding(),
-                beams.as_entire_binding(),
-                stats.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&density),
-                parts.as_entire_binding(),
-            ],
-        );
-        {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("beam_refine"),
-                timestamp_writes: timer.compute("beam_refine"),
-            });
-            cp.set_pipeline(&refine);
-            cp.set_bind_group(0, &bg, &[]);
-            if l == 0 {
-                let groups = (per_level(0) as u32).div_ceil(64);
-                cp.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
-            } else {
-                cp.dispatch_workgroups_indirect(&indirect, 16 * u64::from(l));
-            }
+        let refine = Pass::new(ctx, "beam_refine")
+            .bind("light", light_buf)
+            .bind("bp", &params)
+            .bind("lv", &lvb)
+            .bind("materials", &geo.materials)
+            .bind_all(geo.bvh_bindings())
+            .bind("work", &work)
+            .bind("args", &args)
+            .bind("slots", &slot_buf)
+            .bind("beams", &beams)
+            .bind("stats", &stats)
+            .bind("density_grid", &density)
+            .bind("parts", &parts);
+        if l == 0 {
+            let groups = (per_level(0) as u32).div_ceil(64);
+            refine.dispatch(enc, timer, [groups.min(65535), groups.div_ceil(65535), 1]);
+        } else {
+            refine.dispatch_indirect(enc, timer, &indirect, 16 * u64::from(l));
         }
         if l < levels {
             let at = 16 * u64::from(l + 1);
             enc.copy_buffer_to_buffer(&args, at, &indirect, at, 16);
         }
     }
-    let shrink_inputs = (light_buf, &params, &density);
-    record_shrink(ctx, geo, shrink_inputs, (&parts, &args, &indirect), (&slot_buf, &beams, &stats), enc, timer);
+    // `beam_shrink`: the beams of the silhouette triangles' parts `beam_refine` queued, one
+    // thread each (indirect dispatch over their count, in `args`' entry [`PARTS_ARGS`]).
+    let at = 16 * PARTS_ARGS;
+    enc.copy_buffer_to_buffer(&args, at, &indirect, at, 16);
+    Pass::new(ctx, "beam_shrink")
+        .bind("light", light_buf)
+        .bind("bp", &params)
+        .bind("materials", &geo.materials)
+        .bind_all(geo.bvh_bindings())
+        .bind("parts", &parts)
+        .bind("args", &args)
+        .bind("slots", &slot_buf)
+        .bind("beams", &beams)
+        .bind("stats", &stats)
+        .bind("density_grid", &density)
+        .dispatch_indirect(enc, timer, &indirect, at);
     let chunks = Chunks::new(bp, &footprint, (kinds(bp), scale));
     let dispatch = chunks.dispatch_buffer(ctx);
     record_order(ctx, (&params, bp.slots), (&slot_buf, &order, &stats), (&chunks, &dispatch), enc, timer);
@@ -399,49 +397,6 @@ fn record_light_beams(
     }
 }
 
-/// `beam_shrink`: the beams of the silhouette triangles' parts `beam_refine` queued, one thread
-/// each (indirect dispatch over their count, in `args`' entry [`PARTS_ARGS`]).
-#[allow(clippy::too_many_arguments)]
-fn record_shrink(
-    ctx: &GpuContext,
-    geo: &crate::passes::Geometry,
-    (light_buf, params, density): (&wgpu::Buffer, &wgpu::Buffer, &wgpu::TextureView),
-    (parts, args, indirect): (&wgpu::Buffer, &wgpu::Buffer, &wgpu::Buffer),
-    (slots, beams, stats): (&wgpu::Buffer, &wgpu::Buffer, &wgpu::Buffer),
-    enc: &mut wgpu::CommandEncoder,
-    timer: &mut PassTimer,
-) {
-    let at = 16 * PARTS_ARGS;
-    enc.copy_buffer_to_buffer(args, at, indirect, at, 16);
-    let pl = ctx.compute_pipeline("beam_shrink");
-    let bg = bind(
-        ctx,
-        &pl,
-        "beam_shrink",
-        &[
-            light_buf.as_entire_binding(),
-            params.as_entire_binding(),
-            geo.materials.as_entire_binding(),
-            geo.bvh_nodes.as_entire_binding(),
-            geo.bvh_tris.as_entire_binding(),
-            geo.bvh_instances.as_entire_binding(),
-            parts.as_entire_binding(),
-            args.as_entire_binding(),
-            slots.as_entire_binding(),
-            beams.as_entire_binding(),
-            stats.as_entire_binding(),
-            wgpu::BindingResource::TextureView(density),
-        ],
-    );
-    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("beam_shrink"),
-        timestamp_writes: timer.compute("beam_shrink"),
-    });
-    cp.set_pipeline(&pl);
-    cp.set_bind_group(0, &bg, &[]);
-    cp.dispatch_workgroups_indirect(indirect, at);
-}
-
 /// `beam_order_runs` (count), `beam_order` (the runs' places, the dispatch sizes) and
 /// `beam_order_runs` (write): the kept beams listed in hierarchy order.
 fn record_order(
@@ -455,37 +410,28 @@ fn record_order(
     let n_runs = (u64::from(BEAM_KINDS) * u64::from(slots_n)).div_ceil(u64::from(BEAM_ORDER_RUN)).max(1);
     let runs = crate::gpu::storage(ctx, "beam_order_runs", 4 * n_runs, wgpu::BufferUsages::empty());
     let groups = n_runs.div_ceil(64) as u32;
-    // Each dispatch timed as `beam_order` (the list's three dispatches are one pass to `bench`).
-    let pass = |pl: &wgpu::ComputePipeline,
-                stage: &str,
-                resources: &[wgpu::BindingResource],
-                groups: u32,
-                enc: &mut wgpu::CommandEncoder,
-                timer: &mut PassTimer| {
-        let bg = bind(ctx, pl, stage, resources);
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(stage),
-            timestamp_writes: timer.compute("beam_order"),
-        });
-        cp.set_pipeline(pl);
-        cp.set_bind_group(0, &bg, &[]);
-        cp.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
+    // Each dispatch labelled and timed as `beam_order` (the list's three dispatches are one pass
+    // to `bench`).
+    let groups = [groups.min(65535), groups.div_ceil(65535), 1];
+    let runs_pass = |write: bool| {
+        Pass::new(ctx, "beam_order_runs")
+            .constants(&[("order_write", f64::from(u8::from(write)))])
+            .label("beam_order")
+            .bind("bp", params)
+            .bind("slots", slots)
+            .bind("runs", &runs)
+            .bind("order", order)
     };
-    let run_resources =
-        [params.as_entire_binding(), slots.as_entire_binding(), runs.as_entire_binding(), order.as_entire_binding()];
-    let runs_pl =
-        |write: bool| ctx.compute_pipeline_with("beam_order_runs", &[("order_write", f64::from(u8::from(write)))]);
-    pass(&runs_pl(false), "beam_order_runs", &run_resources, groups, enc, timer);
+    runs_pass(false).dispatch(enc, timer, groups);
     let cu = ctx.uniform("beam_order_chunks", bytemuck::bytes_of(&chunks.gpu()));
-    let order_resources = [
-        params.as_entire_binding(),
-        runs.as_entire_binding(),
-        stats.as_entire_binding(),
-        cu.as_entire_binding(),
-        dispatch.as_entire_binding(),
-    ];
-    pass(&ctx.compute_pipeline("beam_order"), "beam_order", &order_resources, 1, enc, timer);
-    pass(&runs_pl(true), "beam_order_runs", &run_resources, groups, enc, timer);
+    Pass::new(ctx, "beam_order")
+        .bind("bp", params)
+        .bind("runs", &runs)
+        .bind("stats", stats)
+        .bind("ch", &cu)
+        .bind("dispatch", dispatch)
+        .dispatch(enc, timer, [1, 1, 1]);
+    runs_pass(true).dispatch(enc, timer, groups);
 }
 
 /// The most beams a light's ordered list can hold: `capacity`, and at most `kinds` per slot of
@@ -544,35 +490,22 @@ fn record_surface(
         draw_hulls(ctx, f, "beam_surface_raster", &resources, accum, enc, timer);
         return;
     }
-    let pl = ctx.compute_pipeline("beam_surface");
     let density = density_view(ctx, &dc.geo.density);
     let records = ChunkRecords::new(ctx, "beam_surface_chunks", f.chunks.surface_n, f.chunks.surface);
     for c in 0..f.chunks.surface_n {
-        let bg = bind(
-            ctx,
-            &pl,
-            "beam_surface",
-            &[
-                f.params.as_entire_binding(),
-                eye_views.0.clone(),
-                eye_views.1.clone(),
-                f.beams.as_entire_binding(),
-                f.order.as_entire_binding(),
-                f.stats.as_entire_binding(),
-                dc.geo.materials.as_entire_binding(),
-                accum.0.as_entire_binding(),
-                accum.1.as_entire_binding(),
-                records.binding(c),
-                wgpu::BindingResource::TextureView(&density),
-            ],
-        );
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("beam_surface"),
-            timestamp_writes: timer.compute("beam_surface"),
-        });
-        cp.set_pipeline(&pl);
-        cp.set_bind_group(0, &bg, &[]);
-        cp.dispatch_workgroups_indirect(&f.dispatch, 12 * u64::from(f.chunks.gather_n + c));
+        Pass::new(ctx, "beam_surface")
+            .bind("bp", &f.params)
+            .bind("recv_pos", eye_views.0.clone())
+            .bind("recv_nrm", eye_views.1.clone())
+            .bind("beams", &f.beams)
+            .bind("order", &f.order)
+            .bind("stats", &f.stats)
+            .bind("materials", &dc.geo.materials)
+            .bind("radiance", accum.0)
+            .bind("caustic", accum.1)
+            .bind("chunk", records.binding(c))
+            .bind("density_grid", &density)
+            .dispatch_indirect(enc, timer, &f.dispatch, 12 * u64::from(f.chunks.gather_n + c));
     }
 }
 
@@ -603,27 +536,14 @@ fn record_hull_polygons(
     timer: &mut PassTimer,
 ) {
     let mode = ctx.constants("beam_hull_mode", bytemuck::cast_slice(&[of as u32, 0, 0, 0]));
-    let hpl = ctx.compute_pipeline("beam_hull");
-    let hbg = bind(
-        ctx,
-        &hpl,
-        "beam_hull",
-        &[
-            f.params.as_entire_binding(),
-            f.beams.as_entire_binding(),
-            f.order.as_entire_binding(),
-            f.stats.as_entire_binding(),
-            hulls.as_entire_binding(),
-            mode.as_entire_binding(),
-        ],
-    );
-    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("beam_hull"),
-        timestamp_writes: timer.compute("beam_hull"),
-    });
-    cp.set_pipeline(&hpl);
-    cp.set_bind_group(0, &hbg, &[]);
-    cp.dispatch_workgroups_indirect(&f.dispatch, f.chunks.hull_args());
+    Pass::new(ctx, "beam_hull")
+        .bind("bp", &f.params)
+        .bind("beams", &f.beams)
+        .bind("order", &f.order)
+        .bind("stats", &f.stats)
+        .bind("hulls", hulls)
+        .bind("mode", &mode)
+        .dispatch_indirect(enc, timer, &f.dispatch, f.chunks.hull_args());
 }
 
 /// The hulls of one light's beams drawn by render stage `stage` (`beam_raster`: the volume
@@ -672,20 +592,11 @@ fn draw_hulls(
         rp.set_bind_group(0, &rbg, &[]);
         rp.draw_indirect(&f.dispatch, f.chunks.hull_args() + 12);
     }
-    let apl = ctx.compute_pipeline("beam_resolve");
-    let abg = bind(
-        ctx,
-        &apl,
-        "beam_resolve",
-        &[wgpu::BindingResource::TextureView(&target_view), images.0.as_entire_binding(), images.1.as_entire_binding()],
-    );
-    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("beam_resolve"),
-        timestamp_writes: timer.compute("beam_resolve"),
-    });
-    cp.set_pipeline(&apl);
-    cp.set_bind_group(0, &abg, &[]);
-    cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    Pass::new(ctx, "beam_resolve")
+        .bind("volume", &target_view)
+        .bind("out_full", images.0)
+        .bind("out_caustic", images.1)
+        .dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
 }
 
 /// The volume caustic of one light's beams drawn as their hulls (`beam_hull` into `hulls`, then
@@ -776,47 +687,34 @@ fn record_gather_chunks(
     let (params, beams, order, stats) = (&f.params, &f.beams, &f.order, &f.stats);
     let (chunks, dispatch, foot) = (&f.chunks, &f.dispatch, f.footprint);
     let slot = segs.map_or(-1.0, |(_, k)| f64::from(k));
-    let gpl = ctx.compute_pipeline_with("beam_gather", &[("gather_slot", slot)]);
     let (label, seg_bindings) = match segs {
-        Some((sg, _)) => ("beam_gather_segments", [&sg.list, &sg.count, &sg.segments]),
+        Some((sg, _)) => ("beam_gather_segments", sg.bindings()),
         // (the stage reads none of them along the camera rays)
-        None => ("beam_gather", [order, stats, order]),
+        None => ("beam_gather", [("spec_list", order), ("spec_count", stats), ("segments", order)]),
     };
     let foot_buf = ctx.constants("beam_footprint", bytemuck::cast_slice(&foot));
     // One dispatch per chunk of the ordered list (see beam_gather.wgsl and `Chunks`), its size
     // written by beam_order (none past the beams listed).
     let records = ChunkRecords::new(ctx, "beam_gather_chunks", chunks.gather_n, chunks.gather);
     for c in 0..chunks.gather_n {
-        let gbg = bind(
-            ctx,
-            &gpl,
-            "beam_gather",
-            &[
-                params.as_entire_binding(),
-                eye_views[0].clone(),
-                eye_views[1].clone(),
-                beams.as_entire_binding(),
-                order.as_entire_binding(),
-                stats.as_entire_binding(),
-                images.0.as_entire_binding(),
-                images.1.as_entire_binding(),
-                records.binding(c),
-                foot_buf.as_entire_binding(),
-                wgpu::BindingResource::TextureView(density),
-                eye_views[2].clone(),
-                eye_views[3].clone(),
-                seg_bindings[0].as_entire_binding(),
-                seg_bindings[1].as_entire_binding(),
-                seg_bindings[2].as_entire_binding(),
-            ],
-        );
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(label),
-            timestamp_writes: timer.compute(label),
-        });
-        cp.set_pipeline(&gpl);
-        cp.set_bind_group(0, &gbg, &[]);
-        cp.dispatch_workgroups_indirect(dispatch, 12 * u64::from(c));
+        Pass::new(ctx, "beam_gather")
+            .constants(&[("gather_slot", slot)])
+            .label(label)
+            .bind("bp", params)
+            .bind("recv_pos", eye_views[0].clone())
+            .bind("spec_pos", eye_views[1].clone())
+            .bind("beams", beams)
+            .bind("order", order)
+            .bind("stats", stats)
+            .bind("out_full", images.0)
+            .bind("out_caustic", images.1)
+            .bind("chunk", records.binding(c))
+            .bind("foot", &foot_buf)
+            .bind("density_grid", density)
+            .bind("recv_nrm", eye_views[2].clone())
+            .bind("spec_nrm", eye_views[3].clone())
+            .bind_all(seg_bindings)
+            .dispatch_indirect(enc, timer, dispatch, 12 * u64::from(c));
     }
 }
 

@@ -34,6 +34,7 @@
 //! light's share is added.
 
 use crate::gpu::PassTimer;
+use crate::gpu::pass::Pass;
 use crate::gpu::types::{BounceLightParams, BounceParams, EmitParams, SurfaceBounceParams, VplGpu};
 use crate::passes::{DrawCtx, EyeFrame, LightFrame, array_view, density_view, layer_view, shadow_sampler};
 use crate::settings::RenderSettings;
@@ -102,8 +103,6 @@ pub(crate) fn record_lights(
     let (lo, hi, sigma_t, sigma_s, heterogeneous) = medium_params(m);
     let density = density_view(ctx, &dc.geo.density);
     let shadow_sampler = shadow_sampler(ctx);
-    let lights_pl = ctx.compute_pipeline("medium_bounce_lights");
-    let shafts_pl = ctx.compute_pipeline("medium_bounce_shafts");
     let mut offset = 0;
     for lf in lights {
         let params = |offset| {
@@ -125,53 +124,29 @@ pub(crate) fn record_lights(
         };
         let (rp, rn, sh) = (array_view(ctx, &lf.recv.pos), array_view(ctx, &lf.recv.nrm), array_view(ctx, &lf.shadow));
         let (lp, sp) = (params(offset), params(offset * SHAFT_SLICES));
-        let bg = crate::gpu::bind(
-            ctx,
-            &lights_pl,
-            "medium_bounce_lights",
-            &[
-                lf.light_buf.as_entire_binding(),
-                lp.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&rp),
-                wgpu::BindingResource::TextureView(&rn),
-                lf.irradiance.as_entire_binding(),
-                dc.geo.materials.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&sh),
-                wgpu::BindingResource::Sampler(&shadow_sampler),
-                wgpu::BindingResource::TextureView(&density),
-                surface.as_entire_binding(),
-            ],
-        );
-        let sbg = crate::gpu::bind(
-            ctx,
-            &shafts_pl,
-            "medium_bounce_shafts",
-            &[
-                lf.light_buf.as_entire_binding(),
-                sp.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&rp),
-                wgpu::BindingResource::TextureView(&sh),
-                wgpu::BindingResource::Sampler(&shadow_sampler),
-                wgpu::BindingResource::TextureView(&density),
-                shafts.as_entire_binding(),
-            ],
-        );
-        {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("medium_bounce_lights"),
-                timestamp_writes: timer.compute("medium_bounce_lights"),
-            });
-            cp.set_pipeline(&lights_pl);
-            cp.set_bind_group(0, &bg, &[]);
-            cp.dispatch_workgroups(k, k, lf.faces);
-        }
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("medium_bounce_shafts"),
-            timestamp_writes: timer.compute("medium_bounce_shafts"),
-        });
-        cp.set_pipeline(&shafts_pl);
-        cp.set_bind_group(0, &sbg, &[]);
-        cp.dispatch_workgroups(k, k, lf.faces);
+        let lights_pass = Pass::new(ctx, "medium_bounce_lights")
+            .bind("light", &lf.light_buf)
+            .bind("bp", &lp)
+            .bind("recv_pos", &rp)
+            .bind("recv_nrm", &rn)
+            .bind("irradiance", &lf.irradiance)
+            .bind("materials", &dc.geo.materials)
+            .bind("shadow_map", &sh)
+            .bind("shadow_sampler", &shadow_sampler)
+            .bind("density", &density)
+            .bind("vpls", &surface)
+            .group();
+        let shafts_pass = Pass::new(ctx, "medium_bounce_shafts")
+            .bind("light", &lf.light_buf)
+            .bind("bp", &sp)
+            .bind("recv_pos", &rp)
+            .bind("shadow_map", &sh)
+            .bind("shadow_sampler", &shadow_sampler)
+            .bind("density", &density)
+            .bind("vpls", &shafts)
+            .group();
+        lights_pass.dispatch(enc, timer, [k, k, lf.faces]);
+        shafts_pass.dispatch(enc, timer, [k, k, lf.faces]);
         offset += lf.faces * k * k;
     }
     let glow = record_glow(dc, m, lights, s, &surface, enc, timer);
@@ -233,39 +208,26 @@ fn emitter_buffers(
     (params, sums, vpls, bins)
 }
 
-/// The three dispatches of an emitter stage (`emit_pass` 0, 1, 2): the samples' range and sums
-/// (`samples`: an indirect dispatch, or workgroups of 64), the emitters per bin.
-#[expect(clippy::too_many_arguments, reason = "the stage's resources")]
-fn record_emitter_passes(
-    ctx: &crate::gpu::GpuContext,
-    (stage, consts): (&str, &[(&str, f64)]),
-    entries: &[wgpu::BindingResource],
+/// The three dispatches of an emitter stage (`emit_pass` 0, 1, 2) bound as `pass`, whose other
+/// constants are `consts`: the samples' range and sums (`samples`: an indirect dispatch, or
+/// workgroups of 64), the emitters per bin. Only the passes from `first_pass` are recorded.
+fn record_emitter_passes<'a>(
+    (pass, consts): (Pass<'a>, &[(&'a str, f64)]),
     samples: Result<(&wgpu::Buffer, u64), u32>,
     bins: u32,
     first_pass: usize,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
-    // (only the passes recorded: the variants share one layout)
-    let pipelines: Vec<_> = (first_pass..3)
-        .map(|p| {
-            let mut c = consts.to_vec();
-            c.push(("emit_pass", p as f64));
-            (p, ctx.compute_pipeline_with(stage, &c))
-        })
-        .collect();
-    let bg = crate::gpu::bind(ctx, &pipelines[0].1, stage, entries);
-    for (p, pl) in &pipelines {
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(stage),
-            timestamp_writes: timer.compute(stage),
-        });
-        cp.set_pipeline(pl);
-        cp.set_bind_group(0, &bg, &[]);
-        match (*p, samples) {
-            (2, _) => cp.dispatch_workgroups(bins.div_ceil(64), 1, 1),
-            (_, Ok((args, at))) => cp.dispatch_workgroups_indirect(args, at),
-            (_, Err(groups)) => cp.dispatch_workgroups(groups, 1, 1),
+    let constants = |p: usize| [consts, &[("emit_pass", p as f64)]].concat();
+    // (the variants share one layout, so one bind group)
+    let bound = pass.constants(&constants(first_pass)).group();
+    for p in first_pass..3 {
+        let variant = bound.variant(bound.label(), &constants(p));
+        match (p, samples) {
+            (2, _) => variant.dispatch(enc, timer, [bins.div_ceil(64), 1, 1]),
+            (_, Ok((args, at))) => variant.dispatch_indirect(enc, timer, args, at),
+            (_, Err(groups)) => variant.dispatch(enc, timer, [groups, 1, 1]),
         }
     }
 }
@@ -307,22 +269,21 @@ pub(crate) fn record_beam_emitters(
         let ([bp, beams, order, stats], args) = f.listed();
         let mut emit = |label: String, grid_slices, landing: Option<(Vec3, Vec3)>| {
             let (params, sums, vpls, bins) = emitter_buffers(ctx, &label, m, lf, grid_slices, (0, 0), landing);
-            let entries = [
-                bp.as_entire_binding(),
-                lf.light_buf.as_entire_binding(),
-                params.as_entire_binding(),
-                beams.as_entire_binding(),
-                order.as_entire_binding(),
-                stats.as_entire_binding(),
-                sums.as_entire_binding(),
-                vpls.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&density),
-                dc.geo.materials.as_entire_binding(),
-            ];
+            let pass = Pass::new(ctx, "medium_bounce_beams")
+                .bind("bp", bp)
+                .bind("light", &lf.light_buf)
+                .bind("ep", &params)
+                .bind("beams", beams)
+                .bind("order", order)
+                .bind("stats", stats)
+                .bind("sums", &sums)
+                .bind("vpls", &vpls)
+                .bind("density_grid", &density)
+                .bind("materials", &dc.geo.materials);
             let consts = [("emit_landing", f64::from(u8::from(landing.is_some())))];
             // (one slice per block for the landing light: no range pass)
             let first = usize::from(landing.is_some());
-            record_emitter_passes(ctx, ("medium_bounce_beams", &consts), &entries, Ok(args), bins, first, enc, timer);
+            record_emitter_passes((pass, &consts), Ok(args), bins, first, enc, timer);
             (vpls, bins)
         };
         if s.beams_volume_active(dc.scene) {
@@ -392,16 +353,15 @@ fn record_glow_of(
     let density = density_view(ctx, &dc.geo.density);
     let (params, sums, vpls, bins) =
         emitter_buffers(ctx, label, m, lf, (s.medium.bounce_grid, GLOW_SLICES), (offset, count), None);
-    let entries = [
-        lf.light_buf.as_entire_binding(),
-        params.as_entire_binding(),
-        vpls_in.as_entire_binding(),
-        sums.as_entire_binding(),
-        vpls.as_entire_binding(),
-        wgpu::BindingResource::TextureView(&density),
-    ];
+    let pass = Pass::new(ctx, "medium_bounce_glow")
+        .bind("light", &lf.light_buf)
+        .bind("ep", &params)
+        .bind("surface", vpls_in)
+        .bind("sums", &sums)
+        .bind("vpls", &vpls)
+        .bind("density", &density);
     let groups = (count * GLOW_DIRS).div_ceil(64);
-    record_emitter_passes(ctx, ("medium_bounce_glow", &[]), &entries, Err(groups), bins, 0, enc, timer);
+    record_emitter_passes((pass, &[]), Err(groups), bins, 0, enc, timer);
     (vpls, bins)
 }
 
@@ -455,30 +415,17 @@ fn record_surface_gather(
             _pad: [0; 3],
         }),
     );
-    let pl = ctx.compute_pipeline("medium_bounce_surfaces");
     let (ep, en) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
     let density = density_view(ctx, &dc.geo.density);
-    let bg = crate::gpu::bind(
-        ctx,
-        &pl,
-        "medium_bounce_surfaces",
-        &[
-            params.as_entire_binding(),
-            vpls.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&ep),
-            wgpu::BindingResource::TextureView(&en),
-            dc.geo.materials.as_entire_binding(),
-            eye.radiance.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&density),
-        ],
-    );
-    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("medium_bounce_surfaces"),
-        timestamp_writes: timer.compute("medium_bounce_surfaces"),
-    });
-    cp.set_pipeline(&pl);
-    cp.set_bind_group(0, &bg, &[]);
-    cp.dispatch_workgroups(cam.width.div_ceil(8), cam.height.div_ceil(8), 1);
+    Pass::new(ctx, "medium_bounce_surfaces")
+        .bind("sp", &params)
+        .bind("vpls", vpls)
+        .bind("eye_pos", &ep)
+        .bind("eye_nrm", &en)
+        .bind("materials", &dc.geo.materials)
+        .bind("radiance", &eye.radiance)
+        .bind("density", &density)
+        .dispatch(enc, timer, [cam.width.div_ceil(8), cam.height.div_ceil(8), 1]);
 }
 
 /// `medium_bounce`: the surface VPLs' single scattering along every camera ray, added into the
@@ -537,44 +484,22 @@ fn record_camera_gather(
             _pad: [0; 3],
         }),
     );
-    let pl = ctx.compute_pipeline_with("medium_bounce", &[("bounce_segments", 0.0)]);
-    let seg_pl = ctx.compute_pipeline_with("medium_bounce", &[("bounce_segments", 1.0)]);
     let density = density_view(ctx, &dc.geo.density);
     let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
-    let bg = crate::gpu::bind(
-        ctx,
-        &pl,
-        "medium_bounce",
-        &[
-            params.as_entire_binding(),
-            vpls.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&rv),
-            wgpu::BindingResource::TextureView(&sv),
-            images.0.as_entire_binding(),
-            images.1.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&density),
-            segs.list.as_entire_binding(),
-            segs.count.as_entire_binding(),
-            segs.segments.as_entire_binding(),
-        ],
-    );
-    {
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("medium_bounce"),
-            timestamp_writes: timer.compute("medium_bounce"),
-        });
-        cp.set_pipeline(&pl);
-        cp.set_bind_group(0, &bg, &[]);
-        cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    let pass = Pass::new(ctx, "medium_bounce")
+        .constants(&[("bounce_segments", 0.0)])
+        .bind("bp", &params)
+        .bind("vpls", vpls)
+        .bind("recv_pos", &rv)
+        .bind("spec_pos", &sv)
+        .bind("out_full", images.0)
+        .bind("out_caustic", images.1)
+        .bind("density", &density)
+        .bind_all(segs.bindings())
+        .group();
+    pass.dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
+    if segs.kept {
+        let segments = pass.variant("medium_bounce_segments", &[("bounce_segments", 1.0)]);
+        segments.dispatch_indirect(enc, timer, &segs.args, 0);
     }
-    if !segs.kept {
-        return;
-    }
-    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("medium_bounce_segments"),
-        timestamp_writes: timer.compute("medium_bounce_segments"),
-    });
-    cp.set_pipeline(&seg_pl);
-    cp.set_bind_group(0, &bg, &[]);
-    cp.dispatch_workgroups_indirect(&segs.args, 0);
 }

@@ -16,6 +16,7 @@
 //!    single scattering along the camera rays), and `display` ([`record_composite`]).
 
 use crate::error::Result;
+use crate::gpu::pass::Pass;
 use crate::gpu::pool::LayoutOf;
 use crate::gpu::types::*;
 use crate::gpu::{GpuContext, PassTimer};
@@ -57,6 +58,11 @@ pub(crate) struct Geometry {
 }
 
 impl Geometry {
+    /// The BVH's buffers by the names the stages give them.
+    pub(crate) fn bvh_bindings(&self) -> [(&'static str, &wgpu::Buffer); 3] {
+        [("bvh_nodes", &self.bvh_nodes), ("bvh_tris", &self.bvh_tris), ("bvh_instances", &self.bvh_instances)]
+    }
+
     /// Write the BVH instances for the objects' transforms (from the scene file's pose).
     pub(crate) fn write_instances(&self, ctx: &GpuContext, transforms: &[glam::Affine3A]) {
         let inst = self.bvh.instance_records(transforms);
@@ -786,7 +792,7 @@ pub(crate) struct LightFrame {
 pub(crate) fn record_light(
     dc: &DrawCtx,
     raster: &Raster,
-    pipelines: &crate::techniques::Pipelines,
+    stages: &crate::techniques::Stages,
     (s, inspect): (&RenderSettings, crate::settings::Inspect),
     fc: &FrameConsts,
     (li, view, lg, scale): (usize, &LightView, &LightGpu, f64),
@@ -864,7 +870,7 @@ pub(crate) fn record_light(
         ctx,
         settings: s,
         inspect,
-        pipelines,
+        stages,
         light_buf: &light_buf,
         front_pos: &fpv,
         front_nrm: &fnv,
@@ -873,8 +879,7 @@ pub(crate) fn record_light(
         layer2: layer2_views,
         recv_pos: &rpv,
         recv_nrm: &rnv,
-        materials: &dc.geo.materials,
-        bvh: [&dc.geo.bvh_nodes, &dc.geo.bvh_tris, &dc.geo.bvh_instances],
+        geo: dc.geo,
         density: &density,
         stats: &stats,
         accum: &accum,
@@ -892,31 +897,16 @@ pub(crate) fn record_light(
             || s.surface_caustics_from_beams(&scene.lights[li]),
     };
     let pending = crate::techniques::emit(&emit, enc, timer, ne)?;
-    splat_targets.finish(ctx, &pipelines.splat, &light_buf, &accum, enc, timer);
-    let resolve_pl = ctx.compute_pipeline("caustic_resolve");
+    splat_targets.finish(ctx, s.photons.splat, &light_buf, &accum, enc, timer);
     let rp = ctx.uniform("resolve_params", bytemuck::bytes_of(&CountParams { count: texels as u32, _pad: [0; 3] }));
-    let rbg = crate::gpu::bind(
-        ctx,
-        &resolve_pl,
-        "caustic_resolve",
-        &[
-            light_buf.as_entire_binding(),
-            rp.as_entire_binding(),
-            accum.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&rpv),
-            wgpu::BindingResource::TextureView(&rnv),
-            irradiance.as_entire_binding(),
-        ],
-    );
-    {
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("caustic_resolve"),
-            timestamp_writes: timer.compute("caustic_resolve"),
-        });
-        cp.set_pipeline(&resolve_pl);
-        cp.set_bind_group(0, &rbg, &[]);
-        cp.dispatch_workgroups((texels as u32).div_ceil(256), 1, 1);
-    }
+    Pass::new(ctx, "caustic_resolve")
+        .bind("light", &light_buf)
+        .bind("rp", &rp)
+        .bind("accum", &accum)
+        .bind("recv_pos", &rpv)
+        .bind("recv_nrm", &rnv)
+        .bind("irradiance", &irradiance)
+        .dispatch(enc, timer, [(texels as u32).div_ceil(256), 1, 1]);
     if let Some(t) = temporal {
         t.record(ctx, enc, Some(timer), li, &irradiance, m, nf);
     }
@@ -975,29 +965,11 @@ fn record_tiles(
     let tp = ctx
         .uniform("tile_params", bytemuck::bytes_of(&TileParams { size: shadow_size, tiles: st, faces: nf, _pad: 0 }));
     let shv = array_view(ctx, shadow);
-    let mask_pl = ctx.compute_pipeline("caustic_mask");
-    let tiles_pl = ctx.compute_pipeline("shadow_tiles");
-    let mbg = crate::gpu::bind(
-        ctx,
-        &mask_pl,
-        "caustic_mask",
-        &[mp.as_entire_binding(), irradiance.as_entire_binding(), mask.as_entire_binding()],
-    );
-    let tbg = crate::gpu::bind(
-        ctx,
-        &tiles_pl,
-        "shadow_tiles",
-        &[tp.as_entire_binding(), wgpu::BindingResource::TextureView(&shv), tiles.as_entire_binding()],
-    );
-    for (name, pl, bg, n) in [("caustic_mask", &mask_pl, &mbg, ct), ("shadow_tiles", &tiles_pl, &tbg, st)] {
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(name),
-            timestamp_writes: timer.compute(name),
-        });
-        cp.set_pipeline(pl);
-        cp.set_bind_group(0, bg, &[]);
-        cp.dispatch_workgroups(n.div_ceil(8), n.div_ceil(8), nf);
-    }
+    let mask_pass = Pass::new(ctx, "caustic_mask").bind("mp", &mp).bind("irradiance", irradiance).bind("mask", &mask);
+    let tiles_pass = Pass::new(ctx, "shadow_tiles").bind("tp", &tp).bind("shadow_map", &shv).bind("tiles", &tiles);
+    let (mask_pass, tiles_pass) = (mask_pass.group(), tiles_pass.group());
+    mask_pass.dispatch(enc, timer, [ct.div_ceil(8), ct.div_ceil(8), nf]);
+    tiles_pass.dispatch(enc, timer, [st.div_ceil(8), st.div_ceil(8), nf]);
     (mask, tiles)
 }
 
@@ -1032,7 +1004,6 @@ pub(crate) fn record_shade(
     let ctx = dc.ctx;
     let cam = &dc.scene.camera;
     let (w, h) = (cam.width, cam.height);
-    let shade_pl = ctx.compute_pipeline("shade_receivers");
     let shadow_sampler = shadow_sampler(ctx);
     let shp = ctx.uniform(
         "shade_params",
@@ -1055,35 +1026,23 @@ pub(crate) fn record_shade(
     let density = density_view(ctx, &dc.geo.density);
     let (erp, ern) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
     let (shv, rpv) = (array_view(ctx, &lf.shadow), array_view(ctx, &lf.recv.pos));
-    let shbg = crate::gpu::bind(
-        ctx,
-        &shade_pl,
-        "shade_receivers",
-        &[
-            lf.light_buf.as_entire_binding(),
-            shp.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&erp),
-            wgpu::BindingResource::TextureView(&ern),
-            wgpu::BindingResource::TextureView(&shv),
-            wgpu::BindingResource::Sampler(&shadow_sampler),
-            wgpu::BindingResource::TextureView(&rpv),
-            lf.irradiance.as_entire_binding(),
-            dc.geo.materials.as_entire_binding(),
-            eye.radiance.as_entire_binding(),
-            eye.caustic.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&density),
-            tapb.as_entire_binding(),
-            lf.caustic_mask.as_entire_binding(),
-            lf.shadow_tiles.as_entire_binding(),
-        ],
-    );
-    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("shade_receivers"),
-        timestamp_writes: timer.compute("shade_receivers"),
-    });
-    cp.set_pipeline(&shade_pl);
-    cp.set_bind_group(0, &shbg, &[]);
-    cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    Pass::new(ctx, "shade_receivers")
+        .bind("light", &lf.light_buf)
+        .bind("sp", &shp)
+        .bind("eye_pos", &erp)
+        .bind("eye_nrm", &ern)
+        .bind("shadow_map", &shv)
+        .bind("shadow_sampler", &shadow_sampler)
+        .bind("recv_pos", &rpv)
+        .bind("irradiance", &lf.irradiance)
+        .bind("materials", &dc.geo.materials)
+        .bind("radiance", &eye.radiance)
+        .bind("caustic", &eye.caustic)
+        .bind("density", &density)
+        .bind("taps", &tapb)
+        .bind("caustic_mask", &lf.caustic_mask)
+        .bind("shadow_tiles", &lf.shadow_tiles)
+        .dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
 }
 
 /// The scene's environment map as an Rgba32Float texture (read with `textureLoad`, so no
@@ -1186,6 +1145,14 @@ pub(crate) struct EyeSegments {
     pub segments: wgpu::Buffer,
 }
 
+impl EyeSegments {
+    /// The list of specular pixels, its count and the segments, by the names the stages that
+    /// read them give them.
+    pub(crate) fn bindings(&self) -> [(&'static str, &wgpu::Buffer); 3] {
+        [("spec_list", &self.list), ("spec_count", &self.count), ("segments", &self.segments)]
+    }
+}
+
 /// `medium_scatter` (scenes with a medium; nothing is recorded or requested otherwise): two
 /// dispatches per light (spot, point or directional) over the composited images. The first
 /// light's attenuates both images by the transmittance along each pixel's camera ray to its
@@ -1208,8 +1175,6 @@ fn record_medium(
     let ctx = dc.ctx;
     let cam = &dc.scene.camera;
     let (w, h) = (cam.width, cam.height);
-    let pl = ctx.compute_pipeline_with("medium_scatter", &[("medium_segments", 0.0)]);
-    let seg_pl = ctx.compute_pipeline_with("medium_scatter", &[("medium_segments", 1.0)]);
     let shadow_sampler = shadow_sampler(ctx);
     let g = match m.phase {
         crate::scene::Phase::Isotropic => 0.0,
@@ -1240,43 +1205,24 @@ fn record_medium(
             }),
         );
         let shv = array_view(ctx, &lf.shadow);
-        let bg = crate::gpu::bind(
-            ctx,
-            &pl,
-            "medium_scatter",
-            &[
-                lf.light_buf.as_entire_binding(),
-                params.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&rv),
-                wgpu::BindingResource::TextureView(&sv),
-                wgpu::BindingResource::TextureView(&shv),
-                wgpu::BindingResource::Sampler(&shadow_sampler),
-                images.0.as_entire_binding(),
-                images.1.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&density),
-                segs.list.as_entire_binding(),
-                segs.count.as_entire_binding(),
-                segs.segments.as_entire_binding(),
-            ],
-        );
-        {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("medium_scatter"),
-                timestamp_writes: timer.compute("medium_scatter"),
-            });
-            cp.set_pipeline(&pl);
-            cp.set_bind_group(0, &bg, &[]);
-            cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-        }
+        let pass = Pass::new(ctx, "medium_scatter")
+            .constants(&[("medium_segments", 0.0)])
+            .bind("light", &lf.light_buf)
+            .bind("mp", &params)
+            .bind("recv_pos", &rv)
+            .bind("spec_pos", &sv)
+            .bind("shadow_map", &shv)
+            .bind("shadow_sampler", &shadow_sampler)
+            .bind("out_full", images.0)
+            .bind("out_caustic", images.1)
+            .bind("density", &density)
+            .bind_all(segs.bindings())
+            .group();
+        pass.dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
         if scatters && segs.kept {
-            // (the same layout: one bind group for both variants)
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("medium_scatter_segments"),
-                timestamp_writes: timer.compute("medium_scatter_segments"),
-            });
-            cp.set_pipeline(&seg_pl);
-            cp.set_bind_group(0, &bg, &[]);
-            cp.dispatch_workgroups_indirect(&segs.args, 0);
+            // (one bind group for both variants)
+            let segments = pass.variant("medium_scatter_segments", &[("medium_segments", 1.0)]);
+            segments.dispatch_indirect(enc, timer, &segs.args, 0);
         }
     }
 }
@@ -1344,7 +1290,7 @@ pub(crate) fn record_composite(
     let spec_count = ctx.buffer("composite_count", 16, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
     // The second pass binds the count too, so it is dispatched from a copy.
     let spec_args = ctx.buffer("composite_args", 16, wgpu::BufferUsages::INDIRECT);
-    let v = [
+    let [recv_pos, recv_nrm, spec_pos, spec_nrm, back_pos, back_nrm, spec2_pos, spec2_nrm, back2_pos, back2_nrm] = [
         &eye.recv.pos,
         &eye.recv.nrm,
         &eye.front.pos,
@@ -1358,7 +1304,6 @@ pub(crate) fn record_composite(
     ]
     .map(|t| layer_view(ctx, t, 0));
     let env_view = ctx.view(&dc.geo.environment, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
-    let tv = |i: usize| wgpu::BindingResource::TextureView(&v[i]);
     let env = dc.scene.environment.is_some();
     let consts = |pass: u32| {
         [
@@ -1368,58 +1313,34 @@ pub(crate) fn record_composite(
             ("composite_medium", f64::from(u8::from(medium.is_some()))),
         ]
     };
-    let composite_pl = ctx.compute_pipeline_with("composite", &consts(0));
-    let specular_pl = ctx.compute_pipeline_with("composite", &consts(1));
-    let cbg = crate::gpu::bind(
-        ctx,
-        &composite_pl,
-        "composite",
-        &[
-            cpar.as_entire_binding(),
-            tv(0),
-            tv(1),
-            tv(2),
-            tv(3),
-            tv(4),
-            tv(5),
-            dc.geo.materials.as_entire_binding(),
-            eye.radiance.as_entire_binding(),
-            eye.caustic.as_entire_binding(),
-            out_full.as_entire_binding(),
-            out_caustic.as_entire_binding(),
-            tv(6),
-            tv(7),
-            tv(8),
-            tv(9),
-            wgpu::BindingResource::TextureView(&env_view),
-            dc.geo.bvh_nodes.as_entire_binding(),
-            dc.geo.bvh_tris.as_entire_binding(),
-            dc.geo.bvh_instances.as_entire_binding(),
-            spec_list.as_entire_binding(),
-            spec_count.as_entire_binding(),
-            segments.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&density),
-        ],
-    );
-    {
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("composite"),
-            timestamp_writes: timer.compute("composite"),
-        });
-        cp.set_pipeline(&composite_pl);
-        cp.set_bind_group(0, &cbg, &[]);
-        cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-    }
+    let pass = Pass::new(ctx, "composite")
+        .constants(&consts(0))
+        .bind("cp_in", &cpar)
+        .bind("recv_pos", &recv_pos)
+        .bind("recv_nrm", &recv_nrm)
+        .bind("spec_pos", &spec_pos)
+        .bind("spec_nrm", &spec_nrm)
+        .bind("back_pos", &back_pos)
+        .bind("back_nrm", &back_nrm)
+        .bind("spec2_pos", &spec2_pos)
+        .bind("spec2_nrm", &spec2_nrm)
+        .bind("back2_pos", &back2_pos)
+        .bind("back2_nrm", &back2_nrm)
+        .bind("materials", &dc.geo.materials)
+        .bind("radiance", &eye.radiance)
+        .bind("caustic_in", &eye.caustic)
+        .bind("out_full", &out_full)
+        .bind("out_caustic", &out_caustic)
+        .bind("env_map", &env_view)
+        .bind_all(dc.geo.bvh_bindings())
+        .bind("spec_list", &spec_list)
+        .bind("spec_count", &spec_count)
+        .bind("segments", &segments)
+        .bind("density", &density)
+        .group();
+    pass.dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
     enc.copy_buffer_to_buffer(&spec_count, 0, &spec_args, 0, 16);
-    {
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("composite_specular"),
-            timestamp_writes: timer.compute("composite_specular"),
-        });
-        cp.set_pipeline(&specular_pl);
-        cp.set_bind_group(0, &cbg, &[]);
-        cp.dispatch_workgroups_indirect(&spec_args, 0);
-    }
+    pass.variant("composite_specular", &consts(1)).dispatch_indirect(enc, timer, &spec_args, 0);
     let segs = EyeSegments { kept, list: spec_list, count: spec_count, args: spec_args, segments };
     record_medium(dc, eye, lights, s, (&out_full, &out_caustic), &segs, enc, timer);
     Composited { full: out_full, caustic: out_caustic, segments: segs }
@@ -1445,22 +1366,11 @@ pub(crate) fn record_display(
         "display_params",
         bytemuck::bytes_of(&DisplayParams { width: w, height: h, exposure: dc.scene.exposure, _pad: 0 }),
     );
-    let display_pl = ctx.compute_pipeline("display");
-    let dbg = crate::gpu::bind(
-        ctx,
-        &display_pl,
-        "display",
-        &[dp.as_entire_binding(), out_full.as_entire_binding(), wgpu::BindingResource::TextureView(&dv)],
+    Pass::new(ctx, "display").bind("dp", &dp).bind("radiance", out_full).bind("display", &dv).dispatch(
+        enc,
+        timer,
+        [w.div_ceil(8), h.div_ceil(8), 1],
     );
-    {
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("display"),
-            timestamp_writes: timer.compute("display"),
-        });
-        cp.set_pipeline(&display_pl);
-        cp.set_bind_group(0, &dbg, &[]);
-        cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-    }
     display
 }
 

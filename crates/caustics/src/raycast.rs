@@ -3,8 +3,9 @@
 //! against brute force, and for tools that need what the tracer sees (picking).
 
 use crate::error::{Error, Result};
+use crate::gpu::pass::Pass;
 use crate::gpu::types::{QueryParams, RayQuery, RayResult};
-use crate::gpu::{GpuContext, bind};
+use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
 use glam::{Affine3A, Vec2, Vec3};
 
@@ -91,9 +92,8 @@ pub fn cast_rays(
     let storage = wgpu::BufferUsages::STORAGE;
     let size = (rays.len() * std::mem::size_of::<RayResult>()) as u64;
     let results = crate::gpu::storage(&ctx, "ray_results", size, wgpu::BufferUsages::empty());
-    let pl = ctx.compute_pipeline_with("ray_query", &[("bvh_stack_limit", f64::from(opts.stack_limit))]);
     let params = QueryParams { count: rays.len() as u32, any_hit: u32::from(opts.any_hit), _pad: [0; 2] };
-    let bufs = [
+    let [materials, bvh_nodes, bvh_tris, bvh_instances, queries] = [
         ctx.buffer_init("materials", bytemuck::cast_slice(&mats), storage),
         ctx.buffer_init("bvh_nodes", bytemuck::cast_slice(&nodes), storage),
         ctx.buffer_init("bvh_tris", bytemuck::cast_slice(&tris), storage),
@@ -101,18 +101,19 @@ pub fn cast_rays(
         ctx.buffer_init("rays", bytemuck::cast_slice(&queries), storage),
     ];
     let u = ctx.uniform("query_params", bytemuck::bytes_of(&params));
-    let mut res: Vec<wgpu::BindingResource> = bufs.iter().map(|b| b.as_entire_binding()).collect();
-    res.push(results.as_entire_binding());
-    res.push(u.as_entire_binding());
-    let bg = bind(&ctx, &pl, "ray_query", &res);
+    let pass = Pass::new(&ctx, "ray_query")
+        .constants(&[("bvh_stack_limit", f64::from(opts.stack_limit))])
+        .bind("materials", &materials)
+        .bind("bvh_nodes", &bvh_nodes)
+        .bind("bvh_tris", &bvh_tris)
+        .bind("bvh_instances", &bvh_instances)
+        .bind("rays", &queries)
+        .bind("results", &results)
+        .bind("qp", &u)
+        .group();
     ctx.end_scope();
-    {
-        let mut cp = enc.begin_compute_pass(&Default::default());
-        cp.set_pipeline(&pl);
-        cp.set_bind_group(0, &bg, &[]);
-        let groups = (rays.len() as u32).div_ceil(64);
-        cp.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
-    }
+    let groups = (rays.len() as u32).div_ceil(64);
+    pass.dispatch(&mut enc, &mut PassTimer::disabled(), [groups.min(65535), groups.div_ceil(65535), 1]);
     ctx.queue.submit([enc.finish()]);
     let bytes = ctx.read_buffer(&results, size)?;
     let out: &[RayResult] = bytemuck::cast_slice(&bytes);

@@ -720,7 +720,7 @@ impl Renderer {
             self.lights.resize_with(scene.lights.len(), || None);
             self.light_dirty.resize(scene.lights.len(), true);
         }
-        let mut pipelines = None;
+        let mut stages = None;
         let mut pendings = Vec::new();
         let mut redone = vec![false; scene.lights.len()];
         for (li, light) in scene.lights.iter().enumerate() {
@@ -731,9 +731,8 @@ impl Renderer {
             if same && !self.light_dirty[li] {
                 continue;
             }
-            let pl = pipelines.get_or_insert_with(|| {
-                crate::techniques::Pipelines::new(
-                    &ctx,
+            let pl = stages.get_or_insert_with(|| {
+                crate::techniques::Stages::new(
                     &s,
                     fc.layer2,
                     [fc.reflect_branch, fc.internal_branch, fc.residual_branch],

@@ -19,38 +19,30 @@
 //! Every mode puts each photon's flux into the map exactly once (normalised weights, 64-bit
 //! fixed-point atomics: deterministic maps).
 
+use crate::gpu::pass::{Bound, Pass, Resource};
 use crate::gpu::types::{Photon, TraceParams};
 use crate::gpu::{GpuContext, PassTimer};
 
 pub use crate::gpu::types::{BlendParams, TriParams};
 pub use crate::settings::SplatMode;
 
-/// The compute pipelines of one splat mode.
-pub(crate) struct SplatPipelines {
+/// The compute stages of one splat mode.
+pub(crate) struct SplatStages {
     pub mode: SplatMode,
-    /// The stage of `splat` ([`SplatMode::stage`]).
+    /// The splat of a photon buffer (every technique; [`SplatMode::stage`]).
     pub stage: &'static str,
-    /// The splat of a photon buffer (every technique).
-    pub splat: wgpu::ComputePipeline,
-    pub blend: Option<wgpu::ComputePipeline>,
-    pub triangles: Option<wgpu::ComputePipeline>,
+    /// Caustic triangles are drawn from the dense grid (`caustic_triangles`, instead of the
+    /// photon-buffer splat).
+    pub grid_triangles: bool,
 }
 
-impl SplatPipelines {
-    pub fn new(ctx: &GpuContext, mode: SplatMode, technique: crate::settings::Technique) -> SplatPipelines {
-        SplatPipelines {
+impl SplatStages {
+    pub fn new(mode: SplatMode, technique: crate::settings::Technique) -> SplatStages {
+        SplatStages {
             mode,
             stage: mode.stage(technique),
-            splat: ctx.compute_pipeline(mode.stage(technique)),
-            blend: (mode == SplatMode::MultiRes).then(|| ctx.compute_pipeline("splat_multires_blend")),
-            triangles: (mode == SplatMode::Triangles && technique == crate::settings::Technique::Basic)
-                .then(|| ctx.compute_pipeline("caustic_triangles")),
+            grid_triangles: mode == SplatMode::Triangles && technique == crate::settings::Technique::Basic,
         }
-    }
-
-    /// Caustic triangles are drawn from the dense grid (instead of photon_splat).
-    pub fn grid_triangles(&self) -> bool {
-        self.triangles.is_some()
     }
 }
 
@@ -81,29 +73,32 @@ impl SplatTargets {
         SplatTargets { extra, texels }
     }
 
-    /// Bind group of the photon-buffer splat: light, params (storage, indirect layout), photons,
-    /// the caustic map, and the mode's extra maps (`splat_quads`: the photons' corners, which
-    /// the caller passes in `corners`).
-    #[expect(clippy::too_many_arguments, reason = "a splat is described by all of these")]
-    pub fn bind(
-        &self,
-        ctx: &GpuContext,
-        p: &SplatPipelines,
-        light: &wgpu::Buffer,
-        params: wgpu::BindingResource<'_>,
-        photons: &wgpu::Buffer,
-        accum: &wgpu::Buffer,
-        corners: Option<&wgpu::Buffer>,
-    ) -> wgpu::BindGroup {
-        let mut res = vec![light.as_entire_binding(), params, photons.as_entire_binding()];
-        res.push(accum.as_entire_binding());
-        if p.mode == SplatMode::MultiRes {
-            res.extend(self.extra[..4].iter().map(|b| b.as_entire_binding()));
+    /// The photon-buffer splat (labelled `photon_splat`) of `photons` into the caustic map
+    /// `accum`: `params` its parameters (storage, indirect layout), and the mode's extra maps
+    /// (`splat_quads`: the photons' corners, which the caller passes in `corners`).
+    pub fn splat<'a>(
+        &'a self,
+        e: &crate::techniques::Emit<'a>,
+        params: impl Resource<'a>,
+        photons: &'a wgpu::Buffer,
+        corners: Option<&'a wgpu::Buffer>,
+    ) -> Bound {
+        let st = &e.stages.splat;
+        let mut pass = Pass::new(e.ctx, st.stage)
+            .label("photon_splat")
+            .bind("light", e.light_buf)
+            .bind("sp", params)
+            .bind("photons", photons)
+            .bind("accum", e.accum);
+        if st.mode == SplatMode::MultiRes {
+            for (name, b) in ["flux0", "flux1", "flux2", "counts"].into_iter().zip(&self.extra) {
+                pass = pass.bind(name, b);
+            }
         }
-        if p.stage == "splat_quads" {
-            res.push(corners.expect("splat_quads needs the corner buffer").as_entire_binding());
+        if st.stage == "splat_quads" {
+            pass = pass.bind("corners", corners.expect("splat_quads needs the corner buffer"));
         }
-        crate::gpu::bind(ctx, &p.splat, p.stage, &res)
+        pass.group()
     }
 
     /// Record what the mode does after every photon of the light was splatted: the
@@ -111,32 +106,30 @@ impl SplatTargets {
     pub fn finish(
         &self,
         ctx: &GpuContext,
-        p: &SplatPipelines,
+        mode: SplatMode,
         light: &wgpu::Buffer,
         accum: &wgpu::Buffer,
         enc: &mut wgpu::CommandEncoder,
         timer: &mut PassTimer,
     ) {
-        let Some(pl) = &p.blend else { return };
-        let groups: Vec<wgpu::BindGroup> = (0..2u32)
+        if mode != SplatMode::MultiRes {
+            return;
+        }
+        let names = ["flux0", "flux1", "flux2", "counts", "sums"];
+        let passes: Vec<Bound> = (0..2u32)
             .map(|pass| {
                 let u = ctx.uniform(
                     "blend_params",
                     bytemuck::bytes_of(&BlendParams { count: self.texels as u32, pass_index: pass, _pad: [0; 2] }),
                 );
-                let mut res = vec![light.as_entire_binding(), u.as_entire_binding(), accum.as_entire_binding()];
-                res.extend(self.extra.iter().map(|b| b.as_entire_binding()));
-                crate::gpu::bind(ctx, pl, "splat_multires_blend", &res)
+                let blend = Pass::new(ctx, "splat_multires_blend").label("splat_blend");
+                let blend = blend.bind("light", light).bind("bp", &u).bind("accum", accum);
+                names.into_iter().zip(&self.extra).fold(blend, |p, (name, b)| p.bind(name, b)).group()
             })
             .collect();
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("splat_blend"),
-            timestamp_writes: timer.compute("splat_blend"),
-        });
-        cp.set_pipeline(pl);
-        for bg in &groups {
-            cp.set_bind_group(0, bg, &[]);
-            cp.dispatch_workgroups((self.texels as u32).div_ceil(256), 1, 1);
+        let mut cp = crate::gpu::pass::begin(enc, timer, "splat_blend");
+        for pass in &passes {
+            pass.dispatch_in(&mut cp, [(self.texels as u32).div_ceil(256), 1, 1]);
         }
     }
 }
@@ -163,19 +156,11 @@ pub fn triangle_buffer_layout(n: u32, rows: u32) -> (u64, u64) {
     (pad, pad + rows as u64 * n as u64 * stride)
 }
 
-/// What the basic technique needs to draw caustic triangles for one face.
+/// What the basic technique needs to draw caustic triangles for one face: the photon buffer
+/// and the row carried between batches, and the rows per batch.
 pub(crate) struct GridTriangles<'a> {
-    pub ctx: &'a GpuContext,
-    pub trace: &'a wgpu::ComputePipeline,
-    pub triangles: &'a wgpu::ComputePipeline,
-    /// The photon_trace bind group for a batch: (trace parameters, photon output binding).
-    pub trace_bind: &'a dyn Fn(&wgpu::Buffer, wgpu::BindingResource) -> wgpu::BindGroup,
-    pub light: &'a wgpu::Buffer,
-    pub accum: &'a wgpu::Buffer,
     pub photons: &'a wgpu::Buffer,
     pub carry: &'a wgpu::Buffer,
-    pub n: u32,
-    pub m: u32,
     pub rows: u32,
 }
 
@@ -184,14 +169,15 @@ pub(crate) struct GridTriangles<'a> {
 /// to the head of the buffer for the next batch's first quad row. Returns (photons traced,
 /// batches).
 pub(crate) fn record_grid_triangles(
+    e: &crate::techniques::Emit,
     g: &GridTriangles,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
     f: u32,
 ) -> (u64, u32) {
-    let (n, stride) = (g.n, std::mem::size_of::<Photon>() as u64);
+    let (n, stride) = (e.n, std::mem::size_of::<Photon>() as u64);
     let (pad, _) = triangle_buffer_layout(n, g.rows);
-    let uniform = |label: &str, bytes: &[u8]| g.ctx.uniform(label, bytes);
+    let uniform = |label: &str, bytes: &[u8]| e.ctx.uniform(label, bytes);
     let (mut r0, mut traced, mut batches) = (0u32, 0u64, 0u32);
     while r0 < n {
         let rows = g.rows.min(n - r0);
@@ -200,12 +186,12 @@ pub(crate) fn record_grid_triangles(
             "trace_params",
             bytemuck::bytes_of(&TraceParams { face: f, batch_offset: r0 * n, batch_count: count, tile: 0 }),
         );
-        let out = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+        let out = wgpu::BufferBinding {
             buffer: g.photons,
             offset: pad,
             size: std::num::NonZeroU64::new(count as u64 * stride),
-        });
-        let tbg = (g.trace_bind)(&tp, out);
+        };
+        let trace = e.tracing("photon_trace").bind("tp", &tp).bind("photons", out).group();
         let last = r0 + rows == n;
         let quad_rows = rows + u32::from(last);
         let par = uniform(
@@ -217,39 +203,19 @@ pub(crate) fn record_grid_triangles(
                 quad_rows,
                 cur_off: (pad / stride) as u32,
                 has_prev: u32::from(r0 > 0),
-                max_edge: triangle_max_edge(n, g.m),
+                max_edge: triangle_max_edge(n, e.settings.photons.caustic_map_size),
                 _pad: 0,
             }),
         );
-        let trbg = crate::gpu::bind(
-            g.ctx,
-            g.triangles,
-            "caustic_triangles",
-            &[
-                g.light.as_entire_binding(),
-                par.as_entire_binding(),
-                g.photons.as_entire_binding(),
-                g.accum.as_entire_binding(),
-            ],
-        );
-        {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("photon_trace"),
-                timestamp_writes: timer.compute("photon_trace"),
-            });
-            cp.set_pipeline(g.trace);
-            cp.set_bind_group(0, &tbg, &[]);
-            cp.dispatch_workgroups(count.div_ceil(64), 1, 1);
-        }
-        {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("photon_splat"),
-                timestamp_writes: timer.compute("photon_splat"),
-            });
-            cp.set_pipeline(g.triangles);
-            cp.set_bind_group(0, &trbg, &[]);
-            cp.dispatch_workgroups((n + 1).div_ceil(8), quad_rows.div_ceil(8), 1);
-        }
+        let triangles = Pass::new(e.ctx, "caustic_triangles")
+            .label("photon_splat")
+            .bind("light", e.light_buf)
+            .bind("tp", &par)
+            .bind("photons", g.photons)
+            .bind("accum", e.accum)
+            .group();
+        trace.dispatch(enc, timer, [count.div_ceil(64), 1, 1]);
+        triangles.dispatch(enc, timer, [(n + 1).div_ceil(8), quad_rows.div_ceil(8), 1]);
         if !last {
             let row = n as u64 * stride;
             enc.copy_buffer_to_buffer(g.photons, pad + (rows as u64 - 1) * row, g.carry, 0, row);

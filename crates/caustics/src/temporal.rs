@@ -56,9 +56,10 @@
 //! locally stable; measured numbers are in `docs/splatting.md`.
 
 use crate::error::Result;
+use crate::gpu::pass::Pass;
 use crate::gpu::types::TemporalParams;
+use crate::gpu::uniform;
 use crate::gpu::{GpuContext, PassTimer};
-use crate::gpu::{bind, uniform};
 use crate::image_io::Image;
 
 /// Parameters of the temporal filter.
@@ -187,8 +188,8 @@ impl TemporalFilter {
         }
         let Some(l) = slot.as_mut() else { return };
         let flags = u32::from(self.settings.dilate) | self.settings.flux_radius.min(MAX_FLUX_RADIUS) << 1;
-        let pipeline = ctx.compute_pipeline("temporal_filter");
-        let mut timer = timer;
+        let mut untimed = PassTimer::disabled();
+        let timer = timer.unwrap_or(&mut untimed);
         encoder.clear_buffer(&l.counters, 0, None);
         for stage in 0..2 {
             let params = TemporalParams {
@@ -202,26 +203,14 @@ impl TemporalFilter {
                 _pad: 0,
             };
             let pbuf = uniform(ctx, "temporal_params", bytemuck::bytes_of(&params));
-            let bg = bind(
-                ctx,
-                &pipeline,
-                "temporal_filter",
-                &[
-                    pbuf.as_entire_binding(),
-                    maps.as_entire_binding(),
-                    l.previous.as_entire_binding(),
-                    l.history.as_entire_binding(),
-                    l.scratch.as_entire_binding(),
-                    l.counters.as_entire_binding(),
-                ],
-            );
-            let mut cp = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("temporal_filter"),
-                timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute("temporal_filter")),
-            });
-            cp.set_pipeline(&pipeline);
-            cp.set_bind_group(0, &bg, &[]);
-            cp.dispatch_workgroups(size.div_ceil(8), size.div_ceil(8), faces);
+            Pass::new(ctx, "temporal_filter")
+                .bind("tp", &pbuf)
+                .bind("current", maps)
+                .bind("previous", &l.previous)
+                .bind("history", &l.history)
+                .bind("scratch", &l.scratch)
+                .bind("counters", &l.counters)
+                .dispatch(encoder, timer, [size.div_ceil(8), size.div_ceil(8), faces]);
         }
         let bytes = size as u64 * size as u64 * faces as u64 * 16;
         encoder.copy_buffer_to_buffer(maps, 0, &l.previous, 0, bytes);

@@ -9,6 +9,7 @@
 //! dispatch (the paper's single-pass variant), and nothing is redone when a light turns.
 
 use super::{Blend, CausticSpheres, DirectionLayout};
+use crate::gpu::pass::Pass;
 use crate::gpu::types::{SphereGatherParams, SphereRecord};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::passes::{DrawCtx, EyeFrame, layer_view};
@@ -233,7 +234,6 @@ pub(crate) fn record_compile(
 ) -> wgpu::Buffer {
     use crate::gpu::types::SphereCompileParams;
     let ctx = dc.ctx;
-    let pl = ctx.compute_pipeline("sphere_compile");
     let total: u64 = spheres.objects.iter().map(|(_, sp, _)| u64::from(GpuSpheres::compiled_len(sp))).sum();
     let compiled = ctx.buffer("sphere_compiled", total.max(1) * 16, wgpu::BufferUsages::STORAGE);
     let zero = [SphereRecord::zeroed_record()];
@@ -248,26 +248,13 @@ pub(crate) fn record_compile(
             bytemuck::bytes_of(&SphereCompileParams { first, count, cells, out_base: obj.base[0] }),
         );
         let ob = ctx.buffer_init("sphere_compile_object", bytemuck::bytes_of(obj), wgpu::BufferUsages::STORAGE);
-        let bg = crate::gpu::bind(
-            ctx,
-            &pl,
-            "sphere_compile",
-            &[
-                params.as_entire_binding(),
-                ob.as_entire_binding(),
-                rb.as_entire_binding(),
-                spheres.table.as_entire_binding(),
-                compiled.as_entire_binding(),
-            ],
-        );
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("sphere_compile"),
-            timestamp_writes: timer.compute("sphere_compile"),
-        });
-        cp.set_pipeline(&pl);
-        cp.set_bind_group(0, &bg, &[]);
-        cp.dispatch_workgroups(cells.div_ceil(64), 1, 1);
-        drop(cp);
+        Pass::new(ctx, "sphere_compile")
+            .bind("cp", &params)
+            .bind("object", &ob)
+            .bind("records", &rb)
+            .bind("table", &spheres.table)
+            .bind("compiled", &compiled)
+            .dispatch(enc, timer, [cells.div_ceil(64), 1, 1]);
         first += count;
     }
     compiled
@@ -302,7 +289,6 @@ pub(crate) fn record_gather(
     // least a 32nd of all records' irradiance (luminance r + g + b).
     let lum = |r: &SphereRecord| r.irradiance[0] + r.irradiance[1] + r.irradiance[2];
     let heavy = records.iter().map(lum).sum::<f32>() / 32.0;
-    let pl = ctx.compute_pipeline_with("sphere_gather", &[("bvh_stack_limit", f64::from(spheres.stack_limit))]);
     // Rewritten (zeroed) every frame: a storage buffer from `buffer_init`.
     let counters =
         ctx.buffer_init("sphere_gather_stats", &[0u8; 8], wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
@@ -323,33 +309,19 @@ pub(crate) fn record_gather(
     let recs = if records.is_empty() { &zero[..] } else { records };
     let rb = ctx.buffer_init("sphere_records", bytemuck::cast_slice(recs), wgpu::BufferUsages::STORAGE);
     let (erp, ern) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
-    let bg = crate::gpu::bind(
-        ctx,
-        &pl,
-        "sphere_gather",
-        &[
-            params.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&erp),
-            wgpu::BindingResource::TextureView(&ern),
-            dc.geo.materials.as_entire_binding(),
-            rb.as_entire_binding(),
-            table.as_entire_binding(),
-            eye.radiance.as_entire_binding(),
-            eye.caustic.as_entire_binding(),
-            dc.geo.bvh_nodes.as_entire_binding(),
-            dc.geo.bvh_tris.as_entire_binding(),
-            dc.geo.bvh_instances.as_entire_binding(),
-            counters.as_entire_binding(),
-        ],
-    );
-    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("sphere_gather"),
-        timestamp_writes: timer.compute("sphere_gather"),
-    });
-    cp.set_pipeline(&pl);
-    cp.set_bind_group(0, &bg, &[]);
-    cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-    drop(cp);
+    Pass::new(ctx, "sphere_gather")
+        .constants(&[("bvh_stack_limit", f64::from(spheres.stack_limit))])
+        .bind("gp", &params)
+        .bind("eye_pos", &erp)
+        .bind("eye_nrm", &ern)
+        .bind("materials", &dc.geo.materials)
+        .bind("records", &rb)
+        .bind("table", table)
+        .bind("radiance", &eye.radiance)
+        .bind("caustic", &eye.caustic)
+        .bind_all(dc.geo.bvh_bindings())
+        .bind("gather_stats", &counters)
+        .dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
     counters
 }
 
@@ -381,7 +353,6 @@ pub(crate) fn record_volume(
         crate::scene::Phase::Isotropic => 0.0,
         crate::scene::Phase::HenyeyGreenstein { g } => g,
     };
-    let pl = ctx.compute_pipeline("sphere_volume");
     let params = ctx.uniform(
         "sphere_volume_params",
         bytemuck::bytes_of(&SphereVolumeParams {
@@ -399,27 +370,15 @@ pub(crate) fn record_volume(
     );
     let rb = ctx.buffer_init("sphere_volume_records", bytemuck::cast_slice(records), wgpu::BufferUsages::STORAGE);
     let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
-    let bg = crate::gpu::bind(
-        ctx,
-        &pl,
-        "sphere_volume",
-        &[
-            params.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&rv),
-            wgpu::BindingResource::TextureView(&sv),
-            rb.as_entire_binding(),
-            table.as_entire_binding(),
-            images.0.as_entire_binding(),
-            images.1.as_entire_binding(),
-        ],
-    );
-    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("sphere_volume"),
-        timestamp_writes: timer.compute("sphere_volume"),
-    });
-    cp.set_pipeline(&pl);
-    cp.set_bind_group(0, &bg, &[]);
-    cp.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    Pass::new(ctx, "sphere_volume")
+        .bind("vp", &params)
+        .bind("recv_pos", &rv)
+        .bind("spec_pos", &sv)
+        .bind("records", &rb)
+        .bind("table", table)
+        .bind("out_full", images.0)
+        .bind("out_caustic", images.1)
+        .dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
 }
 
 impl SphereRecord {

@@ -1,6 +1,7 @@
 //! The GPU side: device creation, shader loading, timing and readback. Techniques live in
 //! [`crate::render`].
 
+pub(crate) mod pass;
 pub mod pool;
 pub mod types;
 
@@ -121,13 +122,18 @@ pub fn stage_source(name: &str) -> String {
 
 /// Validate a stage with naga (the tests do this for every stage).
 pub fn validate_stage(name: &str) -> Result<naga::Module> {
+    parse_stage(name).map(|(module, _)| module)
+}
+
+/// Stage `name` parsed and validated by naga, with what each function uses.
+fn parse_stage(name: &str) -> Result<(naga::Module, naga::valid::ModuleInfo)> {
     let src = stage_source(name);
     let module = naga::front::wgsl::parse_str(&src)
         .map_err(|e| Error::Shader { name: name.into(), message: e.emit_to_string(&src) })?;
-    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
         .validate(&module)
         .map_err(|e| Error::Shader { name: name.into(), message: format!("{e:?}") })?;
-    Ok(module)
+    Ok((module, info))
 }
 
 /// Group 0 of compute stage `name` as layout entries: every binding its `main` uses, typed from
@@ -146,12 +152,7 @@ pub fn render_stage_bindings(name: &str) -> Result<Vec<wgpu::BindGroupLayoutEntr
 
 /// Group 0 of stage `name` as its entry points (name, stage) use it.
 fn entry_bindings(name: &str, entries_of: &[(&str, wgpu::ShaderStages)]) -> Result<Vec<wgpu::BindGroupLayoutEntry>> {
-    let src = stage_source(name);
-    let module = naga::front::wgsl::parse_str(&src)
-        .map_err(|e| Error::Shader { name: name.into(), message: e.emit_to_string(&src) })?;
-    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-        .validate(&module)
-        .map_err(|e| Error::Shader { name: name.into(), message: format!("{e:?}") })?;
+    let (module, info) = parse_stage(name)?;
     let mut uses = Vec::new();
     for (entry, stage) in entries_of {
         let ep = module
@@ -240,21 +241,6 @@ pub(crate) fn storage(ctx: &GpuContext, label: &str, size: u64, extra: wgpu::Buf
 
 pub(crate) fn uniform(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
     ctx.uniform(label, bytes)
-}
-
-/// A bind group of `pl`'s group 0 with the resources bound at 0, 1, 2, … in order.
-pub(crate) fn bind(
-    ctx: &GpuContext,
-    pl: &wgpu::ComputePipeline,
-    label: &str,
-    resources: &[wgpu::BindingResource],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = resources
-        .iter()
-        .enumerate()
-        .map(|(i, r)| wgpu::BindGroupEntry { binding: i as u32, resource: r.clone() })
-        .collect();
-    ctx.bind_group(label, pool::LayoutOf::Compute(pl.clone()), &entries)
 }
 
 /// A device and queue, and what the adapter can do.

@@ -20,11 +20,12 @@
 //! reported after the frame.
 
 use super::{
-    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, FLAG_SKIP, Pending, Technique, Traversal, bind,
-    ctrl, level_params, storage, uniform,
+    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, FLAG_SKIP, Pending, Technique, Traversal, ctrl,
+    level_params, storage, uniform,
 };
 use crate::error::{Error, Result};
 use crate::gpu::PassTimer;
+use crate::gpu::pass::Pass;
 use crate::gpu::types::{LevelParams, Photon};
 use crate::settings::RenderSettings;
 
@@ -182,49 +183,25 @@ impl Adaptive {
             grid_n: p.n,
             ..level_params(f)
         };
-        let (plan_pl, init_pl, setup_pl, refine_pl) = (
-            e.pipelines.plan.as_ref().unwrap(),
-            e.pipelines.init.as_ref().unwrap(),
-            e.pipelines.setup.as_ref().unwrap(),
-            e.pipelines.refine.as_ref().unwrap(),
-        );
-        let setup = |lp: LevelParams| {
-            let u = uniform(e.ctx, "adaptive_setup", bytemuck::bytes_of(&lp));
-            bind(
-                e.ctx,
-                setup_pl,
-                "adaptive_setup",
-                &[u.as_entire_binding(), ctrl_buf.as_entire_binding(), self.args.as_entire_binding()],
-            )
-        };
+        let setup = |label, lp| super::setup(e.ctx, &ctrl_buf, &self.args, label, lp);
         let u_plan = uniform(e.ctx, "adaptive_plan", bytemuck::bytes_of(&lp));
-        let plan_bg = bind(
-            e.ctx,
-            plan_pl,
-            "adaptive_plan",
-            &[
-                u_plan.as_entire_binding(),
-                cover.as_entire_binding(),
-                self.plan_buf.as_entire_binding(),
-                ctrl_buf.as_entire_binding(),
-            ],
-        );
-        let init_bg = bind(
-            e.ctx,
-            init_pl,
-            "adaptive_init",
-            &[
-                u_plan.as_entire_binding(),
-                cover.as_entire_binding(),
-                self.plan_buf.as_entire_binding(),
-                self.cells.as_entire_binding(),
-                ctrl_buf.as_entire_binding(),
-            ],
-        );
-        let begin = setup(LevelParams { flags: FLAG_BEGIN, ..lp });
-        let end_begin = setup(LevelParams { flags: FLAG_BEGIN | FLAG_END, ..lp });
-        let end = setup(LevelParams { flags: FLAG_END, ..lp });
-        let after_init = setup(LevelParams { level: p.level(p.batch_grid), ..lp });
+        let plan = Pass::new(e.ctx, "adaptive_plan")
+            .bind("lp", &u_plan)
+            .bind("cover", cover)
+            .bind("plan", &self.plan_buf)
+            .bind("ctrl", &ctrl_buf)
+            .group();
+        let init = Pass::new(e.ctx, "adaptive_init")
+            .bind("lp", &u_plan)
+            .bind("cover", cover)
+            .bind("plan", &self.plan_buf)
+            .bind("cells", &self.cells)
+            .bind("ctrl", &ctrl_buf)
+            .group();
+        let begin = setup("adaptive_setup", LevelParams { flags: FLAG_BEGIN, ..lp });
+        let end_begin = setup("adaptive_setup", LevelParams { flags: FLAG_BEGIN | FLAG_END, ..lp });
+        let end = setup("adaptive_end", LevelParams { flags: FLAG_END, ..lp });
+        let after_init = setup("adaptive_setup", LevelParams { level: p.level(p.batch_grid), ..lp });
         // One step per cluster grid from the batch grid to N / 2.
         let mut steps = Vec::new();
         let mut grid = p.batch_grid;
@@ -245,86 +222,34 @@ impl Adaptive {
             flags |= branch.flags();
             let rl = LevelParams { level: p.level(grid), grid, flags, ..lp };
             let u = uniform(e.ctx, "adaptive_refine", bytemuck::bytes_of(&rl));
-            let rbg = bind(
-                e.ctx,
-                refine_pl,
-                "adaptive_refine",
-                &[
-                    e.light_buf.as_entire_binding(),
-                    u.as_entire_binding(),
-                    wgpu::BindingResource::TextureView(e.front_pos),
-                    wgpu::BindingResource::TextureView(e.front_nrm),
-                    wgpu::BindingResource::TextureView(e.back_pos),
-                    wgpu::BindingResource::TextureView(e.back_nrm),
-                    wgpu::BindingResource::TextureView(e.recv_pos),
-                    wgpu::BindingResource::TextureView(e.recv_nrm),
-                    e.materials.as_entire_binding(),
-                    cover.as_entire_binding(),
-                    self.cells.as_entire_binding(),
-                    self.photons.as_entire_binding(),
-                    ctrl_buf.as_entire_binding(),
-                    e.stats.as_entire_binding(),
-                    self.corners.as_entire_binding(),
-                    wgpu::BindingResource::TextureView(e.layer2[0]),
-                    wgpu::BindingResource::TextureView(e.layer2[1]),
-                    wgpu::BindingResource::TextureView(e.layer2[2]),
-                    wgpu::BindingResource::TextureView(e.layer2[3]),
-                    e.bvh[0].as_entire_binding(),
-                    e.bvh[1].as_entire_binding(),
-                    e.bvh[2].as_entire_binding(),
-                    wgpu::BindingResource::TextureView(e.density),
-                ],
-            );
-            let sbg = setup(LevelParams { level: p.level(grid * 2), ..lp });
-            steps.push((rbg, sbg));
+            let refine = e
+                .tracing("adaptive_refine")
+                .bind("lp", &u)
+                .bind("cover", cover)
+                .bind("cells", &self.cells)
+                .bind("photons", &self.photons)
+                .bind("ctrl", &ctrl_buf)
+                .bind("corners", &self.corners)
+                .group();
+            steps.push((refine, setup("adaptive_setup", LevelParams { level: p.level(grid * 2), ..lp })));
             grid *= 2;
         }
-        let splat_bg = e.splat_targets.bind(
-            e.ctx,
-            &e.pipelines.splat,
-            e.light_buf,
-            wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: &self.args,
-                offset: ctrl::SPLAT_ARGS,
-                size: std::num::NonZeroU64::new(16),
-            }),
-            &self.photons,
-            e.accum,
-            Some(&self.corners),
-        );
-        {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("adaptive_plan"),
-                timestamp_writes: timer.compute("adaptive_plan"),
-            });
-            cp.set_pipeline(plan_pl);
-            cp.set_bind_group(0, &plan_bg, &[]);
-            cp.dispatch_workgroups(1, 1, 1);
-        }
+        let splat_params =
+            wgpu::BufferBinding { buffer: &self.args, offset: ctrl::SPLAT_ARGS, size: std::num::NonZeroU64::new(16) };
+        let splat = e.splat_targets.splat(e, splat_params, &self.photons, Some(&self.corners));
+        plan.dispatch(enc, timer, [1, 1, 1]);
         let traversal = Traversal {
-            setup: setup_pl,
-            init: init_pl,
-            init_bg: &init_bg,
+            init: &init,
             init_groups: p.batch_grid.div_ceil(8),
             after_init: &after_init,
-            step: refine_pl,
             steps: &steps,
             args: &self.args,
-            splat: &e.pipelines.splat.splat,
-            splat_bg: &splat_bg,
+            splat: &splat,
         };
         for b in 0..max_batches {
             traversal.record(enc, timer, "adaptive_traverse", if b == 0 { &begin } else { &end_begin });
         }
-        {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("adaptive_end"),
-                timestamp_writes: None,
-            });
-            cp.set_pipeline(setup_pl);
-            cp.set_bind_group(0, &end, &[]);
-            cp.dispatch_workgroups(1, 1, 1);
-        }
+        end.dispatch(enc, &mut PassTimer::disabled(), [1, 1, 1]);
         ctrl_buf
     }
 

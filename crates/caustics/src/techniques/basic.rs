@@ -27,7 +27,7 @@ impl Basic {
 
     pub fn new(e: &Emit) -> Basic {
         let batch = Basic::batch_size(e);
-        if e.pipelines.splat.grid_triangles() {
+        if e.stages.splat.grid_triangles {
             let rows = crate::splat::triangle_rows(e.n, batch);
             let (_, bytes) = crate::splat::triangle_buffer_layout(e.n, rows);
             let photons = storage(e.ctx, "photons", bytes, wgpu::BufferUsages::empty());
@@ -65,23 +65,9 @@ impl Basic {
         kept: &mut Vec<(wgpu::Buffer, u64)>,
     ) {
         let per_face = e.n as u64 * e.n as u64;
-        let trace_pl = e.pipelines.trace.as_ref().expect("photon_trace pipeline");
-        if let (Some((carry, rows)), Some(tri)) = (&self.carry, &e.pipelines.splat.triangles) {
-            let trace_bg = |tp: &wgpu::Buffer, out: wgpu::BindingResource| e.trace_bind(trace_pl, tp, out);
-            let g = crate::splat::GridTriangles {
-                ctx: e.ctx,
-                trace: trace_pl,
-                triangles: tri,
-                trace_bind: &trace_bg,
-                light: e.light_buf,
-                accum: e.accum,
-                photons: &self.photons,
-                carry,
-                n: e.n,
-                m: e.settings.photons.caustic_map_size,
-                rows: *rows,
-            };
-            let (traced, batches) = crate::splat::record_grid_triangles(&g, enc, timer, f);
+        if let Some((carry, rows)) = &self.carry {
+            let g = crate::splat::GridTriangles { photons: &self.photons, carry, rows: *rows };
+            let (traced, batches) = crate::splat::record_grid_triangles(e, &g, enc, timer, f);
             self.traced += traced;
             self.batches += batches;
             return;
@@ -101,40 +87,16 @@ impl Basic {
                 }),
             );
             let sp = storage_init(e, &SplatParams { groups: [groups, 1, 1], count: count as u32 });
-            let tbg = e.trace_bind(trace_pl, &tp, self.photons.as_entire_binding());
-            let sbg = e.splat_targets.bind(
-                e.ctx,
-                &e.pipelines.splat,
-                e.light_buf,
-                sp.as_entire_binding(),
-                &self.photons,
-                e.accum,
-                None,
-            );
-            {
-                let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("photon_trace"),
-                    timestamp_writes: timer.compute("photon_trace"),
-                });
-                cp.set_pipeline(trace_pl);
-                cp.set_bind_group(0, &tbg, &[]);
-                cp.dispatch_workgroups(groups, 1, 1);
-            }
+            let trace = e.tracing("photon_trace").bind("tp", &tp).bind("photons", &self.photons).group();
+            let splat = e.splat_targets.splat(e, &sp, &self.photons, None);
+            trace.dispatch(enc, timer, [groups, 1, 1]);
             if e.inspect.photons {
                 let bytes = count * std::mem::size_of::<Photon>() as u64;
                 let copy = storage(e.ctx, "kept_photons", bytes, wgpu::BufferUsages::empty());
                 enc.copy_buffer_to_buffer(&self.photons, 0, &copy, 0, bytes);
                 kept.push((copy, count));
             }
-            {
-                let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("photon_splat"),
-                    timestamp_writes: timer.compute("photon_splat"),
-                });
-                cp.set_pipeline(&e.pipelines.splat.splat);
-                cp.set_bind_group(0, &sbg, &[]);
-                cp.dispatch_workgroups(groups, 1, 1);
-            }
+            splat.dispatch(enc, timer, [groups, 1, 1]);
             self.traced += count;
             self.batches += 1;
             off += count;

@@ -9,11 +9,12 @@
 //! its neighbours in the dense tile (`splat_quads`, `docs/splatting.md`).
 
 use super::{
-    Emit, FLAG_BEGIN, FLAG_END, FLAG_LAST, FLAG_NO_PLAN, FLAG_QUADS, Pending, Traversal, bind, build_mip, ctrl,
-    level_params, mip_words, storage, uniform,
+    Emit, FLAG_BEGIN, FLAG_END, FLAG_LAST, FLAG_NO_PLAN, FLAG_QUADS, Pending, Traversal, build_mip, ctrl, level_params,
+    mip_words, storage, uniform,
 };
 use crate::error::{Error, Result};
 use crate::gpu::PassTimer;
+use crate::gpu::pass::Pass;
 use crate::gpu::types::{LevelParams, Photon, TraceParams};
 use crate::settings::RenderSettings;
 
@@ -116,12 +117,6 @@ impl Hierarchical {
         let p = self.plan;
         let t = p.tile;
         let ctrl_buf = storage(e.ctx, "hierarchy_control", ctrl::WORDS * 4, wgpu::BufferUsages::empty());
-        let (trace_pl, init_pl, setup_pl, hcm_pl) = (
-            e.pipelines.trace.as_ref().unwrap(),
-            e.pipelines.init.as_ref().unwrap(),
-            e.pipelines.setup.as_ref().unwrap(),
-            e.pipelines.hcm.as_ref().unwrap(),
-        );
         let cap = (t as u64 / 2).pow(2).max(1) as u32;
         let lp = LevelParams {
             finest: t,
@@ -133,32 +128,20 @@ impl Hierarchical {
             grid_n: p.n,
             ..level_params(f)
         };
-        let setup = |lp: LevelParams| {
-            let u = uniform(e.ctx, "adaptive_setup", bytemuck::bytes_of(&lp));
-            bind(
-                e.ctx,
-                setup_pl,
-                "adaptive_setup",
-                &[u.as_entire_binding(), ctrl_buf.as_entire_binding(), self.args.as_entire_binding()],
-            )
-        };
+        let setup = |label, lp| super::setup(e.ctx, &ctrl_buf, &self.args, label, lp);
         let u_init = uniform(e.ctx, "hcm_init", bytemuck::bytes_of(&lp));
-        let init_bg = bind(
-            e.ctx,
-            init_pl,
-            "adaptive_init",
-            &[
-                u_init.as_entire_binding(),
-                self.mip.as_entire_binding(),
-                self.dummy.as_entire_binding(),
-                self.cells.as_entire_binding(),
-                ctrl_buf.as_entire_binding(),
-            ],
-        );
-        let begin = setup(LevelParams { flags: FLAG_BEGIN, ..lp });
-        let end_begin = setup(LevelParams { flags: FLAG_BEGIN | FLAG_END, ..lp });
-        let end = setup(LevelParams { flags: FLAG_END, ..lp });
-        let after_init = setup(LevelParams { level: 0, flags: 0, ..lp });
+        // (the tile's mip in place of the coverage, and no batch plan)
+        let init = Pass::new(e.ctx, "adaptive_init")
+            .bind("lp", &u_init)
+            .bind("cover", &self.mip)
+            .bind("plan", &self.dummy)
+            .bind("cells", &self.cells)
+            .bind("ctrl", &ctrl_buf)
+            .group();
+        let begin = setup("adaptive_setup", LevelParams { flags: FLAG_BEGIN, ..lp });
+        let end_begin = setup("adaptive_setup", LevelParams { flags: FLAG_BEGIN | FLAG_END, ..lp });
+        let end = setup("hcm_end", LevelParams { flags: FLAG_END, ..lp });
+        let after_init = setup("adaptive_setup", LevelParams { level: 0, flags: 0, ..lp });
         let mut steps = Vec::new();
         let (mut grid, mut level) = (p.start, 0);
         while grid < t {
@@ -168,49 +151,30 @@ impl Hierarchical {
             }
             let hl = LevelParams { level, grid, flags, ..lp };
             let u = uniform(e.ctx, "hcm_traverse", bytemuck::bytes_of(&hl));
-            let hbg = bind(
-                e.ctx,
-                hcm_pl,
-                "hcm_traverse",
-                &[
-                    u.as_entire_binding(),
-                    self.mip.as_entire_binding(),
-                    self.cells.as_entire_binding(),
-                    self.tile.as_entire_binding(),
-                    self.compact.as_entire_binding(),
-                    ctrl_buf.as_entire_binding(),
-                    self.corners.as_entire_binding(),
-                    e.light_buf.as_entire_binding(),
-                ],
-            );
-            steps.push((hbg, setup(LevelParams { level: level + 1, flags: 0, ..lp })));
+            let traverse = Pass::new(e.ctx, "hcm_traverse")
+                .bind("lp", &u)
+                .bind("cover", &self.mip)
+                .bind("cells", &self.cells)
+                .bind("tile", &self.tile)
+                .bind("photons", &self.compact)
+                .bind("ctrl", &ctrl_buf)
+                .bind("corners", &self.corners)
+                .bind("light", e.light_buf)
+                .group();
+            steps.push((traverse, setup("adaptive_setup", LevelParams { level: level + 1, flags: 0, ..lp })));
             grid *= 2;
             level += 1;
         }
-        let splat_bg = e.splat_targets.bind(
-            e.ctx,
-            &e.pipelines.splat,
-            e.light_buf,
-            wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: &self.args,
-                offset: ctrl::SPLAT_ARGS,
-                size: std::num::NonZeroU64::new(16),
-            }),
-            &self.compact,
-            e.accum,
-            Some(&self.corners),
-        );
+        let splat_params =
+            wgpu::BufferBinding { buffer: &self.args, offset: ctrl::SPLAT_ARGS, size: std::num::NonZeroU64::new(16) };
+        let splat = e.splat_targets.splat(e, splat_params, &self.compact, Some(&self.corners));
         let traversal = Traversal {
-            setup: setup_pl,
-            init: init_pl,
-            init_bg: &init_bg,
+            init: &init,
             init_groups: p.start.div_ceil(8),
             after_init: &after_init,
-            step: hcm_pl,
             steps: &steps,
             args: &self.args,
-            splat: &e.pipelines.splat.splat,
-            splat_bg: &splat_bg,
+            splat: &splat,
         };
         let per_side = p.n / t;
         let mut first = true;
@@ -227,28 +191,15 @@ impl Hierarchical {
                         tile: t,
                     }),
                 );
-                let tbg = e.trace_bind(trace_pl, &tp, self.tile.as_entire_binding());
-                {
-                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some("photon_trace"),
-                        timestamp_writes: timer.compute("photon_trace"),
-                    });
-                    cp.set_pipeline(trace_pl);
-                    cp.set_bind_group(0, &tbg, &[]);
-                    cp.dispatch_workgroups((t * t).div_ceil(64), 1, 1);
-                }
+                let trace = e.tracing("photon_trace").bind("tp", &tp).bind("photons", &self.tile);
+                trace.dispatch(enc, timer, [(t * t).div_ceil(64), 1, 1]);
                 build_mip(e, enc, timer, "hcm_mip", &self.mip, &self.tile, f, t, p.start, 1);
                 traversal.record(enc, timer, "hcm_traverse", if first { &begin } else { &end_begin });
                 first = false;
                 self.tiles += 1;
             }
         }
-        let mut cp =
-            enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("hcm_end"), timestamp_writes: None });
-        cp.set_pipeline(setup_pl);
-        cp.set_bind_group(0, &end, &[]);
-        cp.dispatch_workgroups(1, 1, 1);
-        drop(cp);
+        end.dispatch(enc, &mut PassTimer::disabled(), [1, 1, 1]);
         ctrl_buf
     }
 

@@ -19,6 +19,7 @@ pub mod basic;
 pub mod hierarchical;
 
 use crate::error::{Error, Result};
+use crate::gpu::pass::{Bound, Pass};
 use crate::gpu::types::{CoverParams, LevelParams};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::settings::RenderSettings;
@@ -97,48 +98,35 @@ impl TechniqueStats {
     }
 }
 
-/// Compute pipelines of the photon stages (only those the technique needs).
-pub(crate) struct Pipelines {
-    pub trace: Option<wgpu::ComputePipeline>,
-    pub splat: crate::splat::SplatPipelines,
-    pub coverage: wgpu::ComputePipeline,
-    pub plan: Option<wgpu::ComputePipeline>,
-    pub init: Option<wgpu::ComputePipeline>,
-    pub setup: Option<wgpu::ComputePipeline>,
-    pub refine: Option<wgpu::ComputePipeline>,
-    pub hcm: Option<wgpu::ComputePipeline>,
+/// The constants the frame compiles the photon stages for.
+pub(crate) struct Stages {
+    /// The tracing stages' (photon_trace, adaptive_refine): built for the splat mode
+    /// (shared/trace.wgsl, trace_splat_mode), which compiles out the lens and ray-differential
+    /// code the mode does not use; for whether the light's second caster layer is used
+    /// (trace_light_layer2); for the tracer (trace_exact, trace_max_depth) and the branches.
+    pub trace: [(&'static str, f64); 7],
+    /// coverage_mip's.
+    pub coverage: [(&'static str, f64); 1],
+    pub splat: crate::splat::SplatStages,
 }
 
-impl Pipelines {
+impl Stages {
     /// `branches`: the frame's reflected, internal and residual passes (`FrameConsts`).
-    pub fn new(ctx: &GpuContext, s: &RenderSettings, layer2: bool, branches: [bool; 3]) -> Pipelines {
+    pub fn new(s: &RenderSettings, layer2: bool, branches: [bool; 3]) -> Stages {
         let (t, splat) = (s.photons.technique, s.photons.splat);
-        let hier = t != Technique::Basic;
-        let p = |name: &str, on: bool| on.then(|| ctx.compute_pipeline(name));
-        // The tracing stages are built for the splat mode (shared/trace.wgsl, trace_splat_mode),
-        // which compiles out the lens and ray-differential code the mode does not use.
-        // And for whether the light's second caster layer is used (trace_light_layer2).
-        // And for the tracer (trace_exact, trace_max_depth).
         let exact = s.photons.tracer == crate::settings::Tracer::Exact;
-        let mode = [
-            ("trace_splat_mode", f64::from(splat.lens_flag(t))),
-            ("trace_light_layer2", f64::from(u8::from(layer2 && !exact))),
-            ("trace_exact", f64::from(u8::from(exact))),
-            ("trace_max_depth", f64::from(s.photons.max_depth)),
-            ("trace_first_hit_buffer", f64::from(u8::from(s.testing.first_hit_from_buffer))),
-            ("trace_residual_pass", f64::from(u8::from(branches[2]))),
-            ("trace_covered", f64::from(1 | u8::from(branches[0]) << 1 | u8::from(branches[1]) << 2)),
-        ];
-        let traced = |name: &str, on: bool| on.then(|| ctx.compute_pipeline_with(name, &mode));
-        Pipelines {
-            trace: traced("photon_trace", !t.is_adaptive()),
-            splat: crate::splat::SplatPipelines::new(ctx, splat, t),
-            coverage: ctx.compute_pipeline_with("coverage_mip", &[("cover_dilate", f64::from(u8::from(exact)))]),
-            plan: p("adaptive_plan", t.is_adaptive()),
-            init: p("adaptive_init", hier),
-            setup: p("adaptive_setup", hier),
-            refine: traced("adaptive_refine", t.is_adaptive()),
-            hcm: p("hcm_traverse", t == Technique::Hierarchical),
+        Stages {
+            trace: [
+                ("trace_splat_mode", f64::from(splat.lens_flag(t))),
+                ("trace_light_layer2", f64::from(u8::from(layer2 && !exact))),
+                ("trace_exact", f64::from(u8::from(exact))),
+                ("trace_max_depth", f64::from(s.photons.max_depth)),
+                ("trace_first_hit_buffer", f64::from(u8::from(s.testing.first_hit_from_buffer))),
+                ("trace_residual_pass", f64::from(u8::from(branches[2]))),
+                ("trace_covered", f64::from(1 | u8::from(branches[0]) << 1 | u8::from(branches[1]) << 2)),
+            ],
+            coverage: [("cover_dilate", f64::from(u8::from(exact)))],
+            splat: crate::splat::SplatStages::new(splat, t),
         }
     }
 }
@@ -149,7 +137,7 @@ pub(crate) struct Emit<'a> {
     pub settings: &'a RenderSettings,
     /// What the frame copies out for inspection.
     pub inspect: crate::settings::Inspect,
-    pub pipelines: &'a Pipelines,
+    pub stages: &'a Stages,
     pub light_buf: &'a wgpu::Buffer,
     /// Caster front/back, receiver position/normal array views (2D arrays, all faces).
     pub front_pos: &'a wgpu::TextureView,
@@ -163,9 +151,8 @@ pub(crate) struct Emit<'a> {
     pub layer2: [&'a wgpu::TextureView; 4],
     pub recv_pos: &'a wgpu::TextureView,
     pub recv_nrm: &'a wgpu::TextureView,
-    pub materials: &'a wgpu::Buffer,
-    /// The scene's BVH for the exact tracer: nodes, triangles, instances (`crate::accel`).
-    pub bvh: [&'a wgpu::Buffer; 3],
+    /// The scene's materials and its BVH for the exact tracer (`crate::accel`).
+    pub geo: &'a crate::passes::Geometry,
     /// The medium's density grid (1 x 1 x 1 without one): photons march it for their path's
     /// transmittance (shared/trace.wgsl, `fog_add`).
     pub density: &'a wgpu::TextureView,
@@ -207,41 +194,28 @@ impl Emit<'_> {
     }
 }
 
-impl Emit<'_> {
-    /// The bind group of `photon_trace`: the light, the batch's parameters `tp`, the light-space
-    /// geometry buffers, the materials, the photon output `out` and the flux bookkeeping.
-    pub fn trace_bind(
-        &self,
-        pl: &wgpu::ComputePipeline,
-        tp: &wgpu::Buffer,
-        out: wgpu::BindingResource,
-    ) -> wgpu::BindGroup {
-        bind(
-            self.ctx,
-            pl,
-            "photon_trace",
-            &[
-                self.light_buf.as_entire_binding(),
-                tp.as_entire_binding(),
-                wgpu::BindingResource::TextureView(self.front_pos),
-                wgpu::BindingResource::TextureView(self.front_nrm),
-                wgpu::BindingResource::TextureView(self.back_pos),
-                wgpu::BindingResource::TextureView(self.back_nrm),
-                wgpu::BindingResource::TextureView(self.recv_pos),
-                wgpu::BindingResource::TextureView(self.recv_nrm),
-                self.materials.as_entire_binding(),
-                out,
-                self.stats.as_entire_binding(),
-                wgpu::BindingResource::TextureView(self.layer2[0]),
-                wgpu::BindingResource::TextureView(self.layer2[1]),
-                wgpu::BindingResource::TextureView(self.layer2[2]),
-                wgpu::BindingResource::TextureView(self.layer2[3]),
-                self.bvh[0].as_entire_binding(),
-                self.bvh[1].as_entire_binding(),
-                self.bvh[2].as_entire_binding(),
-                wgpu::BindingResource::TextureView(self.density),
-            ],
-        )
+impl<'a> Emit<'a> {
+    /// A pass of tracing stage `stage` (`photon_trace`, `adaptive_refine`) with what every
+    /// tracing stage reads bound: the light, the light-space geometry buffers, the materials,
+    /// the BVH, the density grid, and the flux bookkeeping.
+    pub fn tracing(&self, stage: &'a str) -> Pass<'a> {
+        Pass::new(self.ctx, stage)
+            .constants(&self.stages.trace)
+            .bind("light", self.light_buf)
+            .bind("front_pos", self.front_pos)
+            .bind("front_nrm", self.front_nrm)
+            .bind("back_pos", self.back_pos)
+            .bind("back_nrm", self.back_nrm)
+            .bind("recv_pos", self.recv_pos)
+            .bind("recv_nrm", self.recv_nrm)
+            .bind("materials", &self.geo.materials)
+            .bind("stats", self.stats)
+            .bind("front_pos2", self.layer2[0])
+            .bind("front_nrm2", self.layer2[1])
+            .bind("back_pos2", self.layer2[2])
+            .bind("back_nrm2", self.layer2[3])
+            .bind_all(self.geo.bvh_bindings())
+            .bind("density_grid", self.density)
     }
 }
 
@@ -285,54 +259,39 @@ pub(crate) mod ctrl {
 /// refines or traverses (indirect dispatch) and the setup pass that turns its output into the
 /// next level's input and dispatch arguments; then the splat, indirect too. No CPU readback.
 pub(crate) struct Traversal<'a> {
-    pub setup: &'a wgpu::ComputePipeline,
-    pub init: &'a wgpu::ComputePipeline,
-    pub init_bg: &'a wgpu::BindGroup,
+    pub init: &'a Bound,
     pub init_groups: u32,
-    pub after_init: &'a wgpu::BindGroup,
-    pub step: &'a wgpu::ComputePipeline,
-    /// Per level: the step's bind group and the following setup's.
-    pub steps: &'a [(wgpu::BindGroup, wgpu::BindGroup)],
+    /// The setup after `init`.
+    pub after_init: &'a Bound,
+    /// Per level: the step and the following setup.
+    pub steps: &'a [(Bound, Bound)],
     /// Indirect arguments: the step's at offset 0, the splat's at `ctrl::SPLAT_ARGS`.
     pub args: &'a wgpu::Buffer,
-    pub splat: &'a wgpu::ComputePipeline,
-    pub splat_bg: &'a wgpu::BindGroup,
+    pub splat: &'a Bound,
 }
 
 impl Traversal<'_> {
-    /// Record one traversal (pass `label`) beginning with setup bind group `begin`, and its splat.
-    pub fn record(&self, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, label: &str, begin: &wgpu::BindGroup) {
+    /// Record one traversal (pass `label`) beginning with setup `begin`, and its splat.
+    pub fn record(&self, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, label: &str, begin: &Bound) {
         {
-            let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(label),
-                timestamp_writes: timer.compute(label),
-            });
-            cp.set_pipeline(self.setup);
-            cp.set_bind_group(0, begin, &[]);
-            cp.dispatch_workgroups(1, 1, 1);
-            cp.set_pipeline(self.init);
-            cp.set_bind_group(0, self.init_bg, &[]);
-            cp.dispatch_workgroups(self.init_groups, self.init_groups, 1);
-            cp.set_pipeline(self.setup);
-            cp.set_bind_group(0, self.after_init, &[]);
-            cp.dispatch_workgroups(1, 1, 1);
-            for (step_bg, setup_bg) in self.steps {
-                cp.set_pipeline(self.step);
-                cp.set_bind_group(0, step_bg, &[]);
-                cp.dispatch_workgroups_indirect(self.args, 0);
-                cp.set_pipeline(self.setup);
-                cp.set_bind_group(0, setup_bg, &[]);
-                cp.dispatch_workgroups(1, 1, 1);
+            let mut cp = crate::gpu::pass::begin(enc, timer, label);
+            begin.dispatch_in(&mut cp, [1, 1, 1]);
+            self.init.dispatch_in(&mut cp, [self.init_groups, self.init_groups, 1]);
+            self.after_init.dispatch_in(&mut cp, [1, 1, 1]);
+            for (step, setup) in self.steps {
+                step.dispatch_indirect_in(&mut cp, self.args, 0);
+                setup.dispatch_in(&mut cp, [1, 1, 1]);
             }
         }
-        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("photon_splat"),
-            timestamp_writes: timer.compute("photon_splat"),
-        });
-        cp.set_pipeline(self.splat);
-        cp.set_bind_group(0, self.splat_bg, &[]);
-        cp.dispatch_workgroups_indirect(self.args, ctrl::SPLAT_ARGS);
+        self.splat.dispatch_indirect(enc, timer, self.args, ctrl::SPLAT_ARGS);
     }
+}
+
+/// `adaptive_setup` (labelled `label`) with level parameters `lp` over a traversal's control
+/// buffer and indirect arguments.
+pub(crate) fn setup(ctx: &GpuContext, ctrl: &wgpu::Buffer, args: &wgpu::Buffer, label: &str, lp: LevelParams) -> Bound {
+    let u = uniform(ctx, "adaptive_setup", bytemuck::bytes_of(&lp));
+    Pass::new(ctx, "adaptive_setup").label(label).bind("lp", &u).bind("ctrl", ctrl).bind("args", args).group()
 }
 
 pub(crate) const FLAG_LAST: u32 = 1;
@@ -384,7 +343,7 @@ impl Branch {
     }
 }
 
-pub(crate) use crate::gpu::{bind, storage, uniform};
+pub(crate) use crate::gpu::{storage, uniform};
 
 /// Word offset of level `l` of a mip chain whose level 0 is g × g.
 pub(crate) fn mip_offset(l: u32, g: u32) -> u64 {
@@ -411,9 +370,8 @@ pub(crate) fn build_mip(
     down_to: u32,
     source: u32,
 ) {
-    let pl = &e.pipelines.coverage;
     let levels = g.trailing_zeros() - down_to.trailing_zeros() + 1;
-    let groups: Vec<(wgpu::BindGroup, u32)> = (0..levels)
+    let groups: Vec<(Bound, u32)> = (0..levels)
         .map(|l| {
             let size = g >> l;
             let p = CoverParams {
@@ -426,26 +384,19 @@ pub(crate) fn build_mip(
                 _pad: [0; 2],
             };
             let u = uniform(e.ctx, name, bytemuck::bytes_of(&p));
-            let bg = bind(
-                e.ctx,
-                pl,
-                name,
-                &[
-                    u.as_entire_binding(),
-                    wgpu::BindingResource::TextureView(e.front_pos),
-                    tile.as_entire_binding(),
-                    cover.as_entire_binding(),
-                ],
-            );
-            (bg, size)
+            let pass = Pass::new(e.ctx, "coverage_mip")
+                .constants(&e.stages.coverage)
+                .label(name)
+                .bind("cp", &u)
+                .bind("front_pos", e.front_pos)
+                .bind("tile", tile)
+                .bind("cover", cover);
+            (pass.group(), size)
         })
         .collect();
-    let mut cp = enc
-        .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(name), timestamp_writes: timer.compute(name) });
-    cp.set_pipeline(pl);
-    for (bg, size) in &groups {
-        cp.set_bind_group(0, bg, &[]);
-        cp.dispatch_workgroups(size.div_ceil(8), size.div_ceil(8), 1);
+    let mut cp = crate::gpu::pass::begin(enc, timer, name);
+    for (pass, size) in &groups {
+        pass.dispatch_in(&mut cp, [size.div_ceil(8), size.div_ceil(8), 1]);
     }
 }
 
