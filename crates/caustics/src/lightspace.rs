@@ -19,7 +19,6 @@
 //! the receiver point seen through the texel's centre.
 
 use crate::scene::{Light, Scene};
-pub use crate::settings::shading::MAX_AUTO_SPILL_MAP;
 use glam::{Mat4, Vec3, Vec4Swizzles};
 
 /// The widest spot cone drawn with one perspective view; wider ones use a cube.
