@@ -1,0 +1,172 @@
+//! Uploading the scene: triangles, per-object material records and analytic shapes, the
+//! environment map and the medium's density grid.
+
+use super::Geometry;
+use crate::gpu::GpuContext;
+use crate::gpu::types::*;
+use crate::scene::{Material, Scene, Tessellation};
+use glam::Mat4;
+
+/// Upload the triangles of `scene` (the pose of its file) with identity transforms.
+pub(crate) fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation) -> Geometry {
+    let mut vertices: Vec<Vertex> = Vec::new();
+    let mut indices: Vec<u32> = Vec::new();
+    let mut ranges = Vec::new();
+    for (i, o) in scene.objects.iter().enumerate() {
+        let m = o.shape.tessellate(t);
+        let base = vertices.len() as u32;
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            vertices.push(Vertex { position: p.to_array(), normal: n.to_array(), object: i as u32 });
+        }
+        let start = indices.len() as u32;
+        indices.extend(m.indices.iter().flat_map(|t| t.map(|x| x + base)));
+        ranges.push(start..indices.len() as u32);
+    }
+    let storage = wgpu::BufferUsages::STORAGE;
+    let identity = glam::Affine3A::IDENTITY;
+    let transforms: Vec<ObjectTransform> = scene.objects.iter().map(|_| object_transform(&identity)).collect();
+    let bvh = crate::accel::SceneBvh::build(scene);
+    let (nodes, tris) = bvh.gpu_arrays();
+    let inst = bvh.instance_records(&[]);
+    Geometry {
+        bvh_nodes: ctx.buffer_init("bvh_nodes", bytemuck::cast_slice(&nodes), storage),
+        bvh_tris: ctx.buffer_init("bvh_tris", bytemuck::cast_slice(&tris), storage),
+        bvh_instances: ctx.buffer_init("bvh_instances", bytemuck::cast_slice(&inst), storage),
+        bvh,
+        vertices: ctx.buffer_init("vertices", bytemuck::cast_slice(&vertices), wgpu::BufferUsages::VERTEX),
+        indices: ctx.buffer_init("indices", bytemuck::cast_slice(&indices), wgpu::BufferUsages::INDEX),
+        ranges,
+        materials: ctx.buffer_init("materials", bytemuck::cast_slice(&material_records(scene)), storage),
+        transforms: ctx.buffer_init("object_transforms", bytemuck::cast_slice(&transforms), storage),
+        environment: upload_environment(ctx, scene),
+        density: upload_density(ctx, scene),
+    }
+}
+
+/// The GPU record of a transform (positions by the affine map, normals by its rotation).
+pub(crate) fn object_transform(t: &glam::Affine3A) -> ObjectTransform {
+    let m = glam::Mat3::from(t.matrix3);
+    let s = m.x_axis.length();
+    let rot = if s == 1.0 { m } else { m * (1.0 / s) };
+    ObjectTransform { model: Mat4::from(*t).to_cols_array_2d(), normal: Mat4::from_mat3(rot).to_cols_array_2d() }
+}
+
+/// Per object: material and analytic shape of `scene` as it is now.
+pub(crate) fn material_records(scene: &Scene) -> Vec<MaterialGpu> {
+    let mut mats = Vec::new();
+    for o in &scene.objects {
+        let caster = u32::from(o.caustic_caster);
+        let (kind, a, b) = match *scene.material_of(o) {
+            Material::Diffuse { albedo } => (KIND_DIFFUSE, albedo.extend(0.0).to_array(), [0.0; 4]),
+            Material::Dielectric { ior, ext_ior } => (KIND_DIELECTRIC, [ior, ext_ior, 0.0, 0.0], [0.0; 4]),
+            Material::Mirror { reflectance } => (KIND_MIRROR, reflectance.extend(0.0).to_array(), [0.0; 4]),
+            Material::Conductor { eta, k } => (KIND_CONDUCTOR, eta.extend(0.0).to_array(), k.extend(0.0).to_array()),
+        };
+        let (shape_kind, shape) = analytic_shape(&o.shape);
+        mats.push(MaterialGpu { kind: [kind, caster, shape_kind, 0], a, b, shape });
+    }
+    mats
+}
+
+/// An object's analytic shape for exact intersection in the shaders: (kind, parameters).
+fn analytic_shape(shape: &crate::scene::Shape) -> (u32, [[f32; 4]; 4]) {
+    use crate::scene::Shape;
+    match shape {
+        Shape::Sphere { center, radius } => {
+            (SHAPE_SPHERE, [center.extend(*radius).to_array(), [0.0; 4], [0.0; 4], [0.0; 4]])
+        }
+        Shape::Cylinder { base_center, axis, radius, height } => (
+            SHAPE_CYLINDER,
+            [base_center.extend(*radius).to_array(), axis.extend(*height).to_array(), [0.0; 4], [0.0; 4]],
+        ),
+        Shape::Rectangle { center, normal, u, v, size } => (
+            SHAPE_RECTANGLE,
+            [
+                center.extend(0.0).to_array(),
+                normal.extend(0.0).to_array(),
+                u.extend(size.x).to_array(),
+                v.extend(size.y).to_array(),
+            ],
+        ),
+        Shape::Mesh(_) => (SHAPE_MESH, [[0.0; 4]; 4]),
+    }
+}
+
+/// The scene's environment map as an Rgba32Float texture (read with `textureLoad`, so no
+/// filterable-float feature is needed), halved (2×2 box) while wider than the device allows; a
+/// 1×1 black texture without one.
+fn upload_environment(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
+    let (mut w, mut h, mut texels) = match &scene.environment {
+        Some(e) => (e.width, e.height, e.texels.clone()),
+        None => (1, 1, vec![glam::Vec3::ZERO]),
+    };
+    let max = ctx.device.limits().max_texture_dimension_2d;
+    while w > max && w >= 2 && h >= 2 {
+        let (w2, h2) = (w / 2, h / 2);
+        let at = |x: u32, y: u32| texels[(y * w + x) as usize];
+        texels = (0..w2 * h2)
+            .map(|i| {
+                let (x, y) = (2 * (i % w2), 2 * (i / w2));
+                (at(x, y) + at(x + 1, y) + at(x, y + 1) + at(x + 1, y + 1)) * 0.25
+            })
+            .collect();
+        (w, h) = (w2, h2);
+    }
+    let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
+    let texture = ctx.texture(
+        "environment",
+        size,
+        wgpu::TextureFormat::Rgba32Float,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+    );
+    let rgba: Vec<[f32; 4]> = texels.iter().map(|t| t.extend(0.0).to_array()).collect();
+    ctx.queue.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture: &texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        bytemuck::cast_slice(&rgba),
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(w * 16), rows_per_image: Some(h) },
+        size,
+    );
+    texture
+}
+
+/// The medium's density grid as an R32Float 3D texture, uploaded once with the geometry (read
+/// with `textureLoad` and interpolated in the shader, `shared/medium.wgsl`: no filterable-float
+/// feature needed, and the CPU reference's arithmetic); 1×1×1 holding 1 without a grid, so the
+/// bindings are the same for every scene.
+pub(crate) fn upload_density(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
+    let grid = scene.medium.as_ref().and_then(|m| m.density.as_deref());
+    let (dims, data): ([u32; 3], &[f32]) = match grid {
+        Some(g) => (g.dims, &g.data),
+        None => ([1, 1, 1], &[1.0]),
+    };
+    let size = wgpu::Extent3d { width: dims[0], height: dims[1], depth_or_array_layers: dims[2] };
+    let texture = ctx.texture_dim(
+        "medium_density",
+        wgpu::TextureDimension::D3,
+        size,
+        wgpu::TextureFormat::R32Float,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+    );
+    ctx.queue.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture: &texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        bytemuck::cast_slice(data),
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(dims[0] * 4), rows_per_image: Some(dims[1]) },
+        size,
+    );
+    texture
+}
+
+/// The density grid's 3D view.
+pub(crate) fn density_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::TextureView {
+    ctx.view(t, Some(wgpu::TextureViewDimension::D3), 0, None)
+}
