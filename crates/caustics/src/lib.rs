@@ -55,6 +55,7 @@ pub mod budget;
 pub mod caustic_spheres;
 pub mod env_taps;
 pub mod error;
+pub(crate) mod geometry;
 pub mod gpu;
 pub mod image_io;
 pub mod lightspace;
@@ -66,7 +67,7 @@ pub mod render;
 pub mod renderer;
 pub mod scene;
 pub mod settings;
-pub mod splat;
+pub use techniques::splat;
 pub mod techniques;
 pub mod temporal;
 

@@ -82,7 +82,7 @@ pub fn cast_rays(
     for (o, t) in moved.objects.iter_mut().zip(transforms) {
         o.shape = o.shape.transformed(t).map_err(|m| Error::input("<ray cast>", "transforms", m))?;
     }
-    let mats = crate::passes::material_records(&moved);
+    let mats = crate::geometry::material_records(&moved);
     let queries: Vec<RayQuery> = rays
         .iter()
         .map(|r| RayQuery { o: r.origin.extend(r.t_max).to_array(), d: r.dir.extend(0.0).to_array() })

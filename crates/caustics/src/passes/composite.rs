@@ -2,9 +2,9 @@
 //! (`medium_scatter`) and `display`.
 
 use super::eye::shadow_sampler;
-use super::geometry::density_view;
 use super::raster::has_specular_meshes;
 use super::{DrawCtx, EyeFrame, LightFrame, array_view, layer_view};
+use crate::geometry::density_view;
 use crate::gpu::PassTimer;
 use crate::gpu::pass::Pass;
 use crate::gpu::types::*;

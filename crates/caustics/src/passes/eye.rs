@@ -1,9 +1,9 @@
 //! The camera's passes: its geometry buffers (`record_eye`) and the shading of its diffuse
 //! surfaces per light (`record_shade`).
 
-use super::geometry::density_view;
 use super::raster::{Raster, Subset, has_specular_meshes};
 use super::{DrawCtx, EyeFrame, GBuffer, LightFrame, array_view, layer_view};
+use crate::geometry::density_view;
 use crate::gpu::pass::Pass;
 use crate::gpu::types::*;
 use crate::gpu::{GpuContext, PassTimer};

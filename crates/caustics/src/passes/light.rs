@@ -1,10 +1,10 @@
 //! A light's passes: its uniform record and photon crop, the light-space buffers, the photon
 //! stage, `caustic_resolve`, the temporal filter, the shading tiles, and its flux bookkeeping.
 
-use super::geometry::density_view;
 use super::raster::{Raster, Subset};
 use super::{DEPTH_FORMAT, DrawCtx, FrameConsts, GBuffer, LightFrame, array_view, texture};
 use crate::error::Result;
+use crate::geometry::density_view;
 use crate::gpu::pass::Pass;
 use crate::gpu::types::*;
 use crate::gpu::{GpuContext, PassTimer};

@@ -24,7 +24,6 @@ use crate::gpu::GpuContext;
 use crate::scene::{Material, Scene};
 use crate::settings::{MAX_GBUFFER, RenderSettings, Technique};
 use glam::Mat4;
-use std::ops::Range;
 
 const POS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -32,53 +31,19 @@ const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 mod composite;
 mod dump;
 mod eye;
-mod geometry;
 mod light;
 mod raster;
+mod validate;
 
+pub(crate) use crate::geometry::{
+    Geometry, density_view, material_records, object_transform, upload_density, upload_geometry,
+};
 pub(crate) use composite::{Composited, EyeSegments, record_composite, record_display};
 pub use dump::{DumpImage, DumpKind};
 pub(crate) use dump::{bytes_to_image, dump_images};
 pub(crate) use eye::{record_eye, record_shade, shadow_sampler};
-pub(crate) use geometry::{density_view, material_records, object_transform, upload_density, upload_geometry};
 pub(crate) use light::{flux_stats, light_record, record_light};
 pub(crate) use raster::raster_pipelines;
-
-/// The scene's triangles, uploaded once (in the pose of the scene file), and the per-object
-/// records the frame rewrites when objects move.
-pub(crate) struct Geometry {
-    vertices: wgpu::Buffer,
-    indices: wgpu::Buffer,
-    /// Index ranges per object.
-    ranges: Vec<Range<u32>>,
-    /// Per object: material and analytic shape (in the current pose).
-    pub materials: wgpu::Buffer,
-    /// Per object: [`ObjectTransform`] from the scene file's pose to the current one.
-    pub transforms: wgpu::Buffer,
-    /// The environment map (linear radiance, Rgba32Float; 1×1 black without one).
-    pub environment: wgpu::Texture,
-    /// The medium's density grid (R32Float, 3D; 1×1×1 holding 1 without one).
-    pub density: wgpu::Texture,
-    /// The exact tracer's BVH (`crate::accel`): bottom levels built once, instances rewritten
-    /// when objects move ([`Geometry::write_instances`]).
-    pub bvh: crate::accel::SceneBvh,
-    pub bvh_nodes: wgpu::Buffer,
-    pub bvh_tris: wgpu::Buffer,
-    pub bvh_instances: wgpu::Buffer,
-}
-
-impl Geometry {
-    /// The BVH's buffers by the names the stages give them.
-    pub(crate) fn bvh_bindings(&self) -> [(&'static str, &wgpu::Buffer); 3] {
-        [("bvh_nodes", &self.bvh_nodes), ("bvh_tris", &self.bvh_tris), ("bvh_instances", &self.bvh_instances)]
-    }
-
-    /// Write the BVH instances for the objects' transforms (from the scene file's pose).
-    pub(crate) fn write_instances(&self, ctx: &GpuContext, transforms: &[glam::Affine3A]) {
-        let inst = self.bvh.instance_records(transforms);
-        ctx.queue.write_buffer(&self.bvh_instances, 0, bytemuck::cast_slice(&inst));
-    }
-}
 
 fn texture(
     ctx: &GpuContext,

@@ -13,7 +13,6 @@ pub mod photons;
 pub mod shading;
 #[doc(hidden)]
 pub mod testing;
-mod validate;
 
 pub use adaptive::AdaptiveSettings;
 pub use beams::{BeamSettings, BeamVolume, SurfaceCaustics};

@@ -17,6 +17,7 @@
 pub mod adaptive;
 pub mod basic;
 pub mod hierarchical;
+pub mod splat;
 
 use crate::error::{Error, Result};
 use crate::gpu::pass::{Bound, Pass};
@@ -152,7 +153,7 @@ pub(crate) struct Emit<'a> {
     pub recv_pos: &'a wgpu::TextureView,
     pub recv_nrm: &'a wgpu::TextureView,
     /// The scene's materials and its BVH for the exact tracer (`crate::accel`).
-    pub geo: &'a crate::passes::Geometry,
+    pub geo: &'a crate::geometry::Geometry,
     /// The medium's density grid (1 x 1 x 1 without one): photons march it for their path's
     /// transmittance (shared/trace.wgsl, `fog_add`).
     pub density: &'a wgpu::TextureView,

@@ -1,11 +1,49 @@
-//! Uploading the scene: triangles, per-object material records and analytic shapes, the
-//! environment map and the medium's density grid.
+//! The scene on the GPU ([`Geometry`]): triangles, per-object material records and analytic
+//! shapes, transforms, the environment map, the medium's density grid and the exact tracer's BVH,
+//! uploaded once and rewritten where objects move. Every feature's passes read it; it reads no
+//! feature (so it sits below the frame's modules).
 
-use super::Geometry;
 use crate::gpu::GpuContext;
 use crate::gpu::types::*;
 use crate::scene::{Material, Scene, Tessellation};
 use glam::Mat4;
+use std::ops::Range;
+
+/// The scene's triangles, uploaded once (in the pose of the scene file), and the per-object
+/// records the frame rewrites when objects move.
+pub(crate) struct Geometry {
+    pub(crate) vertices: wgpu::Buffer,
+    pub(crate) indices: wgpu::Buffer,
+    /// Index ranges per object.
+    pub(crate) ranges: Vec<Range<u32>>,
+    /// Per object: material and analytic shape (in the current pose).
+    pub materials: wgpu::Buffer,
+    /// Per object: [`ObjectTransform`] from the scene file's pose to the current one.
+    pub transforms: wgpu::Buffer,
+    /// The environment map (linear radiance, Rgba32Float; 1×1 black without one).
+    pub environment: wgpu::Texture,
+    /// The medium's density grid (R32Float, 3D; 1×1×1 holding 1 without one).
+    pub density: wgpu::Texture,
+    /// The exact tracer's BVH (`crate::accel`): bottom levels built once, instances rewritten
+    /// when objects move ([`Geometry::write_instances`]).
+    pub bvh: crate::accel::SceneBvh,
+    pub bvh_nodes: wgpu::Buffer,
+    pub bvh_tris: wgpu::Buffer,
+    pub bvh_instances: wgpu::Buffer,
+}
+
+impl Geometry {
+    /// The BVH's buffers by the names the stages give them.
+    pub(crate) fn bvh_bindings(&self) -> [(&'static str, &wgpu::Buffer); 3] {
+        [("bvh_nodes", &self.bvh_nodes), ("bvh_tris", &self.bvh_tris), ("bvh_instances", &self.bvh_instances)]
+    }
+
+    /// Write the BVH instances for the objects' transforms (from the scene file's pose).
+    pub(crate) fn write_instances(&self, ctx: &GpuContext, transforms: &[glam::Affine3A]) {
+        let inst = self.bvh.instance_records(transforms);
+        ctx.queue.write_buffer(&self.bvh_instances, 0, bytemuck::cast_slice(&inst));
+    }
+}
 
 /// Upload the triangles of `scene` (the pose of its file) with identity transforms.
 pub(crate) fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation) -> Geometry {

@@ -1,11 +1,11 @@
 //! The checks of [`RenderSettings`] that need the adapter and the scene: texture and
 //! storage-binding limits, the photon plans of the hierarchical and adaptive techniques.
 
-use super::{RenderSettings, Technique};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::lightspace::LightView;
 use crate::scene::Scene;
+use crate::settings::{RenderSettings, Technique};
 
 impl RenderSettings {
     /// The largest caustic map (power of two, at most `preferred`) whose accumulation buffer
