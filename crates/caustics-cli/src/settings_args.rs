@@ -261,8 +261,8 @@ impl Resolved {
     pub fn to_json(&self) -> serde_json::Value {
         let mut v = self.render.to_json();
         let map = v.as_object_mut().expect("an object");
-        map.insert("cpu".into(), serde_json::to_value(&self.cpu).expect("serializes"));
-        map.insert("spheres".into(), serde_json::to_value(&self.spheres).expect("serializes"));
+        map.insert("cpu".into(), caustics::settings::json_value(&self.cpu));
+        map.insert("spheres".into(), caustics::settings::json_value(&self.spheres));
         v
     }
 }

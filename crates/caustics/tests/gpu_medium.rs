@@ -480,7 +480,7 @@ fn light_between_a_lit_floor_and_the_fog_matches_the_reference() {
         },
     ] {
         let Err(e) = render(&ctx, &sc, &bad) else { panic!("a setting out of range was accepted") };
-        assert!(e.to_string().contains("medium_bounce_"), "{e}");
+        assert!(e.to_string().contains("medium.bounce_"), "{e}");
     }
     // Measured (lavapipe): with the passes fog 0.999, floor 0.996; without them fog 0.788,
     // floor 0.802. The floor rows were 0.944 before the glow's light on the floor (light ->

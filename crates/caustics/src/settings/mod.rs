@@ -80,7 +80,7 @@ impl RenderSettings {
 
     /// The settings as JSON, every section and key written out.
     pub fn to_json(&self) -> serde_json::Value {
-        serde_json::to_value(self).expect("settings serialize")
+        json_value(self)
     }
 
     /// Settings from JSON text: any subset of the sections and keys, over the defaults. Errors
@@ -126,6 +126,14 @@ impl RenderSettings {
         *self = serde_json::from_value(root).map_err(|e| bad(e.to_string()))?;
         Ok(())
     }
+}
+
+/// `value` as JSON with its `f32`s written as `f32`s (`0.2`, not `0.20000000298023224`):
+/// `serde_json::to_value` widens them to `f64`, so the text is made first (the shortest decimal
+/// of each `f32`) and read back.
+pub fn json_value<T: Serialize>(value: &T) -> serde_json::Value {
+    let text = serde_json::to_string(value).expect("settings serialize");
+    serde_json::from_str(&text).expect("settings read back")
 }
 
 impl RenderSettings {
