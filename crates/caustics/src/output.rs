@@ -250,7 +250,7 @@ pub struct BeamStats {
     pub between_casters: u32,
     /// Fragments the beams' hulls shaded (`BeamVolume::Hulls`: one per pixel a hull covers; 0
     /// with the gather). Counted in one-shot renders (`Renderer::render_once`,
-    /// [`crate::passes::render`]) only: the frame loop does not count them.
+    /// [`crate::render()`]) only: the frame loop does not count them.
     pub hull_fragments: u32,
     /// Of `hull_fragments`, those that added light (a beam's light reached the pixel): the rest
     /// is the hulls' fill beyond the beams.

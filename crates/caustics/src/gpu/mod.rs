@@ -1,5 +1,5 @@
 //! The GPU side: device creation, shader loading, timing and readback. Techniques live in
-//! [`crate::render`].
+//! [`crate::render()`].
 
 pub(crate) mod pass;
 pub mod pool;

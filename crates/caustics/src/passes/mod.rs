@@ -2,8 +2,8 @@
 //! which [`crate::renderer::Renderer`] records:
 //!
 //! 1. `eye_receivers`, `eye_specular_front`, `eye_specular_back` and the camera's second layer:
-//!    camera geometry buffers ([`record_eye`]);
-//! 2. per light ([`record_light`]) and face: `light_shadow` (depth of everything),
+//!    camera geometry buffers (`record_eye`);
+//! 2. per light (`record_light`) and face: `light_shadow` (depth of everything),
 //!    `light_receivers` (position and normal of diffuse surfaces), `light_caster_front`,
 //!    `light_caster_back`, and where the scene has caster meshes and two casters or more the
 //!    second caster layer `light_caster_front2`, `light_caster_back2` (`raster_peel`: per texel
@@ -11,12 +11,12 @@
 //!    technique's photon stage ([`crate::techniques`]), `caustic_resolve` (flux per texel to
 //!    irradiance), the temporal filter, and the shading tiles (`caustic_mask`, `shadow_tiles`:
 //!    per-tile summaries of the caustic and shadow maps that `shade_receivers` skips work by);
-//! 3. `shade_receivers` per light ([`record_shade`]), then `composite` (image-space refraction
+//! 3. `shade_receivers` per light (`record_shade`), then `composite` (image-space refraction
 //!    and reflection), in scenes with a medium `medium_scatter` per light (attenuation and
-//!    single scattering along the camera rays), and `display` ([`record_composite`]).
+//!    single scattering along the camera rays), and `display` (`record_composite`).
 //!
-//! This module holds what the passes share (the uploaded [`Geometry`], [`GBuffer`], [`DrawCtx`],
-//! [`FrameConsts`], [`EyeFrame`], [`LightFrame`]); the passes live in `geometry` (uploads),
+//! This module holds what the passes share (the uploaded `Geometry`, `GBuffer`, `DrawCtx`,
+//! `FrameConsts`, `EyeFrame`, `LightFrame`); the passes live in `geometry` (uploads),
 //! `raster` (pipelines and draw helpers), `eye` (camera and shading), `light`, `composite`
 //! (composite, medium, display) and `dump`.
 

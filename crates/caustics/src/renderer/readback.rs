@@ -76,7 +76,7 @@ impl Renderer {
     }
 
     /// Render one frame, wait for it and read everything back (the one-shot render of
-    /// [`crate::passes::render`]).
+    /// [`crate::render()`]).
     pub fn render_once(&mut self) -> Result<GpuRender> {
         let ctx = self.ctx.clone();
         let val_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -147,7 +147,7 @@ impl Renderer {
 }
 
 impl TemporalFilter {
-    /// Render a frame of `scene` like [`crate::passes::render`], with every light's caustic
+    /// Render a frame of `scene` like [`crate::render()`], with every light's caustic
     /// maps filtered against this filter's history before shading.
     pub fn render(&mut self, ctx: &GpuContext, scene: &Scene, settings: &RenderSettings) -> Result<GpuRender> {
         self.settings.validate()?;

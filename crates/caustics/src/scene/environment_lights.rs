@@ -38,7 +38,7 @@
 //! no re-segmentation, so no flicker while the environment turns.
 //!
 //! **Occlusion** (section 5: per caustic object, each region's unoccluded part):
-//! [`region_visibility`].
+//! [`region_visibility`](crate::raycast::region_visibility).
 //!
 //! With `D < 6`, the `6 - D + 1` faces of least total are merged into one region.
 

@@ -256,7 +256,7 @@ impl BeamSettings {
     }
 }
 
-/// The source of the caustic on diffuse surfaces ([`RenderSettings::surface_caustics`]).
+/// The source of the caustic on diffuse surfaces ([`RenderSettings::surface_caustics`](super::RenderSettings::surface_caustics)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SurfaceCaustics {

@@ -1,6 +1,6 @@
 //! Photon emission techniques: how the photons of one light-view face are created, traced and
 //! splatted into the caustic map. The rest of the frame (light-space buffers, resolve, shading,
-//! composite) is shared, in [`crate::render`].
+//! composite) is shared, in [`crate::render()`].
 //!
 //! - [`Technique::Basic`]: a dense N × N photon grid ([`basic`]);
 //! - [`Technique::Hierarchical`]: the dense grid traced tile by tile, a mip hierarchy of valid
