@@ -381,11 +381,15 @@ fn from_value<T: serde::de::DeserializeOwned>(file: &str, field: &str, v: serde_
 }
 
 /// The library's settings errors name `<settings>`; say where they came from.
+/// An error of the merged settings as the user's file's: named by `file` and field path, without
+/// a line and column (they would point into the merged document, not the file).
 fn relabel(mut e: Error, file: &str) -> Error {
-    if let Error::Input { file: f, .. } = &mut e
-        && f == "<settings>"
-    {
+    if let Error::Input { file: f, line, message, .. } = &mut e {
         *f = file.to_string();
+        *line = None;
+        if let Some(i) = message.find(" at line ") {
+            message.truncate(i);
+        }
     }
     e
 }
