@@ -1,4 +1,4 @@
-//! The beams' part of `caustics bench` (scenes with a medium, or `--set surface_caustics=beams`):
+//! The beams' part of `caustics bench` (scenes with a medium, or `--set sources.local=beams`):
 //! per run, the beams kept per refinement level, the fragments their hulls shaded
 //! (`beams.volume` hulls) and the GPU milliseconds of each beam pass (`beam_refine` summed over
 //! its levels, `beam_shrink` (the parts of last-level triangles), `beam_order` with its

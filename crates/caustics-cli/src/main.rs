@@ -186,7 +186,7 @@ fn run(cli: Cli) -> Result<()> {
             }
             let cpu = resolved.cpu.clone();
             let mut settings = resolved.render.clone();
-            let caustic_spheres = settings.photons.technique == caustics::render::Technique::CausticSpheres;
+            let caustic_spheres = settings.caustic_spheres();
             check_output(&output)?;
             if let Some(c) = &caustic_output {
                 check_output(c)?;
@@ -282,9 +282,9 @@ fn run(cli: Cli) -> Result<()> {
                     if caustic_spheres {
                         eprintln!("notice: the CPU reference renders the exact caustics, not the caustic spheres");
                     }
-                    if settings.surface_caustics != caustics::render::SurfaceCaustics::Photons {
+                    if settings.sources.local != caustics::render::LocalSource::Photons {
                         eprintln!(
-                            "notice: the CPU reference renders the exact caustics; surface_caustics applies to the GPU"
+                            "notice: the CPU reference renders the exact caustics; sources.local applies to the GPU"
                         );
                     }
                     let caustic_paths = caustics_reference::reference::CausticPaths::parse(&cpu.caustic_paths)

@@ -9,52 +9,18 @@
 //! spheres' tables, [`crate::spheres::SphereArgs`]).
 
 use caustics::Error;
-use caustics::render::{RenderSettings, SplatMode, SurfaceCaustics, Technique, Tracer};
+use caustics::render::{RenderSettings, SplatMode, Technique, Tracer};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
-/// `--technique`: one of the library's photon techniques, or `beams` (adaptive beam tracing for
-/// the caustics of spot and point lights on surfaces as in the medium, no photon maps: the same
-/// as `--set surface_caustics=beams` with the basic technique for the lights beams do not cover).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct TechniqueChoice {
-    pub technique: Technique,
-    pub beams: bool,
-}
-
-impl TechniqueChoice {
-    /// The choice named `name` (a technique's name or `beams`).
-    pub fn parse(name: &str) -> Option<TechniqueChoice> {
-        match Technique::parse(name) {
-            Some(technique) => Some(TechniqueChoice { technique, beams: false }),
-            None => (name.trim() == "beams").then_some(TechniqueChoice { technique: Technique::Basic, beams: true }),
-        }
-    }
-
-    /// Set the settings' technique, and for `beams` the surface caustics' source.
-    pub fn apply(self, s: &mut RenderSettings) {
-        s.photons.technique = self.technique;
-        if self.beams {
-            s.surface_caustics = SurfaceCaustics::Beams;
-        }
-    }
-}
-
-/// Every name `--technique` takes, with its help (a new technique needs no edit here).
-pub(crate) fn technique_values() -> Vec<clap::builder::PossibleValue> {
-    let mut values: Vec<clap::builder::PossibleValue> =
-        Technique::ALL.iter().map(|t| clap::builder::PossibleValue::new(t.name()).help(t.describe())).collect();
-    values.push(clap::builder::PossibleValue::new("beams").help(
-        "Adaptive beam tracing (Liktor & Dachsbacher 2011): the caustics of spot and point lights on surfaces and in the medium from beams, no photon maps (the same as --set surface_caustics=beams; directional lights: basic)",
-    ));
-    values
-}
-
-/// `--technique`: the library's techniques, by name, with their help, and `beams`.
-pub(crate) fn technique_parser() -> impl clap::builder::TypedValueParser<Value = TechniqueChoice> {
+/// `--technique`: the library's shorthands ([`Technique`]: an emission technique, `caustic-spheres`
+/// or `beams`), by name, with their help.
+pub(crate) fn technique_parser() -> impl clap::builder::TypedValueParser<Value = Technique> {
     use clap::builder::TypedValueParser;
-    clap::builder::PossibleValuesParser::new(technique_values())
-        .map(|s| TechniqueChoice::parse(&s).expect("a listed technique"))
+    clap::builder::PossibleValuesParser::new(
+        Technique::ALL.map(|t| clap::builder::PossibleValue::new(t.name()).help(t.describe())),
+    )
+    .map(|s| Technique::parse(&s).expect("a listed technique"))
 }
 
 /// `--tracer`: the library's photon tracers, by name, with their help.
@@ -102,7 +68,7 @@ pub struct GridArgs {
     pub photons: Option<u32>,
     /// The photon emission technique, or `beams` [default: basic].
     #[arg(long, value_name = "NAME", value_parser = technique_parser())]
-    pub technique: Option<TechniqueChoice>,
+    pub technique: Option<Technique>,
 }
 
 impl GridArgs {
@@ -235,7 +201,7 @@ pub struct SettingsArgs {
     /// left out keep their defaults), before the flags and `--set`.
     #[arg(long, value_name = "FILE", help_heading = "Settings")]
     pub settings: Option<PathBuf>,
-    /// Set one setting by its path, e.g. `--set beams.cutoff=0.01`, `--set photons.technique=hierarchical`
+    /// Set one setting by its path, e.g. `--set beams.cutoff=0.01`, `--set photons.emission=hierarchical`
     /// (repeatable; the value is read as JSON, else as a string). `--print-settings` lists every
     /// key.
     #[arg(long = "set", value_name = "SECTION.KEY=VALUE", help_heading = "Settings")]

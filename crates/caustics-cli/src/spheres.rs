@@ -131,7 +131,7 @@ pub fn attach(
     args: &SphereArgs,
     tables: &mut Option<Vec<(usize, Arc<CausticSpheres>)>>,
 ) -> caustics::Result<()> {
-    if r.settings().photons.technique != caustics::render::Technique::CausticSpheres {
+    if !r.settings().caustic_spheres() {
         return Ok(());
     }
     let t = match tables {

@@ -83,8 +83,8 @@ fn a_bad_set_key_names_the_path_and_the_known_keys() {
     assert!(e.contains("cpu.sp") && e.contains("spp"), "{e}");
     let e = run_err(&["view", "--set", "photons.count=\"many\""]);
     assert!(e.contains("photons.count"), "{e}");
-    let e = run_err(&["render", "--set", "photons.technique=nope"]);
-    assert!(e.contains("photons.technique") && e.contains("nope"), "{e}");
+    let e = run_err(&["render", "--set", "photons.emission=nope"]);
+    assert!(e.contains("photons.emission") && e.contains("nope"), "{e}");
     let e = run_err(&["render", "--set", "beams"]);
     assert!(e.contains("SECTION.KEY=VALUE"), "{e}");
 }
@@ -104,14 +104,14 @@ fn settings_come_from_flags_set_and_files_alike() {
         assert!(d[section].is_object(), "no section {section}: {d}");
     }
     assert_eq!(d["photons"]["count"], 1024);
-    assert_eq!(d["photons"]["technique"], "basic");
+    assert_eq!(d["photons"]["emission"], "basic");
     let s = print_settings(&["render", "--photons", "256", "--technique", "beams", "--set", "beams.cutoff=0.5"]);
     assert_eq!(s["photons"]["count"], 256);
-    assert_eq!(s["surface_caustics"], "beams");
+    assert_eq!(s["sources"]["local"], "beams");
     assert_eq!(s["beams"]["cutoff"], 0.5);
     let t =
-        print_settings(&["render", "--set", "photons.technique=hierarchical", "--set", "medium.beyond_specular=false"]);
-    assert_eq!(t["photons"]["technique"], "hierarchical");
+        print_settings(&["render", "--set", "photons.emission=hierarchical", "--set", "medium.beyond_specular=false"]);
+    assert_eq!(t["photons"]["emission"], "hierarchical");
     assert_eq!(t["medium"]["beyond_specular"], false);
     // A file of some keys over the defaults, then the flags and `--set` over the file.
     let file = tmp("settings.json");
@@ -338,7 +338,7 @@ fn sun_in_fog_renders_through_caustic_spheres() {
 
 #[test]
 fn caustic_spheres_by_flag_and_by_set_render_the_same_image() {
-    // `--technique caustic-spheres` is `--set photons.technique=caustic-spheres`: the same bits
+    // `--technique caustic-spheres` is `--set photons.emission=caustic-spheres`: the same bits
     // (GPU; skipped without an adapter, as the render then says).
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/glass_sphere_3dir.json");
     let cache = tmp("sphere-cache-alias");
@@ -360,14 +360,14 @@ fn caustic_spheres_by_flag_and_by_set_render_the_same_image() {
         eprintln!("skipping: {err}");
         return;
     }
-    let second = run(&["--set", "photons.technique=caustic-spheres"], &b);
+    let second = run(&["--set", "photons.emission=caustic-spheres"], &b);
     assert!(second.status.success(), "{}", String::from_utf8_lossy(&second.stderr));
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), "the two spellings render other bits");
     let _ = std::fs::remove_dir_all(&cache);
 }
 
 /// `--technique beams` (the name for adaptive beam tracing) renders what
-/// `--set surface_caustics=beams` does: the caustics of spot and point lights from beams on surfaces
+/// `--set sources.local=beams` does: the caustics of spot and point lights from beams on surfaces
 /// and in the fog, no photon maps; the same bytes. Skips without a GPU adapter, except in CI.
 #[test]
 fn technique_beams_is_surface_caustics_from_beams() {
@@ -388,8 +388,8 @@ fn technique_beams_is_surface_caustics_from_beams() {
         Some((std::fs::read(&out).unwrap(), stdout))
     };
     let Some((a, out_a)) = render("technique_beams.exr", &["--technique", "beams"]) else { return };
-    let (b, _) = render("surface_beams.exr", &["--set", "surface_caustics=beams"]).unwrap();
-    assert!(a == b, "--technique beams and --set surface_caustics=beams differ");
+    let (b, _) = render("surface_beams.exr", &["--set", "sources.local=beams"]).unwrap();
+    assert!(a == b, "--technique beams and --set sources.local=beams differ");
     assert!(out_a.contains("0 photons splatted"), "{out_a}");
     let (c, _) = render("photons.exr", &[]).unwrap();
     assert!(a != c, "the photon maps' surface caustic is the same as the beams'");

@@ -62,7 +62,7 @@ fn bench_times_every_beam_pass() {
     let out = std::env::temp_dir().join(format!("caustics-beambench-{}", std::process::id()));
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/volume_caustic_fog.json");
     let args = [scene, "--technique", "basic", "--photons", "64", "--size", "24x16", "--caustic-map", "64"];
-    let beams = ["--beam-grid", "8", "--beam-levels", "1", "--set", "surface_caustics=beams"];
+    let beams = ["--beam-grid", "8", "--beam-levels", "1", "--set", "sources.local=beams"];
     if bench("beam bench", &[&args[..], &beams, &["--out", out.to_str().unwrap()]].concat()).is_none() {
         return;
     }

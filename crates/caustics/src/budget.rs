@@ -91,8 +91,8 @@
 //! [`BudgetController::clear_errors`] when the reference changes (the view moved). Tolerances
 //! are not part of the error model.
 
+use crate::settings::Emission;
 use crate::settings::RenderSettings;
-use crate::settings::Technique;
 
 /// What the time-budget controller aims at and within which limits.
 #[derive(Debug, Clone, PartialEq)]
@@ -160,14 +160,12 @@ impl Level {
 }
 
 /// The levels the controller moves on for `technique`, worst quality first (module docs).
-pub fn ladder(technique: Technique, s: &BudgetSettings) -> Vec<Level> {
-    // Caustic spheres: the grid is the spot and point lights' basic caustic maps.
-    let technique = technique.emission();
-    let lo_limit = if technique == Technique::Basic { 16 } else { 32 };
+pub fn ladder(technique: Emission, s: &BudgetSettings) -> Vec<Level> {
+    let lo_limit = if technique == Emission::Basic { 16 } else { 32 };
     let lo = s.min_photons.clamp(lo_limit, technique.max_photons());
     let hi = s.max_photons.clamp(lo, technique.max_photons());
     let mut grids: Vec<u32> = Vec::new();
-    if technique == Technique::Basic {
+    if technique == Emission::Basic {
         // Quarter octaves from the smallest grid, rounded to multiples of 16, up to the largest.
         grids.push(lo);
         let mut k = 1;
@@ -196,7 +194,7 @@ pub fn ladder(technique: Technique, s: &BudgetSettings) -> Vec<Level> {
     }
     let mut out = Vec::new();
     for n in grids {
-        if technique == Technique::AdaptiveError && !s.tolerances.is_empty() {
+        if technique == Emission::AdaptiveError && !s.tolerances.is_empty() {
             for &t in &s.tolerances {
                 if t > 0.0 {
                     out.push(Level { photons: n, tolerance: Some(t) });
@@ -231,7 +229,7 @@ pub struct BudgetQuality {
 #[derive(Debug, Clone)]
 pub struct BudgetController {
     settings: BudgetSettings,
-    technique: Option<Technique>,
+    technique: Option<Emission>,
     levels: Vec<Level>,
     current: usize,
     /// Frames measured at the current level (after the settle frames).
@@ -312,7 +310,7 @@ impl BudgetController {
     /// photon grid (and tolerance) for the next frame. Returns true when it changed `settings`.
     pub fn update(&mut self, measured_ms: f64, settings: &mut RenderSettings) -> bool {
         self.frame += 1;
-        if self.technique != Some(settings.photons.technique) {
+        if self.technique != Some(settings.photons.emission) {
             self.reset_ladder(settings);
             // The frame measured was rendered with settings the ladder may not contain.
             return self.apply(settings);
@@ -471,8 +469,8 @@ impl BudgetController {
     }
 
     fn reset_ladder(&mut self, settings: &RenderSettings) {
-        self.technique = Some(settings.photons.technique);
-        self.levels = ladder(settings.photons.technique, &self.settings);
+        self.technique = Some(settings.photons.emission);
+        self.levels = ladder(settings.photons.emission, &self.settings);
         let n = self.levels.len();
         self.seen = vec![None; n];
         self.blocked_until = vec![0; n];

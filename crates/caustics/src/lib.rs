@@ -55,6 +55,7 @@ pub mod budget;
 pub mod caustic_spheres;
 pub mod env_taps;
 pub mod error;
+pub(crate) mod frame;
 pub(crate) mod geometry;
 pub mod gpu;
 pub mod image_io;

@@ -28,7 +28,7 @@
 //! Recorded only for scenes with a scattering medium and a diffuse material of nonzero albedo
 //! (a black floor reflects nothing and is lit by nothing it could show: its frames are the same
 //! bits as without the passes). The caustic part comes from the lights' caustic maps, so it is
-//! there for the photon techniques; with `SurfaceCaustics::Beams` or the caustic spheres those
+//! there for the photon techniques; with `LocalSource::Beams` or the caustic spheres those
 //! maps stay zero: with the beams' surface caustic `medium_bounce_beams` makes the caustic
 //! share from the beams' landing light instead; with the caustic spheres only the direct
 //! light's share is added.
@@ -501,5 +501,49 @@ fn record_camera_gather(
     if segs.kept {
         let segments = pass.variant("medium_bounce_segments", &[("bounce_segments", 1.0)]);
         segments.dispatch_indirect(enc, timer, &segs.args, 0);
+    }
+}
+
+/// The medium bounce feature: the lights' virtual point lights (kept while no light is redone),
+/// the surfaces they and the beams light before the composite, and their light scattered along
+/// the camera rays after it.
+#[derive(Default)]
+pub(crate) struct MediumBounce {
+    bounce: Option<BounceFrame>,
+    emitters: BeamEmitters,
+}
+
+impl crate::frame::Feature for MediumBounce {
+    fn record(&mut self, f: &mut crate::frame::Frame) -> crate::Result<()> {
+        let lights = crate::frame::light_refs(&f.lights);
+        // The lights' VPLs are made again when a light's maps were (every change that moves them
+        // redoes the lights: the medium, materials, settings, objects the light sees); a frame
+        // that only moves the camera keeps them, and their scope is not begun, so its buffers
+        // are not cleared.
+        if f.redone.iter().any(|&r| r) || self.bounce.is_none() {
+            f.dc.ctx.begin_scope("medium_bounce_lights", f.enc);
+            self.bounce = record_lights(&f.dc, &lights, f.s, f.enc, f.timer);
+            f.dc.ctx.end_scope();
+        }
+        // The surfaces lit by the shafts' and the beams' light in the medium (before
+        // `composite`, which shows them through glass).
+        f.dc.ctx.begin_scope("medium_bounce", f.enc);
+        self.emitters = BeamEmitters::default();
+        if let Some(bf) = &self.bounce {
+            self.emitters = record_beam_emitters(&f.dc, &f.beams, &lights, f.s, f.enc, f.timer);
+            let emitters = [&self.emitters.scatter[..], &self.emitters.landing_glow[..]].concat();
+            record_surfaces(&f.dc, crate::frame::eye(&f.eye), bf, &emitters, f.enc, f.timer);
+        }
+        f.dc.ctx.end_scope();
+        Ok(())
+    }
+
+    fn record_along_rays(&mut self, f: &mut crate::frame::Frame) -> crate::Result<()> {
+        let Some(bf) = &self.bounce else { return Ok(()) };
+        let images = f.images.as_ref().expect("the composite runs first");
+        let targets = (&images.full, &images.caustic);
+        let landing = &self.emitters.landing;
+        record(&f.dc, crate::frame::eye(&f.eye), bf, f.s, targets, &images.segments, landing, f.enc, f.timer);
+        Ok(())
     }
 }

@@ -8,7 +8,8 @@ use crate::scene::Scene;
 pub use crate::output::{FluxStats, GpuRender};
 pub use crate::passes::{DumpImage, DumpKind};
 pub use crate::settings::{
-    BeamVolume, Inspect, RenderSettings, SpillFaces, SplatMode, SurfaceCaustics, Technique, Tracer,
+    BeamVolume, DistantSource, Emission, Inspect, LocalSource, RenderSettings, SourceSettings, SpillFaces, SplatMode,
+    Technique, Tracer, VolumeSource,
 };
 pub use crate::techniques::{LevelStats, TechniqueStats};
 

@@ -2,7 +2,7 @@
 
 use caustics::budget::{BudgetController, BudgetSettings, Level, ladder};
 use caustics::render::RenderSettings;
-use caustics::techniques::Technique;
+use caustics::settings::Emission;
 
 /// A small deterministic generator (xorshift64*), uniform in [-1, 1).
 struct Noise(u64);
@@ -43,9 +43,9 @@ fn optimum(levels: &[Level], target: f64, cost: impl Fn(&Level) -> f64) -> usize
     (0..levels.len()).rev().find(|&j| cost(&levels[j]) <= target).unwrap_or(0)
 }
 
-fn settings(t: Technique, photons: u32) -> RenderSettings {
+fn settings(t: Emission, photons: u32) -> RenderSettings {
     RenderSettings {
-        photons: caustics::settings::PhotonSettings { technique: t, count: photons, ..Default::default() },
+        photons: caustics::settings::PhotonSettings { emission: t, count: photons, ..Default::default() },
         ..Default::default()
     }
 }
@@ -53,14 +53,14 @@ fn settings(t: Technique, photons: u32) -> RenderSettings {
 /// `overhead + k · work`, with the work of the controller's prior (N², over sqrt(1 + tolerance)
 /// for maximal caustic map error).
 fn grid_cost(s: &RenderSettings, k: f64, overhead: f64) -> f64 {
-    let tol = if s.photons.technique == Technique::AdaptiveError { Some(s.adaptive.error_tolerance) } else { None };
+    let tol = if s.photons.emission == Emission::AdaptiveError { Some(s.adaptive.error_tolerance) } else { None };
     overhead + k * Level { photons: s.photons.count, tolerance: tol }.work()
 }
 
 #[test]
 fn ladders_are_valid_settings() {
     let b = BudgetSettings { min_photons: 16, max_photons: 65536, ..BudgetSettings::new(10.0) };
-    for t in Technique::ALL {
+    for t in Emission::ALL {
         let l = ladder(t, &b);
         assert!(!l.is_empty());
         for w in l.windows(2) {
@@ -69,17 +69,16 @@ fn ladders_are_valid_settings() {
         }
         for lv in &l {
             assert!(lv.photons <= t.max_photons());
-            // Caustic spheres: the grid is the spot and point lights' basic caustic maps.
-            if t.emission() == Technique::Basic {
+            if t == Emission::Basic {
                 assert!(lv.photons >= 16 && lv.photons % 16 == 0, "{lv:?}");
             } else {
                 assert!(lv.photons >= 32 && lv.photons.is_power_of_two(), "{t}: {lv:?}");
             }
-            assert_eq!(lv.tolerance.is_some(), t == Technique::AdaptiveError);
+            assert_eq!(lv.tolerance.is_some(), t == Emission::AdaptiveError);
         }
     }
     // Basic steps are quarter octaves (about 1.41x in cost) once rounding to 16 allows.
-    let basic = ladder(Technique::Basic, &BudgetSettings::new(10.0));
+    let basic = ladder(Emission::Basic, &BudgetSettings::new(10.0));
     for w in basic.windows(2).filter(|w| w[0].photons >= 128) {
         let r = w[1].work() / w[0].work();
         assert!(r > 1.1 && r < 1.9, "{:?}", w);
@@ -91,10 +90,10 @@ fn ladders_are_valid_settings() {
 #[test]
 fn converges_on_quadratic_cost_with_noise() {
     for (t, target) in [
-        (Technique::AdaptiveLevel, 25.0),
-        (Technique::Basic, 25.0),
-        (Technique::Basic, 7.0),
-        (Technique::AdaptiveError, 25.0),
+        (Emission::AdaptiveLevel, 25.0),
+        (Emission::Basic, 25.0),
+        (Emission::Basic, 7.0),
+        (Emission::AdaptiveError, 25.0),
     ] {
         let b = BudgetSettings::new(target);
         let band = b.band;
@@ -122,7 +121,7 @@ fn converges_on_quadratic_cost_with_noise() {
 #[test]
 fn no_oscillation_on_a_static_scene() {
     for (t, target, overhead) in
-        [(Technique::AdaptiveLevel, 20.0, 0.0), (Technique::Basic, 12.0, 3.0), (Technique::AdaptiveError, 20.0, 5.0)]
+        [(Emission::AdaptiveLevel, 20.0, 0.0), (Emission::Basic, 12.0, 3.0), (Emission::AdaptiveError, 20.0, 5.0)]
     {
         let mut c = BudgetController::new(BudgetSettings::new(target));
         let mut s = settings(t, 4096.min(t.max_photons()));
@@ -142,7 +141,7 @@ fn no_oscillation_on_a_static_scene() {
 fn bounded_changes_when_a_level_straddles_the_band() {
     let target = 10.0;
     let mut c = BudgetController::new(BudgetSettings::new(target));
-    let mut s = settings(Technique::AdaptiveLevel, 64);
+    let mut s = settings(Emission::AdaptiveLevel, 64);
     let mut noise = Noise(7);
     // 1024² costs 1.08 × target: predicted over target from 512², never entered from below; to
     // make it straddle, the model is made to under-predict it: cost jumps past 512².
@@ -162,7 +161,7 @@ fn follows_a_step_change_of_cost() {
     let b = BudgetSettings::new(target);
     let band = b.band;
     let mut c = BudgetController::new(b);
-    let mut s = settings(Technique::Basic, 64);
+    let mut s = settings(Emission::Basic, 64);
     let mut noise = Noise(3);
     let k = |f: usize| if (100..200).contains(&f) { 3e-5 } else { 1e-5 };
     let (levels, changed, ms) =
@@ -186,7 +185,7 @@ fn follows_a_step_change_of_cost() {
 /// A large fixed overhead (20 ms of a 30 ms budget): the model learns it from two levels.
 #[test]
 fn learns_a_fixed_overhead() {
-    for t in [Technique::AdaptiveLevel, Technique::Basic] {
+    for t in [Emission::AdaptiveLevel, Emission::Basic] {
         let target = 30.0;
         let b = BudgetSettings::new(target);
         let band = b.band;
@@ -212,11 +211,11 @@ fn respects_limits_and_reports_quality() {
     // A budget nothing meets: the smallest grid; a budget everything meets: the largest.
     let b = BudgetSettings { min_photons: 64, max_photons: 1024, ..BudgetSettings::new(1.0) };
     let mut c = BudgetController::new(b.clone());
-    let mut s = settings(Technique::Hierarchical, 512);
+    let mut s = settings(Emission::Hierarchical, 512);
     simulate(&mut c, &mut s, 20, |_, s| grid_cost(s, 1e-3, 5.0));
     assert_eq!(s.photons.count, 64);
     let mut c = BudgetController::new(BudgetSettings { target_ms: 1e6, ..b });
-    let mut s = settings(Technique::Hierarchical, 64);
+    let mut s = settings(Emission::Hierarchical, 64);
     simulate(&mut c, &mut s, 20, |_, s| grid_cost(s, 1e-6, 0.0));
     assert_eq!(s.photons.count, 1024);
     // The error model: one pair assumes error ∝ 1/N; two grids fit the exponent.
@@ -232,7 +231,7 @@ fn respects_limits_and_reports_quality() {
     assert_eq!(c.quality().estimated_error, None);
     // Adaptive-error: the tolerance is set along with the grid.
     let mut c = BudgetController::new(BudgetSettings::new(1e6));
-    let mut s = settings(Technique::AdaptiveError, 64);
+    let mut s = settings(Emission::AdaptiveError, 64);
     s.adaptive.error_tolerance = 3.0;
     simulate(&mut c, &mut s, 20, |_, s| grid_cost(s, 1e-9, 0.0));
     assert_eq!((s.photons.count, s.adaptive.error_tolerance), (4096, 0.0));
@@ -245,7 +244,7 @@ fn respects_limits_and_reports_quality() {
 /// on every 23rd frame.
 #[test]
 fn single_frame_spikes_do_not_move_the_controller() {
-    for (t, target, overhead) in [(Technique::AdaptiveLevel, 20.0, 0.0), (Technique::Basic, 12.0, 3.0)] {
+    for (t, target, overhead) in [(Emission::AdaptiveLevel, 20.0, 0.0), (Emission::Basic, 12.0, 3.0)] {
         let run = |spikes: bool| {
             let b = BudgetSettings { window: 3, ..BudgetSettings::new(target) };
             let mut c = BudgetController::new(b);

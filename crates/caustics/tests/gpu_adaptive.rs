@@ -5,7 +5,7 @@
 
 mod common;
 use caustics::Scene;
-use caustics::render::{GpuRender, Inspect, RenderSettings, Technique, render, render_inspect};
+use caustics::render::{Emission, GpuRender, Inspect, RenderSettings, render, render_inspect};
 use common::gpu;
 
 /// The built-in glass ball, with a small camera (the tests are about the caustic map).
@@ -16,13 +16,13 @@ fn scene() -> Scene {
     s
 }
 
-fn settings(t: Technique, n: u32) -> RenderSettings {
+fn settings(t: Emission, n: u32) -> RenderSettings {
     RenderSettings {
         // triangles, the default, draw different quads per technique: tested below).
         // exact tracer's internal branch is another traversal, gpu_exact.rs).
         photons: caustics::settings::PhotonSettings {
             count: n,
-            technique: t,
+            emission: t,
             caustic_map_size: 256, // Fixed splats for every technique, so that their maps compare bit for bit (caustic
             splat: caustics::splat::SplatMode::Fixed, // The transmitted branch only (the reflected branch at glass is tested separately; the
             reflection: false,
@@ -74,7 +74,7 @@ fn level_counts_match_a_cpu_model_of_the_traversal() {
     let s = scene();
     // N = 512 > G would be 512 too; use N = 1024 with the caster buffer at 1024 and N = 256.
     for n in [256, 1024] {
-        let set = settings(Technique::AdaptiveLevel, n);
+        let set = settings(Emission::AdaptiveLevel, n);
         let out = render_inspect(&ctx, &s, &set, Inspect { coverage: true, ..Default::default() }).unwrap();
         let t = &out.technique;
         let g = n.min(2048);
@@ -102,8 +102,8 @@ fn level_counts_match_a_cpu_model_of_the_traversal() {
 fn maximal_traversal_and_hierarchical_equal_the_dense_grid() {
     let Some(ctx) = gpu() else { return };
     let s = scene();
-    let basic = render(&ctx, &s, &settings(Technique::Basic, 256)).unwrap();
-    for t in [Technique::AdaptiveLevel, Technique::Hierarchical] {
+    let basic = render(&ctx, &s, &settings(Emission::Basic, 256)).unwrap();
+    for t in [Emission::AdaptiveLevel, Emission::Hierarchical] {
         let out = render(&ctx, &s, &settings(t, 256)).unwrap();
         assert!(out.caustic_flux_bits == basic.caustic_flux_bits, "{t}: caustic map differs from basic");
         assert_eq!(out.flux, basic.flux, "{t}: flux bookkeeping differs from basic");
@@ -123,9 +123,9 @@ fn the_reflected_branch_at_glass_matches_the_dense_grid() {
         photons: caustics::settings::PhotonSettings { reflection: true, ..settings(t, 128).photons },
         ..settings(t, 128)
     };
-    let basic = render(&ctx, &s, &with(Technique::Basic)).unwrap();
-    let transmitted = render(&ctx, &s, &settings(Technique::Basic, 128)).unwrap();
-    for t in [Technique::AdaptiveLevel, Technique::Hierarchical] {
+    let basic = render(&ctx, &s, &with(Emission::Basic)).unwrap();
+    let transmitted = render(&ctx, &s, &settings(Emission::Basic, 128)).unwrap();
+    for t in [Emission::AdaptiveLevel, Emission::Hierarchical] {
         let out = render(&ctx, &s, &with(t)).unwrap();
         assert!(out.caustic_flux_bits == basic.caustic_flux_bits, "{t}: caustic map differs from basic");
         assert_eq!(out.flux, basic.flux, "{t}: flux bookkeeping differs from basic");
@@ -139,15 +139,15 @@ fn the_reflected_branch_at_glass_matches_the_dense_grid() {
 fn both_metrics_conserve_flux() {
     let Some(ctx) = gpu() else { return };
     let s = scene();
-    let level = render(&ctx, &s, &settings(Technique::AdaptiveLevel, 512)).unwrap();
+    let level = render(&ctx, &s, &settings(Emission::AdaptiveLevel, 512)).unwrap();
     // Check convergence from the 128^2 level on with a 2-texel tolerance, so that clusters merge.
     let set = RenderSettings {
         adaptive: caustics::settings::AdaptiveSettings {
             check_grid: 128,
             error_tolerance: 2.0,
-            ..settings(Technique::AdaptiveError, 512).adaptive
+            ..settings(Emission::AdaptiveError, 512).adaptive
         },
-        ..settings(Technique::AdaptiveError, 512)
+        ..settings(Emission::AdaptiveError, 512)
     };
     let err = render(&ctx, &s, &set).unwrap();
     let (e0, l0) = total_flux(&level);
@@ -177,13 +177,13 @@ fn skipping_hopeless_checks_traces_less_and_keeps_the_map() {
     let base = RenderSettings {
         photons: caustics::settings::PhotonSettings {
             caustic_map_size: 1024,
-            ..settings(Technique::AdaptiveError, 1024).photons
+            ..settings(Emission::AdaptiveError, 1024).photons
         },
         adaptive: caustics::settings::AdaptiveSettings {
             check_grid: 128,
-            ..settings(Technique::AdaptiveError, 1024).adaptive
+            ..settings(Emission::AdaptiveError, 1024).adaptive
         },
-        ..settings(Technique::AdaptiveError, 1024)
+        ..settings(Emission::AdaptiveError, 1024)
     };
     let paper = render(
         &ctx,
@@ -218,9 +218,9 @@ fn skipping_hopeless_checks_traces_less_and_keeps_the_map() {
 fn batching_gives_the_same_map() {
     let Some(ctx) = gpu() else { return };
     let s = scene();
-    for t in [Technique::AdaptiveLevel, Technique::AdaptiveError, Technique::Hierarchical] {
+    for t in [Emission::AdaptiveLevel, Emission::AdaptiveError, Emission::Hierarchical] {
         let mut set = settings(t, 512);
-        if t == Technique::AdaptiveError {
+        if t == Emission::AdaptiveError {
             set.adaptive.check_grid = 128;
             set.adaptive.error_tolerance = 1.0;
         }
@@ -251,7 +251,7 @@ fn batching_gives_the_same_map() {
 fn a_budget_too_small_for_one_batch_is_an_input_error() {
     let Some(ctx) = gpu() else { return };
     let s = scene();
-    for t in [Technique::AdaptiveLevel, Technique::AdaptiveError] {
+    for t in [Emission::AdaptiveLevel, Emission::AdaptiveError] {
         let set = RenderSettings {
             photons: caustics::settings::PhotonSettings { memory: 4 << 10, ..settings(t, 16384).photons },
             ..settings(t, 16384)
@@ -264,22 +264,22 @@ fn a_budget_too_small_for_one_batch_is_an_input_error() {
     // Grids beyond what a technique supports, and grids that are not powers of two.
     for set in [
         RenderSettings {
-            photons: caustics::settings::PhotonSettings { count: 16384, ..settings(Technique::Basic, 16384).photons },
-            ..settings(Technique::Basic, 16384)
+            photons: caustics::settings::PhotonSettings { count: 16384, ..settings(Emission::Basic, 16384).photons },
+            ..settings(Emission::Basic, 16384)
         },
         RenderSettings {
             photons: caustics::settings::PhotonSettings {
                 count: 1000,
-                ..settings(Technique::AdaptiveLevel, 1000).photons
+                ..settings(Emission::AdaptiveLevel, 1000).photons
             },
-            ..settings(Technique::AdaptiveLevel, 1000)
+            ..settings(Emission::AdaptiveLevel, 1000)
         },
         RenderSettings {
             photons: caustics::settings::PhotonSettings {
                 count: 131072,
-                ..settings(Technique::AdaptiveError, 131072).photons
+                ..settings(Emission::AdaptiveError, 131072).photons
             },
-            ..settings(Technique::AdaptiveError, 131072)
+            ..settings(Emission::AdaptiveError, 131072)
         },
     ] {
         assert!(render(&ctx, &s, &set).unwrap_err().is_input());
@@ -292,7 +292,7 @@ fn camera_motion_leaves_the_caustic_map_unchanged() {
     let a = scene();
     let mut b = scene();
     b.camera.position = glam::Vec3::new(2.5, 1.5, -2.0);
-    for t in [Technique::AdaptiveLevel, Technique::AdaptiveError] {
+    for t in [Emission::AdaptiveLevel, Emission::AdaptiveError] {
         let set = RenderSettings {
             adaptive: caustics::settings::AdaptiveSettings {
                 check_grid: 128,
@@ -332,7 +332,7 @@ fn sphere() -> Scene {
 /// flux at and beyond the caustic map's edge (0.0009 of 8.25 W at 256² photons), where a quad
 /// and a Gaussian are clipped differently (measured: ratio 1.00018). The exact tracer under the
 /// adaptive techniques is covered by the other tests of this file and by gpu_exact.rs.
-fn with_splat(t: Technique, n: u32, splat: caustics::splat::SplatMode) -> RenderSettings {
+fn with_splat(t: Emission, n: u32, splat: caustics::splat::SplatMode) -> RenderSettings {
     RenderSettings {
         photons: caustics::settings::PhotonSettings {
             splat,
@@ -358,9 +358,9 @@ fn adaptive_caustic_triangles_conserve_flux_and_beat_fixed_splats() {
     let Some(ctx) = gpu() else { return };
     let s = sphere();
     let n = 256;
-    let fixed = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Fixed)).unwrap();
-    let tri = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Triangles)).unwrap();
-    let dense = render(&ctx, &s, &with_splat(Technique::Basic, n, Triangles)).unwrap();
+    let fixed = render(&ctx, &s, &with_splat(Emission::AdaptiveLevel, n, Fixed)).unwrap();
+    let tri = render(&ctx, &s, &with_splat(Emission::AdaptiveLevel, n, Triangles)).unwrap();
+    let dense = render(&ctx, &s, &with_splat(Emission::Basic, n, Triangles)).unwrap();
     let ratio = map_flux(&tri) / map_flux(&fixed);
     let t = &tri.technique;
     eprintln!(
@@ -391,14 +391,14 @@ fn adaptive_caustic_triangles_conserve_flux_and_beat_fixed_splats() {
     assert!(err_tri.rel_rmse < 0.5 * err_fixed.rel_rmse, "{err_tri} vs {err_fixed}");
     // Deterministic, and batching (a quarter of the default budget's photons per batch, the
     // corners counted in the budget) changes nothing.
-    let again = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Triangles)).unwrap();
+    let again = render(&ctx, &s, &with_splat(Emission::AdaptiveLevel, n, Triangles)).unwrap();
     assert!(again.caustic_flux_bits == tri.caustic_flux_bits, "not bit-identical run to run");
     let small = RenderSettings {
         photons: caustics::settings::PhotonSettings {
             memory: 64 << 10,
-            ..with_splat(Technique::AdaptiveLevel, n, Triangles).photons
+            ..with_splat(Emission::AdaptiveLevel, n, Triangles).photons
         },
-        ..with_splat(Technique::AdaptiveLevel, n, Triangles)
+        ..with_splat(Emission::AdaptiveLevel, n, Triangles)
     };
     let many = render(&ctx, &s, &small).unwrap();
     eprintln!(
@@ -416,9 +416,9 @@ fn adaptive_caustic_triangles_conserve_flux_and_beat_fixed_splats() {
         let set = RenderSettings {
             photons: caustics::settings::PhotonSettings {
                 memory,
-                ..with_splat(Technique::Hierarchical, n, Triangles).photons
+                ..with_splat(Emission::Hierarchical, n, Triangles).photons
             },
-            ..with_splat(Technique::Hierarchical, n, Triangles)
+            ..with_splat(Emission::Hierarchical, n, Triangles)
         };
         let h = render(&ctx, &s, &set).unwrap();
         let hfix = render(
@@ -466,7 +466,7 @@ fn thin_light_from_cell_quads_stays_smooth() {
         },
         ..with_splat(t, 512, Triangles)
     };
-    let dense = render(&ctx, &s, &set(Technique::Basic)).unwrap();
+    let dense = render(&ctx, &s, &set(Emission::Basic)).unwrap();
     let b = &dense.caustic_maps[0][0];
     let (w, h) = (b.width as i64, b.height as i64);
     let box5 = |img: &caustics::image_io::Image| -> Vec<f64> {
@@ -489,7 +489,7 @@ fn thin_light_from_cell_quads_stays_smooth() {
     let thin: Vec<usize> = (0..fb.len()).filter(|&i| fb[i] > 0.0 && fb[i] < 0.01 * peak).collect();
     assert!(thin.len() > 10_000, "the reflected light must cover the floor");
     let mean = thin.iter().map(|&i| fb[i]).sum::<f64>() / thin.len() as f64;
-    for t in [Technique::AdaptiveLevel, Technique::Hierarchical] {
+    for t in [Emission::AdaptiveLevel, Emission::Hierarchical] {
         let fa = box5(&render(&ctx, &s, &set(t)).unwrap().caustic_maps[0][0]);
         let rmse = (thin.iter().map(|&i| (fa[i] - fb[i]).powi(2)).sum::<f64>() / thin.len() as f64).sqrt() / mean;
         eprintln!(
@@ -514,12 +514,12 @@ fn maximal_error_caustic_triangles_conserve_flux() {
         adaptive: caustics::settings::AdaptiveSettings {
             check_grid: 128,
             quad_linearity: linearity,
-            ..with_splat(Technique::AdaptiveError, n, splat).adaptive
+            ..with_splat(Emission::AdaptiveError, n, splat).adaptive
         },
-        ..with_splat(Technique::AdaptiveError, n, splat)
+        ..with_splat(Emission::AdaptiveError, n, splat)
     };
     let fixed = render(&ctx, &s, &set(Fixed, 0.0)).unwrap();
-    let level = render(&ctx, &s, &with_splat(Technique::AdaptiveLevel, n, Triangles)).unwrap();
+    let level = render(&ctx, &s, &with_splat(Emission::AdaptiveLevel, n, Triangles)).unwrap();
     let tri = render(&ctx, &s, &set(Triangles, 0.0)).unwrap();
     // Measured (lavapipe, 512² photons, check from 128²): linearity 0.05 texels: 7154 photons
     // splatted, relative RMSE vs maximal traversal 0.009; 0.1: 5450, 0.015; 0.25: 3764, 0.054;
@@ -555,9 +555,9 @@ fn maximal_error_caustic_triangles_conserve_flux() {
     let bad = RenderSettings {
         adaptive: caustics::settings::AdaptiveSettings {
             quad_linearity: 0.5,
-            ..with_splat(Technique::AdaptiveLevel, n, Triangles).adaptive
+            ..with_splat(Emission::AdaptiveLevel, n, Triangles).adaptive
         },
-        ..with_splat(Technique::AdaptiveLevel, n, Triangles)
+        ..with_splat(Emission::AdaptiveLevel, n, Triangles)
     };
     assert!(render(&ctx, &s, &bad).unwrap_err().is_input());
 }
@@ -572,9 +572,9 @@ fn cell_quads_conserve_flux_with_a_point_light() {
     let set = |splat| RenderSettings {
         photons: caustics::settings::PhotonSettings {
             caustic_map_size: 128,
-            ..with_splat(Technique::AdaptiveLevel, 128, splat).photons
+            ..with_splat(Emission::AdaptiveLevel, 128, splat).photons
         },
-        ..with_splat(Technique::AdaptiveLevel, 128, splat)
+        ..with_splat(Emission::AdaptiveLevel, 128, splat)
     };
     let fixed = render(&ctx, &s, &set(Fixed)).unwrap();
     let tri = render(&ctx, &s, &set(Triangles)).unwrap();
@@ -599,13 +599,13 @@ fn cell_quads_on_a_mesh_are_deterministic_and_conserve_flux_at_a_large_map() {
         photons: caustics::settings::PhotonSettings {
             caustic_map_size: 1024,
             splat,
-            ..settings(Technique::AdaptiveLevel, 128).photons
+            ..settings(Emission::AdaptiveLevel, 128).photons
         },
         shading: caustics::settings::ShadingSettings {
             shadow_map_size: 256,
-            ..settings(Technique::AdaptiveLevel, 128).shading
+            ..settings(Emission::AdaptiveLevel, 128).shading
         },
-        ..settings(Technique::AdaptiveLevel, 128)
+        ..settings(Emission::AdaptiveLevel, 128)
     };
     let quads = set(caustics::splat::SplatMode::Triangles);
     let a = render(&ctx, &s, &quads).unwrap();

@@ -1,7 +1,7 @@
 //! Volume caustics by adaptive beam tracing (`caustics::beams`): the beams' area function, the
 //! single-scattering gather against closed forms and an independent CPU integration, splitting
 //! and tiling, the ball lens's focus, flux conservation, and the GPU against the CPU reference.
-//! Surface caustics from beams (`SurfaceCaustics::Beams`): the beams' flux onto a floor, the
+//! Surface caustics from beams (`LocalSource::Beams`): the beams' flux onto a floor, the
 //! photon caustic map on the same frame, no double counting, shadowed receivers, determinism.
 
 mod common;
@@ -982,7 +982,7 @@ fn larger_chunks_change_only_the_order_of_the_sums() {
     let run = |sc: &Scene, scale: u32| {
         let volume = caustics::render::BeamVolume::Gather;
         let b = BeamSettings { levels: 2, chunk_scale: scale, volume, ..Default::default() };
-        let s = RenderSettings { beams: b, ..surface_settings(caustics::settings::SurfaceCaustics::Beams) };
+        let s = RenderSettings { beams: b, ..surface_settings(caustics::settings::LocalSource::Beams) };
         let g = render(&ctx, sc, &s).unwrap();
         assert!(g.beams[0].0.beams > 1000, "{} beams: too few to fill several chunks", g.beams[0].0.beams);
         // Chunk passes recorded (each is timed where the adapter has timestamp queries).
@@ -1082,7 +1082,7 @@ fn hulls_draw_what_the_gather_adds() {
     // The surface caustic from beams (beam_surface against beam_surface_raster), on a floor
     // under a tilted spot, with a table the beams stop at, and in the fog.
     let surf =
-        |b: BeamSettings| RenderSettings { beams: b, ..surface_settings(caustics::settings::SurfaceCaustics::Beams) };
+        |b: BeamSettings| RenderSettings { beams: b, ..surface_settings(caustics::settings::LocalSource::Beams) };
     let mut fog = side.clone();
     fog.camera.position = Vec3::new(0.0, 2.5, 2.2);
     fog.camera.look_at = Vec3::new(0.0, 0.0, 0.0);
@@ -1775,7 +1775,10 @@ fn the_energy_cutoff_drops_only_diverging_tails_below_it() {
     assert!(stats.hull_fragments < full.beams[0].0.hull_fragments);
     // Surface caustics from beams: a beam landing on an object keeps its end.
     let s = |c: f32| RenderSettings {
-        surface_caustics: caustics::settings::SurfaceCaustics::Beams,
+        sources: caustics::settings::SourceSettings {
+            local: caustics::settings::LocalSource::Beams,
+            ..Default::default()
+        },
         ..render_settings(BeamSettings { cutoff: c, ..BeamSettings::default() })
     };
     let (sf, sc_cut) = (render(&ctx, &sc, &s(0.0)).unwrap(), render(&ctx, &sc, &s(cutoff)).unwrap());
@@ -1811,14 +1814,14 @@ fn ball_at_45(w: u32, h: u32, table: bool) -> Scene {
     ))
 }
 
-fn surface_settings(sc: caustics::settings::SurfaceCaustics) -> RenderSettings {
+fn surface_settings(sc: caustics::settings::LocalSource) -> RenderSettings {
     RenderSettings {
         photons: caustics::settings::PhotonSettings {
             count: 256,
             caustic_map_size: 256,
             ..render_settings(BeamSettings::default()).photons
         },
-        surface_caustics: sc,
+        sources: caustics::settings::SourceSettings { local: sc, ..Default::default() },
         ..render_settings(BeamSettings::default())
     }
 }
@@ -1851,10 +1854,10 @@ fn floor_footprint(sc: &Scene, x: u32, y: u32) -> f64 {
 
 #[test]
 fn surface_caustic_from_beams_carries_the_beams_flux_onto_the_floor() {
-    use caustics::settings::SurfaceCaustics;
+    use caustics::settings::LocalSource;
     let Some(ctx) = gpu() else { return };
     let sc = ball_at_45(48, 48, false);
-    let out = render(&ctx, &sc, &surface_settings(SurfaceCaustics::Beams)).unwrap();
+    let out = render(&ctx, &sc, &surface_settings(LocalSource::Beams)).unwrap();
     let (stats, list) = &out.beams[0];
     println!("{stats:?}");
     assert!(stats.beams > 100 && stats.overflow == 0);
@@ -1913,11 +1916,11 @@ fn surface_caustic_from_beams_carries_the_beams_flux_onto_the_floor() {
 
 #[test]
 fn surface_caustic_from_beams_matches_the_photon_map_and_replaces_it() {
-    use caustics::settings::SurfaceCaustics;
+    use caustics::settings::LocalSource;
     let Some(ctx) = gpu() else { return };
     let sc = ball_at_45(48, 48, false);
-    let photons = render(&ctx, &sc, &surface_settings(SurfaceCaustics::Photons)).unwrap();
-    let from_beams = render(&ctx, &sc, &surface_settings(SurfaceCaustics::Beams)).unwrap();
+    let photons = render(&ctx, &sc, &surface_settings(LocalSource::Photons)).unwrap();
+    let from_beams = render(&ctx, &sc, &surface_settings(LocalSource::Beams)).unwrap();
     // No double counting: with beams the light's photon stage traces nothing (its map is not
     // added), and the direct light is the same bits.
     println!("photons traced: {} (photons), {} (beams)", photons.photons_traced, from_beams.photons_traced);
@@ -1965,13 +1968,13 @@ fn surface_caustic_from_beams_matches_the_photon_map_and_replaces_it() {
 
 #[test]
 fn surface_caustic_from_beams_stops_at_the_receiver_the_beams_land_on() {
-    use caustics::settings::SurfaceCaustics;
+    use caustics::settings::LocalSource;
     let Some(ctx) = gpu() else { return };
     // A small table under the caustic: the beams that land on it light it, not the floor
     // under it (the floor there is in the table's shadow), and the same holds for photons.
     let sc = ball_at_45(48, 48, true);
-    let out = render(&ctx, &sc, &surface_settings(SurfaceCaustics::Beams)).unwrap();
-    let photons = render(&ctx, &sc, &surface_settings(SurfaceCaustics::Photons)).unwrap();
+    let out = render(&ctx, &sc, &surface_settings(LocalSource::Beams)).unwrap();
+    let photons = render(&ctx, &sc, &surface_settings(LocalSource::Photons)).unwrap();
     let on_table = out.beams[0].1.iter().filter(|b| b.land == 2).count();
     println!("beams landing on the table: {on_table}");
     assert!(on_table > 10);
@@ -1979,7 +1982,7 @@ fn surface_caustic_from_beams_stops_at_the_receiver_the_beams_land_on() {
     // from the ball's focus near (0.64, 0.86, 0) through the table's edges, the shadow spans
     // x 1.58 to 2.34 on the floor; sample x 1.95 to 2.2, |z| < 0.12, which the caustic lights
     // without the table.
-    let bare = render(&ctx, &ball_at_45(48, 48, false), &surface_settings(SurfaceCaustics::Beams)).unwrap();
+    let bare = render(&ctx, &ball_at_45(48, 48, false), &surface_settings(LocalSource::Beams)).unwrap();
     let cam = &sc.camera;
     let (mut shadowed, mut lit_table) = (Vec::new(), 0.0f32);
     for y in 0..cam.height {
@@ -2010,11 +2013,14 @@ fn surface_caustic_from_beams_stops_at_the_receiver_the_beams_land_on() {
 #[test]
 fn surface_caustic_from_beams_is_deterministic_and_creates_nothing_after_the_first_frame() {
     use caustics::renderer::Renderer;
-    use caustics::settings::SurfaceCaustics;
+    use caustics::settings::LocalSource;
     let Some(ctx) = gpu() else { return };
     // In fog: the surface caustic and the volume caustic from the same beams.
     let sc = ball_in_fog(14.0, 16, 12);
-    let s = RenderSettings { surface_caustics: SurfaceCaustics::Beams, ..render_settings(BeamSettings::default()) };
+    let s = RenderSettings {
+        sources: caustics::settings::SourceSettings { local: LocalSource::Beams, ..Default::default() },
+        ..render_settings(BeamSettings::default())
+    };
     let a = render(&ctx, &sc, &s).unwrap();
     let b = render(&ctx, &sc, &s).unwrap();
     assert!(a.caustic.pixels.iter().any(|p| p[0] > 0.0));
@@ -2029,9 +2035,15 @@ fn surface_caustic_from_beams_is_deterministic_and_creates_nothing_after_the_fir
         }
     }
     let with_floor = render(&ctx, &white, &s).unwrap();
-    let without =
-        render(&ctx, &white, &RenderSettings { beams: BeamSettings { enabled: false, ..s.beams }, ..s.clone() })
-            .unwrap();
+    let without = render(
+        &ctx,
+        &white,
+        &RenderSettings {
+            sources: caustics::settings::SourceSettings { volume: caustics::settings::VolumeSource::None, ..s.sources },
+            ..s.clone()
+        },
+    )
+    .unwrap();
     let (sw, so) = (sum(&with_floor.caustic), sum(&without.caustic));
     println!("caustic image sum: surface + volume {sw:.4}, surface only (--no-beams) {so:.4}");
     assert!(so > 0.0 && sw > so);
@@ -2162,7 +2174,7 @@ fn beam_budgets() {
 /// (issue 14's energy bound for the volume caustic).
 #[test]
 fn surface_caustic_energy_against_the_cpu_reference() {
-    use caustics::settings::SurfaceCaustics;
+    use caustics::settings::LocalSource;
     let Some(ctx) = gpu() else { return };
     let sc = ball_at_45(48, 48, false);
     let rs = caustics_reference::reference::ReferenceSettings {
@@ -2177,15 +2189,15 @@ fn surface_caustic_energy_against_the_cpu_reference() {
     let reference = total(&cpu.caustic);
     assert!(reference > 0.0);
     let ratio = |s: RenderSettings| total(&render(&ctx, &sc, &s).unwrap().caustic) / reference;
-    let spill = ratio(surface_settings(SurfaceCaustics::Photons));
+    let spill = ratio(surface_settings(LocalSource::Photons));
     let no_spill = ratio(RenderSettings {
         shading: caustics::settings::ShadingSettings {
             spill_faces: caustics::render::SpillFaces::Off,
-            ..surface_settings(SurfaceCaustics::Photons).shading
+            ..surface_settings(LocalSource::Photons).shading
         },
-        ..surface_settings(SurfaceCaustics::Photons)
+        ..surface_settings(LocalSource::Photons)
     });
-    let beams = ratio(surface_settings(SurfaceCaustics::Beams));
+    let beams = ratio(surface_settings(LocalSource::Beams));
     println!(
         "caustic energy / CPU reference: photons {spill:.4}, without the spill face {no_spill:.4}, beams {beams:.4}"
     );

@@ -13,7 +13,7 @@
 mod common;
 use caustics::Scene;
 use caustics::caustic_spheres::{CausticSpheres, SphereSettings};
-use caustics::render::{RenderSettings, SurfaceCaustics, Technique};
+use caustics::render::{Emission, RenderSettings, Technique};
 use caustics::renderer::Renderer;
 use caustics::scene::Light;
 use caustics_reference::reference::Progress;
@@ -23,14 +23,14 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
-/// The variants each scene is rendered under: (name, technique, surface caustics).
-const VARIANTS: &[(&str, Technique, SurfaceCaustics)] = &[
-    ("basic", Technique::Basic, SurfaceCaustics::Photons),
-    ("hierarchical", Technique::Hierarchical, SurfaceCaustics::Photons),
-    ("adaptive-level", Technique::AdaptiveLevel, SurfaceCaustics::Photons),
-    ("adaptive-error", Technique::AdaptiveError, SurfaceCaustics::Photons),
-    ("surface-beams", Technique::Basic, SurfaceCaustics::Beams),
-    ("caustic-spheres", Technique::CausticSpheres, SurfaceCaustics::Photons),
+/// The variants each scene is rendered under: (name, the `--technique` shorthand that sets it).
+const VARIANTS: &[(&str, Technique)] = &[
+    ("basic", Technique::Photons(Emission::Basic)),
+    ("hierarchical", Technique::Photons(Emission::Hierarchical)),
+    ("adaptive-level", Technique::Photons(Emission::AdaptiveLevel)),
+    ("adaptive-error", Technique::Photons(Emission::AdaptiveError)),
+    ("surface-beams", Technique::Beams),
+    ("caustic-spheres", Technique::CausticSpheres),
 ];
 
 fn fnv1a(h: &mut u64, bytes: &[u8]) {
@@ -58,24 +58,14 @@ fn has_directional_light(s: &Scene) -> bool {
 }
 
 /// The hash of one render, or `invalid` where the settings refuse the scene.
-fn render_hash(
-    ctx: &caustics::gpu::GpuContext,
-    scene: &Scene,
-    technique: Technique,
-    surface: SurfaceCaustics,
-) -> String {
-    let settings = RenderSettings {
-        photons: caustics::settings::PhotonSettings {
-            count: 64,
-            caustic_map_size: 64,
-            technique,
-            ..Default::default()
-        },
+fn render_hash(ctx: &caustics::gpu::GpuContext, scene: &Scene, technique: Technique) -> String {
+    let mut settings = RenderSettings {
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 64, ..Default::default() },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 128, ..Default::default() },
         medium: caustics::settings::MediumSettings { steps: 16, light_steps: 4, ..Default::default() },
-        surface_caustics: surface,
         ..Default::default()
     };
+    technique.apply(&mut settings);
     let mut r = match Renderer::with_context(ctx.clone(), scene.clone(), settings) {
         Ok(r) => r,
         Err(_) => return "invalid".into(),
@@ -136,7 +126,7 @@ fn check(name: &str) {
     scene.camera.width = 32;
     let directional = has_directional_light(&scene);
     let mut got = BTreeMap::new();
-    for (variant, technique, surface) in VARIANTS {
+    for (variant, technique) in VARIANTS {
         if *technique == Technique::CausticSpheres && !directional {
             continue;
         }
@@ -146,7 +136,7 @@ fn check(name: &str) {
             continue;
         }
         let t0 = std::time::Instant::now();
-        got.insert(format!("{name}/{variant}"), render_hash(&ctx, &scene, *technique, *surface));
+        got.insert(format!("{name}/{variant}"), render_hash(&ctx, &scene, *technique));
         eprintln!("{name}/{variant}: {:.1} s", t0.elapsed().as_secs_f64());
     }
     let (adapter, driver) = adapter_of(&ctx);

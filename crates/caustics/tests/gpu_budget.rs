@@ -8,7 +8,7 @@
 mod common;
 
 use caustics::budget::{BudgetController, BudgetSettings};
-use caustics::render::{RenderSettings, Technique};
+use caustics::render::{Emission, RenderSettings};
 use caustics::renderer::{FrameRequest, Renderer};
 
 /// Host milliseconds of one frame: `encode` to the GPU's completion. The spot light first
@@ -51,7 +51,7 @@ fn budget_settles_on_a_real_scene() {
     (scene.camera.width, scene.camera.height) = (160, 120);
     let settings = RenderSettings {
         photons: caustics::settings::PhotonSettings {
-            technique: Technique::AdaptiveLevel,
+            emission: Emission::AdaptiveLevel,
             count: 128,
             caustic_map_size: 128,
             ..Default::default()

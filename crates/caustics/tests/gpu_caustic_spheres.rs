@@ -6,7 +6,7 @@ mod common;
 use caustics::Scene;
 use caustics::caustic_spheres::{Blend, CausticSpheres, DirectionLayout, SphereSettings};
 use caustics::image_io::Image;
-use caustics::render::{RenderSettings, Technique};
+use caustics::render::RenderSettings;
 use caustics::renderer::Renderer;
 use caustics::scene::Light;
 use caustics_reference::reference::Progress;
@@ -76,10 +76,9 @@ fn render_samples(
     samples: u32,
 ) -> caustics::render::GpuRender {
     let s = RenderSettings {
-        photons: caustics::settings::PhotonSettings {
-            count: 64,
-            caustic_map_size: 128,
-            technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 128, ..Default::default() },
+        sources: caustics::settings::SourceSettings {
+            distant: caustics::settings::DistantSource::Spheres,
             ..Default::default()
         },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
@@ -200,10 +199,9 @@ fn steady_frames_create_nothing() {
     let Some(ctx) = gpu() else { return };
     let l = Vec3::new(0.2, -1.0, 0.1).normalize();
     let s = RenderSettings {
-        photons: caustics::settings::PhotonSettings {
-            count: 64,
-            caustic_map_size: 128,
-            technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 128, ..Default::default() },
+        sources: caustics::settings::SourceSettings {
+            distant: caustics::settings::DistantSource::Spheres,
             ..Default::default()
         },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
@@ -277,10 +275,9 @@ fn half_float_table_matches_f32() {
     let Some(ctx) = gpu() else { return };
     let sc = scene(&[(Vec3::new(0.3, -1.0, 0.2).normalize(), [2.0, 1.0, 0.5])]);
     let s = RenderSettings {
-        photons: caustics::settings::PhotonSettings {
-            count: 64,
-            caustic_map_size: 128,
-            technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 128, ..Default::default() },
+        sources: caustics::settings::SourceSettings {
+            distant: caustics::settings::DistantSource::Spheres,
             ..Default::default()
         },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
@@ -330,7 +327,7 @@ fn technique_adds_spheres_to_basic_caustic_maps_of_spot_lights() {
     // The spot light's photons are the basic technique's, the directional light's none.
     assert_eq!(out.photons_traced, basic.photons_traced);
     assert!(basic.photons_traced > 0);
-    assert_eq!(out.technique.technique, Technique::CausticSpheres);
+    assert_eq!(out.technique.technique, caustics::settings::Emission::Basic);
     let mut sum = basic.caustic.clone();
     for (p, g) in sum.pixels.iter_mut().zip(&gather.pixels) {
         for c in 0..3 {
@@ -350,9 +347,9 @@ fn technique_adds_spheres_to_basic_caustic_maps_of_spot_lights() {
 fn technique_without_tables_is_refused() {
     let Some(ctx) = gpu() else { return };
     let s = RenderSettings {
-        photons: caustics::settings::PhotonSettings {
-            count: 64,
-            technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings { count: 64, ..Default::default() },
+        sources: caustics::settings::SourceSettings {
+            distant: caustics::settings::DistantSource::Spheres,
             ..Default::default()
         },
         ..Default::default()
@@ -375,10 +372,9 @@ fn occlusion_stack_overflows_are_reported() {
     let tess = caustics::scene::Tessellation { sphere_segments: 64, cylinder_segments: 64 };
     sc.objects[k].shape = caustics::scene::Shape::Mesh(Arc::new(sc.objects[k].shape.tessellate(&tess)));
     let s = RenderSettings {
-        photons: caustics::settings::PhotonSettings {
-            count: 64,
-            caustic_map_size: 128,
-            technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 128, ..Default::default() },
+        sources: caustics::settings::SourceSettings {
+            distant: caustics::settings::DistantSource::Spheres,
             ..Default::default()
         },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
@@ -410,10 +406,9 @@ fn compiled_variant_matches_the_direct_one() {
     ];
     let sc = scene(&lights);
     let s = RenderSettings {
-        photons: caustics::settings::PhotonSettings {
-            count: 64,
-            caustic_map_size: 128,
-            technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 128, ..Default::default() },
+        sources: caustics::settings::SourceSettings {
+            distant: caustics::settings::DistantSource::Spheres,
             ..Default::default()
         },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
@@ -527,10 +522,9 @@ fn region_visibility_scales_each_regions_caustic_through_spheres() {
     let bright = [(above.0, above.1, Vec3::splat(2500.0)), (open.0, open.1, Vec3::new(1000.0, 3000.0, 2000.0))];
     let (env, lights) = env_scene(&bright, plate);
     let s = RenderSettings {
-        photons: caustics::settings::PhotonSettings {
-            count: 64,
-            caustic_map_size: 128,
-            technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 128, ..Default::default() },
+        sources: caustics::settings::SourceSettings {
+            distant: caustics::settings::DistantSource::Spheres,
             ..Default::default()
         },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },

@@ -8,7 +8,7 @@
 mod common;
 
 use caustics::raycast::{CastOptions, Ray, cast_rays};
-use caustics::render::{RenderSettings, Technique, Tracer};
+use caustics::render::{Emission, RenderSettings, Tracer};
 use caustics::scene::{Scene, Shape, Tessellation, TriMesh};
 use common::gpu;
 use glam::{Affine3A, Vec3};
@@ -189,7 +189,7 @@ fn settings(tracer: Tracer) -> RenderSettings {
             count: 256,
             caustic_map_size: 128,
             tracer,
-            technique: Technique::Basic,
+            emission: Emission::Basic,
             ..Default::default()
         },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
@@ -440,9 +440,9 @@ fn stacked_balls_camera_caustic_matches_the_restricted_cpu_reference() {
 fn adaptive_maximal_level_equals_the_dense_grid_with_the_exact_tracer() {
     let Some(ctx) = gpu() else { return };
     let sc = small(base_scene());
-    let set = |t: Technique| RenderSettings {
+    let set = |t: Emission| RenderSettings {
         photons: caustics::settings::PhotonSettings {
-            technique: t,
+            emission: t,
             splat: caustics::splat::SplatMode::Fixed,
             ..settings(Tracer::Exact).photons
         },
@@ -450,12 +450,12 @@ fn adaptive_maximal_level_equals_the_dense_grid_with_the_exact_tracer() {
         ..settings(Tracer::Exact)
     };
     // The deterministic passes: the bookkeeping closes exactly.
-    let det = |t: Technique| RenderSettings {
+    let det = |t: Emission| RenderSettings {
         photons: caustics::settings::PhotonSettings { residual: false, ..set(t).photons },
         ..set(t)
     };
-    let basic = caustics::render::render(&ctx, &sc, &det(Technique::Basic)).unwrap();
-    let adaptive = caustics::render::render(&ctx, &sc, &det(Technique::AdaptiveLevel)).unwrap();
+    let basic = caustics::render::render(&ctx, &sc, &det(Emission::Basic)).unwrap();
+    let adaptive = caustics::render::render(&ctx, &sc, &det(Emission::AdaptiveLevel)).unwrap();
     assert!(adaptive.caustic_flux_bits == basic.caustic_flux_bits, "adaptive: caustic map differs from basic");
     assert_eq!(adaptive.flux, basic.flux, "adaptive: flux bookkeeping differs from basic");
     // The bookkeeping closes: what reached the casters landed, was lost, or is in a branch not
@@ -468,8 +468,8 @@ fn adaptive_maximal_level_equals_the_dense_grid_with_the_exact_tracer() {
     // With the residual pass (random choices, the same per photon in every technique): the
     // same photons again, and the bookkeeping closes in expectation (the residual pass stands
     // for the untraced branches).
-    let basic = caustics::render::render(&ctx, &sc, &set(Technique::Basic)).unwrap();
-    let adaptive = caustics::render::render(&ctx, &sc, &set(Technique::AdaptiveLevel)).unwrap();
+    let basic = caustics::render::render(&ctx, &sc, &set(Emission::Basic)).unwrap();
+    let adaptive = caustics::render::render(&ctx, &sc, &set(Emission::AdaptiveLevel)).unwrap();
     assert!(adaptive.caustic_flux_bits == basic.caustic_flux_bits, "residual: adaptive differs from basic");
     let g = &basic.flux[0];
     let sum = g.landed + g.lost_no_exit + g.lost_tir + g.lost_no_receiver + g.lost_outside;

@@ -13,7 +13,7 @@ mod common;
 mod temp_scene;
 use caustics::Scene;
 use caustics::render::{Inspect, RenderSettings, SplatMode, render_inspect};
-use caustics::techniques::Technique;
+use caustics::settings::Emission;
 use common::gpu;
 use glam::Vec3;
 use std::fmt::Write;
@@ -139,7 +139,7 @@ fn measure(ctx: &caustics::gpu::GpuContext, scene: &Scene, mode: SplatMode, with
             count: n,
             caustic_map_size: M,
             splat: mode,
-            technique: Technique::Basic, // One branch (the transmitted one): one photon per cell.
+            emission: Emission::Basic, // One branch (the transmitted one): one photon per cell.
             reflection: false,
             internal_reflection: false,
             residual: false,

@@ -16,7 +16,7 @@ mod common;
 mod temp_scene;
 use caustics::Scene;
 use caustics::image_io::Image;
-use caustics::render::{RenderSettings, Technique, render};
+use caustics::render::{Emission, RenderSettings, render};
 use caustics_reference::ImageIo as _;
 use common::gpu;
 
@@ -164,10 +164,10 @@ fn photons_refract_through_a_mesh_hidden_behind_a_glass_sphere() {
 fn every_technique_traces_through_the_second_layer() {
     let Some(ctx) = gpu() else { return };
     let scene = scene();
-    let settings = |t: Technique| RenderSettings {
+    let settings = |t: Emission| RenderSettings {
         photons: caustics::settings::PhotonSettings {
             count: 256,
-            technique: t,
+            emission: t,
             caustic_map_size: 128,
             splat: caustics::splat::SplatMode::Fixed,
             tracer: caustics::render::Tracer::ImageSpace,
@@ -177,8 +177,8 @@ fn every_technique_traces_through_the_second_layer() {
         shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
         ..Default::default()
     };
-    let basic = render(&ctx, &scene, &settings(Technique::Basic)).unwrap();
-    let adaptive = render(&ctx, &scene, &settings(Technique::AdaptiveLevel)).unwrap();
+    let basic = render(&ctx, &scene, &settings(Emission::Basic)).unwrap();
+    let adaptive = render(&ctx, &scene, &settings(Emission::AdaptiveLevel)).unwrap();
     assert!(adaptive.caustic_flux_bits == basic.caustic_flux_bits, "adaptive: caustic map differs from basic");
     assert_eq!(adaptive.flux, basic.flux, "adaptive: flux bookkeeping differs from basic");
     // Photons find their way out of the hidden mesh (through the second layer's back buffer).

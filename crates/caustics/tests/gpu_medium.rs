@@ -635,7 +635,10 @@ fn the_floor_caustics_glow_in_the_fog_matches_the_reference() {
     // the two draw differently: their glows are compared, not their images.)
     let beams = |grid| RenderSettings {
         medium: caustics::settings::MediumSettings { bounce_grid: grid, ..settings().medium },
-        surface_caustics: caustics::settings::SurfaceCaustics::Beams,
+        sources: caustics::settings::SourceSettings {
+            local: caustics::settings::LocalSource::Beams,
+            ..Default::default()
+        },
         ..settings()
     };
     let glow = (rows(&render(&ctx, &sc, &beams(16)).unwrap().caustic)

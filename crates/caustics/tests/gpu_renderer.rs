@@ -259,7 +259,7 @@ fn adaptive_light_motion_creates_nothing() {
     let Some(ctx) = gpu() else { return };
     let s = RenderSettings {
         photons: caustics::settings::PhotonSettings {
-            technique: caustics::render::Technique::AdaptiveLevel,
+            emission: caustics::render::Emission::AdaptiveLevel,
             count: 512,
             ..settings().photons
         },

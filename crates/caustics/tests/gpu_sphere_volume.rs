@@ -8,7 +8,7 @@
 mod common;
 use caustics::Scene;
 use caustics::caustic_spheres::{Blend, CausticSpheres, SphereSettings};
-use caustics::render::{RenderSettings, Technique};
+use caustics::render::RenderSettings;
 use caustics::renderer::Renderer;
 use caustics::scene::Light;
 use caustics_reference::metrics::{energy, hdr_flip};
@@ -53,10 +53,9 @@ fn table() -> Arc<CausticSpheres> {
 
 fn render_gpu(ctx: &caustics::gpu::GpuContext, sc: &Scene, steps: u32) -> caustics::render::GpuRender {
     let s = RenderSettings {
-        photons: caustics::settings::PhotonSettings {
-            count: 64,
-            caustic_map_size: 64,
-            technique: Technique::CausticSpheres,
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 64, ..Default::default() },
+        sources: caustics::settings::SourceSettings {
+            distant: caustics::settings::DistantSource::Spheres,
             ..Default::default()
         },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },

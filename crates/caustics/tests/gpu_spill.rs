@@ -163,7 +163,10 @@ fn auto_rule() {
     // Lights whose surface caustic comes from beams: never.
     let beams = RenderSettings {
         shading: caustics::settings::ShadingSettings { spill_faces: SpillFaces::On, ..s.shading },
-        surface_caustics: caustics::render::SurfaceCaustics::Beams,
+        sources: caustics::settings::SourceSettings {
+            local: caustics::render::LocalSource::Beams,
+            ..Default::default()
+        },
         ..s.clone()
     };
     assert!(!beams.uses_spill_face(&bob, &bob.lights[0]));

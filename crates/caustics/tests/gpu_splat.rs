@@ -5,7 +5,7 @@
 mod common;
 use caustics::Scene;
 use caustics::render::{GpuRender, RenderSettings, SplatMode, render};
-use caustics::techniques::Technique;
+use caustics::settings::Emission;
 use common::gpu;
 use std::path::Path;
 
@@ -45,13 +45,13 @@ fn every_mode_conserves_the_caustic_flux() {
     let fixed = render(&ctx, &s, &settings(256, 256, SplatMode::Fixed)).unwrap();
     let reference = map_flux(&fixed);
     assert!(reference > 0.0);
-    for t in [Technique::Basic, Technique::Hierarchical, Technique::AdaptiveLevel] {
+    for t in [Emission::Basic, Emission::Hierarchical, Emission::AdaptiveLevel] {
         for mode in SplatMode::ALL {
             let out = render(
                 &ctx,
                 &s,
                 &RenderSettings {
-                    photons: caustics::settings::PhotonSettings { technique: t, ..settings(256, 256, mode).photons },
+                    photons: caustics::settings::PhotonSettings { emission: t, ..settings(256, 256, mode).photons },
                     ..settings(256, 256, mode)
                 },
             )
@@ -82,7 +82,7 @@ fn caustic_triangles_on_a_glass_slab_are_uniform() {
             &ctx,
             &s,
             &RenderSettings {
-                photons: caustics::settings::PhotonSettings { technique, ..settings(n, 256, mode).photons },
+                photons: caustics::settings::PhotonSettings { emission: technique, ..settings(n, 256, mode).photons },
                 ..settings(n, 256, mode)
             },
         )
@@ -107,10 +107,10 @@ fn caustic_triangles_on_a_glass_slab_are_uniform() {
         let var = inner.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / inner.len() as f64;
         (var.sqrt() / mean, inner.len())
     };
-    let (tri, texels) = cv(SplatMode::Triangles, Technique::Basic, 200);
-    let (fixed, _) = cv(SplatMode::Fixed, Technique::Basic, 200);
+    let (tri, texels) = cv(SplatMode::Triangles, Emission::Basic, 200);
+    let (fixed, _) = cv(SplatMode::Fixed, Emission::Basic, 200);
     // The adaptive hierarchy's cell quads (a power-of-two grid).
-    let (quads, quad_texels) = cv(SplatMode::Triangles, Technique::AdaptiveLevel, 256);
+    let (quads, quad_texels) = cv(SplatMode::Triangles, Emission::AdaptiveLevel, 256);
     eprintln!(
         "glass slab: coefficient of variation over {texels} texels: triangles {tri:.2e}, fixed splats {fixed:.2e}; \
          adaptive-level cell quads {quads:.2e} over {quad_texels} texels"

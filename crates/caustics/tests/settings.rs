@@ -1,6 +1,8 @@
 //! The settings in sections: JSON names, defaults, keys set by path, errors by field path.
 
-use caustics::render::{BeamVolume, RenderSettings, SpillFaces, SplatMode, SurfaceCaustics, Technique, Tracer};
+use caustics::render::{
+    BeamVolume, DistantSource, Emission, LocalSource, RenderSettings, SpillFaces, SplatMode, Tracer, VolumeSource,
+};
 use serde_json::json;
 
 /// Every choice reads and writes as JSON by its command-line name.
@@ -15,11 +17,13 @@ fn choices_read_and_write_by_their_names() {
             assert_eq!(&serde_json::from_value::<T>(json!(name(v))).unwrap(), v);
         }
     }
-    check(&Technique::ALL, |t| t.name());
+    check(&Emission::ALL, |t| t.name());
     check(&Tracer::ALL, |t| t.name());
     check(&SplatMode::ALL, |t| t.name());
     check(&SpillFaces::ALL, |t| t.name());
-    check(&SurfaceCaustics::ALL, |t| t.name());
+    check(&LocalSource::ALL, |t| t.name());
+    check(&DistantSource::ALL, |t| t.name());
+    check(&VolumeSource::ALL, |t| t.name());
     check(&BeamVolume::ALL, |t| t.name());
 }
 
@@ -35,7 +39,7 @@ fn json_round_trips_and_keys_left_out_keep_their_defaults() {
         RenderSettings::from_json("<test>", r#"{ "photons": { "count": 256 }, "medium": { "steps": 8 } }"#).unwrap();
     assert_eq!(s.photons.count, 256);
     assert_eq!(s.medium.steps, 8);
-    assert_eq!(s.photons.technique, d.photons.technique);
+    assert_eq!(s.photons.emission, d.photons.emission);
     assert_eq!(s.beams, d.beams);
     let e = RenderSettings::from_json("s.json", r#"{ "beams": { "grid": 4, "gird": 2 } }"#).unwrap_err();
     let msg = e.to_string();
@@ -48,11 +52,11 @@ fn json_round_trips_and_keys_left_out_keep_their_defaults() {
 fn set_by_path_names_the_known_keys() {
     let mut s = RenderSettings::default();
     s.set("beams.grid", json!(8)).unwrap();
-    s.set("photons.technique", json!("adaptive-error")).unwrap();
-    s.set("surface_caustics", json!("beams")).unwrap();
+    s.set("photons.emission", json!("adaptive-error")).unwrap();
+    s.set("sources.local", json!("beams")).unwrap();
     s.set("shading.tessellation.sphere_segments", json!(64)).unwrap();
-    assert_eq!((s.beams.grid, s.photons.technique), (8, Technique::AdaptiveError));
-    assert_eq!(s.surface_caustics, SurfaceCaustics::Beams);
+    assert_eq!((s.beams.grid, s.photons.emission), (8, Emission::AdaptiveError));
+    assert_eq!(s.sources.local, LocalSource::Beams);
     assert_eq!(s.shading.tessellation.sphere_segments, 64);
     let e = s.set("beams.gird", json!(8)).unwrap_err().to_string();
     assert!(e.contains("beams.gird") && e.contains("known keys") && e.contains("grid") && e.contains("levels"), "{e}");

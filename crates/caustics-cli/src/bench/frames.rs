@@ -5,7 +5,7 @@
 use super::{BenchArgs, settings, setup};
 use anyhow::{Context, Result};
 use caustics::Scene;
-use caustics::techniques::Technique;
+use caustics::settings::Technique;
 use serde_json::{Value, json};
 use std::fmt::Write as _;
 

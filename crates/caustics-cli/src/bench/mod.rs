@@ -13,7 +13,7 @@ mod table;
 use anyhow::{Context, Result, bail};
 use caustics::Scene;
 use caustics::render::{GpuRender, RenderSettings};
-use caustics::techniques::Technique;
+use caustics::settings::Technique;
 use clap::Args;
 use frames::frame_loop;
 use std::path::PathBuf;
@@ -111,9 +111,6 @@ pub fn run(mut a: BenchArgs) -> Result<()> {
         return Ok(());
     }
     (a.base, a.spheres) = (resolved.render, resolved.spheres);
-    if a.technique != "none" && techniques(&a.technique)?.1 {
-        a.base.surface_caustics = caustics::render::SurfaceCaustics::Beams;
-    }
     let a = &a;
     if a.frames > 0 {
         return crate::bench::frame_loop(a);
@@ -144,8 +141,8 @@ pub fn run(mut a: BenchArgs) -> Result<()> {
                 shading: caustics::settings::ShadingSettings { shadow_map_size: 1024, ..settings(a, t, n).shading },
                 ..settings(a, t, n)
             };
-            if n > t.max_photons() {
-                skipped.push((t, n, format!("{t} supports grids up to {}", t.max_photons())));
+            if n > t.emission().max_photons() {
+                skipped.push((t, n, format!("{t} supports grids up to {}", t.emission().max_photons())));
                 continue;
             }
             let mut best: Option<Run> = None;
@@ -273,31 +270,22 @@ fn cpu_bench(a: &BenchArgs) -> Result<()> {
 fn settings(a: &BenchArgs, t: Technique, n: u32) -> RenderSettings {
     let mut s = a.base.clone();
     s.photons.count = n;
-    s.photons.technique = t;
+    t.apply(&mut s);
     s
 }
 
-/// The techniques of `--technique` (a comma list of the names `render --technique` takes), and
-/// whether `beams` was among them (basic, with the surface caustics from the beams).
-fn techniques(list: &str) -> Result<(Vec<Technique>, bool)> {
-    let choices: Vec<crate::settings_args::TechniqueChoice> = list
-        .split(',')
-        .map(|t| {
-            crate::settings_args::TechniqueChoice::parse(t)
-                .with_context(|| format!("--technique: unknown technique \"{t}\""))
-        })
-        .collect::<Result<_>>()?;
-    let beams = choices.iter().any(|c| c.beams);
-    if beams && choices.iter().any(|c| !c.beams && c.technique == Technique::Basic) {
-        bail!("--technique: beams is basic with the surface caustics from beams; give basic or beams, not both");
-    }
-    Ok((choices.iter().map(|c| c.technique).collect(), beams))
+/// The techniques of `--technique`: a comma list of the names `render --technique` takes, each
+/// applied over the base settings.
+fn techniques(list: &str) -> Result<Vec<Technique>> {
+    list.split(',')
+        .map(|t| Technique::parse(t).with_context(|| format!("--technique: unknown technique \"{t}\"")))
+        .collect()
 }
 
 /// What both benchmarks parse first: the techniques, photon grids and scene (image
 /// size applied), and the output folder made.
 fn setup(a: &BenchArgs) -> Result<(Vec<Technique>, Vec<u32>, Scene)> {
-    let (techniques, _) = techniques(&a.technique)?;
+    let techniques = techniques(&a.technique)?;
     let grids = parse_grids(&a.photons)?;
     let mut scene = match &a.scene {
         Some(p) => Scene::load(p)?,

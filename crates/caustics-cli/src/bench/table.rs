@@ -4,7 +4,7 @@
 use super::{BenchArgs, Run, is_photon_pass};
 use caustics::image_io::Image;
 use caustics::render::GpuRender;
-use caustics::techniques::Technique;
+use caustics::settings::Technique;
 use serde_json::{Value, json};
 use std::fmt::Write as _;
 
@@ -67,7 +67,7 @@ pub(super) fn markdown(
         let _ = write!(head, " {t} |");
         rule.push_str(" ---: |");
     }
-    for t in techniques.iter().filter(|t| !matches!(t, Technique::Basic)) {
+    for t in techniques.iter().filter(|t| !matches!(t, Technique::Photons(caustics::settings::Emission::Basic))) {
         let _ = write!(head, " {t} / relevant |");
         rule.push_str(" ---: |");
     }
@@ -82,7 +82,7 @@ pub(super) fn markdown(
                 find(runs, t, n).map_or("N/A".into(), |r| r.out.technique.photons_splatted.to_string())
             );
         }
-        for &t in techniques.iter().filter(|t| !matches!(t, Technique::Basic)) {
+        for &t in techniques.iter().filter(|t| !matches!(t, Technique::Photons(caustics::settings::Emission::Basic))) {
             let v = find(runs, t, n).and_then(|r| {
                 let rel = r.out.technique.relevant;
                 (rel > 0).then(|| format!("{:.3}", r.out.technique.photons_splatted as f64 / rel as f64))
@@ -107,17 +107,19 @@ pub(super) fn markdown(
         for &t in techniques {
             let Some(r) = find(runs, t, n) else { continue };
             let ts = &r.out.technique;
-            let basic = find(runs, Technique::Basic, n);
+            let basic = find(runs, Technique::Photons(caustics::settings::Emission::Basic), n);
             let speed = basic.map_or("-".into(), |b| format!("{:.2}", b.photon_ms / r.photon_ms.max(1e-9)));
             let frame_speed =
                 basic.map_or("-".into(), |b| format!("{:.2}", b.frame_wall_ms / r.frame_wall_ms.max(1e-9)));
-            let dense =
-                basic.or_else(|| find(runs, Technique::AdaptiveLevel, n).filter(|_| t != Technique::AdaptiveLevel));
+            let dense = basic.or_else(|| {
+                find(runs, Technique::Photons(caustics::settings::Emission::AdaptiveLevel), n)
+                    .filter(|_| t != Technique::Photons(caustics::settings::Emission::AdaptiveLevel))
+            });
             let flip = match dense {
                 Some(d) if !std::ptr::eq(d, r) => map_flip(&r.out, &d.out).map_or("-".into(), |f| format!("{f:.4}")),
                 _ => "-".into(),
             };
-            let eval = if ts.relevant > 0 && t != Technique::Basic {
+            let eval = if ts.relevant > 0 && t != Technique::Photons(caustics::settings::Emission::Basic) {
                 format!("{:.3}", ts.evaluated as f64 / ts.relevant as f64)
             } else {
                 "-".into()
@@ -165,7 +167,7 @@ pub(super) fn markdown(
     let _ = writeln!(s, "\n## Photons per level (adaptive)\n");
     let _ = writeln!(s, "| photon grid | technique | level grid | cells kept | photons traced | photons emitted |");
     let _ = writeln!(s, "| ---: | --- | ---: | ---: | ---: | ---: |");
-    for r in runs.iter().filter(|r| r.technique.is_adaptive()) {
+    for r in runs.iter().filter(|r| r.technique.emission().is_adaptive()) {
         for l in &r.out.technique.levels {
             let _ = writeln!(
                 s,
@@ -194,7 +196,7 @@ pub(super) fn to_json(
         .iter()
         .map(|r| {
             let ts = &r.out.technique;
-            let basic = find(runs, Technique::Basic, r.n).filter(|b| !std::ptr::eq(*b, r));
+            let basic = find(runs, Technique::Photons(caustics::settings::Emission::Basic), r.n).filter(|b| !std::ptr::eq(*b, r));
             json!({
                 "technique": r.technique.name(),
                 "photon_grid": r.n,

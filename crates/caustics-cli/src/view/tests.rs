@@ -13,7 +13,7 @@ use super::ui::{self, UiState};
 use caustics::Scene;
 use caustics::image_io::{Image, srgb_encode};
 use caustics::render::RenderSettings;
-use caustics::techniques::Technique;
+use caustics::settings::Emission;
 use caustics_reference::ImageIo;
 use std::path::PathBuf;
 use std::sync::OnceLock;
@@ -102,12 +102,12 @@ fn scripted_session_matches_golden() {
     frame(&mut s);
 
     // Switch technique.
-    s.act(Action::SetTechnique(Technique::AdaptiveLevel)).expect("technique");
-    assert_eq!(s.settings().photons.technique, Technique::AdaptiveLevel);
+    s.act(Action::SetTechnique(Emission::AdaptiveLevel)).expect("technique");
+    assert_eq!(s.settings().photons.emission, Emission::AdaptiveLevel);
     frame(&mut s);
     s.wait_stats();
     let stats = s.stats.clone().expect("frame statistics");
-    assert_eq!(stats.technique.technique, Technique::AdaptiveLevel);
+    assert_eq!(stats.technique.technique, Emission::AdaptiveLevel);
     assert!(stats.technique.photons_traced > 0);
     assert_eq!(stats.flux.len(), 1);
 
@@ -184,7 +184,7 @@ fn invalid_settings_show_the_error_and_keep_the_state() {
     // IOR of something that is not glass.
     assert!(s.act(Action::SetIor { material: usize::MAX, ior: 1.5 }).is_err());
     // A good change clears the error.
-    s.act(Action::SetTechnique(Technique::Hierarchical)).expect("hierarchical");
+    s.act(Action::SetTechnique(Emission::Hierarchical)).expect("hierarchical");
     assert!(s.error.is_none());
 }
 
@@ -248,7 +248,7 @@ fn reference_runs_in_the_background_and_is_cancelled_by_a_view_change() {
     let flip = s.reference().and_then(|r| r.flip).expect("HDR-FLIP");
     assert!(flip > 0.0 && flip < 0.5, "HDR-FLIP {flip}");
     // A settings change keeps the reference (same view); a light change drops it.
-    s.act(Action::SetTechnique(Technique::Hierarchical)).expect("technique");
+    s.act(Action::SetTechnique(Emission::Hierarchical)).expect("technique");
     assert!(s.reference().is_some());
     let mut l = s.scene().lights[0].clone();
     if let caustics::scene::Light::Spot { position, .. } = &mut l {
@@ -515,7 +515,9 @@ fn caustic_spheres_switch_loads_tables_and_follows_the_environment() {
         sphere_compiled: false,
     };
     s.act(Action::Resize { width: 48, height: 36 }).unwrap();
-    s.act(Action::SetTechnique(Technique::CausticSpheres)).unwrap();
+    let mut spheres_on = s.settings().clone();
+    spheres_on.sources.distant = caustics::settings::DistantSource::Spheres;
+    s.act(Action::SetSettings(Box::new(spheres_on))).unwrap();
     frame(&mut s);
     assert!(s.renderer().caustic_sphere_bytes() > 0, "tables set before the frame");
     let before = s.renderer().read_caustic_image().unwrap();
@@ -613,7 +615,7 @@ fn medium_density_and_beam_settings_change_live() {
     frame(&mut s);
     // Beams off: the caustic light in the fog goes.
     let mut off = s.settings().clone();
-    off.beams.enabled = false;
+    off.sources.volume = caustics::settings::VolumeSource::None;
     s.act(Action::SetSettings(Box::new(off))).unwrap();
     frame(&mut s);
     let without = caustic_sum(&s);

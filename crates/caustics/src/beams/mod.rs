@@ -33,11 +33,13 @@ use crate::passes::{DrawCtx, EyeFrame, LightFrame, density_view, layer_view};
 use crate::scene::Light;
 use crate::settings::{BeamVolume, RenderSettings};
 
+mod feature;
 mod gather;
 mod hulls;
 mod params;
 mod refine;
 
+pub(crate) use feature::Beams;
 pub use gather::gather;
 use gather::{record_gather_chunks, record_surface};
 use hulls::{hull_buffer, record_volume_hulls};

@@ -29,7 +29,10 @@
 //! that rows are dense where the caustic forms, downstream of the object along ω.
 
 pub mod cache;
+mod feature;
 pub mod gpu;
+
+pub(crate) use feature::{SphereVisibility, SpheresFeature};
 
 use glam::{Quat, Vec3};
 use std::f32::consts::PI;

@@ -4,6 +4,8 @@
 use super::eye::shadow_sampler;
 use super::raster::has_specular_meshes;
 use super::{DrawCtx, EyeFrame, LightFrame, array_view, layer_view};
+use crate::error::Result;
+use crate::frame::{Feature, Frame};
 use crate::geometry::density_view;
 use crate::gpu::PassTimer;
 use crate::gpu::pass::Pass;
@@ -258,4 +260,29 @@ pub(crate) fn record_display(
         [w.div_ceil(8), h.div_ceil(8), 1],
     );
     display
+}
+
+/// `composite` and the medium's single scattering: the frame's images ([`Frame::images`]),
+/// first along the camera rays.
+#[derive(Default)]
+pub(crate) struct Composite;
+
+impl Feature for Composite {
+    fn record_along_rays(&mut self, f: &mut Frame) -> Result<()> {
+        let lights = crate::frame::light_refs(&f.lights);
+        f.images = Some(record_composite(&f.dc, crate::frame::eye(&f.eye), &lights, f.s, f.enc, f.timer));
+        Ok(())
+    }
+}
+
+/// `display`: the image tone-mapped ([`Frame::display`]), last.
+#[derive(Default)]
+pub(crate) struct Display;
+
+impl Feature for Display {
+    fn record_along_rays(&mut self, f: &mut Frame) -> Result<()> {
+        let images = f.images.as_ref().expect("the composite runs before the display");
+        f.display = Some(record_display(&f.dc, &images.full, f.enc, f.timer));
+        Ok(())
+    }
 }

@@ -3,6 +3,8 @@
 
 use super::raster::{Raster, Subset, has_specular_meshes};
 use super::{DrawCtx, EyeFrame, GBuffer, LightFrame, array_view, layer_view};
+use crate::error::Result;
+use crate::frame::{Feature, Frame};
 use crate::geometry::density_view;
 use crate::gpu::pass::Pass;
 use crate::gpu::types::*;
@@ -134,4 +136,33 @@ pub(crate) fn record_shade(
         .bind("caustic_mask", &lf.caustic_mask)
         .bind("shadow_tiles", &lf.shadow_tiles)
         .dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
+}
+
+/// The camera's geometry buffers and accumulators (`record_eye`), first in the frame.
+#[derive(Default)]
+pub(crate) struct Camera;
+
+impl Feature for Camera {
+    fn record(&mut self, f: &mut Frame) -> Result<()> {
+        f.dc.ctx.begin_scope("eye", f.enc);
+        f.eye = Some(record_eye(&f.dc, f.raster, f.enc, f.timer));
+        f.dc.ctx.end_scope();
+        Ok(())
+    }
+}
+
+/// The camera's diffuse surfaces lit by every light (`record_shade`, one scope per light).
+#[derive(Default)]
+pub(crate) struct Shading;
+
+impl Feature for Shading {
+    fn record(&mut self, f: &mut Frame) -> Result<()> {
+        let eye = crate::frame::eye(&f.eye);
+        for (li, lf) in f.lights.iter().enumerate() {
+            f.dc.ctx.begin_scope(&format!("shade{li}"), f.enc);
+            record_shade(&f.dc, eye, lf, f.s, &f.env.shade_taps[li], f.enc, f.timer);
+            f.dc.ctx.end_scope();
+        }
+        Ok(())
+    }
 }

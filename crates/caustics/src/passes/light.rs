@@ -11,8 +11,8 @@ use crate::gpu::{GpuContext, PassTimer};
 use crate::lightspace::{CasterBox, LightView, caster_box};
 use crate::output::FluxStats;
 use crate::scene::{Light, Scene};
+use crate::settings::Emission;
 use crate::settings::RenderSettings;
-use crate::settings::Technique;
 use glam::Vec3;
 
 #[expect(clippy::too_many_arguments, reason = "every field of the light's uniform")]
@@ -131,7 +131,7 @@ pub(crate) fn light_record(
 ) -> (LightView, LightGpu, f64) {
     let view = s.light_view(scene, light);
     let scale = (1u64 << 52) as f64 / flux_bound(&view, light);
-    let lens = s.photons.splat.lens_flag(s.photons.technique);
+    let lens = s.photons.splat.lens_flag(s.photons.emission);
     // A directional light's view covers the whole scene: the basic technique's dense grid is
     // spread over the casters only. The hierarchical technique keeps the whole face (its tiles
     // follow a coverage mip of the full grid, and its statistics and batch plan count whole-face
@@ -139,7 +139,7 @@ pub(crate) fn light_record(
     // Spot and point lights keep the whole face (their views already frame the light's cone or
     // cube).
     let crop = match light {
-        Light::Directional { .. } if s.photons.technique.emission() == Technique::Basic => {
+        Light::Directional { .. } if s.photons.emission == Emission::Basic => {
             photon_crop(scene, &view.faces[0], fc.n, fc.g)
         }
         _ => FULL_FACE,
@@ -268,7 +268,7 @@ pub(crate) fn record_light(
         internal_branch: fc.internal_branch,
         residual_branch: fc.residual_branch,
         // Caustic spheres' directional lights, and spot and point lights whose surface caustic
-        // comes from their beams (`SurfaceCaustics::Beams`): their maps stay zero, so the
+        // comes from their beams (`LocalSource::Beams`): their maps stay zero, so the
         // shading adds no photon caustic for them.
         skip_photons: (fc.caustic_spheres && matches!(scene.lights[li], Light::Directional { .. }))
             || s.surface_caustics_from_beams(&scene.lights[li]),

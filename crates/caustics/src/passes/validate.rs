@@ -5,7 +5,7 @@ use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::lightspace::LightView;
 use crate::scene::Scene;
-use crate::settings::{RenderSettings, Technique};
+use crate::settings::{Emission, RenderSettings};
 
 impl RenderSettings {
     /// The largest caustic map (power of two, at most `preferred`) whose accumulation buffer
@@ -96,15 +96,15 @@ impl RenderSettings {
                 ),
             );
         }
-        if self.photons.technique.emission() == Technique::Basic && self.photons.memory > max_bind {
+        if self.photons.emission == Emission::Basic && self.photons.memory > max_bind {
             return cl("photons.memory", format!("must be between 2 KiB and {} MiB", max_bind >> 20));
         }
-        match self.photons.technique {
-            Technique::Basic | Technique::CausticSpheres => {}
-            Technique::Hierarchical => {
+        match self.photons.emission {
+            Emission::Basic => {}
+            Emission::Hierarchical => {
                 crate::techniques::hierarchical::HierarchicalPlan::new(self, max_bind)?;
             }
-            Technique::AdaptiveLevel | Technique::AdaptiveError => {
+            Emission::AdaptiveLevel | Emission::AdaptiveError => {
                 crate::techniques::adaptive::AdaptivePlan::new(self, max_bind)?;
             }
         }

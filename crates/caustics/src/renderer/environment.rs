@@ -2,7 +2,8 @@
 //! the light list a frame draws, the environment's rotation, and the caustic spheres' visibility
 //! of its regions.
 
-use super::{Renderer, SphereVisibility};
+use super::Renderer;
+use crate::caustic_spheres::SphereVisibility;
 use crate::error::{Error, Result};
 use crate::scene::Light;
 use crate::scene::environment_lights::{self, EnvironmentLight};
@@ -92,7 +93,7 @@ impl Renderer {
     /// Kept until an object moves, the environment turns or its segmentation changes; recomputing
     /// it casts rays on the GPU and waits for them (a read-back, outside the steady state).
     pub(super) fn sphere_visibility(&mut self) -> Result<Option<Arc<SphereVisibility>>> {
-        let (Some(sp), Some(env)) = (&self.spheres, &self.scene.environment) else {
+        let (Some(sp), Some(env)) = (&self.features.spheres.spheres, &self.scene.environment) else {
             return Ok(None);
         };
         let objects: Vec<usize> = sp.objects.iter().map(|o| o.0).collect();
@@ -106,7 +107,7 @@ impl Renderer {
             key.extend(t.to_cols_array().iter().map(|v| v.to_bits()));
         }
         key.extend(objects.iter().map(|&o| o as u32));
-        if let Some((k, v)) = &self.sphere_vis
+        if let Some((k, v)) = &self.features.spheres.visibility
             && *k == key
         {
             return Ok(Some(v.clone()));
@@ -141,7 +142,7 @@ impl Renderer {
             map.insert(o, v);
         }
         let v = Arc::new(map);
-        self.sphere_vis = Some((key, v.clone()));
+        self.features.spheres.visibility = Some((key, v.clone()));
         Ok(Some(v))
     }
 

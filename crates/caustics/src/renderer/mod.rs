@@ -41,11 +41,11 @@
 //! blocking read-backs and one-shot render in `readback`.
 
 use crate::error::{Error, Result};
+use crate::frame::Change;
 use crate::gpu::GpuContext;
 pub use crate::gpu::ResourceCounts;
-use crate::gpu::types::LightGpu;
 use crate::output::FluxStats;
-use crate::passes::{Geometry, LightFrame};
+use crate::passes::Geometry;
 use crate::scene::environment_lights::{self, EnvironmentLight};
 use crate::scene::{Camera, Light, Material, Scene};
 use crate::settings::RenderSettings;
@@ -113,18 +113,10 @@ pub struct FrameStats {
     pub sphere_stack_overflows: u64,
 }
 
-/// A light's kept products and what they were made from.
-struct LightState {
-    record: LightGpu,
-    frame: LightFrame,
-}
-
 /// What an environment segmentation was made for: D and the split rule.
 type SegmentKey = (u32, environment_lights::SplitRule);
 /// The segmentation and the sub-directions per region (`RenderSettings::env_taps`).
 type TapsKey = (SegmentKey, u32);
-/// Per caustic-sphere object, the visibility of each drawn environment light.
-type SphereVisibility = std::collections::HashMap<usize, Vec<f32>>;
 
 /// The persistent GPU renderer (module documentation).
 pub struct Renderer {
@@ -134,21 +126,12 @@ pub struct Renderer {
     scene: Scene,
     transforms: Vec<Affine3A>,
     settings: RenderSettings,
-    inspect: crate::settings::Inspect,
-    temporal: Option<TemporalFilter>,
     geometry: Option<(crate::scene::Tessellation, Geometry)>,
     objects_dirty: bool,
-    lights: Vec<Option<LightState>>,
-    light_dirty: Vec<bool>,
+    /// The frame's features and their persistent state ([`crate::frame`]).
+    features: crate::frame::Features,
     frame: u64,
     outputs: Option<(wgpu::Buffer, wgpu::Buffer, wgpu::Texture)>,
-    /// The last frame's beam buffers per light with beams (`crate::beams`).
-    beam_frames: Vec<crate::beams::BeamFrame>,
-    /// The lights' virtual point lights of `crate::medium_bounce`, kept while no light is redone.
-    bounce: Option<crate::medium_bounce::BounceFrame>,
-    /// Count the beam hulls' fragments in the frame being encoded (`render_once`, which reads
-    /// the beam statistics; `BEAM_FLAG_FRAGMENTS`).
-    count_fragments: bool,
     ring: Vec<StatsSlot>,
     latest: Option<FrameStats>,
     last_error: Option<String>,
@@ -156,12 +139,6 @@ pub struct Renderer {
     env_segments: Option<(SegmentKey, Arc<Vec<EnvironmentLight>>)>,
     /// Each region's sub-directions (`crate::env_taps`) and the (segmentation, K) they are for.
     env_taps: Option<(TapsKey, Arc<Vec<crate::env_taps::RegionTaps>>)>,
-    /// Caustic spheres of the caustic objects (`set_caustic_spheres`), used when
-    /// the technique is `Technique::CausticSpheres`.
-    spheres: Option<crate::caustic_spheres::gpu::GpuSpheres>,
-    sphere_blend: crate::caustic_spheres::Blend,
-    /// The environment regions' visibility per sphere object, and what it was computed for.
-    sphere_vis: Option<(Vec<u32>, Arc<SphereVisibility>)>,
 }
 
 impl Renderer {
@@ -178,32 +155,22 @@ impl Renderer {
         ctx.check_device()?;
         settings.validate(&ctx, &scene)?;
         let n = scene.objects.len();
-        let lights = scene.lights.len();
         Ok(Renderer {
             ctx,
             base: scene.clone(),
             scene,
             transforms: vec![Affine3A::IDENTITY; n],
             settings,
-            inspect: Default::default(),
-            temporal: None,
             geometry: None,
             objects_dirty: true,
-            lights: (0..lights).map(|_| None).collect(),
-            light_dirty: vec![true; lights],
+            features: crate::frame::Features::default(),
             frame: 0,
             outputs: None,
-            beam_frames: Vec::new(),
-            bounce: None,
-            count_fragments: false,
             ring: Vec::new(),
             latest: None,
             last_error: None,
             env_segments: None,
             env_taps: None,
-            spheres: None,
-            sphere_blend: crate::caustic_spheres::Blend::Triangle,
-            sphere_vis: None,
         }
         .with_env_segments())
     }
@@ -241,7 +208,7 @@ impl Renderer {
 
     /// The precomputed caustic spheres of caustic objects (object index, table in the object's
     /// scene-file pose), uploaded now (as half floats with `half`: half the memory); with
-    /// `Technique::CausticSpheres` they give the caustics of every directional light
+    /// `sources.distant = spheres` they give the caustics of every directional light
     /// (`sphere_gather`), blended as `blend` says.
     pub fn set_caustic_spheres(
         &mut self,
@@ -252,8 +219,8 @@ impl Renderer {
         if let Some((oi, _)) = objects.iter().find(|(oi, _)| *oi >= self.base.objects.len()) {
             return Err(Error::input("<renderer>", format!("objects[{oi}]"), "no such object"));
         }
-        self.spheres = Some(crate::caustic_spheres::gpu::GpuSpheres::new(&self.ctx, objects, half)?);
-        self.sphere_blend = blend;
+        self.features.spheres.spheres = Some(crate::caustic_spheres::gpu::GpuSpheres::new(&self.ctx, objects, half)?);
+        self.features.spheres.blend = blend;
         Ok(())
     }
 
@@ -262,7 +229,7 @@ impl Renderer {
     /// `sphere_gather`) or the direct one (a lookup per light and blended direction; the
     /// default). No effect before `set_caustic_spheres`.
     pub fn set_caustic_spheres_compiled(&mut self, compiled: bool) {
-        if let Some(sp) = self.spheres.as_mut() {
+        if let Some(sp) = self.features.spheres.spheres.as_mut() {
             sp.compiled = compiled;
         }
     }
@@ -274,7 +241,7 @@ impl Renderer {
         if !(1..=16).contains(&samples) {
             return Err(Error::input("<renderer>", "sphere_samples", format!("must be 1 to 16 (got {samples})")));
         }
-        if let Some(sp) = self.spheres.as_mut() {
+        if let Some(sp) = self.features.spheres.spheres.as_mut() {
             sp.pixel_samples = samples;
         }
         Ok(())
@@ -291,7 +258,7 @@ impl Renderer {
                 format!("must be 1 to {} (got {limit})", crate::accel::BVH_STACK),
             ));
         }
-        if let Some(sp) = self.spheres.as_mut() {
+        if let Some(sp) = self.features.spheres.spheres.as_mut() {
             sp.stack_limit = limit;
         }
         Ok(())
@@ -299,7 +266,7 @@ impl Renderer {
 
     /// Bytes of the caustic sphere tables on the GPU (0 without).
     pub fn caustic_sphere_bytes(&self) -> u64 {
-        self.spheres.as_ref().map_or(0, |s| s.bytes)
+        self.features.spheres.spheres.as_ref().map_or(0, |s| s.bytes)
     }
 
     /// Replace light `index` (its kind may change: a point light's six faces are made on the
@@ -313,7 +280,7 @@ impl Renderer {
             self.scene.lights[index] = old;
             return Err(e);
         }
-        self.light_dirty[index] = true;
+        self.features.changed(Change::Light(index));
         Ok(())
     }
 
@@ -339,14 +306,10 @@ impl Renderer {
         self.scene.objects[index].shape = shape;
         let after = self.scene.objects[index].shape.bounds();
         self.transforms[index] = transform;
-        let lights = self.lights_now();
-        if self.light_dirty.len() < lights.len() {
-            self.light_dirty.resize(lights.len(), true);
-        }
-        for (l, light) in lights.iter().enumerate() {
+        for (l, light) in self.lights_now().iter().enumerate() {
             let view = self.settings.light_view(&self.scene, light);
             if view.faces.iter().any(|f| box_in_view(before, f.world_to_clip) || box_in_view(after, f.world_to_clip)) {
-                self.light_dirty[l] = true;
+                self.features.changed(Change::Light(l));
             }
         }
         self.objects_dirty = true;
@@ -422,7 +385,7 @@ impl Renderer {
         if settings != self.settings {
             self.settings = settings;
             self.refresh_env_segments();
-            self.light_dirty.iter_mut().for_each(|d| *d = true);
+            self.invalidate();
         }
         Ok(())
     }
@@ -430,8 +393,8 @@ impl Renderer {
     /// What the next frames copy out for inspection (coverage masks, traced photons: tests and
     /// tools). Changing it redoes every light, so that the copies are made.
     pub fn set_inspect(&mut self, inspect: crate::settings::Inspect) {
-        if inspect != self.inspect {
-            self.inspect = inspect;
+        if inspect != self.features.photon_maps.inspect {
+            self.features.photon_maps.inspect = inspect;
             self.invalidate();
         }
     }
@@ -441,16 +404,16 @@ impl Renderer {
     pub fn set_temporal(&mut self, temporal: Option<TemporalSettings>) -> Result<()> {
         match temporal {
             None => {
-                if self.temporal.take().is_some() {
+                if self.features.photon_maps.temporal.take().is_some() {
                     self.invalidate();
                 }
             }
             Some(t) => {
                 t.validate()?;
-                match &mut self.temporal {
+                match &mut self.features.photon_maps.temporal {
                     Some(f) => f.settings = t,
                     None => {
-                        self.temporal = Some(TemporalFilter::new(t));
+                        self.features.photon_maps.temporal = Some(TemporalFilter::new(t));
                         self.invalidate();
                     }
                 }
@@ -461,7 +424,7 @@ impl Renderer {
 
     /// Redo every light on the next frame (what a full frame does).
     pub fn invalidate(&mut self) {
-        self.light_dirty.iter_mut().for_each(|d| *d = true);
+        self.features.changed(Change::Lights);
     }
 
     /// GPU objects this renderer created so far (read-backs included).

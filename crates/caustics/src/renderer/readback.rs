@@ -31,10 +31,9 @@ impl Renderer {
     }
 
     fn light_frame(&self, light: usize) -> Result<&LightFrame> {
-        self.lights
-            .get(light)
-            .and_then(|l| l.as_ref())
-            .map(|l| &l.frame)
+        self.features
+            .photon_maps
+            .frame(light)
             .ok_or_else(|| Error::Device(format!("light {light}: no such light, or no frame rendered yet")))
     }
 
@@ -83,9 +82,9 @@ impl Renderer {
         let oom_scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         // (its beam statistics are read: the hulls' fragments counted too)
-        self.count_fragments = true;
+        self.features.beams.count_fragments = true;
         let recorded = self.encode(&mut enc, FrameRequest { stats: true }).map(|_| ());
-        self.count_fragments = false;
+        self.features.beams.count_fragments = false;
         let submitted = std::time::Instant::now();
         let polled = if recorded.is_ok() {
             ctx.queue.submit([enc.finish()]);
@@ -112,7 +111,8 @@ impl Renderer {
         let caustic_maps = (0..n).map(|l| self.read_caustic_maps(l)).collect::<Result<Vec<_>>>()?;
         let caustic_flux_bits = (0..n).map(|l| self.read_caustic_flux_bits(l)).collect::<Result<Vec<_>>>()?;
         let technique = stats.technique;
-        let beams = self.beam_frames.iter().map(|f| crate::beams::read_frame(&ctx, f)).collect::<Result<Vec<_>>>()?;
+        let beams =
+            self.features.beams.frames.iter().map(|f| crate::beams::read_frame(&ctx, f)).collect::<Result<Vec<_>>>()?;
         if let Some(b) = beams.iter().find(|b| b.0.overflow > 0) {
             return Err(Error::Device(format!(
                 "beam buffer overflow: {} beams did not fit (capacity {}; raise beams.capacity)",
@@ -137,9 +137,9 @@ impl Renderer {
 
     /// [`Renderer::render_once`] with `filter` as the temporal filter (it is handed back).
     pub(crate) fn render_once_filtered(&mut self, filter: &mut TemporalFilter) -> Result<GpuRender> {
-        self.temporal = Some(std::mem::replace(filter, TemporalFilter::new(filter.settings)));
+        self.features.photon_maps.temporal = Some(std::mem::replace(filter, TemporalFilter::new(filter.settings)));
         let out = self.render_once();
-        if let Some(f) = self.temporal.take() {
+        if let Some(f) = self.features.photon_maps.temporal.take() {
             *filter = f;
         }
         out

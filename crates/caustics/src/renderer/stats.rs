@@ -3,6 +3,7 @@
 
 use super::{FrameStats, Renderer};
 use crate::error::{Error, Result};
+use crate::frame::StatsCopies;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::techniques::{Pending, TechniqueStats};
 use std::sync::Arc;
@@ -81,7 +82,7 @@ impl Renderer {
                 ..Default::default()
             };
             stats.technique = TechniqueStats {
-                technique: self.settings.photons.technique,
+                technique: self.settings.photons.emission,
                 grid: self.settings.photons.count,
                 ..Default::default()
             };
@@ -89,7 +90,7 @@ impl Renderer {
                 let bytes: Vec<Vec<u8>> = pieces.iter().map(|&(off, size)| piece(off, size)).collect();
                 match p.finish(&bytes) {
                     // The lights report their emission technique; the frame's is the setting.
-                    Ok(t) => stats.technique.merge(&TechniqueStats { technique: self.settings.photons.technique, ..t }),
+                    Ok(t) => stats.technique.merge(&TechniqueStats { technique: self.settings.photons.emission, ..t }),
                     Err(e) => {
                         let m = e.to_string();
                         self.last_error = Some(m.clone());
@@ -177,4 +178,70 @@ pub(super) fn free_slot(ring: &mut Vec<StatsSlot>, ctx: &GpuContext, size: u64) 
         ring[i].staging = staging(size);
     }
     Some(i)
+}
+
+impl Renderer {
+    /// Copy the frame's counters (`copies`) and pass times into a free slot of the ring (none
+    /// free: this frame's statistics are not copied).
+    pub(super) fn copy_stats(
+        &mut self,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+        copies: StatsCopies,
+        lights_redone: Vec<bool>,
+    ) {
+        let ctx = self.ctx.clone();
+        ctx.begin_scope("stats", enc);
+        let timestamps = timer.resolve(&ctx, enc);
+        ctx.end_scope();
+        let mut sources: Vec<(wgpu::Buffer, u64)> = Vec::new();
+        let timer_job = timestamps.map(|(b, size)| {
+            sources.push((b, size));
+            (timer.names().to_vec(), 0, size)
+        });
+        for (b, _) in &copies.flux {
+            sources.push((b.clone(), crate::output::FLUX_STATS_BYTES));
+        }
+        let piece_lists: Vec<Vec<(wgpu::Buffer, u64)>> = copies.pendings.iter().map(|p| p.sources()).collect();
+        for list in &piece_lists {
+            sources.extend(list.iter().cloned());
+        }
+        if let Some(b) = &copies.spheres {
+            sources.push((b.clone(), 8));
+        }
+        // Offsets in the staging buffer (copies are 4-byte aligned; every size is).
+        let mut offsets = Vec::with_capacity(sources.len());
+        let mut total = 0u64;
+        for (_, size) in &sources {
+            offsets.push(total);
+            total += size.div_ceil(8) * 8;
+        }
+        let Some(slot) = free_slot(&mut self.ring, &ctx, total.max(8)) else { return };
+        let staging = &self.ring[slot].staging;
+        for ((b, size), off) in sources.iter().zip(&offsets) {
+            if *size > 0 {
+                enc.copy_buffer_to_buffer(b, 0, staging, *off, *size);
+            }
+        }
+        let mut k = usize::from(timer_job.is_some());
+        let timer_job = timer_job.map(|(names, _, size)| (names, offsets[0], size));
+        let mut flux = Vec::new();
+        for (_, scale) in &copies.flux {
+            flux.push((offsets[k], *scale));
+            k += 1;
+        }
+        let mut pendings = Vec::new();
+        for (p, list) in copies.pendings.into_iter().zip(&piece_lists) {
+            let pieces = list.iter().map(|(_, size)| {
+                let piece = (offsets[k], *size);
+                k += 1;
+                piece
+            });
+            pendings.push((p, pieces.collect()));
+        }
+        let sphere_stats = copies.spheres.as_ref().map(|_| offsets[k]);
+        self.ring[slot].job =
+            Some(StatsJob { frame: self.frame, timer: timer_job, flux, pendings, lights_redone, sphere_stats });
+        self.ring[slot].state.store(1, Ordering::Release);
+    }
 }

@@ -74,8 +74,6 @@ impl std::fmt::Display for BeamVolume {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct BeamSettings {
-    /// Render the volume caustic (on by default; off: the medium's direct light only).
-    pub enabled: bool,
     /// Cells per side of the projected grid over each light face (two beams per cell), 1 to 1024.
     pub grid: u32,
     /// Refinement levels (each splits a triangle 1 -> 4), 0 (a regular grid) to 6.
@@ -153,7 +151,6 @@ pub struct BeamSettings {
 impl Default for BeamSettings {
     fn default() -> Self {
         BeamSettings {
-            enabled: true,
             grid: 16,
             levels: 3,
             normal_threshold_deg: 25.0,
@@ -253,50 +250,5 @@ impl BeamSettings {
     /// Slots of the refinement hierarchy per light face and branch: 2 grid^2 (4^(levels+1) - 1) / 3.
     pub fn slots_per_face(&self) -> u64 {
         2 * u64::from(self.grid).pow(2) * ((1u64 << (2 * (self.levels + 1))) - 1) / 3
-    }
-}
-
-/// The source of the caustic on diffuse surfaces ([`RenderSettings::surface_caustics`](super::RenderSettings::surface_caustics)).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum SurfaceCaustics {
-    /// The lights' photon caustic maps (`shade_receivers`).
-    #[default]
-    Photons,
-    /// The beams of adaptive beam tracing (Liktor & Dachsbacher 2011, section 5.3): per
-    /// camera pixel, the irradiance of the beams that end on its surface point
-    /// (`beam_surface`), for spot and point lights, with or without a medium.
-    Beams,
-}
-
-impl SurfaceCaustics {
-    pub const ALL: [SurfaceCaustics; 2] = [SurfaceCaustics::Photons, SurfaceCaustics::Beams];
-
-    /// The command-line name.
-    pub fn name(self) -> &'static str {
-        match self {
-            SurfaceCaustics::Photons => "photons",
-            SurfaceCaustics::Beams => "beams",
-        }
-    }
-
-    /// One line on what it does (the command line's help).
-    pub fn describe(self) -> &'static str {
-        match self {
-            SurfaceCaustics::Photons => "The lights' photon caustic maps (the default)",
-            SurfaceCaustics::Beams => {
-                "Spot and point lights: the light of adaptive beam tracing's beams where they end on surfaces, drawn as their hulls or gathered per pixel as beams.volume says (no photon maps)"
-            }
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<SurfaceCaustics> {
-        SurfaceCaustics::ALL.into_iter().find(|m| m.name() == s.trim())
-    }
-}
-
-impl std::fmt::Display for SurfaceCaustics {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
     }
 }

@@ -11,15 +11,17 @@ pub mod environment;
 pub mod medium;
 pub mod photons;
 pub mod shading;
+pub mod sources;
 #[doc(hidden)]
 pub mod testing;
 
 pub use adaptive::AdaptiveSettings;
-pub use beams::{BeamSettings, BeamVolume, SurfaceCaustics};
+pub use beams::{BeamSettings, BeamVolume};
 pub use environment::{DEFAULT_ENV_LIGHTS, DEFAULT_ENV_TAPS, EnvironmentSettings};
 pub use medium::MediumSettings;
-pub use photons::{PhotonSettings, SplatMode, Technique, Tracer};
+pub use photons::{Emission, PhotonSettings, SplatMode, Tracer};
 pub use shading::{ShadingSettings, SpillFaces};
+pub use sources::{DistantSource, LocalSource, SourceSettings, Technique, VolumeSource};
 #[doc(hidden)]
 pub use testing::TestingSettings;
 
@@ -34,6 +36,8 @@ pub(crate) const MAX_GBUFFER: u32 = 2048;
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RenderSettings {
+    /// Where each kind of light's caustics come from: photon maps, beams, caustic spheres.
+    pub sources: SourceSettings,
     /// The photon caustic maps: the grid, the emission technique, the tracer, the splats.
     pub photons: PhotonSettings,
     /// The photon hierarchy of the adaptive and hierarchical techniques.
@@ -46,11 +50,6 @@ pub struct RenderSettings {
     pub environment: EnvironmentSettings,
     /// Volume caustics by adaptive beam tracing in scenes with a medium (`crate::beams`).
     pub beams: BeamSettings,
-    /// Where the caustic on diffuse surfaces of spot and point lights comes from: the photon
-    /// caustic maps (default) or the beams (`crate::beams`, `beam_surface`; the lights' photon
-    /// stages are then skipped, so neither is counted twice). Directional lights always use
-    /// their caustic maps (beams are built for spot and point lights only).
-    pub surface_caustics: SurfaceCaustics,
     /// Knobs for tests and comparisons ([`TestingSettings`]).
     #[doc(hidden)]
     pub testing: TestingSettings,
@@ -64,11 +63,11 @@ impl RenderSettings {
         self.photons.validate()?;
         self.adaptive.validate()?;
         if self.adaptive.quad_linearity > 0.0
-            && !(self.photons.technique == Technique::AdaptiveError && self.photons.splat == SplatMode::Triangles)
+            && !(self.photons.emission == Emission::AdaptiveError && self.photons.splat == SplatMode::Triangles)
         {
             return Err((
                 "adaptive.quad_linearity",
-                "needs photons.technique adaptive-error with photons.splat triangles (it stops on cell quads)"
+                "needs photons.emission adaptive-error with photons.splat triangles (it stops on cell quads)"
                     .to_string(),
             ));
         }
@@ -100,7 +99,7 @@ impl RenderSettings {
         })
     }
 
-    /// Set one key by its path (`beams.grid`, `photons.technique`) to a JSON value. An unknown
+    /// Set one key by its path (`beams.grid`, `photons.emission`) to a JSON value. An unknown
     /// key is an error that lists the keys its section knows; a value of the wrong type is an
     /// error naming the path.
     pub fn set(&mut self, path: &str, value: serde_json::Value) -> crate::Result<()> {
@@ -138,9 +137,9 @@ pub fn json_value<T: Serialize>(value: &T) -> serde_json::Value {
 
 impl RenderSettings {
     /// Whether `light`'s caustic on surfaces comes from its beams (and its photon stage is
-    /// skipped): [`SurfaceCaustics::Beams`] and a spot or point light.
+    /// skipped): [`LocalSource::Beams`] and a spot or point light.
     pub fn surface_caustics_from_beams(&self, light: &crate::scene::Light) -> bool {
-        self.surface_caustics == SurfaceCaustics::Beams && !matches!(light, crate::scene::Light::Directional { .. })
+        self.sources.local == LocalSource::Beams && !matches!(light, crate::scene::Light::Directional { .. })
     }
 
     /// Whether `composite` keeps the camera paths' segments in the medium beyond the first
@@ -150,19 +149,24 @@ impl RenderSettings {
     }
 
     /// Whether the volume caustic is gathered (`beam_gather`): a medium that scatters, a
-    /// specular caster, and the beams enabled.
+    /// specular caster, and [`VolumeSource::Beams`].
     pub fn beams_volume_active(&self, scene: &crate::scene::Scene) -> bool {
-        self.beams.enabled
+        self.sources.volume == VolumeSource::Beams
             && scene.medium.as_ref().is_some_and(|m| m.sigma_s.max_element() > 0.0)
             && scene.objects.iter().any(|o| scene.material_of(o).is_specular())
     }
 
     /// Whether the caustic on surfaces comes from the beams (`beam_surface`):
-    /// [`SurfaceCaustics::Beams`] and a specular caster (with or without a medium;
-    /// `BeamSettings::enabled` switches the volume caustic only).
+    /// [`LocalSource::Beams`] and a specular caster (with or without a medium;
+    /// `sources.volume` switches the volume caustic only).
     pub fn beams_surface_active(&self, scene: &crate::scene::Scene) -> bool {
-        self.surface_caustics == SurfaceCaustics::Beams
-            && scene.objects.iter().any(|o| scene.material_of(o).is_specular())
+        self.sources.local == LocalSource::Beams && scene.objects.iter().any(|o| scene.material_of(o).is_specular())
+    }
+
+    /// Whether the directional lights' caustics come from caustic spheres (their photon stages
+    /// skipped).
+    pub fn caustic_spheres(&self) -> bool {
+        self.sources.distant == DistantSource::Spheres
     }
 
     /// Whether the beam stages (`crate::beams`) run for this scene: the volume caustic, the

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-/// The photon caustic maps: how many photons, emitted how ([`Technique`]), traced how
+/// The photon caustic maps: how many photons, emitted how ([`Emission`]), traced how
 /// ([`Tracer`]), splatted how ([`SplatMode`]), into caustic maps of what size.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -11,8 +11,8 @@ pub struct PhotonSettings {
     /// Photon grid size N per light-view face: N × N photons (the equivalent, finest grid of
     /// the adaptive techniques), 16 to 8192 (adaptive: a power of two up to 65536).
     pub count: u32,
-    /// How photons are emitted.
-    pub technique: Technique,
+    /// How photons are emitted (the photon maps' technique).
+    pub emission: Emission,
     /// How photons are traced from the first caster to the receiver.
     pub tracer: Tracer,
     /// Exact tracer: specular interactions a photon path may have before it is given up (its
@@ -49,7 +49,7 @@ impl Default for PhotonSettings {
     fn default() -> Self {
         PhotonSettings {
             count: 1024,
-            technique: Technique::Basic,
+            emission: Emission::Basic,
             tracer: Tracer::default(),
             max_depth: 16,
             splat: SplatMode::default(),
@@ -66,11 +66,11 @@ impl Default for PhotonSettings {
 impl PhotonSettings {
     /// Check the ranges that do not depend on the device: (field path, message) on error.
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
-        let max_n = self.technique.max_photons();
+        let max_n = self.emission.max_photons();
         if !(16..=max_n).contains(&self.count) {
             return Err((
                 "photons.count",
-                format!("the {} photon grid must be 16 to {max_n} per side (got {})", self.technique, self.count),
+                format!("the {} photon grid must be 16 to {max_n} per side (got {})", self.emission, self.count),
             ));
         }
         if !(1..=64).contains(&self.max_depth) {
@@ -89,7 +89,7 @@ impl PhotonSettings {
 /// How photons are emitted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
-pub enum Technique {
+pub enum Emission {
     /// Basic caustic maps: a dense N × N photon grid per light-view face.
     #[default]
     Basic,
@@ -103,67 +103,42 @@ pub enum Technique {
     /// caustic-map texel (or within the tolerance) is emitted as one photon; the finest grid N
     /// caps the refinement.
     AdaptiveError,
-    /// Caustic spheres (Tandianus et al. 2010, `crate::caustic_spheres`): the caustics of
-    /// directional lights (the scene's and the environment's) come from tables precomputed per
-    /// caustic object (`Renderer::set_caustic_spheres`), looked up by one eye-space pass
-    /// (`sphere_gather`) for all of them; their light passes trace no photons. Spot and point
-    /// lights, which the tables do not describe, get basic caustic maps
-    /// ([`Technique::emission`]).
-    CausticSpheres,
 }
 
-impl Technique {
-    pub const ALL: [Technique; 5] = [
-        Technique::Basic,
-        Technique::Hierarchical,
-        Technique::AdaptiveLevel,
-        Technique::AdaptiveError,
-        Technique::CausticSpheres,
-    ];
-
-    /// The photon emission technique of the lights' caustic maps: itself, or for caustic
-    /// spheres the basic one (the spot and point lights' caustic maps).
-    pub fn emission(self) -> Technique {
-        match self {
-            Technique::CausticSpheres => Technique::Basic,
-            t => t,
-        }
-    }
+impl Emission {
+    pub const ALL: [Emission; 4] =
+        [Emission::Basic, Emission::Hierarchical, Emission::AdaptiveLevel, Emission::AdaptiveError];
 
     /// The command-line name.
     pub fn name(self) -> &'static str {
         match self {
-            Technique::Basic => "basic",
-            Technique::Hierarchical => "hierarchical",
-            Technique::AdaptiveLevel => "adaptive-level",
-            Technique::AdaptiveError => "adaptive-error",
-            Technique::CausticSpheres => "caustic-spheres",
+            Emission::Basic => "basic",
+            Emission::Hierarchical => "hierarchical",
+            Emission::AdaptiveLevel => "adaptive-level",
+            Emission::AdaptiveError => "adaptive-error",
         }
     }
 
     /// One line on what it does (the command line's help).
     pub fn describe(self) -> &'static str {
         match self {
-            Technique::Basic => "Basic caustic maps: a dense N x N photon grid per light-view face",
-            Technique::Hierarchical => {
+            Emission::Basic => "Basic caustic maps: a dense N x N photon grid per light-view face",
+            Emission::Hierarchical => {
                 "Hierarchical caustic maps: the dense grid, traversed top-down through a mip hierarchy"
             }
-            Technique::AdaptiveLevel => {
+            Emission::AdaptiveLevel => {
                 "Adaptive caustic maps, maximal traversal level (equivalent to a dense N x N grid)"
             }
-            Technique::AdaptiveError => "Adaptive caustic maps, maximal caustic map error (finest grid N)",
-            Technique::CausticSpheres => {
-                "Caustic spheres: directional lights from precomputed tables, one eye-space pass (others: basic)"
-            }
+            Emission::AdaptiveError => "Adaptive caustic maps, maximal caustic map error (finest grid N)",
         }
     }
 
-    pub fn parse(s: &str) -> Option<Technique> {
-        Technique::ALL.into_iter().find(|t| t.name() == s.trim())
+    pub fn parse(s: &str) -> Option<Emission> {
+        Emission::ALL.into_iter().find(|t| t.name() == s.trim())
     }
 
     pub fn is_adaptive(self) -> bool {
-        matches!(self, Technique::AdaptiveLevel | Technique::AdaptiveError)
+        matches!(self, Emission::AdaptiveLevel | Emission::AdaptiveError)
     }
 
     /// The largest finest grid N this technique supports.
@@ -172,7 +147,7 @@ impl Technique {
     }
 }
 
-impl std::fmt::Display for Technique {
+impl std::fmt::Display for Emission {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
     }
@@ -291,12 +266,12 @@ impl SplatMode {
     /// mark photons that carry a quad (`splat_quads`).
     /// Caustic triangles from the dense grid (basic technique) take ray-differential beam sizes
     /// too: their continuity test and their Gaussian fallback use them.
-    pub fn lens_flag(self, technique: Technique) -> f32 {
+    pub fn lens_flag(self, technique: Emission) -> f32 {
         match self {
             SplatMode::ThinLens => 1.0,
             SplatMode::ThickLens => 2.0,
             SplatMode::Differential => 3.0,
-            SplatMode::Triangles if technique == Technique::Basic => 3.0,
+            SplatMode::Triangles if technique == Emission::Basic => 3.0,
             _ => 0.0,
         }
     }
@@ -304,19 +279,19 @@ impl SplatMode {
     /// The splat stage that takes a photon buffer: for triangles, `splat_quads` (quads, or
     /// Gaussians where a photon has none) with the hierarchical and adaptive techniques (the
     /// basic one draws `caustic_triangles` instead).
-    pub fn stage(self, technique: Technique) -> &'static str {
+    pub fn stage(self, technique: Emission) -> &'static str {
         match self {
             SplatMode::Fixed => "photon_splat",
             SplatMode::MultiRes => "splat_multires",
-            SplatMode::Triangles if technique != Technique::Basic => "splat_quads",
+            SplatMode::Triangles if technique != Emission::Basic => "splat_quads",
             SplatMode::ThinLens | SplatMode::ThickLens | SplatMode::Differential | SplatMode::Triangles => "splat_lens",
         }
     }
 
     /// The photon hierarchy stores a quad per photon for `splat_quads`: the adaptive techniques
     /// trace each cell's corners, the hierarchical one takes its dual quad from the dense tile.
-    pub fn cell_quads(self, technique: Technique) -> bool {
-        self == SplatMode::Triangles && technique != Technique::Basic
+    pub fn cell_quads(self, technique: Emission) -> bool {
+        self == SplatMode::Triangles && technique != Emission::Basic
     }
 }
 

@@ -20,7 +20,7 @@
 //! reported after the frame.
 
 use super::{
-    Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, FLAG_SKIP, Pending, Technique, Traversal, ctrl,
+    Emission, Emit, FLAG_BEGIN, FLAG_CHECK, FLAG_END, FLAG_LAST, FLAG_QUADS, FLAG_SKIP, Pending, Traversal, ctrl,
     level_params, storage, uniform,
 };
 use crate::error::{Error, Result};
@@ -38,7 +38,7 @@ pub const BYTES_PER_QUAD: u64 = 32;
 
 /// Bytes per leaf photon of batch capacity for `settings`.
 pub fn bytes_per_photon(s: &RenderSettings) -> u64 {
-    BYTES_PER_PHOTON + if s.photons.splat.cell_quads(s.photons.technique) { BYTES_PER_QUAD } else { 0 }
+    BYTES_PER_PHOTON + if s.photons.splat.cell_quads(s.photons.emission) { BYTES_PER_QUAD } else { 0 }
 }
 /// The largest batch grid (the plan is S² words, and one workgroup walks it).
 const MAX_BATCH_GRID: u32 = 4096;
@@ -145,7 +145,7 @@ impl Adaptive {
             plan.batch_leaves = need - cell;
         }
         let none = wgpu::BufferUsages::empty();
-        let quads = e.settings.photons.splat.cell_quads(e.settings.photons.technique);
+        let quads = e.settings.photons.splat.cell_quads(e.settings.photons.emission);
         Ok(Adaptive {
             corners: storage(e.ctx, "corners", if quads { plan.capacity * BYTES_PER_QUAD } else { 16 }, none),
             quads,
@@ -210,7 +210,7 @@ impl Adaptive {
             if grid * 2 == p.n {
                 flags |= FLAG_LAST;
             }
-            if s.photons.technique == Technique::AdaptiveError && grid * 2 >= s.adaptive.check_grid {
+            if s.photons.emission == Emission::AdaptiveError && grid * 2 >= s.adaptive.check_grid {
                 flags |= FLAG_CHECK;
                 if s.testing.error_skip_hopeless {
                     flags |= FLAG_SKIP;
@@ -260,7 +260,7 @@ impl Adaptive {
     }
 }
 
-impl super::Emission for Adaptive {
+impl super::EmissionStrategy for Adaptive {
     fn record_face(
         &mut self,
         e: &Emit,

@@ -121,7 +121,7 @@ pub(crate) fn storage_init<T: bytemuck::Pod>(e: &Emit, v: &T) -> wgpu::Buffer {
     e.ctx.buffer_init("splat_params", bytemuck::bytes_of(v), wgpu::BufferUsages::STORAGE)
 }
 
-impl super::Emission for Basic {
+impl super::EmissionStrategy for Basic {
     fn record_face(
         &mut self,
         e: &Emit,

@@ -48,7 +48,7 @@ impl HierarchicalPlan {
                 format!("hierarchical caustic maps need a power of two from 32 to 8192 (got {n})"),
             );
         }
-        let quads = s.photons.splat.cell_quads(s.photons.technique);
+        let quads = s.photons.splat.cell_quads(s.photons.emission);
         let mut t = n.min(2048);
         loop {
             let start = s.adaptive.base_grid.min(t / 2).max(1);
@@ -213,7 +213,7 @@ impl Hierarchical {
     }
 }
 
-impl super::Emission for Hierarchical {
+impl super::EmissionStrategy for Hierarchical {
     fn record_face(
         &mut self,
         e: &Emit,

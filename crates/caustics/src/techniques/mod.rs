@@ -2,11 +2,11 @@
 //! splatted into the caustic map. The rest of the frame (light-space buffers, resolve, shading,
 //! composite) is shared, in [`crate::render()`].
 //!
-//! - [`Technique::Basic`]: a dense N × N photon grid ([`basic`]);
-//! - [`Technique::Hierarchical`]: the dense grid traced tile by tile, a mip hierarchy of valid
+//! - [`Emission::Basic`]: a dense N × N photon grid ([`basic`]);
+//! - [`Emission::Hierarchical`]: the dense grid traced tile by tile, a mip hierarchy of valid
 //!   photons built over it and traversed top-down to splat only the valid ones ([`hierarchical`],
 //!   Wyman 2008);
-//! - [`Technique::AdaptiveLevel`] and [`Technique::AdaptiveError`]: adaptive caustic maps
+//! - [`Emission::AdaptiveLevel`] and [`Emission::AdaptiveError`]: adaptive caustic maps
 //!   (Wyman & Nichols 2009) with the maximal traversal level and the maximal caustic map error
 //!   stopping metrics, GPU-driven as Piao 2015 proposes ([`adaptive`]).
 //!
@@ -16,8 +16,11 @@
 
 pub mod adaptive;
 pub mod basic;
+mod feature;
 pub mod hierarchical;
 pub mod splat;
+
+pub(crate) use feature::PhotonMaps;
 
 use crate::error::{Error, Result};
 use crate::gpu::pass::{Bound, Pass};
@@ -25,7 +28,7 @@ use crate::gpu::types::{CoverParams, LevelParams};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::settings::RenderSettings;
 
-pub use crate::settings::Technique;
+pub use crate::settings::Emission;
 
 /// Counts of one level of the photon hierarchy (summed over lights, faces and batches).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -44,7 +47,7 @@ pub struct LevelStats {
 /// What a technique did in one frame (all lights and faces).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct TechniqueStats {
-    pub technique: Technique,
+    pub technique: Emission,
     /// Equivalent photon grid N (per face).
     pub grid: u32,
     /// Photons traced (calls of the photon tracer).
@@ -114,7 +117,7 @@ pub(crate) struct Stages {
 impl Stages {
     /// `branches`: the frame's reflected, internal and residual passes (`FrameConsts`).
     pub fn new(s: &RenderSettings, layer2: bool, branches: [bool; 3]) -> Stages {
-        let (t, splat) = (s.photons.technique, s.photons.splat);
+        let (t, splat) = (s.photons.emission, s.photons.splat);
         let exact = s.photons.tracer == crate::settings::Tracer::Exact;
         Stages {
             trace: [
@@ -424,10 +427,10 @@ pub(crate) fn level_params(face: u32) -> LevelParams {
 }
 
 /// A photon emission technique: what the light-space buffers of one light become in its
-/// caustic map. A new technique is a module implementing this trait, a [`Technique`] variant
+/// caustic map. A new technique is a module implementing this trait, a [`Emission`] variant
 /// and its arm in [`emission`]; the frame around it (light-space passes, resolve, shading,
 /// statistics) is shared.
-pub(crate) trait Emission {
+pub(crate) trait EmissionStrategy {
     /// Record face `face`'s photon stage (every branch of `Emit::branches`, each its own pass
     /// or traversal), given the face's coverage mip `cover`; buffers whose contents the
     /// statistics need go into `pending`.
@@ -445,21 +448,20 @@ pub(crate) trait Emission {
 }
 
 /// The registry: the emission of technique `t` for the light `e` describes.
-fn emission(t: Technique, e: &Emit) -> Result<Box<dyn Emission>> {
+fn emission(t: Emission, e: &Emit) -> Result<Box<dyn EmissionStrategy>> {
     Ok(match t {
-        Technique::Basic => Box::new(basic::Basic::new(e)),
-        Technique::Hierarchical => Box::new(hierarchical::Hierarchical::new(e)?),
-        Technique::AdaptiveLevel | Technique::AdaptiveError => Box::new(adaptive::Adaptive::new(e)?),
+        Emission::Basic => Box::new(basic::Basic::new(e)),
+        Emission::Hierarchical => Box::new(hierarchical::Hierarchical::new(e)?),
+        Emission::AdaptiveLevel | Emission::AdaptiveError => Box::new(adaptive::Adaptive::new(e)?),
         // Caustic spheres: directional lights never get here (`Emit::skip_photons`; their
         // caustics are `sphere_gather`'s, recorded by the renderer after the shading passes),
-        // spot and point lights get basic caustic maps (`Technique::emission`).
-        Technique::CausticSpheres => Box::new(basic::Basic::new(e)),
+        // spot and point lights get basic caustic maps (`Emission::emission`).
     })
 }
 
 /// Record the photon stage of one light: per face, the coverage mip, then the technique.
 pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, faces: u32) -> Result<Pending> {
-    let t = e.settings.photons.technique;
+    let t = e.settings.photons.emission;
     let g = e.g;
     let cover = storage(e.ctx, "coverage", mip_words(g, 1) * 4, wgpu::BufferUsages::empty());
     let dummy = storage(e.ctx, "unused", 64, wgpu::BufferUsages::empty());

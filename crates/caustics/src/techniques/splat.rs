@@ -37,11 +37,11 @@ pub(crate) struct SplatStages {
 }
 
 impl SplatStages {
-    pub fn new(mode: SplatMode, technique: crate::settings::Technique) -> SplatStages {
+    pub fn new(mode: SplatMode, technique: crate::settings::Emission) -> SplatStages {
         SplatStages {
             mode,
             stage: mode.stage(technique),
-            grid_triangles: mode == SplatMode::Triangles && technique == crate::settings::Technique::Basic,
+            grid_triangles: mode == SplatMode::Triangles && technique == crate::settings::Emission::Basic,
         }
     }
 }

@@ -4,8 +4,8 @@
 use crate::view::pick::Selection;
 use caustics::render::RenderSettings;
 use caustics::scene::Light;
+use caustics::settings::Emission;
 use caustics::splat::SplatMode;
-use caustics::techniques::Technique;
 use glam::Affine3A;
 use std::path::PathBuf;
 
@@ -52,7 +52,7 @@ pub enum Action {
     },
     Release,
     Select(Option<Selection>),
-    SetTechnique(Technique),
+    SetTechnique(Emission),
     SetSplat(SplatMode),
     SetTracer(caustics::render::Tracer),
     /// The photon grid N (N × N per light-view face).

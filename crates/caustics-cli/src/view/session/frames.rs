@@ -4,7 +4,6 @@
 use super::{REFERENCE_DELAY, ReferenceView, Session, ViewMode};
 use crate::view::reference::{self, Job, Rgba};
 use caustics::renderer::{FrameRequest, FrameStats};
-use caustics::techniques::Technique;
 use caustics::{Error, Result};
 use caustics_reference::ImageIo;
 use std::path::{Path, PathBuf};
@@ -21,7 +20,7 @@ impl Session {
         }
         self.dirty = self.settle > 0;
         self.settle = self.settle.saturating_sub(1);
-        if self.settings().photons.technique == Technique::CausticSpheres && self.sphere_tables.is_none() {
+        if self.settings().caustic_spheres() && self.sphere_tables.is_none() {
             // Blocks while a table is precomputed (a progress bar on the terminal; cached).
             if let Err(e) =
                 crate::spheres::attach(&mut self.renderer, &self.base, &self.sphere_args, &mut self.sphere_tables)

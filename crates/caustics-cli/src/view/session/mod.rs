@@ -252,7 +252,7 @@ impl Session {
                 self.selection = s;
                 Ok(())
             }
-            Action::SetTechnique(t) => self.change_settings(|s| s.photons.technique = t),
+            Action::SetTechnique(t) => self.change_settings(|s| s.photons.emission = t),
             Action::SetSplat(m) => self.change_settings(|s| s.photons.splat = m),
             Action::SetTracer(t) => self.change_settings(|s| s.photons.tracer = t),
             Action::SetPhotons(n) => self.change_settings(|s| s.photons.count = n),

@@ -3,21 +3,21 @@
 
 use super::{UiState, act, released};
 use crate::view::session::{Action, Session};
+use caustics::settings::Emission;
 use caustics::splat::SplatMode;
-use caustics::techniques::Technique;
 
 /// Photon grids offered by the panel.
 const PHOTON_GRIDS: [u32; 8] = [64, 128, 256, 512, 1024, 2048, 4096, 8192];
 
 pub(super) fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Session) {
     let s = session.settings().clone();
-    let mut technique = s.photons.technique;
+    let mut technique = s.photons.emission;
     egui::ComboBox::from_id_salt("technique").selected_text(technique.name()).show_ui(ui, |ui| {
-        for t in Technique::ALL {
+        for t in Emission::ALL {
             ui.selectable_value(&mut technique, t, t.name());
         }
     });
-    if technique != s.photons.technique {
+    if technique != s.photons.emission {
         act(session, Action::SetTechnique(technique));
     }
     let mut splat = s.photons.splat;
@@ -38,17 +38,25 @@ pub(super) fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Se
     if tracer != s.photons.tracer {
         act(session, Action::SetTracer(tracer));
     }
-    let mut surface = s.surface_caustics;
+    let mut surface = s.sources.local;
     egui::ComboBox::from_id_salt("surface_caustics")
         .selected_text(format!("surface caustics: {}", surface.name()))
         .show_ui(ui, |ui| {
-            for c in caustics::settings::SurfaceCaustics::ALL {
+            for c in caustics::settings::LocalSource::ALL {
                 ui.selectable_value(&mut surface, c, c.name()).on_hover_text(c.describe());
             }
         });
-    if surface != s.surface_caustics {
+    let mut distant = s.sources.distant;
+    egui::ComboBox::from_id_salt("distant_caustics")
+        .selected_text(format!("directional lights: {}", distant.name()))
+        .show_ui(ui, |ui| {
+            for c in caustics::settings::DistantSource::ALL {
+                ui.selectable_value(&mut distant, c, c.name()).on_hover_text(c.describe());
+            }
+        });
+    if (surface, distant) != (s.sources.local, s.sources.distant) {
         let mut s2 = s.clone();
-        s2.surface_caustics = surface;
+        (s2.sources.local, s2.sources.distant) = (surface, distant);
         act(session, Action::SetSettings(Box::new(s2)));
     }
     let mut photons = s.photons.count;
@@ -62,7 +70,7 @@ pub(super) fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Se
     }
     let mut tol = s.adaptive.error_tolerance;
     let r = ui.add_enabled(
-        s.photons.technique == Technique::AdaptiveError,
+        s.photons.emission == Emission::AdaptiveError,
         egui::Slider::new(&mut tol, 0.0..=8.0).text("max error tolerance (texels)"),
     );
     if released(&r) {
@@ -132,7 +140,7 @@ const BEAM_GRIDS: [u32; 5] = [4, 8, 16, 32, 64];
 /// caustics from beams: the beam settings (`caustics::beams`).
 fn medium_and_beams(ui: &mut egui::Ui, session: &mut Session) {
     let medium = session.loaded_medium().cloned().zip(session.scene().medium.clone());
-    if medium.is_none() && session.settings().surface_caustics != caustics::settings::SurfaceCaustics::Beams {
+    if medium.is_none() && session.settings().sources.local != caustics::settings::LocalSource::Beams {
         return;
     }
     ui.separator();
@@ -207,11 +215,12 @@ fn medium_controls(
 fn beam_controls(ui: &mut egui::Ui, session: &mut Session) {
     let s = session.settings().clone();
     let mut b = s.beams;
+    let mut volume = s.sources.volume == caustics::settings::VolumeSource::Beams;
     if session.scene().medium.is_some() {
-        ui.checkbox(&mut b.enabled, "volume caustics (beams)");
+        ui.checkbox(&mut volume, "volume caustics (beams)");
     }
-    let mut changed = b.enabled != s.beams.enabled;
-    let used = b.enabled || s.surface_caustics == caustics::settings::SurfaceCaustics::Beams;
+    let mut changed = volume != (s.sources.volume == caustics::settings::VolumeSource::Beams);
+    let used = volume || s.sources.local == caustics::settings::LocalSource::Beams;
     ui.add_enabled_ui(used, |ui| {
         egui::ComboBox::from_id_salt("beam_grid").selected_text(format!("beam grid {}²", b.grid)).show_ui(ui, |ui| {
             for n in BEAM_GRIDS {
@@ -249,9 +258,11 @@ fn beam_controls(ui: &mut egui::Ui, session: &mut Session) {
         ];
         changed |= sliders.iter().any(released);
     });
-    if changed && b != s.beams {
-        let mut s2 = s.clone();
-        s2.beams = b;
+    let mut s2 = s.clone();
+    s2.beams = b;
+    use caustics::settings::VolumeSource;
+    s2.sources.volume = if volume { VolumeSource::Beams } else { VolumeSource::None };
+    if changed && s2 != s {
         act(session, Action::SetSettings(Box::new(s2)));
     }
 }

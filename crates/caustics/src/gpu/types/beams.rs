@@ -124,7 +124,7 @@ pub const BEAM_FLAG_CHAINS: u32 = 4;
 /// `hull_lit_fragments`): one-shot renders only, whose statistics are read (a global atomic
 /// per fragment is not for the frame loop).
 pub const BEAM_FLAG_FRAGMENTS: u32 = 8;
-/// `BeamParams::flags`: the beams' ends light surfaces (`SurfaceCaustics::Beams`): the energy
+/// `BeamParams::flags`: the beams' ends light surfaces (`LocalSource::Beams`): the energy
 /// cutoff leaves the beams that land on an object whole.
 pub const BEAM_FLAG_SURFACE: u32 = 16;
 /// Beam branches (beam_trace.wgsl `trace_edge`): transmitted; reflected at the first, second,
