@@ -530,7 +530,8 @@ impl crate::frame::Feature for MediumBounce {
         f.dc.ctx.begin_scope("medium_bounce", f.enc);
         self.emitters = BeamEmitters::default();
         if let Some(bf) = &self.bounce {
-            self.emitters = record_beam_emitters(&f.dc, &f.beams, &lights, f.s, f.enc, f.timer);
+            let beams = f.products.get::<Vec<crate::beams::BeamFrame>>().map_or(&[][..], |b| &b[..]);
+            self.emitters = record_beam_emitters(&f.dc, beams, &lights, f.s, f.enc, f.timer);
             let emitters = [&self.emitters.scatter[..], &self.emitters.landing_glow[..]].concat();
             record_surfaces(&f.dc, crate::frame::eye(&f.eye), bf, &emitters, f.enc, f.timer);
         }

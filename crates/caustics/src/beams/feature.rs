@@ -17,7 +17,8 @@ impl Feature for Beams {
     fn record(&mut self, f: &mut Frame) -> Result<()> {
         f.dc.ctx.begin_scope("beams", f.enc);
         let lights = light_refs(&f.lights);
-        f.beams = super::record_beams(&f.dc, eye(&f.eye), &lights, f.s, self.count_fragments, f.enc, f.timer);
+        let beams = super::record_beams(&f.dc, eye(&f.eye), &lights, f.s, self.count_fragments, f.enc, f.timer);
+        f.products.put(beams);
         f.dc.ctx.end_scope();
         Ok(())
     }
@@ -25,8 +26,9 @@ impl Feature for Beams {
     fn record_along_rays(&mut self, f: &mut Frame) -> Result<()> {
         let images = f.images.as_ref().expect("the composite runs first");
         let targets = (&images.full, &images.caustic);
-        super::record_gather(&f.dc, eye(&f.eye), &f.beams, f.s, targets, &images.segments, f.enc, f.timer);
-        self.frames = std::mem::take(&mut f.beams);
+        let beams: Vec<super::BeamFrame> = f.products.take().unwrap_or_default();
+        super::record_gather(&f.dc, eye(&f.eye), &beams, f.s, targets, &images.segments, f.enc, f.timer);
+        self.frames = beams;
         Ok(())
     }
 }

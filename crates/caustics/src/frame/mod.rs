@@ -1,17 +1,17 @@
 //! The frame as a list of features.
 //!
 //! A frame is recorded by [`crate::renderer::Renderer::encode`] in two phases, each a fixed list
-//! of features ([`Features::surfaces`], then [`Features::along_rays`]); a feature is one method
+//! of features (`renderer::Features`: its `surfaces`, then its `along_rays`); a feature is one method
 //! (photon maps, caustic spheres, beams, ...) that owns its persistent state, records its named
 //! passes and hands what later features read to the [`Frame`]:
 //!
 //! | phase | feature | reads | makes |
 //! |---|---|---|---|
 //! | surfaces | `camera` (`passes::eye`) | scene | [`Frame::eye`]: camera geometry buffers, radiance accumulators |
-//! | | `photon_maps` (`techniques::feature`) | eye | [`Frame::lights`]: per light its maps, redone only when invalid |
+//! | | `photon_maps` (`passes::photon_maps`) | eye | [`Frame::lights`]: per light its maps, redone only when invalid |
 //! | | `shading` (`passes::eye`) | eye, lights | direct and caustic light in the accumulators |
 //! | | `caustic_spheres` | eye | directional lights' caustics from the tables |
-//! | | `beams` | eye, lights | [`Frame::beams`]; with `sources.local = beams` the surface caustic |
+//! | | `beams` | eye, lights | the beams (a product); with `sources.local = beams` the surface caustic |
 //! | | `medium_bounce` | eye, lights, beams | light the medium sends back onto surfaces |
 //! | along rays | `composite` (`passes::composite`) | eye, lights | [`Frame::images`]: refraction, reflection, single scattering |
 //! | | `medium_bounce` | images | the surfaces' light scattered along the camera rays |
@@ -25,15 +25,14 @@
 
 use crate::error::Result;
 use crate::gpu::PassTimer;
-use crate::passes::Composited;
 use crate::settings::RenderSettings;
 use std::sync::Arc;
 
-mod features;
 mod types;
 
-pub(crate) use features::Features;
-pub(crate) use types::{DrawCtx, EyeFrame, FrameConsts, LightFrame};
+pub(crate) use types::{
+    Composited, DEPTH_FORMAT, DrawCtx, EyeFrame, EyeSegments, FrameConsts, GBuffer, LightFrame, POS_FORMAT, texture,
+};
 
 /// What a feature records into, and what the features before it made.
 pub(crate) struct Frame<'a> {
@@ -41,7 +40,6 @@ pub(crate) struct Frame<'a> {
     /// The frame's settings.
     pub s: &'a RenderSettings,
     pub fc: &'a FrameConsts,
-    pub raster: &'a crate::passes::Raster,
     pub env: &'a EnvFrame,
     /// Each object's transform relative to its pose in the scene file.
     pub transforms: &'a [glam::Affine3A],
@@ -52,12 +50,31 @@ pub(crate) struct Frame<'a> {
     /// Every light's maps, kept or redone (`photon_maps`), and which were redone this frame.
     pub lights: Vec<Arc<LightFrame>>,
     pub redone: Vec<bool>,
-    /// The beams of the spot and point lights (`beams`).
-    pub beams: Vec<crate::beams::BeamFrame>,
     /// The composited images (`composite`) and the tone-mapped one (`display`).
     pub images: Option<Composited>,
     pub display: Option<wgpu::Texture>,
     pub stats: StatsCopies,
+    /// What a feature hands to later ones beyond the above, by type (the beams' buffers for the
+    /// medium bounce; the photon stages' counters for the statistics).
+    pub products: Products,
+}
+
+/// Values by type: a feature puts what it made, a later one reads or takes it.
+#[derive(Default)]
+pub(crate) struct Products(std::collections::HashMap<std::any::TypeId, Box<dyn std::any::Any>>);
+
+impl Products {
+    pub fn put<T: 'static>(&mut self, value: T) {
+        self.0.insert(std::any::TypeId::of::<T>(), Box::new(value));
+    }
+
+    pub fn get<T: 'static>(&self) -> Option<&T> {
+        self.0.get(&std::any::TypeId::of::<T>()).and_then(|b| b.downcast_ref())
+    }
+
+    pub fn take<T: 'static>(&mut self) -> Option<T> {
+        self.0.remove(&std::any::TypeId::of::<T>()).and_then(|b| b.downcast().ok()).map(|b| *b)
+    }
 }
 
 /// The camera's buffers, once the `camera` feature made them.
@@ -87,8 +104,6 @@ pub(crate) struct EnvFrame {
 pub(crate) struct StatsCopies {
     /// Per light, its flux words and fixed-point scale.
     pub flux: Vec<(wgpu::Buffer, f64)>,
-    /// Per redone light, its photon stage's counters.
-    pub pendings: Vec<crate::techniques::Pending>,
     /// `sphere_gather`'s counters.
     pub spheres: Option<wgpu::Buffer>,
 }

@@ -1,11 +1,73 @@
 //! What the features of a frame share: the drawing context, the constants derived from the
 //! scene and settings, the camera's buffers and each light's products.
 
+use crate::geometry::Geometry;
 use crate::gpu::GpuContext;
-use crate::passes::{GBuffer, Geometry};
 use crate::scene::{Material, Scene};
 use crate::settings::{MAX_GBUFFER, RenderSettings};
 use glam::Mat4;
+
+pub(crate) const POS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+pub(crate) fn texture(
+    ctx: &GpuContext,
+    label: &str,
+    size: u32,
+    size_y: u32,
+    layers: u32,
+    format: wgpu::TextureFormat,
+) -> wgpu::Texture {
+    let usage =
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
+    ctx.texture(label, wgpu::Extent3d { width: size, height: size_y, depth_or_array_layers: layers }, format, usage)
+}
+
+/// A geometry buffer: position + object id, normal, depth; `layers` faces.
+pub(crate) struct GBuffer {
+    pub pos: wgpu::Texture,
+    pub nrm: wgpu::Texture,
+    pub depth: wgpu::Texture,
+}
+
+impl GBuffer {
+    pub(crate) fn new(ctx: &GpuContext, label: &str, w: u32, h: u32, layers: u32) -> GBuffer {
+        GBuffer {
+            pos: texture(ctx, &format!("{label}_position"), w, h, layers, POS_FORMAT),
+            nrm: texture(ctx, &format!("{label}_normal"), w, h, layers, POS_FORMAT),
+            depth: texture(ctx, &format!("{label}_depth"), w, h, layers, DEPTH_FORMAT),
+        }
+    }
+}
+
+/// The composited images and, in a scene with a medium, the segments of the camera paths
+/// beyond the first specular surface that `composite` kept for the medium's stages.
+pub(crate) struct Composited {
+    pub full: wgpu::Buffer,
+    pub caustic: wgpu::Buffer,
+    pub segments: EyeSegments,
+}
+
+/// `composite`'s list of specular pixels and their kept segments ([`EYE_SEGMENTS`] each, in
+/// the list's order): a stage over them is dispatched indirectly from `args` (workgroups of 64)
+/// and reads the list's length from `count[3]`. `kept`: whether `composite` kept segments
+/// ([`RenderSettings::medium_segments_active`]; else `segments` is one unused slot and no stage
+/// runs along them).
+pub(crate) struct EyeSegments {
+    pub kept: bool,
+    pub list: wgpu::Buffer,
+    pub count: wgpu::Buffer,
+    pub args: wgpu::Buffer,
+    pub segments: wgpu::Buffer,
+}
+
+impl EyeSegments {
+    /// The list of specular pixels, its count and the segments, by the names the stages that
+    /// read them give them.
+    pub(crate) fn bindings(&self) -> [(&'static str, &wgpu::Buffer); 3] {
+        [("spec_list", &self.list), ("spec_count", &self.count), ("segments", &self.segments)]
+    }
+}
 
 pub(crate) struct DrawCtx<'a> {
     pub ctx: &'a GpuContext,

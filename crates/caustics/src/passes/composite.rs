@@ -3,7 +3,7 @@
 
 use super::eye::shadow_sampler;
 use super::raster::has_specular_meshes;
-use super::{DrawCtx, EyeFrame, LightFrame, array_view, layer_view};
+use super::{Composited, DrawCtx, EyeFrame, EyeSegments, LightFrame, array_view, layer_view};
 use crate::error::Result;
 use crate::frame::{Feature, Frame};
 use crate::geometry::density_view;
@@ -11,35 +11,6 @@ use crate::gpu::PassTimer;
 use crate::gpu::pass::Pass;
 use crate::gpu::types::*;
 use crate::settings::RenderSettings;
-
-/// The composited images and, in a scene with a medium, the segments of the camera paths
-/// beyond the first specular surface that `composite` kept for the medium's stages.
-pub(crate) struct Composited {
-    pub full: wgpu::Buffer,
-    pub caustic: wgpu::Buffer,
-    pub segments: EyeSegments,
-}
-
-/// `composite`'s list of specular pixels and their kept segments ([`EYE_SEGMENTS`] each, in
-/// the list's order): a stage over them is dispatched indirectly from `args` (workgroups of 64)
-/// and reads the list's length from `count[3]`. `kept`: whether `composite` kept segments
-/// ([`RenderSettings::medium_segments_active`]; else `segments` is one unused slot and no stage
-/// runs along them).
-pub(crate) struct EyeSegments {
-    pub kept: bool,
-    pub list: wgpu::Buffer,
-    pub count: wgpu::Buffer,
-    pub args: wgpu::Buffer,
-    pub segments: wgpu::Buffer,
-}
-
-impl EyeSegments {
-    /// The list of specular pixels, its count and the segments, by the names the stages that
-    /// read them give them.
-    pub(crate) fn bindings(&self) -> [(&'static str, &wgpu::Buffer); 3] {
-        [("spec_list", &self.list), ("spec_count", &self.count), ("segments", &self.segments)]
-    }
-}
 
 /// `medium_scatter` (scenes with a medium; nothing is recorded or requested otherwise): two
 /// dispatches per light (spot, point or directional) over the composited images. The first

@@ -145,7 +145,7 @@ pub(crate) struct Camera;
 impl Feature for Camera {
     fn record(&mut self, f: &mut Frame) -> Result<()> {
         f.dc.ctx.begin_scope("eye", f.enc);
-        f.eye = Some(record_eye(&f.dc, f.raster, f.enc, f.timer));
+        f.eye = Some(record_eye(&f.dc, &super::raster_pipelines(f.dc.ctx), f.enc, f.timer));
         f.dc.ctx.end_scope();
         Ok(())
     }

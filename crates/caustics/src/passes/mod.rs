@@ -22,40 +22,27 @@
 
 use crate::gpu::GpuContext;
 
-const POS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
-const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-
 mod composite;
 mod dump;
 mod eye;
 mod light;
+mod photon_maps;
 mod raster;
 mod validate;
 
 pub(crate) use crate::geometry::{
     Geometry, density_view, material_records, object_transform, upload_density, upload_geometry,
 };
-pub(crate) use composite::{Composite, Composited, Display, EyeSegments};
+pub(crate) use composite::{Composite, Display};
 pub use dump::{DumpImage, DumpKind};
 pub(crate) use dump::{bytes_to_image, dump_images};
 pub(crate) use eye::{Camera, Shading, shadow_sampler};
 pub(crate) use light::{flux_stats, light_record, record_light};
-pub(crate) use raster::{Raster, raster_pipelines};
+pub(crate) use photon_maps::PhotonMaps;
+pub(crate) use raster::raster_pipelines;
 
-pub(crate) use crate::frame::{DrawCtx, EyeFrame, FrameConsts, LightFrame};
-
-fn texture(
-    ctx: &GpuContext,
-    label: &str,
-    size: u32,
-    size_y: u32,
-    layers: u32,
-    format: wgpu::TextureFormat,
-) -> wgpu::Texture {
-    let usage =
-        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
-    ctx.texture(label, wgpu::Extent3d { width: size, height: size_y, depth_or_array_layers: layers }, format, usage)
-}
+pub(crate) use crate::frame::{Composited, DrawCtx, EyeFrame, EyeSegments, FrameConsts, GBuffer, LightFrame};
+use crate::frame::{DEPTH_FORMAT, POS_FORMAT, texture};
 
 pub(crate) fn layer_view(ctx: &GpuContext, t: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
     ctx.view(t, Some(wgpu::TextureViewDimension::D2), layer, Some(1))
@@ -63,21 +50,4 @@ pub(crate) fn layer_view(ctx: &GpuContext, t: &wgpu::Texture, layer: u32) -> wgp
 
 pub(crate) fn array_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::TextureView {
     ctx.view(t, Some(wgpu::TextureViewDimension::D2Array), 0, None)
-}
-
-/// A geometry buffer: position + object id, normal, depth; `layers` faces.
-pub(crate) struct GBuffer {
-    pub pos: wgpu::Texture,
-    pub nrm: wgpu::Texture,
-    pub depth: wgpu::Texture,
-}
-
-impl GBuffer {
-    fn new(ctx: &GpuContext, label: &str, w: u32, h: u32, layers: u32) -> GBuffer {
-        GBuffer {
-            pos: texture(ctx, &format!("{label}_position"), w, h, layers, POS_FORMAT),
-            nrm: texture(ctx, &format!("{label}_normal"), w, h, layers, POS_FORMAT),
-            depth: texture(ctx, &format!("{label}_depth"), w, h, layers, DEPTH_FORMAT),
-        }
-    }
 }

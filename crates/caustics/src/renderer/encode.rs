@@ -30,7 +30,6 @@ impl Renderer {
             dc: crate::passes::DrawCtx { ctx: &ctx, geo, scene: &scene },
             s: &self.settings,
             fc: &fc,
-            raster: &crate::passes::raster_pipelines(&ctx),
             env: &env,
             transforms: &self.transforms,
             enc: encoder,
@@ -38,10 +37,10 @@ impl Renderer {
             eye: None,
             lights: Vec::new(),
             redone: Vec::new(),
-            beams: Vec::new(),
             images: None,
             display: None,
             stats: StatsCopies::default(),
+            products: Default::default(),
         };
         for feature in self.features.surfaces() {
             feature.record(&mut f)?;
@@ -53,8 +52,9 @@ impl Renderer {
         ctx.end_scope();
         let (images, display) = (f.images.take().expect("composited"), f.display.take().expect("displayed"));
         let (stats, redone) = (std::mem::take(&mut f.stats), std::mem::take(&mut f.redone));
+        let pendings = f.products.take().unwrap_or_default();
         if request.stats {
-            self.copy_stats(encoder, &mut timer, stats, redone.clone());
+            self.copy_stats(encoder, &mut timer, (stats, pendings), redone.clone());
         }
         self.outputs = Some((images.full, images.caustic, display));
         self.frame += 1;

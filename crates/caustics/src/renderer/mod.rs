@@ -56,6 +56,7 @@ use std::sync::Arc;
 
 mod encode;
 mod environment;
+mod features;
 mod readback;
 mod stats;
 
@@ -129,7 +130,7 @@ pub struct Renderer {
     geometry: Option<(crate::scene::Tessellation, Geometry)>,
     objects_dirty: bool,
     /// The frame's features and their persistent state ([`crate::frame`]).
-    features: crate::frame::Features,
+    features: features::Features,
     frame: u64,
     outputs: Option<(wgpu::Buffer, wgpu::Buffer, wgpu::Texture)>,
     ring: Vec<StatsSlot>,
@@ -163,7 +164,7 @@ impl Renderer {
             settings,
             geometry: None,
             objects_dirty: true,
-            features: crate::frame::Features::default(),
+            features: features::Features::default(),
             frame: 0,
             outputs: None,
             ring: Vec::new(),

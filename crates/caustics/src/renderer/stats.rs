@@ -187,7 +187,7 @@ impl Renderer {
         &mut self,
         enc: &mut wgpu::CommandEncoder,
         timer: &mut PassTimer,
-        copies: StatsCopies,
+        (copies, pendings): (StatsCopies, Vec<Pending>),
         lights_redone: Vec<bool>,
     ) {
         let ctx = self.ctx.clone();
@@ -202,7 +202,7 @@ impl Renderer {
         for (b, _) in &copies.flux {
             sources.push((b.clone(), crate::output::FLUX_STATS_BYTES));
         }
-        let piece_lists: Vec<Vec<(wgpu::Buffer, u64)>> = copies.pendings.iter().map(|p| p.sources()).collect();
+        let piece_lists: Vec<Vec<(wgpu::Buffer, u64)>> = pendings.iter().map(|p| p.sources()).collect();
         for list in &piece_lists {
             sources.extend(list.iter().cloned());
         }
@@ -230,18 +230,18 @@ impl Renderer {
             flux.push((offsets[k], *scale));
             k += 1;
         }
-        let mut pendings = Vec::new();
-        for (p, list) in copies.pendings.into_iter().zip(&piece_lists) {
+        let mut pend = Vec::new();
+        for (p, list) in pendings.into_iter().zip(&piece_lists) {
             let pieces = list.iter().map(|(_, size)| {
                 let piece = (offsets[k], *size);
                 k += 1;
                 piece
             });
-            pendings.push((p, pieces.collect()));
+            pend.push((p, pieces.collect()));
         }
         let sphere_stats = copies.spheres.as_ref().map(|_| offsets[k]);
         self.ring[slot].job =
-            Some(StatsJob { frame: self.frame, timer: timer_job, flux, pendings, lights_redone, sphere_stats });
+            Some(StatsJob { frame: self.frame, timer: timer_job, flux, pendings: pend, lights_redone, sphere_stats });
         self.ring[slot].state.store(1, Ordering::Release);
     }
 }

@@ -16,11 +16,8 @@
 
 pub mod adaptive;
 pub mod basic;
-mod feature;
 pub mod hierarchical;
 pub mod splat;
-
-pub(crate) use feature::PhotonMaps;
 
 use crate::error::{Error, Result};
 use crate::gpu::pass::{Bound, Pass};

@@ -2,10 +2,10 @@
 //! stage, the resolve, the temporal filter and the shading tiles (`passes::record_light`),
 //! redone only when the light's uniform record changed or something it sees did.
 
+use super::LightFrame;
 use crate::error::Result;
 use crate::frame::{Change, Feature, Frame};
 use crate::gpu::types::LightGpu;
-use crate::passes::LightFrame;
 use crate::settings::Inspect;
 use crate::temporal::TemporalFilter;
 use std::sync::Arc;
@@ -50,9 +50,10 @@ impl Feature for PhotonMaps {
         }
         let (fc, s) = (f.fc, f.s);
         let mut stages = None;
+        let mut pendings: Vec<crate::techniques::Pending> = Vec::new();
         f.redone = vec![false; n];
         for (li, light) in scene.lights.iter().enumerate() {
-            let (view, record, scale) = crate::passes::light_record(scene, light, s, fc);
+            let (view, record, scale) = super::light_record(scene, light, s, fc);
             let same = self.states[li]
                 .as_ref()
                 .is_some_and(|st| bytemuck::bytes_of(&st.record) == bytemuck::bytes_of(&record));
@@ -60,12 +61,16 @@ impl Feature for PhotonMaps {
                 continue;
             }
             let pl = stages.get_or_insert_with(|| {
-                super::Stages::new(s, fc.layer2, [fc.reflect_branch, fc.internal_branch, fc.residual_branch])
+                crate::techniques::Stages::new(
+                    s,
+                    fc.layer2,
+                    [fc.reflect_branch, fc.internal_branch, fc.residual_branch],
+                )
             });
             f.dc.ctx.begin_scope(&format!("light{li}"), f.enc);
-            let out = crate::passes::record_light(
+            let out = super::record_light(
                 &f.dc,
-                f.raster,
+                &super::raster_pipelines(f.dc.ctx),
                 pl,
                 (s, self.inspect),
                 fc,
@@ -79,9 +84,10 @@ impl Feature for PhotonMaps {
             self.states[li] = Some(LightState { record, frame: Arc::new(frame) });
             self.dirty[li] = false;
             f.redone[li] = true;
-            f.stats.pendings.push(pending);
+            pendings.push(pending);
         }
         f.lights = self.states.iter().map(|l| l.as_ref().expect("every light recorded").frame.clone()).collect();
+        f.products.put(pendings);
         f.stats.flux = f.lights.iter().map(|l| (l.stats.clone(), l.scale)).collect();
         Ok(())
     }

@@ -1,12 +1,12 @@
 //! The feature list: every feature of the frame, and the two phases' fixed orders.
 
-use super::{Change, Feature};
+use crate::frame::{Change, Feature};
 
 /// Every feature of the frame and its persistent state.
 #[derive(Default)]
 pub(crate) struct Features {
     pub camera: crate::passes::Camera,
-    pub photon_maps: crate::techniques::PhotonMaps,
+    pub photon_maps: crate::passes::PhotonMaps,
     pub shading: crate::passes::Shading,
     pub spheres: crate::caustic_spheres::SpheresFeature,
     pub beams: crate::beams::Beams,
