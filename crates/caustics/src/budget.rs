@@ -26,7 +26,7 @@
 //! The controller moves along a **ladder of levels** ordered by quality, each a valid setting
 //! of the technique ([`ladder`]): basic caustic maps, grids in quarter-octave steps rounded to
 //! multiples of 16 (cost steps of about 1.41×); hierarchical and adaptive caustic maps, powers
-//! of two (their plans need them: [`crate::techniques::adaptive::AdaptivePlan`]), and for
+//! of two (their plans need them: `techniques::adaptive::AdaptivePlan`), and for
 //! maximal caustic map error each grid preceded by coarser error tolerances
 //! ([`BudgetSettings::tolerances`]), which fill the 4× cost gap between two grids.
 //!

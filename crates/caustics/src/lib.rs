@@ -49,11 +49,11 @@
 
 #![forbid(unsafe_code)]
 
-pub mod accel;
+pub(crate) mod accel;
 pub mod beams;
 pub mod budget;
 pub mod caustic_spheres;
-pub mod env_taps;
+pub(crate) mod env_taps;
 pub mod error;
 pub(crate) mod frame;
 pub(crate) mod geometry;
@@ -62,14 +62,14 @@ pub mod image_io;
 pub mod lightspace;
 pub(crate) mod medium_bounce;
 pub mod output;
-pub mod passes;
+pub(crate) mod passes;
 pub mod raycast;
 pub mod render;
 pub mod renderer;
 pub mod scene;
 pub mod settings;
 pub use techniques::splat;
-pub mod techniques;
+pub(crate) mod techniques;
 pub mod temporal;
 
 pub use error::{Error, Result};

@@ -1,5 +1,5 @@
 //! Rays against the scene on the GPU, through the exact photon tracer's own traversal
-//! (`shaders/shared/raytrace.wgsl` over [`crate::accel`]): the `ray_query` pass. For tests
+//! (`shaders/shared/raytrace.wgsl` over `crate::accel`): the `ray_query` pass. For tests
 //! against brute force, and for tools that need what the tracer sees (picking).
 
 use crate::error::{Error, Result};
@@ -43,7 +43,7 @@ pub struct RayCast {
 pub struct CastOptions {
     /// Any hit (occlusion) instead of the closest.
     pub any_hit: bool,
-    /// Traversal stack entries to use, at most [`crate::accel::BVH_STACK`] (the default);
+    /// Traversal stack entries to use, at most `crate::accel::BVH_STACK` (the default);
     /// lower only to see overflows detected.
     pub stack_limit: u32,
 }

@@ -3,6 +3,7 @@
 
 pub(crate) mod pass;
 pub mod pool;
+#[doc(hidden)]
 pub mod types;
 
 mod context;

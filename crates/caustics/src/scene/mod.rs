@@ -7,7 +7,7 @@
 pub mod density;
 pub mod environment;
 pub mod environment_lights;
-pub mod format;
+pub(crate) mod format;
 pub mod mesh;
 
 use crate::error::{Error, Result};

@@ -1,5 +1,5 @@
-//! The `beams` section: volume (and surface) caustics by adaptive beam tracing, and
-//! [`SurfaceCaustics`], the choice between photon maps and beams for surfaces.
+//! The `beams` section: volume (and surface) caustics by adaptive beam tracing.
+//! (Where the surface caustic of spot and point lights comes from is `sources.local`.)
 
 use serde::{Deserialize, Serialize};
 
@@ -104,7 +104,7 @@ pub struct BeamSettings {
     /// Camera rays per pixel side (the box pixel filter: n² stratified rays per pixel), 1 to 8.
     /// Default 1 (the pixel centre; n rays cost n² times the gather).
     pub pixel_samples: u32,
-    /// Surface caustics from beams ([`SurfaceCaustics::Beams`]): points per pixel side on the
+    /// Surface caustics from beams ([`LocalSource::Beams`](super::LocalSource::Beams)): points per pixel side on the
     /// surface's tangent plane (the box pixel filter: n² stratified points, each tested in the
     /// beams), 1 to 8. Default 4 (a point test is cheap; the caustic's focal lines are thinner
     /// than a pixel).
@@ -128,7 +128,7 @@ pub struct BeamSettings {
     /// ∫ dl / A, bounded by the section's growth, transmittance left out), is this. The bound is
     /// per beam: a pixel that sees many beams' tails loses up to this for each, and the light
     /// of a faint glow made of many beams goes first (docs/benchmarks.md, "Beams: the energy
-    /// cutoff"). Beams whose ends light a surface ([`SurfaceCaustics::Beams`]) are not cut.
+    /// cutoff"). Beams whose ends light a surface ([`LocalSource::Beams`](super::LocalSource::Beams)) are not cut.
     /// Shorter hulls cost fewer fragments. 0 (the default) draws every beam to its end.
     pub cutoff: f32,
     /// The footprint integral of the volume caustic (`beam_gather`): where a beam's
