@@ -25,6 +25,12 @@ perl -pi -e '
     s/\.beams\.enabled\s*=\s*true/.sources.volume = caustics::settings::VolumeSource::Beams/g;
     s/--set surface_caustics=beams/--set sources.local=beams/g;
     s/photons\.technique=/photons.emission=/g;
+    s/surface_caustics: ((?:caustics::(?:settings|render)::)?LocalSource::Beams|sc|surface),/sources: caustics::settings::SourceSettings { local: $1, ..Default::default() },/;
+    s/RenderSettings \{ surface_caustics: LocalSource::Beams,/RenderSettings { sources: caustics::settings::SourceSettings { local: LocalSource::Beams, ..Default::default() },/;
+    s/\{ beams: BeamSettings \{ enabled: false, \.\.s\.beams \}, \.\.s\.clone\(\)/{ sources: caustics::settings::SourceSettings { volume: caustics::settings::VolumeSource::None, ..s.sources }, ..s.clone()/;
+    s/PhotonSettings \{ technique: t,/PhotonSettings { emission: t,/;
+    s/PhotonSettings \{ technique,/PhotonSettings { emission: technique,/;
+    s/^(\s+)technique: (Emission::\w+|t|technique),$/$1emission: $2,/;
 ' "${files[@]}"
 # Inside the library the crate is `crate`.
 perl -pi -e 's/caustics::settings::(DistantSource|VolumeSource)/crate::settings::$1/g' $(printf '%s\n' "${files[@]}" | grep '^crates/caustics/src/' || true) 2>/dev/null || true
