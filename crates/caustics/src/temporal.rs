@@ -135,6 +135,19 @@ pub struct TemporalFilter {
     pub(crate) lights: Vec<Option<LightHistory>>,
 }
 
+/// One light's caustic maps as the filter reads and writes them: `size` × `size` × `faces`
+/// texels of `vec4<f32>` (rgb irradiance, face-major, rows top-down), as the renderer resolves
+/// them, in a buffer with usage `STORAGE | COPY_SRC | COPY_DST`.
+#[derive(Clone, Copy)]
+pub struct CausticMaps<'a> {
+    /// The maps.
+    pub buffer: &'a wgpu::Buffer,
+    /// Texels per side of a face (M).
+    pub size: u32,
+    /// Faces of the light's view.
+    pub faces: u32,
+}
+
 impl TemporalFilter {
     pub fn new(settings: TemporalSettings) -> TemporalFilter {
         TemporalFilter { settings, lights: Vec::new() }
@@ -147,22 +160,18 @@ impl TemporalFilter {
         }
     }
 
-    /// Record the filter of one light's caustic maps into `encoder`. `maps` holds M × M × `faces`
-    /// texels of `vec4<f32>` (rgb irradiance, face-major, rows top-down), as the renderer
-    /// resolves them, with usage `STORAGE | COPY_SRC | COPY_DST`; after the commands run it holds
-    /// the filtered maps. `light` indexes the history (one per light of the scene). Settings
-    /// out of range (see [`TemporalSettings::validate`]) are clamped.
-    #[allow(clippy::too_many_arguments)]
+    /// Record the filter of one light's caustic maps into `encoder` (after the commands run,
+    /// `maps.buffer` holds the filtered maps). `light` indexes the history (one per light of the
+    /// scene). Settings out of range (see [`TemporalSettings::validate`]) are clamped.
     pub fn record(
         &mut self,
         ctx: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
         timer: Option<&mut PassTimer>,
         light: usize,
-        maps: &wgpu::Buffer,
-        size: u32,
-        faces: u32,
+        maps: CausticMaps,
     ) {
+        let CausticMaps { buffer: maps, size, faces } = maps;
         if self.lights.len() <= light {
             self.lights.resize_with(light + 1, || None);
         }

@@ -263,7 +263,7 @@ fn record_filters_a_callers_buffer() {
     let mut frame = |map: &[[f32; 4]]| -> Vec<[f32; 4]> {
         ctx.queue.write_buffer(&buffer, 0, bytemuck::cast_slice(map));
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        filter.record(&ctx, &mut enc, None, 0, &buffer, S, 1);
+        filter.record(&ctx, &mut enc, None, 0, caustics::temporal::CausticMaps { buffer: &buffer, size: S, faces: 1 });
         ctx.queue.submit([enc.finish()]);
         bytemuck::cast_slice(&ctx.read_buffer(&buffer, (S * S * 16) as u64).unwrap()).to_vec()
     };

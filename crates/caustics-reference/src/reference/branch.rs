@@ -178,9 +178,19 @@ pub fn tree(
         min_weight: f64,
         leaf: &'a mut F,
     }
+    /// A branch's state: its weight, interactions so far, whether it is inside glass, and its
+    /// partial reflections (bit k: at interaction k; their count).
+    #[derive(Clone, Copy)]
+    struct Branch {
+        w: f64,
+        depth: u32,
+        inside: bool,
+        chosen: u32,
+        count: u32,
+    }
     impl<F: FnMut(Leaf)> Walk<'_, F> {
-        #[allow(clippy::too_many_arguments)]
-        fn step(&mut self, o: Vec3, d: Vec3, w: f64, depth: u32, inside: bool, chosen: u32, count: u32) {
+        fn step(&mut self, o: Vec3, d: Vec3, b: Branch) {
+            let Branch { w, depth, inside, chosen, count } = b;
             if w < self.min_weight {
                 return;
             }
@@ -207,31 +217,31 @@ pub fn tree(
                 rd = reflect(d, ng);
             }
             let (ro, next) = (spawn(h.p, h.ng, rd), depth + 1);
+            let after = |w: f64| Branch { w, depth: next, ..b };
             match sc.materials[sc.objects[h.object as usize].material] {
                 Material::Dielectric { ior, ext_ior } => {
                     let eta = if front { ior / ext_ior } else { ext_ior / ior };
                     let (f, td) = interface(d, ns, ng, eta);
                     if let Some(td) = td {
                         let f = f64::from(f);
-                        self.step(spawn(h.p, h.ng, td), td, w * (1.0 - f), next, front, chosen, count);
+                        self.step(spawn(h.p, h.ng, td), td, Branch { inside: front, ..after(w * (1.0 - f)) });
                         let bit = if depth < 32 { 1 << depth } else { 0 };
-                        self.step(ro, rd, w * f, next, inside, chosen | bit, count + 1);
+                        self.step(ro, rd, Branch { chosen: chosen | bit, count: count + 1, ..after(w * f) });
                     } else {
-                        self.step(ro, rd, w, next, inside, chosen, count);
+                        self.step(ro, rd, after(w));
                     }
                 }
-                Material::Mirror { reflectance } => {
-                    self.step(ro, rd, w * f64::from(reflectance.x), next, inside, chosen, count)
-                }
+                Material::Mirror { reflectance } => self.step(ro, rd, after(w * f64::from(reflectance.x))),
                 Material::Conductor { eta, k } => {
                     let r = fresnel_conductor((-d.dot(ns)).clamp(0.0, 1.0), eta, k).x;
-                    self.step(ro, rd, w * f64::from(r), next, inside, chosen, count);
+                    self.step(ro, rd, after(w * f64::from(r)));
                 }
                 Material::Diffuse { .. } => {} // (not specular: ended above)
             }
         }
     }
-    Walk { scene, accel, max_depth, min_weight, leaf }.step(o0, d0, 1.0, 0, false, 0, 0);
+    let start = Branch { w: 1.0, depth: 0, inside: false, chosen: 0, count: 0 };
+    Walk { scene, accel, max_depth, min_weight, leaf }.step(o0, d0, start);
 }
 
 /// Whether a path that reflected partially `count` times (bit k of `chosen`: at interaction

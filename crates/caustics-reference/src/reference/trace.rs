@@ -338,7 +338,7 @@ impl<'a> Tracer<'a> {
                         // Made and, outside the class, dropped: the photon's random numbers
                         // are the same in every mode.
                         let n0 = out.cam.len();
-                        self.connect_camera(h.p, ng, ns, albedo, flux, rng, out);
+                        self.connect_camera(DiffusePoint { p: h.p, ng, ns, albedo }, flux, rng, out);
                         if !paths.keeps(first) || (self.gather_direct && diffuse_seen == 0) {
                             out.cam.truncate(n0);
                         }
@@ -377,18 +377,9 @@ impl<'a> Tracer<'a> {
         }
     }
 
-    /// Light tracing: splat the radiance that the diffuse point `p` sends to the camera.
-    #[allow(clippy::too_many_arguments)]
-    fn connect_camera(
-        &self,
-        p: Vec3,
-        ng: Vec3,
-        ns: Vec3,
-        albedo: Vec3,
-        flux: Vec3,
-        rng: &mut PathRng,
-        out: &mut PhotonOut,
-    ) {
+    /// Light tracing: splat the radiance that the diffuse point `at` sends to the camera.
+    fn connect_camera(&self, at: DiffusePoint, flux: Vec3, rng: &mut PathRng, out: &mut PhotonOut) {
+        let DiffusePoint { p, ng, ns, albedo } = at;
         let to = self.cam.pos - p;
         let dist2 = to.length_squared();
         let dist = dist2.sqrt();
@@ -740,4 +731,14 @@ mod scatter_tests {
         assert!(r.dot(n) < 0.0, "reflected back into the glass");
         assert_eq!(w, Vec3::ONE);
     }
+}
+
+/// A point on a diffuse surface a photon lit: position, geometric and shading normals (on the
+/// side the photon came from) and albedo.
+#[derive(Clone, Copy)]
+struct DiffusePoint {
+    p: Vec3,
+    ng: Vec3,
+    ns: Vec3,
+    albedo: Vec3,
 }

@@ -285,7 +285,7 @@ pub(crate) fn record_light(
         .bind("irradiance", &irradiance)
         .dispatch(enc, timer, [(texels as u32).div_ceil(256), 1, 1]);
     if let Some(t) = temporal {
-        t.record(ctx, enc, Some(timer), li, &irradiance, m, nf);
+        t.record(ctx, enc, Some(timer), li, crate::temporal::CausticMaps { buffer: &irradiance, size: m, faces: nf });
     }
     let (caustic_mask, shadow_tiles) =
         record_tiles(ctx, (m, s.shading.shadow_map_size, nf), &irradiance, &shadow, enc, timer);
