@@ -131,11 +131,13 @@ pub struct TemporalStats {
 
 /// The temporal filter's state across frames: see the module documentation.
 pub struct TemporalFilter {
+    /// How it filters.
     pub settings: TemporalSettings,
     pub(crate) lights: Vec<Option<LightHistory>>,
 }
 
 impl TemporalFilter {
+    /// A filter with no history: its first frame is output unfiltered.
     pub fn new(settings: TemporalSettings) -> TemporalFilter {
         TemporalFilter { settings, lights: Vec::new() }
     }
