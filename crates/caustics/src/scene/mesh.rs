@@ -11,7 +11,7 @@ use std::path::Path;
 pub struct TriMesh {
     /// Vertex positions (m).
     pub positions: Vec<Vec3>,
-    /// Shading normal of each vertex, parallel to `positions`.
+    /// Shading normal of each vertex (same index as `positions`).
     pub normals: Vec<Vec3>,
     /// Triangles, three indices into `positions` each.
     pub indices: Vec<[u32; 3]>,

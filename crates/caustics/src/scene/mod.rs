@@ -33,7 +33,7 @@ pub struct Camera {
     pub position: Vec3,
     /// Point the camera looks at (m).
     pub look_at: Vec3,
-    /// Unit up direction; need not be perpendicular to the view direction ([`Self::true_up`] is).
+    /// Up direction; need not be perpendicular to the view direction ([`Self::true_up`] is).
     pub up: Vec3,
     /// Full vertical field of view, in degrees, in (0, 180).
     pub fov_y_deg: f32,
