@@ -99,9 +99,10 @@ use crate::settings::RenderSettings;
 pub struct BudgetSettings {
     /// The frame time to meet, milliseconds.
     pub target_ms: f64,
-    /// Smallest and largest photon grid N (per side); clamped to what the technique supports
-    /// (16 or 32 to 8192 or 65536).
+    /// Smallest photon grid N (per side); clamped to what the technique supports (16 or 32 to
+    /// 8192 or 65536).
     pub min_photons: u32,
+    /// Largest photon grid N (per side), clamped likewise.
     pub max_photons: u32,
     /// Maximal caustic map error: tolerances (caustic-map texels) the controller may use below
     /// each grid, coarsest first; empty: the grid alone (tolerance as in the settings).
@@ -144,7 +145,9 @@ impl BudgetSettings {
 /// (`None`: leave the settings' tolerance).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Level {
+    /// Photon grid N per light-view face.
     pub photons: u32,
+    /// The maximal-error tolerance in caustic-map texels (`None`: the settings' own).
     pub tolerance: Option<f32>,
 }
 
@@ -251,6 +254,7 @@ pub struct BudgetController {
 }
 
 impl BudgetController {
+    /// A controller aiming at `settings`, nothing measured yet.
     pub fn new(settings: BudgetSettings) -> BudgetController {
         BudgetController {
             settings,
@@ -271,6 +275,7 @@ impl BudgetController {
         }
     }
 
+    /// What it aims at, within which limits.
     pub fn settings(&self) -> &BudgetSettings {
         &self.settings
     }

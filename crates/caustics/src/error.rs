@@ -26,14 +26,24 @@ pub enum Error {
     Device(String),
     /// A shader failed to compile (a bug: shaders are validated in the tests).
     #[error("shader {name}: {message}")]
-    Shader { name: String, message: String },
+    Shader {
+        /// The stage, as [`crate::gpu::STAGES`] names it.
+        name: String,
+        /// naga's diagnostic, or the missing entry point or binding.
+        message: String,
+    },
     /// The caller cancelled the work (the CPU reference's `Progress` was cancelled); nothing
     /// was produced.
     #[error("cancelled")]
     Cancelled,
     /// Writing an output file failed.
     #[error("cannot write {}: {message}", .path.display())]
-    Output { path: PathBuf, message: String },
+    Output {
+        /// The file or folder that could not be written.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
 }
 
 fn describe_input(file: &str, field: &str, line: &Option<(usize, usize)>, message: &str) -> String {
@@ -60,4 +70,5 @@ impl Error {
     }
 }
 
+/// The crate's result: [`Error`] unless another error type is given.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

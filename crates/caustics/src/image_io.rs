@@ -4,18 +4,24 @@
 /// A linear RGB image, row-major, pixel (0,0) top-left.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Image {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
+    /// `width × height` linear RGB pixels, row-major, top row first.
     pub pixels: Vec<[f32; 3]>,
 }
 
 impl Image {
+    /// A black image.
     pub fn new(width: u32, height: u32) -> Image {
         Image { width, height, pixels: vec![[0.0; 3]; (width * height) as usize] }
     }
+    /// Pixel (x, y), (0,0) top-left.
     pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
         self.pixels[(y * self.width + x) as usize]
     }
+    /// Set pixel (x, y), (0,0) top-left.
     pub fn set(&mut self, x: u32, y: u32, c: [f32; 3]) {
         let w = self.width;
         self.pixels[(y * w + x) as usize] = c;
@@ -30,6 +36,7 @@ impl Image {
     }
 }
 
+/// Luminance (Rec. 709) of a linear RGB colour.
 pub fn luminance(c: [f32; 3]) -> f32 {
     0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 }
@@ -44,10 +51,12 @@ pub fn tonemap(c: [f32; 3], exposure: f32) -> [u8; 3] {
     })
 }
 
+/// The sRGB transfer function: linear `y` in [0, 1] to the encoded value in [0, 1].
 pub fn srgb_encode(y: f32) -> f32 {
     if y <= 0.0031308 { 12.92 * y } else { 1.055 * y.powf(1.0 / 2.4) - 0.055 }
 }
 
+/// The inverse of [`srgb_encode`]: encoded `v` in [0, 1] to linear.
 pub fn srgb_decode(v: f32) -> f32 {
     if v <= 0.04045 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
 }

@@ -28,7 +28,9 @@ pub const MAX_SPOT_FRUSTUM_DEG: f32 = 75.0;
 /// world-to-clip matrix.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LightFace {
+    /// World-to-clip matrix (right-handed, depth range 0..1).
     pub world_to_clip: Mat4,
+    /// Orthographic (a directional light's face) rather than perspective.
     pub orthographic: bool,
     /// Light position (perspective) or the direction light travels (orthographic).
     pub origin_or_dir: Vec3,
@@ -37,8 +39,11 @@ pub struct LightFace {
 /// How one light sees the scene: one face, or six for a cube.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LightView {
+    /// The faces: one, or six for a cube, then the spill face if there is one.
     pub faces: Vec<LightFace>,
+    /// Near plane distance of the faces (m).
     pub near: f32,
+    /// Far plane distance of the faces (m).
     pub far: f32,
     /// Radius of the scene's bounding sphere (m).
     pub scene_radius: f32,

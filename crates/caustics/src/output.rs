@@ -44,6 +44,7 @@ pub struct GpuRender {
     pub caustic_maps: Vec<Vec<Image>>,
     /// Per light, per face: the raw fixed-point flux per texel (r, g, b), for determinism checks.
     pub caustic_flux_bits: Vec<Vec<u64>>,
+    /// Per light: flux bookkeeping of the light's photon stage.
     pub flux: Vec<FluxStats>,
     /// GPU milliseconds per named pass (empty without timestamp queries).
     pub timings: Vec<(String, f64)>,
@@ -59,6 +60,7 @@ pub struct GpuRender {
     /// What the photon emission technique did (photons traced, splatted, relevant, coverage,
     /// per level, memory, batches).
     pub technique: TechniqueStats,
+    /// The adapter it ran on: name, backend and driver.
     pub adapter: String,
     /// Per light with beams (volume caustics, the `beams` module): the statistics and the beams
     /// rendered, in rendering order.

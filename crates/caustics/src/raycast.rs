@@ -12,15 +12,20 @@ use glam::{Affine3A, Vec2, Vec3};
 /// A ray: origin, unit direction, and the largest distance searched.
 #[derive(Debug, Clone, Copy)]
 pub struct Ray {
+    /// Origin (m).
     pub origin: Vec3,
+    /// Unit direction.
     pub dir: Vec3,
+    /// Largest distance searched (m).
     pub t_max: f32,
 }
 
 /// The nearest surface a ray meets.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RayHit {
+    /// Distance along the ray (m).
     pub t: f32,
+    /// Index of the object in [`Scene::objects`].
     pub object: u32,
     /// The mesh's triangle index (None for analytic shapes).
     pub triangle: Option<u32>,

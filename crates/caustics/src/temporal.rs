@@ -131,6 +131,7 @@ pub struct TemporalStats {
 
 /// The temporal filter's state across frames: see the module documentation.
 pub struct TemporalFilter {
+    /// How it filters.
     pub settings: TemporalSettings,
     pub(crate) lights: Vec<Option<LightHistory>>,
 }
@@ -149,6 +150,7 @@ pub struct CausticMaps<'a> {
 }
 
 impl TemporalFilter {
+    /// A filter with no history: its first frame is output unfiltered.
     pub fn new(settings: TemporalSettings) -> TemporalFilter {
         TemporalFilter { settings, lights: Vec::new() }
     }

@@ -9,8 +9,11 @@ use crate::error::{Error, Result};
 /// A device and queue, and what the adapter can do.
 #[derive(Clone)]
 pub struct GpuContext {
+    /// The device.
     pub device: wgpu::Device,
+    /// The device's queue.
     pub queue: wgpu::Queue,
+    /// The adapter: name, vendor, backend and driver.
     pub info: wgpu::AdapterInfo,
     /// Timestamp queries are available (pass timings are measured on the GPU).
     pub timestamps: bool,

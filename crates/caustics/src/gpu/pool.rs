@@ -22,15 +22,22 @@ use std::collections::HashMap;
 /// GPU objects created through a context, counted since it was made.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ResourceCounts {
+    /// Buffers created.
     pub buffers: u64,
+    /// Textures created.
     pub textures: u64,
+    /// Texture views created.
     pub texture_views: u64,
+    /// Bind groups created.
     pub bind_groups: u64,
+    /// Query sets created.
     pub query_sets: u64,
+    /// Samplers created.
     pub samplers: u64,
 }
 
 impl ResourceCounts {
+    /// All objects created, of every kind.
     pub fn total(&self) -> u64 {
         self.buffers + self.textures + self.texture_views + self.bind_groups + self.query_sets + self.samplers
     }

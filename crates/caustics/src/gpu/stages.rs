@@ -49,6 +49,8 @@ pub const STAGES: &[(&str, &str)] = &[
     ("beam_surface_raster", include_str!("../../shaders/beam_surface_raster.wgsl")),
     ("beam_resolve", include_str!("../../shaders/beam_resolve.wgsl")),
 ];
+/// Shared WGSL every stage begins with (`shaders/shared/common.wgsl`): the structs the host
+/// writes, optics, light-space projection and fixed-point helpers.
 pub const COMMON_WGSL: &str = include_str!("../../shaders/shared/common.wgsl");
 
 /// Shared WGSL modules a stage can pull in with a line `#import NAME`.

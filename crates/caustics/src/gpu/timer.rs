@@ -11,6 +11,8 @@ pub struct PassTimer {
 }
 
 impl PassTimer {
+    /// A timer for up to `capacity` passes; it times nothing when the adapter has no timestamp
+    /// queries.
     pub fn new(ctx: &GpuContext, capacity: u32) -> PassTimer {
         let set = ctx.timestamps.then(|| ctx.timestamp_set(capacity * 2));
         PassTimer { set, names: Vec::new(), capacity }

@@ -17,7 +17,9 @@ pub(crate) fn bytes_to_image(data: &[u8], w: u32, h: u32) -> Image {
 pub struct DumpImage {
     /// File name without extension (`light0_face0_caster_front_normal`).
     pub name: String,
+    /// The buffer's values, linear.
     pub image: Image,
+    /// How it is meant to be shown.
     pub kind: DumpKind,
 }
 
@@ -27,7 +29,10 @@ pub enum DumpKind {
     /// Values already meant for display (normals as 0.5 + 0.5 n, normalised depths), linear.
     Display,
     /// Irradiance or radiance: shown with this exposure (and kept linear in EXR).
-    Radiance { exposure: f32 },
+    Radiance {
+        /// Multiplies the values before tone mapping.
+        exposure: f32,
+    },
 }
 
 /// The light-space buffers as images: normals (0.5 + 0.5 n), depths (distance from the light,

@@ -91,6 +91,7 @@ pub struct FrameOutputs<'a> {
     pub radiance: &'a wgpu::Buffer,
     /// Caustic light only, on the diffuse surfaces the camera sees directly.
     pub caustic_radiance: &'a wgpu::Buffer,
+    /// Per light, in the order of [`Renderer::lights`]: its maps.
     pub lights: Vec<LightOutputs<'a>>,
 }
 
@@ -181,6 +182,7 @@ impl Renderer {
         self
     }
 
+    /// The device and caches it renders with.
     pub fn context(&self) -> &GpuContext {
         &self.ctx
     }
@@ -190,6 +192,7 @@ impl Renderer {
         &self.scene
     }
 
+    /// The settings as they are now.
     pub fn settings(&self) -> &RenderSettings {
         &self.settings
     }

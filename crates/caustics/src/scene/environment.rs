@@ -23,7 +23,9 @@ use std::path::{Path, PathBuf};
 pub struct Environment {
     /// The map file (for messages).
     pub path: PathBuf,
+    /// Map width in texels (twice the height).
     pub width: u32,
+    /// Map height in texels.
     pub height: u32,
     /// Radiance (texel value × scale, negatives set to 0), W/(m² sr), row-major, top row first.
     pub texels: Vec<Vec3>,

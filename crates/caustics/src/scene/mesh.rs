@@ -9,8 +9,11 @@ use std::path::Path;
 /// An indexed triangle mesh with one shading normal per vertex.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct TriMesh {
+    /// Vertex positions (m).
     pub positions: Vec<Vec3>,
+    /// Shading normal of each vertex (same index as `positions`).
     pub normals: Vec<Vec3>,
+    /// Triangles, three indices into `positions` each.
     pub indices: Vec<[u32; 3]>,
 }
 
@@ -100,6 +103,7 @@ fn check_obj_indices(text: &str) -> Result<(), String> {
 }
 
 impl TriMesh {
+    /// Axis-aligned bounds of the vertices, `(min, max)` (infinite and inverted when empty).
     pub fn bounds(&self) -> (Vec3, Vec3) {
         self.positions
             .iter()

@@ -29,11 +29,17 @@ pub const DEFAULT_SCENE_NAME: &str = "<built-in scenes/glass_sphere.json>";
 /// pixel (0,0) top-left).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Camera {
+    /// Eye point (m).
     pub position: Vec3,
+    /// Point the camera looks at (m).
     pub look_at: Vec3,
+    /// Up direction; need not be perpendicular to the view direction ([`Self::true_up`] is).
     pub up: Vec3,
+    /// Full vertical field of view, in degrees, in (0, 180).
     pub fov_y_deg: f32,
+    /// Image width in pixels (1 to 16384).
     pub width: u32,
+    /// Image height in pixels (1 to 16384).
     pub height: u32,
 }
 
@@ -50,6 +56,7 @@ impl Camera {
     pub fn true_up(&self) -> Vec3 {
         self.right().cross(self.forward())
     }
+    /// Aspect ratio, width over height.
     pub fn aspect(&self) -> f32 {
         self.width as f32 / self.height as f32
     }
@@ -76,12 +83,33 @@ impl Camera {
 pub enum Light {
     /// Radiant intensity `intensity` (W/sr) on the axis, full up to `falloff_start` (radians) off
     /// the axis, then linear in the angle down to 0 at `cone_angle`.
-    Spot { position: Vec3, direction: Vec3, cone_angle: f32, falloff_start: f32, intensity: Vec3 },
+    Spot {
+        /// Position (m).
+        position: Vec3,
+        /// Unit axis, the way the light shines.
+        direction: Vec3,
+        /// Half-angle (radians) where the intensity reaches 0, in (0, π).
+        cone_angle: f32,
+        /// Half-angle (radians) of the full-intensity core, in [0, `cone_angle`].
+        falloff_start: f32,
+        /// Radiant intensity on the axis (W/sr), per channel.
+        intensity: Vec3,
+    },
     /// Isotropic radiant intensity (W/sr).
-    Point { position: Vec3, intensity: Vec3 },
+    Point {
+        /// Position (m).
+        position: Vec3,
+        /// Radiant intensity in every direction (W/sr), per channel.
+        intensity: Vec3,
+    },
     /// Parallel light travelling along `direction` (unit) with `irradiance` (W/m²) on a surface
     /// facing it.
-    Directional { direction: Vec3, irradiance: Vec3 },
+    Directional {
+        /// Unit direction the light travels.
+        direction: Vec3,
+        /// Irradiance on a surface facing the light (W/m²), per channel.
+        irradiance: Vec3,
+    },
 }
 
 impl Light {
@@ -103,6 +131,7 @@ impl Light {
             Light::Directional { .. } => None,
         }
     }
+    /// The light's `type` in the scene file: `"spot"`, `"point"` or `"directional"`.
     pub fn kind(&self) -> &'static str {
         match self {
             Light::Spot { .. } => "spot",
@@ -129,13 +158,29 @@ pub fn spot_falloff(cos_angle: f32, cone_angle: f32, falloff_start: f32) -> f32 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Material {
     /// Lambertian, two-sided.
-    Diffuse { albedo: Vec3 },
+    Diffuse {
+        /// Reflectance per channel, in [0, 1].
+        albedo: Vec3,
+    },
     /// Smooth dielectric: Fresnel reflection and refraction, no absorption.
-    Dielectric { ior: f32, ext_ior: f32 },
+    Dielectric {
+        /// Index of refraction inside the object (positive).
+        ior: f32,
+        /// Index of refraction outside the object (positive).
+        ext_ior: f32,
+    },
     /// Perfect specular reflector, angle-independent, two-sided.
-    Mirror { reflectance: Vec3 },
+    Mirror {
+        /// Reflectance per channel, in [0, 1].
+        reflectance: Vec3,
+    },
     /// Smooth conductor with complex IOR `eta + i k`, full Fresnel, two-sided.
-    Conductor { eta: Vec3, k: Vec3 },
+    Conductor {
+        /// Real part of the IOR per channel (positive).
+        eta: Vec3,
+        /// Imaginary part of the IOR (extinction coefficient) per channel (non-negative).
+        k: Vec3,
+    },
 }
 
 impl Material {
@@ -148,23 +193,36 @@ impl Material {
 /// Geometry of an object, in world space.
 #[derive(Debug, Clone)]
 pub enum Shape {
+    /// A sphere, its normals facing out.
     Sphere {
+        /// Centre (m).
         center: Vec3,
+        /// Radius (m).
         radius: f32,
     },
     /// A rectangle spanning `size.x` along `u` and `size.y` along `v = normal × u`.
     Rectangle {
+        /// Centre (m).
         center: Vec3,
+        /// Unit normal.
         normal: Vec3,
+        /// Unit in-plane axis: the scene file's `u_axis` (default +X, or +Z when the normal is
+        /// within 25° of the x axis) projected onto the plane.
         u: Vec3,
+        /// Unit in-plane axis `normal × u`.
         v: Vec3,
+        /// Side lengths along `u` and `v` (m).
         size: Vec2,
     },
     /// An open tube (no caps) from `base_center` along unit `axis`.
     Cylinder {
+        /// Centre of the base circle (m).
         base_center: Vec3,
+        /// Unit axis, from the base toward the top.
         axis: Vec3,
+        /// Radius (m).
         radius: f32,
+        /// Length along `axis` (m).
         height: f32,
     },
     /// A triangle mesh, already transformed to world space.
@@ -174,6 +232,7 @@ pub enum Shape {
 /// An object: a shape and its material.
 #[derive(Debug, Clone)]
 pub struct Object {
+    /// Its geometry, in world space.
     pub shape: Shape,
     /// Index into [`Scene::materials`].
     pub material: usize,
@@ -184,18 +243,29 @@ pub struct Object {
 /// Phase function of a participating medium.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Phase {
+    /// Every direction equally likely: 1/(4π) per steradian.
     Isotropic,
-    HenyeyGreenstein { g: f32 },
+    /// Henyey–Greenstein (the scene file's `hg`).
+    HenyeyGreenstein {
+        /// Asymmetry, the mean cosine of the scattering angle, in (-1, 1); positive scatters
+        /// forward.
+        g: f32,
+    },
 }
 
 /// A participating medium filling an axis-aligned box (outside dielectrics): homogeneous, or
 /// heterogeneous with a density grid that multiplies `sigma_s` and `sigma_a` point by point.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Medium {
+    /// Scattering coefficient per channel (1/m) at density 1.
     pub sigma_s: Vec3,
+    /// Absorption coefficient per channel (1/m) at density 1.
     pub sigma_a: Vec3,
+    /// Phase function, the same for every channel.
     pub phase: Phase,
+    /// Lower corner of the box (m).
     pub bounds_min: Vec3,
+    /// Upper corner of the box (m), above `bounds_min` on every axis.
     pub bounds_max: Vec3,
     /// The density grid over the box (`None`: density 1 everywhere, a homogeneous medium).
     pub density: Option<Arc<DensityGrid>>,
@@ -235,16 +305,27 @@ impl Default for Tessellation {
 /// A validated scene, ready to render.
 #[derive(Debug, Clone)]
 pub struct Scene {
+    /// The scene's name, the output file stem (not empty).
     pub name: String,
+    /// The scene file's free-text `description`.
     pub description: Option<String>,
     /// The file it came from (or the built-in name).
     pub source: String,
+    /// The camera.
     pub camera: Camera,
+    /// Display exposure (`display.exposure`, default 1): multiplies radiance before the PNG tone
+    /// mapping; not physics.
     pub exposure: f32,
+    /// The spot, point and directional lights, in the file's order, without the environment
+    /// light.
     pub lights: Vec<Light>,
+    /// The materials, in the order of their names.
     pub materials: Vec<Material>,
+    /// The name of each material in [`Self::materials`], sorted.
     pub material_names: Vec<String>,
+    /// The objects, in the file's order; not empty.
     pub objects: Vec<Object>,
+    /// The participating medium, if any.
     pub medium: Option<Medium>,
     /// The environment light (`{"type": "environment"}` in `lights`), if any: kept apart from
     /// [`Self::lights`], which are the lights the GPU renders with light-space maps.

@@ -22,6 +22,7 @@ pub enum BeamVolume {
 }
 
 impl BeamVolume {
+    /// Every variant.
     pub const ALL: [BeamVolume; 3] = [BeamVolume::Auto, BeamVolume::Gather, BeamVolume::Hulls];
 
     /// The command-line name.
@@ -42,6 +43,7 @@ impl BeamVolume {
         }
     }
 
+    /// The variant named `s` on the command line (surrounding whitespace ignored).
     pub fn parse(s: &str) -> Option<BeamVolume> {
         BeamVolume::ALL.into_iter().find(|m| m.name() == s.trim())
     }

@@ -106,6 +106,7 @@ pub enum Emission {
 }
 
 impl Emission {
+    /// Every variant.
     pub const ALL: [Emission; 4] =
         [Emission::Basic, Emission::Hierarchical, Emission::AdaptiveLevel, Emission::AdaptiveError];
 
@@ -133,10 +134,12 @@ impl Emission {
         }
     }
 
+    /// The variant named `s` on the command line (surrounding whitespace ignored).
     pub fn parse(s: &str) -> Option<Emission> {
         Emission::ALL.into_iter().find(|t| t.name() == s.trim())
     }
 
+    /// Whether it is one of the adaptive caustic maps (maximal level or maximal error).
     pub fn is_adaptive(self) -> bool {
         matches!(self, Emission::AdaptiveLevel | Emission::AdaptiveError)
     }
@@ -168,6 +171,7 @@ pub enum Tracer {
 }
 
 impl Tracer {
+    /// Every variant.
     pub const ALL: [Tracer; 2] = [Tracer::Exact, Tracer::ImageSpace];
 
     /// The command-line name.
@@ -186,6 +190,7 @@ impl Tracer {
         }
     }
 
+    /// The variant named `s` on the command line (surrounding whitespace ignored).
     pub fn parse(s: &str) -> Option<Tracer> {
         Tracer::ALL.into_iter().find(|t| t.name() == s.trim())
     }
@@ -220,6 +225,7 @@ pub enum SplatMode {
 }
 
 impl SplatMode {
+    /// Every variant.
     pub const ALL: [SplatMode; 6] = [
         SplatMode::Fixed,
         SplatMode::MultiRes,
@@ -257,6 +263,7 @@ impl SplatMode {
         }
     }
 
+    /// The variant named `s` on the command line (surrounding whitespace ignored).
     pub fn parse(s: &str) -> Option<SplatMode> {
         SplatMode::ALL.into_iter().find(|m| m.name() == s.trim())
     }

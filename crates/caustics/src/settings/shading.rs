@@ -105,6 +105,7 @@ pub enum SpillFaces {
 }
 
 impl SpillFaces {
+    /// Every variant.
     pub const ALL: [SpillFaces; 3] = [SpillFaces::Auto, SpillFaces::Off, SpillFaces::On];
 
     /// The command-line name.
@@ -116,6 +117,7 @@ impl SpillFaces {
         }
     }
 
+    /// The variant named `s` on the command line (surrounding whitespace ignored).
     pub fn parse(s: &str) -> Option<SpillFaces> {
         SpillFaces::ALL.into_iter().find(|m| m.name() == s.trim())
     }

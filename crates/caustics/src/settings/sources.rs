@@ -67,6 +67,7 @@ pub enum Technique {
 }
 
 impl Technique {
+    /// Every variant.
     pub const ALL: [Technique; 6] = [
         Technique::Photons(super::Emission::Basic),
         Technique::Photons(super::Emission::Hierarchical),
@@ -116,6 +117,7 @@ impl Technique {
         }
     }
 
+    /// The variant named `s` on the command line (surrounding whitespace ignored).
     pub fn parse(s: &str) -> Option<Technique> {
         Technique::ALL.into_iter().find(|t| t.name() == s.trim())
     }
@@ -131,6 +133,7 @@ impl std::fmt::Display for Technique {
 macro_rules! named {
     ($t:ident { $($v:ident => $name:literal, $help:literal;)* }) => {
         impl $t {
+            /// Every variant.
             pub const ALL: [$t; [$($name),*].len()] = [$($t::$v),*];
 
             /// The JSON and command-line name.

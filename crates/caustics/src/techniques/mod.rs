@@ -44,6 +44,7 @@ pub struct LevelStats {
 /// What a technique did in one frame (all lights and faces).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct TechniqueStats {
+    /// The emission technique that did it.
     pub technique: Emission,
     /// Equivalent photon grid N (per face).
     pub grid: u32,
@@ -57,8 +58,9 @@ pub struct TechniqueStats {
     pub corners_traced: u64,
     /// Photons of the dense N × N grid that hit a caster (a specular caustic caster).
     pub relevant: u64,
-    /// Caster front-buffer texels covered by a caster, and all texels (faces × G²).
+    /// Caster front-buffer texels covered by a caster.
     pub covered_texels: u64,
+    /// All caster front-buffer texels (faces × G²).
     pub face_texels: u64,
     /// Cells kept over all levels of the hierarchy plus the photons traced below the last
     /// level of cells: what the traversal evaluated (adaptive and hierarchical techniques).
