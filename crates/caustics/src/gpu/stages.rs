@@ -125,7 +125,7 @@ pub(super) fn parse_stage(name: &str) -> Result<(naga::Module, naga::valid::Modu
 
 /// WGSL `src` (named `name` in errors) parsed and validated by naga.
 pub(super) fn parse_source(name: &str, src: &str) -> Result<(naga::Module, naga::valid::ModuleInfo)> {
-    let module = naga::front::wgsl::parse_str(&src)
+    let module = naga::front::wgsl::parse_str(src)
         .map_err(|e| Error::Shader { name: name.into(), message: e.emit_to_string(src) })?;
     let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
         .validate(&module)
