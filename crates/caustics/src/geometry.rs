@@ -24,10 +24,9 @@ pub(crate) struct Geometry {
     /// The exact tracer's BVH (`crate::accel`): bottom levels built once, instances rewritten
     /// when objects move ([`Geometry::write_instances`]).
     pub bvh: crate::accel::SceneBvh,
-    pub bvh_nodes: wgpu::Buffer,
-    pub bvh_tris: wgpu::Buffer,
     pub bvh_instances: wgpu::Buffer,
-    /// The scene group (`shaders/shared/scene.wgsl`) over the materials, the BVH, the medium's
+    /// The scene group (`shaders/shared/scene.wgsl`) over the materials, the BVH (its nodes and
+    /// triangles live only there, with these instances), the medium's
     /// density grid (R32Float, 3D; 1×1×1 holding 1 without one) and the environment map (linear
     /// radiance, Rgba32Float; 1×1 black without one), which every stage that reads the scene is
     /// given (`Pass::shared`). Made with them: the frame rewrites their contents, never the
@@ -36,11 +35,6 @@ pub(crate) struct Geometry {
 }
 
 impl Geometry {
-    /// The BVH's buffers by the names the stages give them.
-    pub(crate) fn bvh_bindings(&self) -> [(&'static str, &wgpu::Buffer); 3] {
-        [("bvh_nodes", &self.bvh_nodes), ("bvh_tris", &self.bvh_tris), ("bvh_instances", &self.bvh_instances)]
-    }
-
     /// Write the BVH instances for the objects' transforms (from the scene file's pose).
     pub(crate) fn write_instances(&self, ctx: &GpuContext, transforms: &[glam::Affine3A]) {
         let inst = self.bvh.instance_records(transforms);
@@ -77,8 +71,6 @@ pub(crate) fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation)
     let density = upload_density(ctx, scene);
     let scene_group = scene_group(ctx, [&materials, &bvh_nodes, &bvh_tris, &bvh_instances], &density, &environment);
     Geometry {
-        bvh_nodes,
-        bvh_tris,
         bvh_instances,
         bvh,
         vertices: ctx.buffer_init("vertices", bytemuck::cast_slice(&vertices), wgpu::BufferUsages::VERTEX),
