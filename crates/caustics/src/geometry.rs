@@ -26,11 +26,10 @@ pub(crate) struct Geometry {
     pub bvh: crate::accel::SceneBvh,
     pub bvh_instances: wgpu::Buffer,
     /// The scene group (`shaders/shared/scene.wgsl`) over the materials, the BVH (its nodes and
-    /// triangles live only there, with these instances), the medium's
-    /// density grid (R32Float, 3D; 1×1×1 holding 1 without one) and the environment map (linear
-    /// radiance, Rgba32Float; 1×1 black without one), which every stage that reads the scene is
-    /// given (`Pass::shared`). Made with them: the frame rewrites their contents, never the
-    /// buffers themselves.
+    /// triangles are held only there, with these instances), the medium's density grid
+    /// (R32Float, 3D; 1×1×1 holding 1 without one) and the environment map (linear radiance,
+    /// Rgba32Float; 1×1 black without one), which every stage that reads the scene is given
+    /// (`Pass::shared`). Made with them: the frame rewrites their contents, never the buffers.
     pub scene: SharedGroup,
 }
 
