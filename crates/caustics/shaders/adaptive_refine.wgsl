@@ -36,6 +36,7 @@
 #import raytrace
 #import medium
 #import trace
+#import scene
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<uniform> lp: LevelParams;
@@ -45,24 +46,17 @@
 @group(0) @binding(5) var back_nrm: texture_2d_array<f32>;
 @group(0) @binding(6) var recv_pos: texture_2d_array<f32>;
 @group(0) @binding(7) var recv_nrm: texture_2d_array<f32>;
-@group(0) @binding(8) var<storage, read> materials: array<MaterialGpu>;
-@group(0) @binding(9) var<storage, read> cover: array<u32>;
-@group(0) @binding(10) var<storage, read_write> cells: array<u32>;
-@group(0) @binding(11) var<storage, read_write> photons: array<Photon>;
-@group(0) @binding(12) var<storage, read_write> ctrl: array<atomic<u32>>;
-@group(0) @binding(13) var<storage, read_write> stats: array<atomic<u32>>;
-@group(0) @binding(14) var<storage, read_write> corners: array<vec4f>;
+@group(0) @binding(8) var<storage, read> cover: array<u32>;
+@group(0) @binding(9) var<storage, read_write> cells: array<u32>;
+@group(0) @binding(10) var<storage, read_write> photons: array<Photon>;
+@group(0) @binding(11) var<storage, read_write> ctrl: array<atomic<u32>>;
+@group(0) @binding(12) var<storage, read_write> stats: array<atomic<u32>>;
+@group(0) @binding(13) var<storage, read_write> corners: array<vec4f>;
 // The light's second caster layer (front, back), or the first where the scene needs none.
-@group(0) @binding(15) var front_pos2: texture_2d_array<f32>;
-@group(0) @binding(16) var front_nrm2: texture_2d_array<f32>;
-@group(0) @binding(17) var back_pos2: texture_2d_array<f32>;
-@group(0) @binding(18) var back_nrm2: texture_2d_array<f32>;
-// The scene's BVH (shared/raytrace.wgsl; used by the exact tracer).
-@group(0) @binding(19) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(20) var<storage, read> bvh_tris: array<BvhTri>;
-@group(0) @binding(21) var<storage, read> bvh_instances: array<BvhInstance>;
-// The medium's density grid (1 x 1 x 1 without one): photons march it (shared/trace.wgsl).
-@group(0) @binding(22) var density_grid: texture_3d<f32>;
+@group(0) @binding(14) var front_pos2: texture_2d_array<f32>;
+@group(0) @binding(15) var front_nrm2: texture_2d_array<f32>;
+@group(0) @binding(16) var back_pos2: texture_2d_array<f32>;
+@group(0) @binding(17) var back_nrm2: texture_2d_array<f32>;
 
 // The points of the current cluster traced so far: the corner lattice of its children (point
 // (a, b), a, b in 0..2, at a + 3 b) and the children's centres (child q at KIDS + q, child q

@@ -18,6 +18,7 @@
 #import medium
 #import beam_medium
 #import beam_scatter
+#import scene
 
 // Constants from storage, not uniforms: this stage is bound once per chunk, and lavapipe
 // compiles a variant per bind of a shader whose loops read uniforms (ChunkRecords, beams.rs).
@@ -37,17 +38,13 @@
 // over the pixel's footprint instead of sampled by its rays (0: never), y = lines per side of
 // the section (1 to 4).
 @group(0) @binding(9) var<storage, read> foot: vec4f;
-// The medium's density grid (shared/beam_medium.wgsl): with one, the scattering coefficient
-// is the density times sigma_s, and the transmittances are the grid's optical depths along the
-// light's path (up to the base: interpolated from the edges', beam_refine) and the camera ray.
-@group(0) @binding(10) var density_grid: texture_3d<f32>;
 // The eye's receiver and specular normals (the first surface's tangent plane in each pixel).
-@group(0) @binding(11) var recv_nrm: texture_2d<f32>;
-@group(0) @binding(12) var spec_nrm: texture_2d<f32>;
+@group(0) @binding(10) var recv_nrm: texture_2d<f32>;
+@group(0) @binding(11) var spec_nrm: texture_2d<f32>;
 // `composite`'s list of specular pixels, its length (count[3]) and the segments it kept.
-@group(0) @binding(13) var<storage, read> spec_list: array<u32>;
-@group(0) @binding(14) var<storage, read> spec_count: array<u32, 4>;
-@group(0) @binding(15) var<storage, read> segments: array<EyeSegment>;
+@group(0) @binding(12) var<storage, read> spec_list: array<u32>;
+@group(0) @binding(13) var<storage, read> spec_count: array<u32, 4>;
+@group(0) @binding(14) var<storage, read> segments: array<EyeSegment>;
 override gather_slot: i32 = -1;
 
 @compute @workgroup_size(8, 8)

@@ -13,6 +13,7 @@
 #import beam_medium
 #import beam_scatter
 #import beam_fan
+#import scene
 
 @group(0) @binding(0) var<storage, read> bp: BeamParams;
 @group(0) @binding(1) var recv_pos: texture_2d<f32>;
@@ -21,14 +22,13 @@
 @group(0) @binding(4) var<storage, read> hulls: array<BeamHull>;
 // The footprint integral's width threshold and lines (as beam_gather's).
 @group(0) @binding(5) var<storage, read> foot: vec4f;
-@group(0) @binding(6) var density_grid: texture_3d<f32>;
 // The beam statistics (shared/beams.wgsl): the fragments shaded are counted for `caustics
 // bench` (one atomic per fragment; the hulls' fill is what they cost), and those that added
 // light, in one-shot renders (BEAM_FLAG_FRAGMENTS).
-@group(0) @binding(7) var<storage, read_write> stats: array<atomic<u32>>;
+@group(0) @binding(6) var<storage, read_write> stats: array<atomic<u32>>;
 // The eye's receiver and specular normals (the first surface's tangent plane in each pixel).
-@group(0) @binding(8) var recv_nrm: texture_2d<f32>;
-@group(0) @binding(9) var spec_nrm: texture_2d<f32>;
+@group(0) @binding(7) var recv_nrm: texture_2d<f32>;
+@group(0) @binding(8) var spec_nrm: texture_2d<f32>;
 
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) k: u32) -> HullVertex {

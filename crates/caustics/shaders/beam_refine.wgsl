@@ -39,28 +39,23 @@
 #import medium
 #import beam_medium
 #import beam_trace
+#import scene
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<uniform> bp: BeamParams;
 @group(0) @binding(2) var<uniform> lv: BeamLevel;
-@group(0) @binding(3) var<storage, read> materials: array<MaterialGpu>;
-@group(0) @binding(4) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(5) var<storage, read> bvh_tris: array<BvhTri>;
-@group(0) @binding(6) var<storage, read> bvh_instances: array<BvhInstance>;
-@group(0) @binding(7) var<storage, read_write> work: array<BeamTri>;
+@group(0) @binding(3) var<storage, read_write> work: array<BeamTri>;
 // Per level l: (workgroups x, 1, 1, triangles appended) at words 4l..4l+3; at entry PARTS_ARGS
 // beam_shrink's (workgroups x, 1, 1, parts queued).
-@group(0) @binding(8) var<storage, read_write> args: array<atomic<u32>>;
+@group(0) @binding(4) var<storage, read_write> args: array<atomic<u32>>;
 // Per slot, branch and layer (BEAM_KINDS per slot): beam index + 1 (0: none).
-@group(0) @binding(9) var<storage, read_write> slots: array<u32>;
-@group(0) @binding(10) var<storage, read_write> beams: array<BeamGpu>;
+@group(0) @binding(5) var<storage, read_write> slots: array<u32>;
+@group(0) @binding(6) var<storage, read_write> beams: array<BeamGpu>;
 // Word 0: beams appended; BS_WORDS statistics words follow at 1.
-@group(0) @binding(11) var<storage, read_write> stats: array<atomic<u32>>;
-// The medium's density grid (shared/beam_medium.wgsl: the light's optical depth up to a base).
-@group(0) @binding(12) var density_grid: texture_3d<f32>;
+@group(0) @binding(7) var<storage, read_write> stats: array<atomic<u32>>;
 // The parts of triangles whose corners' edges take different paths, for beam_shrink (their
 // count and dispatch size in args' entry PARTS_ARGS).
-@group(0) @binding(13) var<storage, read_write> parts: array<BeamPart>;
+@group(0) @binding(8) var<storage, read_write> parts: array<BeamPart>;
 
 // Signed twice-area of the beam's cross-section at height y over its base plane (normal nrm):
 // a quadratic in y (Ernst et al. 2005): returns |2A(0)| and the smallest |2A(y)| over [0, ym]

@@ -25,23 +25,18 @@
 #import medium
 #import beam_medium
 #import beam_trace
+#import scene
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<uniform> bp: BeamParams;
-@group(0) @binding(2) var<storage, read> materials: array<MaterialGpu>;
-@group(0) @binding(3) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(4) var<storage, read> bvh_tris: array<BvhTri>;
-@group(0) @binding(5) var<storage, read> bvh_instances: array<BvhInstance>;
 // beam_refine's parts, and its indirect arguments (the parts' count at entry PARTS_ARGS).
-@group(0) @binding(6) var<storage, read> parts: array<BeamPart>;
-@group(0) @binding(7) var<storage, read> args: array<u32>;
+@group(0) @binding(2) var<storage, read> parts: array<BeamPart>;
+@group(0) @binding(3) var<storage, read> args: array<u32>;
 // Per slot, branch and layer (BEAM_KINDS per slot): beam index + 1 (0: none).
-@group(0) @binding(8) var<storage, read_write> slots: array<u32>;
-@group(0) @binding(9) var<storage, read_write> beams: array<BeamGpu>;
+@group(0) @binding(4) var<storage, read_write> slots: array<u32>;
+@group(0) @binding(5) var<storage, read_write> beams: array<BeamGpu>;
 // Word 0: beams appended; BS_WORDS statistics words follow at 1.
-@group(0) @binding(10) var<storage, read_write> stats: array<atomic<u32>>;
-// The medium's density grid (shared/beam_medium.wgsl: the light's optical depth up to a base).
-@group(0) @binding(11) var density_grid: texture_3d<f32>;
+@group(0) @binding(6) var<storage, read_write> stats: array<atomic<u32>>;
 
 // The last point from `good` toward `bad` (light NDC) whose edge still takes `r`'s path
 // (bisection, SHRINK_STEPS traces), and its edge.

@@ -9,6 +9,7 @@
 #import medium
 #import beam_medium
 #import beam_receive
+#import scene
 
 // Constants from storage, not uniforms: this stage is bound once per chunk, and lavapipe
 // compiles a variant per bind of a shader whose loops read uniforms (ChunkRecords, beams.rs).
@@ -18,13 +19,10 @@
 @group(0) @binding(3) var<storage, read> beams: array<BeamGpu>;
 @group(0) @binding(4) var<storage, read> order: array<u32>;
 @group(0) @binding(5) var<storage, read> stats: array<u32>;
-@group(0) @binding(6) var<storage, read> materials: array<MaterialGpu>;
-@group(0) @binding(7) var<storage, read_write> radiance: array<vec4f>;
-@group(0) @binding(8) var<storage, read_write> caustic: array<vec4f>;
+@group(0) @binding(6) var<storage, read_write> radiance: array<vec4f>;
+@group(0) @binding(7) var<storage, read_write> caustic: array<vec4f>;
 // The chunk of the ordered list this dispatch tests: beams offset .. offset + base_count.
-@group(0) @binding(9) var<storage, read> chunk: BeamLevel;
-// The medium's density grid (shared/beam_medium.wgsl).
-@group(0) @binding(10) var density_grid: texture_3d<f32>;
+@group(0) @binding(8) var<storage, read> chunk: BeamLevel;
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3u) {

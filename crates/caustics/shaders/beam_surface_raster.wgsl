@@ -12,16 +12,15 @@
 #import beam_medium
 #import beam_receive
 #import beam_fan
+#import scene
 
 @group(0) @binding(0) var<storage, read> bp: BeamParams;
 @group(0) @binding(1) var recv_pos: texture_2d<f32>;
 @group(0) @binding(2) var recv_nrm: texture_2d<f32>;
 @group(0) @binding(3) var<storage, read> beams: array<BeamGpu>;
 @group(0) @binding(4) var<storage, read> hulls: array<BeamHull>;
-@group(0) @binding(5) var<storage, read> materials: array<MaterialGpu>;
-@group(0) @binding(6) var density_grid: texture_3d<f32>;
 // The beam statistics: the fragments shaded are counted (as beam_raster's).
-@group(0) @binding(7) var<storage, read_write> stats: array<atomic<u32>>;
+@group(0) @binding(5) var<storage, read_write> stats: array<atomic<u32>>;
 
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) k: u32) -> HullVertex {

@@ -20,6 +20,7 @@
 #import raytrace
 #import environment
 #import medium
+#import scene
 
 struct CompositeParams {
     world_to_clip: mat4x4f,
@@ -50,8 +51,8 @@ var<private> cp: CompositeParams;
 // a SIMD group through both sides of a branch (llvmpipe), only the listed pixels pay for the
 // image-space refraction. `spec_count`: x workgroups of 64 for the indirect dispatch, 1, 1, and
 // the number of pixels listed.
-@group(0) @binding(20) var<storage, read_write> spec_list: array<u32>;
-@group(0) @binding(21) var<storage, read_write> spec_count: array<atomic<u32>, 4>;
+@group(0) @binding(15) var<storage, read_write> spec_list: array<u32>;
+@group(0) @binding(16) var<storage, read_write> spec_count: array<atomic<u32>, 4>;
 override composite_pass: u32 = 0u;
 // Whether the scene has specular meshes (CompositeParams::layer2: else the second-layer buffers
 // are empty and their march is compiled out) and an environment (else env_rotation.z = 0 and
@@ -66,22 +67,16 @@ override composite_medium: bool = false;
 @group(0) @binding(4) var spec_nrm: texture_2d<f32>;
 @group(0) @binding(5) var back_pos: texture_2d<f32>;
 @group(0) @binding(6) var back_nrm: texture_2d<f32>;
-@group(0) @binding(7) var<storage, read> materials: array<MaterialGpu>;
-@group(0) @binding(8) var<storage, read> radiance: array<vec4f>;
-@group(0) @binding(9) var<storage, read> caustic_in: array<vec4f>;
-@group(0) @binding(10) var<storage, read_write> out_full: array<vec4f>;
-@group(0) @binding(11) var<storage, read_write> out_caustic: array<vec4f>;
-@group(0) @binding(12) var spec2_pos: texture_2d<f32>;
-@group(0) @binding(13) var spec2_nrm: texture_2d<f32>;
-@group(0) @binding(14) var back2_pos: texture_2d<f32>;
-@group(0) @binding(15) var back2_nrm: texture_2d<f32>;
-@group(0) @binding(16) var env_map: texture_2d<f32>;
-@group(0) @binding(17) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(18) var<storage, read> bvh_tris: array<BvhTri>;
-@group(0) @binding(19) var<storage, read> bvh_instances: array<BvhInstance>;
+@group(0) @binding(7) var<storage, read> radiance: array<vec4f>;
+@group(0) @binding(8) var<storage, read> caustic_in: array<vec4f>;
+@group(0) @binding(9) var<storage, read_write> out_full: array<vec4f>;
+@group(0) @binding(10) var<storage, read_write> out_caustic: array<vec4f>;
+@group(0) @binding(11) var spec2_pos: texture_2d<f32>;
+@group(0) @binding(12) var spec2_nrm: texture_2d<f32>;
+@group(0) @binding(13) var back2_pos: texture_2d<f32>;
+@group(0) @binding(14) var back2_nrm: texture_2d<f32>;
 // The kept segments (`composite_medium`), EYE_SEGMENTS per listed specular pixel.
-@group(0) @binding(22) var<storage, read_write> segments: array<EyeSegment>;
-@group(0) @binding(23) var density: texture_3d<f32>;
+@group(0) @binding(17) var<storage, read_write> segments: array<EyeSegment>;
 
 // The specular pixel's heaviest segments so far, and the medium's transmittance from the camera
 // to its specular surface (in the kept weights: the segments' light is added after
@@ -99,7 +94,7 @@ fn transmittance(o: vec3f, d: vec3f, t: f32) -> vec3f {
     if (c.y <= c.x) { return vec3f(1.0); }
     var tau = c.y - c.x;
     if (cp.medium_hi.w != 0.0) {
-        tau = grid_optical_depth(density, o + d * c.x, o + d * c.y, lo, hi, u32(cp.medium_sigma_t.w));
+        tau = grid_optical_depth(density_grid, o + d * c.x, o + d * c.y, lo, hi, u32(cp.medium_sigma_t.w));
     }
     return exp(-cp.medium_sigma_t.rgb * tau);
 }

@@ -21,6 +21,7 @@
 
 #import medium
 #import medium_bounce
+#import scene
 
 struct BounceParams {
     clip_to_world: mat4x4f,
@@ -49,11 +50,10 @@ struct BounceParams {
 @group(0) @binding(3) var spec_pos: texture_2d<f32>;
 @group(0) @binding(4) var<storage, read_write> out_full: array<vec4f>;
 @group(0) @binding(5) var<storage, read_write> out_caustic: array<vec4f>;
-@group(0) @binding(6) var density: texture_3d<f32>;
 // `composite`'s list of specular pixels, its length (count[3]) and the segments it kept.
-@group(0) @binding(7) var<storage, read> spec_list: array<u32>;
-@group(0) @binding(8) var<storage, read> spec_count: array<u32, 4>;
-@group(0) @binding(9) var<storage, read> segments: array<EyeSegment>;
+@group(0) @binding(6) var<storage, read> spec_list: array<u32>;
+@group(0) @binding(7) var<storage, read> spec_count: array<u32, 4>;
+@group(0) @binding(8) var<storage, read> segments: array<EyeSegment>;
 override bounce_segments: bool = false;
 
 fn phase(cos_t: f32) -> f32 {
@@ -131,7 +131,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(workgroup_id) wg: ve
                 var rho = 1.0;
                 var tr_cam: vec3f;
                 if (bp.heterogeneous != 0u) {
-                    rho = grid_density(density, x, lo, hi);
+                    rho = grid_density(density_grid, x, lo, hi);
                     tr_cam = exp(-bp.sigma_t.rgb * (tau + 0.5 * rho * dt));
                     tau += rho * dt;
                     if (rho <= 0.0) { continue; }
@@ -151,7 +151,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(workgroup_id) wg: ve
                     if (cos_v <= 0.0) { continue; }
                     var od: vec3f;
                     if (bp.heterogeneous != 0u) {
-                        od = bp.sigma_t.rgb * grid_optical_depth(density, v.pos.xyz, x, lo, hi, BOUNCE_GRID_STEPS);
+                        od = bp.sigma_t.rgb * grid_optical_depth(density_grid, v.pos.xyz, x, lo, hi, BOUNCE_GRID_STEPS);
                     } else {
                         // x is inside the box; so is the whole segment when the VPL is.
                         var len = dist;

@@ -20,6 +20,7 @@
 #import beam_medium
 #import medium_bounce
 #import medium_emit
+#import scene
 
 @group(0) @binding(0) var<storage, read> bp: BeamParams;
 @group(0) @binding(1) var<uniform> light: LightGpu;
@@ -30,8 +31,6 @@
 // Per bin EMIT_WORDS words; then the range's two words.
 @group(0) @binding(6) var<storage, read_write> sums: array<atomic<u32>>;
 @group(0) @binding(7) var<storage, read_write> vpls: array<Vpl>;
-@group(0) @binding(8) var density_grid: texture_3d<f32>;
-@group(0) @binding(9) var<storage, read> materials: array<MaterialGpu>;
 
 override emit_pass: u32 = 0u;
 // The beams' landing emitters instead (`emit_pass` 1 and 2, one slice per block; where the

@@ -22,6 +22,7 @@
 #import medium
 #import medium_bounce
 #import medium_emit
+#import scene
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<uniform> ep: EmitParams;
@@ -29,7 +30,6 @@
 // Per bin EMIT_WORDS words; then the range's two words.
 @group(0) @binding(3) var<storage, read_write> sums: array<atomic<u32>>;
 @group(0) @binding(4) var<storage, read_write> vpls: array<Vpl>;
-@group(0) @binding(5) var density: texture_3d<f32>;
 
 override emit_pass: u32 = 0u;
 
@@ -80,14 +80,14 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let ds = (seg.y - seg.x) / f32(GLOW_STEPS);
     // (the optical depth from the VPL to the current step's start, density units)
     var tau = 0.0;
-    if (ep.heterogeneous != 0u && seg.x > 0.0) { tau = grid_optical_depth(density, o, o + d * seg.x, lo, hi, GLOW_STEPS); }
+    if (ep.heterogeneous != 0u && seg.x > 0.0) { tau = grid_optical_depth(density_grid, o, o + d * seg.x, lo, hi, GLOW_STEPS); }
     for (var i = 0u; i < GLOW_STEPS; i++) {
         let t = seg.x + (f32(i) + 0.5) * ds;
         let x = o + d * t;
         var rho = 1.0;
         var tau_here = t - seg.x;
         if (ep.heterogeneous != 0u) {
-            rho = grid_density(density, x, lo, hi);
+            rho = grid_density(density_grid, x, lo, hi);
             tau_here = tau + 0.5 * rho * ds;
             tau += rho * ds;
         }

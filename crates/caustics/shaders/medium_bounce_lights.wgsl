@@ -28,17 +28,16 @@
 
 #import medium
 #import medium_bounce
+#import scene
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<uniform> bp: BounceLightParams;
 @group(0) @binding(2) var recv_pos: texture_2d_array<f32>;
 @group(0) @binding(3) var recv_nrm: texture_2d_array<f32>;
 @group(0) @binding(4) var<storage, read> irradiance: array<vec4f>;
-@group(0) @binding(5) var<storage, read> materials: array<MaterialGpu>;
-@group(0) @binding(6) var shadow_map: texture_depth_2d_array;
-@group(0) @binding(7) var shadow_sampler: sampler_comparison;
-@group(0) @binding(8) var density: texture_3d<f32>;
-@group(0) @binding(9) var<storage, read_write> vpls: array<Vpl>;
+@group(0) @binding(5) var shadow_map: texture_depth_2d_array;
+@group(0) @binding(6) var shadow_sampler: sampler_comparison;
+@group(0) @binding(7) var<storage, read_write> vpls: array<Vpl>;
 
 const WG: u32 = 64u;
 
@@ -155,7 +154,7 @@ fn main(@builtin(workgroup_id) wid: vec3u, @builtin(local_invocation_index) i: u
             if (bp.heterogeneous == 0u) {
                 tr = exp(-bp.sigma_t.rgb * box_length(lp, p, bp.lo.xyz, bp.hi.xyz));
             } else {
-                tr = exp(-bp.sigma_t.rgb * grid_optical_depth(density, lp, p, bp.lo.xyz, bp.hi.xyz, bp.light_steps));
+                tr = exp(-bp.sigma_t.rgb * grid_optical_depth(density_grid, lp, p, bp.lo.xyz, bp.hi.xyz, bp.light_steps));
             }
         }
         let area = texel_area(light.faces[f], p, n, f32(m));

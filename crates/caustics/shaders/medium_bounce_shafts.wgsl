@@ -24,14 +24,14 @@
 
 #import medium
 #import medium_bounce
+#import scene
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<uniform> bp: BounceLightParams;
 @group(0) @binding(2) var recv_pos: texture_2d_array<f32>;
 @group(0) @binding(3) var shadow_map: texture_depth_2d_array;
 @group(0) @binding(4) var shadow_sampler: sampler_comparison;
-@group(0) @binding(5) var density: texture_3d<f32>;
-@group(0) @binding(6) var<storage, read_write> vpls: array<Vpl>;
+@group(0) @binding(5) var<storage, read_write> vpls: array<Vpl>;
 
 const SHAFT_SLICES: u32 = 8u;
 const SUB: u32 = 8u;
@@ -124,9 +124,9 @@ fn main(@builtin(workgroup_id) wid: vec3u, @builtin(local_invocation_index) i: u
             if (bp.heterogeneous == 0u) {
                 tr = exp(-bp.sigma_t.rgb * box_length(lp, x, lo, hi));
             } else {
-                rho = grid_density(density, x, lo, hi);
+                rho = grid_density(density_grid, x, lo, hi);
                 if (rho <= 0.0) { continue; }
-                tr = exp(-bp.sigma_t.rgb * grid_optical_depth(density, lp, x, lo, hi, bp.light_steps));
+                tr = exp(-bp.sigma_t.rgb * grid_optical_depth(density_grid, lp, x, lo, hi, bp.light_steps));
             }
             let vis = visible(f, x, -r.d);
             if (vis <= 0.0) { continue; }

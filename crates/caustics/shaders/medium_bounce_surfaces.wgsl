@@ -21,6 +21,7 @@
 
 #import medium
 #import medium_bounce
+#import scene
 
 struct SurfaceBounceParams {
     lo: vec4f,
@@ -46,9 +47,7 @@ struct SurfaceBounceParams {
 @group(0) @binding(1) var<storage, read> vpls: array<Vpl>;
 @group(0) @binding(2) var eye_pos: texture_2d<f32>;
 @group(0) @binding(3) var eye_nrm: texture_2d<f32>;
-@group(0) @binding(4) var<storage, read> materials: array<MaterialGpu>;
-@group(0) @binding(5) var<storage, read_write> radiance: array<vec4f>;
-@group(0) @binding(6) var density: texture_3d<f32>;
+@group(0) @binding(4) var<storage, read_write> radiance: array<vec4f>;
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(local_invocation_index) li: u32) {
@@ -87,7 +86,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(local_invocation_ind
                 if (cos_y <= 0.0) { continue; }
                 var od: vec3f;
                 if (sp.heterogeneous != 0u) {
-                    od = sp.sigma_t.rgb * grid_optical_depth(density, v.pos.xyz, y, lo, hi, BOUNCE_GRID_STEPS);
+                    od = sp.sigma_t.rgb * grid_optical_depth(density_grid, v.pos.xyz, y, lo, hi, BOUNCE_GRID_STEPS);
                 } else {
                     // The whole segment is inside the box when both ends are.
                     var len = dist;

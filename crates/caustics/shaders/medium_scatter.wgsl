@@ -18,12 +18,13 @@
 // specular pixels) the same rule runs along the segments `composite` kept of the paths beyond
 // each pixel's specular surface (`EyeSegment`, shared/medium.wgsl), weighted by the path's
 // weight; `composite` attenuated what those paths see.
-// Heterogeneous media (`mp.grid == 1`, a density grid in `density`): sigma(x) = rho(x) sigma;
+// Heterogeneous media (`mp.grid == 1`, a density grid in `density_grid`): sigma(x) = rho(x) sigma;
 // the same midpoint rule gives the camera ray's optical depth (the attenuation) and, per step,
 // rho sigma_s phase I/r^2 exp(-sigma_t (tau_light + tau_camera)) V, tau_light by a ray march of
 // `mp.light_steps` steps toward the light (`grid_optical_depth`).
 
 #import medium
+#import scene
 
 struct MediumParams {
     clip_to_world: mat4x4f,
@@ -56,11 +57,10 @@ struct MediumParams {
 @group(0) @binding(5) var shadow_sampler: sampler_comparison;
 @group(0) @binding(6) var<storage, read_write> out_full: array<vec4f>;
 @group(0) @binding(7) var<storage, read_write> out_caustic: array<vec4f>;
-@group(0) @binding(8) var density: texture_3d<f32>;
 // `composite`'s list of specular pixels, its length (count[3]) and the segments it kept.
-@group(0) @binding(9) var<storage, read> spec_list: array<u32>;
-@group(0) @binding(10) var<storage, read> spec_count: array<u32, 4>;
-@group(0) @binding(11) var<storage, read> segments: array<EyeSegment>;
+@group(0) @binding(8) var<storage, read> spec_list: array<u32>;
+@group(0) @binding(9) var<storage, read> spec_count: array<u32, 4>;
+@group(0) @binding(10) var<storage, read> segments: array<EyeSegment>;
 override medium_segments: bool = false;
 
 fn phase(cos_t: f32) -> f32 {
@@ -279,17 +279,17 @@ fn heterogeneous_along(o: vec3f, d: vec3f, seg: vec2f, scatter: bool, whole: boo
     var tau = 0.0;
     var acc = vec3f(0.0);
     if (lit.y > lit.x) {
-        if (lit.x > seg.x) { tau = grid_optical_depth(density, o + d * seg.x, o + d * lit.x, lo, hi, n); }
+        if (lit.x > seg.x) { tau = grid_optical_depth(density_grid, o + d * seg.x, o + d * lit.x, lo, hi, n); }
         for (var i = 0u; i < n; i++) {
             let t = lit.x + (f32(i) + 0.5) * dt;
             let x = o + d * t;
-            let rho = grid_density(density, x, lo, hi);
+            let rho = grid_density(density_grid, x, lo, hi);
             let tau_here = tau + 0.5 * rho * dt;
             tau += rho * dt;
             if (!scatter || rho <= 0.0) { continue; }
             let inc = incident(x);
             if (inc.vis <= 0.0) { continue; }
-            let tau_l = grid_optical_depth(density, x, light_path_start(light, x, lo, hi), lo, hi, mp.light_steps);
+            let tau_l = grid_optical_depth(density_grid, x, light_path_start(light, x, lo, hi), lo, hi, mp.light_steps);
             let tr = exp(-mp.sigma_t.rgb * (tau_l + tau_here));
             acc += rho * inc.e * phase(dot(inc.wl, -d)) * tr * inc.vis;
         }
@@ -297,6 +297,6 @@ fn heterogeneous_along(o: vec3f, d: vec3f, seg: vec2f, scatter: bool, whole: boo
     var r: Along;
     r.l = mp.sigma_s.rgb * acc * dt;
     r.tau = tau;
-    if (clipped && whole) { r.tau = grid_optical_depth(density, o + d * seg.x, o + d * seg.y, lo, hi, n); }
+    if (clipped && whole) { r.tau = grid_optical_depth(density_grid, o + d * seg.x, o + d * seg.y, lo, hi, n); }
     return r;
 }

@@ -18,6 +18,7 @@
 #import raytrace
 #import medium
 #import trace
+#import scene
 
 struct TraceParams {
     face: u32,
@@ -35,23 +36,16 @@ struct TraceParams {
 @group(0) @binding(5) var back_nrm: texture_2d_array<f32>;
 @group(0) @binding(6) var recv_pos: texture_2d_array<f32>;
 @group(0) @binding(7) var recv_nrm: texture_2d_array<f32>;
-@group(0) @binding(8) var<storage, read> materials: array<MaterialGpu>;
-@group(0) @binding(9) var<storage, read_write> photons: array<Photon>;
+@group(0) @binding(8) var<storage, read_write> photons: array<Photon>;
 // Fixed-point flux totals (lo, hi word pairs, r + g + b): 0 emitted onto casters, 2 landed in
 // the map, 4 lost for want of a back surface, 6 lost to total internal reflection, 8 lost for
 // want of a receiver, 10 landed outside the map.
-@group(0) @binding(10) var<storage, read_write> stats: array<atomic<u32>>;
+@group(0) @binding(9) var<storage, read_write> stats: array<atomic<u32>>;
 // The light's second caster layer (front, back), or the first where the scene needs none.
-@group(0) @binding(11) var front_pos2: texture_2d_array<f32>;
-@group(0) @binding(12) var front_nrm2: texture_2d_array<f32>;
-@group(0) @binding(13) var back_pos2: texture_2d_array<f32>;
-@group(0) @binding(14) var back_nrm2: texture_2d_array<f32>;
-// The scene's BVH (shared/raytrace.wgsl; used by the exact tracer).
-@group(0) @binding(15) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(16) var<storage, read> bvh_tris: array<BvhTri>;
-@group(0) @binding(17) var<storage, read> bvh_instances: array<BvhInstance>;
-// The medium's density grid (1 x 1 x 1 without one): photons march it (shared/trace.wgsl).
-@group(0) @binding(18) var density_grid: texture_3d<f32>;
+@group(0) @binding(10) var front_pos2: texture_2d_array<f32>;
+@group(0) @binding(11) var front_nrm2: texture_2d_array<f32>;
+@group(0) @binding(12) var back_pos2: texture_2d_array<f32>;
+@group(0) @binding(13) var back_nrm2: texture_2d_array<f32>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3u) {

@@ -3,6 +3,7 @@
 // against brute force and for tools (picking).
 
 #import raytrace
+#import scene
 
 struct RayQuery {
     // o.w: t_max
@@ -27,13 +28,9 @@ struct QueryParams {
     _pad1: u32,
 }
 
-@group(0) @binding(0) var<storage, read> materials: array<MaterialGpu>;
-@group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(2) var<storage, read> bvh_tris: array<BvhTri>;
-@group(0) @binding(3) var<storage, read> bvh_instances: array<BvhInstance>;
-@group(0) @binding(4) var<storage, read> rays: array<RayQuery>;
-@group(0) @binding(5) var<storage, read_write> results: array<RayResult>;
-@group(0) @binding(6) var<uniform> qp: QueryParams;
+@group(0) @binding(0) var<storage, read> rays: array<RayQuery>;
+@group(0) @binding(1) var<storage, read_write> results: array<RayResult>;
+@group(0) @binding(2) var<uniform> qp: QueryParams;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3u) {

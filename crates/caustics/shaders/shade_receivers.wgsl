@@ -20,6 +20,7 @@
 // comparisons that all pass is 9/9 = 1), so the image is the same.
 
 #import medium
+#import scene
 
 struct ShadeParams {
     width: u32,
@@ -44,13 +45,11 @@ struct ShadeParams {
 @group(0) @binding(5) var shadow_sampler: sampler_comparison;
 @group(0) @binding(6) var recv_pos: texture_2d_array<f32>;
 @group(0) @binding(7) var<storage, read> irradiance: array<vec4f>;
-@group(0) @binding(8) var<storage, read> materials: array<MaterialGpu>;
-@group(0) @binding(9) var<storage, read_write> radiance: array<vec4f>;
-@group(0) @binding(10) var<storage, read_write> caustic: array<vec4f>;
-@group(0) @binding(11) var density: texture_3d<f32>;
-@group(0) @binding(12) var<uniform> taps: EnvTaps;
-@group(0) @binding(13) var<storage, read> caustic_mask: array<u32>;
-@group(0) @binding(14) var<storage, read> shadow_tiles: array<vec2f>;
+@group(0) @binding(8) var<storage, read_write> radiance: array<vec4f>;
+@group(0) @binding(9) var<storage, read_write> caustic: array<vec4f>;
+@group(0) @binding(10) var<uniform> taps: EnvTaps;
+@group(0) @binding(11) var<storage, read> caustic_mask: array<u32>;
+@group(0) @binding(12) var<storage, read> shadow_tiles: array<vec2f>;
 
 // An environment region's sub-directions (src/env_taps.rs): rows of R_k^T (R_k turns the
 // light's direction to sub-direction k) and the sub-region's weight (rgb). Array size =
@@ -232,7 +231,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
             tr = exp(-sp.sigma_t.rgb * box_length(lp, p, sp.medium_lo.xyz, sp.medium_hi.xyz));
         } else {
             let lp = light_path_start(light, p, sp.medium_lo.xyz, sp.medium_hi.xyz);
-            let od = grid_optical_depth(density, lp, p, sp.medium_lo.xyz, sp.medium_hi.xyz, sp.medium_grid.y);
+            let od = grid_optical_depth(density_grid, lp, p, sp.medium_lo.xyz, sp.medium_hi.xyz, sp.medium_grid.y);
             tr = exp(-sp.sigma_t.rgb * od);
         }
         // (Only the direct light: the photons carried their own path's transmittance into the

@@ -24,6 +24,7 @@
 #import raytrace
 #import medium
 #import sphere_table
+#import scene
 
 struct SphereGatherParams {
     width: u32,
@@ -43,14 +44,10 @@ struct SphereGatherParams {
 @group(0) @binding(0) var<uniform> gp: SphereGatherParams;
 @group(0) @binding(1) var eye_pos: texture_2d<f32>;
 @group(0) @binding(2) var eye_nrm: texture_2d<f32>;
-@group(0) @binding(3) var<storage, read> materials: array<MaterialGpu>;
 @group(0) @binding(4) var<storage, read> records: array<SphereRecord>;
 @group(0) @binding(5) var<storage, read> table: array<vec4u>;
 @group(0) @binding(6) var<storage, read_write> radiance: array<vec4f>;
 @group(0) @binding(7) var<storage, read_write> caustic: array<vec4f>;
-@group(0) @binding(8) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(9) var<storage, read> bvh_tris: array<BvhTri>;
-@group(0) @binding(10) var<storage, read> bvh_instances: array<BvhInstance>;
 // [0]: occlusion rays (one per pixel and caustic object) that overflowed the BVH stack.
 @group(0) @binding(11) var<storage, read_write> gather_stats: array<atomic<u32>>;
 

@@ -4,6 +4,7 @@
 //! feature (so it sits below the frame's modules).
 
 use crate::gpu::GpuContext;
+use crate::gpu::pass::SharedGroup;
 use crate::gpu::types::*;
 use crate::scene::{Material, Scene, Tessellation};
 use glam::Mat4;
@@ -20,24 +21,19 @@ pub(crate) struct Geometry {
     pub materials: wgpu::Buffer,
     /// Per object: [`ObjectTransform`] from the scene file's pose to the current one.
     pub transforms: wgpu::Buffer,
-    /// The environment map (linear radiance, Rgba32Float; 1×1 black without one).
-    pub environment: wgpu::Texture,
-    /// The medium's density grid (R32Float, 3D; 1×1×1 holding 1 without one).
-    pub density: wgpu::Texture,
     /// The exact tracer's BVH (`crate::accel`): bottom levels built once, instances rewritten
     /// when objects move ([`Geometry::write_instances`]).
     pub bvh: crate::accel::SceneBvh,
-    pub bvh_nodes: wgpu::Buffer,
-    pub bvh_tris: wgpu::Buffer,
     pub bvh_instances: wgpu::Buffer,
+    /// The scene group (`shaders/shared/scene.wgsl`) over the materials, the BVH (its nodes and
+    /// triangles are held only there, with these instances), the medium's density grid
+    /// (R32Float, 3D; 1×1×1 holding 1 without one) and the environment map (linear radiance,
+    /// Rgba32Float; 1×1 black without one), which every stage that reads the scene is given
+    /// (`Pass::shared`). Made with them: the frame rewrites their contents, never the buffers.
+    pub scene: SharedGroup,
 }
 
 impl Geometry {
-    /// The BVH's buffers by the names the stages give them.
-    pub(crate) fn bvh_bindings(&self) -> [(&'static str, &wgpu::Buffer); 3] {
-        [("bvh_nodes", &self.bvh_nodes), ("bvh_tris", &self.bvh_tris), ("bvh_instances", &self.bvh_instances)]
-    }
-
     /// Write the BVH instances for the objects' transforms (from the scene file's pose).
     pub(crate) fn write_instances(&self, ctx: &GpuContext, transforms: &[glam::Affine3A]) {
         let inst = self.bvh.instance_records(transforms);
@@ -66,19 +62,59 @@ pub(crate) fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation)
     let bvh = crate::accel::SceneBvh::build(scene);
     let (nodes, tris) = bvh.gpu_arrays();
     let inst = bvh.instance_records(&[]);
+    let bvh_nodes = ctx.buffer_init("bvh_nodes", bytemuck::cast_slice(&nodes), storage);
+    let bvh_tris = ctx.buffer_init("bvh_tris", bytemuck::cast_slice(&tris), storage);
+    let bvh_instances = ctx.buffer_init("bvh_instances", bytemuck::cast_slice(&inst), storage);
+    let materials = ctx.buffer_init("materials", bytemuck::cast_slice(&material_records(scene)), storage);
+    let environment = upload_environment(ctx, scene);
+    let density = upload_density(ctx, scene);
+    let scene_group = scene_group(ctx, [&materials, &bvh_nodes, &bvh_tris, &bvh_instances], &density, &environment);
     Geometry {
-        bvh_nodes: ctx.buffer_init("bvh_nodes", bytemuck::cast_slice(&nodes), storage),
-        bvh_tris: ctx.buffer_init("bvh_tris", bytemuck::cast_slice(&tris), storage),
-        bvh_instances: ctx.buffer_init("bvh_instances", bytemuck::cast_slice(&inst), storage),
+        bvh_instances,
         bvh,
         vertices: ctx.buffer_init("vertices", bytemuck::cast_slice(&vertices), wgpu::BufferUsages::VERTEX),
         indices: ctx.buffer_init("indices", bytemuck::cast_slice(&indices), wgpu::BufferUsages::INDEX),
         ranges,
-        materials: ctx.buffer_init("materials", bytemuck::cast_slice(&material_records(scene)), storage),
+        materials,
         transforms: ctx.buffer_init("object_transforms", bytemuck::cast_slice(&transforms), storage),
-        environment: upload_environment(ctx, scene),
-        density: upload_density(ctx, scene),
+        scene: scene_group,
     }
+}
+
+/// The scene group (`shaders/shared/scene.wgsl`) over the per-object materials, the BVH's
+/// nodes, triangles and instances (in that order), the density grid and the environment map.
+pub(crate) fn scene_group(
+    ctx: &GpuContext,
+    buffers: [&wgpu::Buffer; 4],
+    density: &wgpu::Texture,
+    environment: &wgpu::Texture,
+) -> SharedGroup {
+    let density = density_view(ctx, density);
+    let environment = ctx.view(environment, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
+    let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+        .collect();
+    entries.push(wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&density) });
+    entries.push(wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&environment) });
+    SharedGroup::new(ctx, crate::gpu::SCENE_GROUP, &entries)
+}
+
+/// The scene group of `scene` without a geometry upload, for one-off work that reads part of
+/// it: `buffers` (materials and BVH, as [`scene_group`] takes them) where given, else one zeroed
+/// record each (nothing to hit); the scene's density grid and environment map.
+pub(crate) fn scene_group_of(ctx: &GpuContext, scene: &Scene, buffers: Option<[&wgpu::Buffer; 4]>) -> SharedGroup {
+    let storage = wgpu::BufferUsages::STORAGE;
+    let sizes = [
+        std::mem::size_of::<MaterialGpu>(),
+        std::mem::size_of::<BvhNode>(),
+        std::mem::size_of::<BvhTri>(),
+        std::mem::size_of::<BvhInstance>(),
+    ];
+    let empty = sizes.map(|n| ctx.buffer_init("scene_placeholder", &vec![0; n], storage));
+    let buffers = buffers.unwrap_or([&empty[0], &empty[1], &empty[2], &empty[3]]);
+    scene_group(ctx, buffers, &upload_density(ctx, scene), &upload_environment(ctx, scene))
 }
 
 /// The GPU record of a transform (positions by the affine map, normals by its rotation).
@@ -176,7 +212,7 @@ fn upload_environment(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
 /// with `textureLoad` and interpolated in the shader, `shared/medium.wgsl`: no filterable-float
 /// feature needed, and the CPU reference's arithmetic); 1×1×1 holding 1 without a grid, so the
 /// bindings are the same for every scene.
-pub(crate) fn upload_density(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
+fn upload_density(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
     let grid = scene.medium.as_ref().and_then(|m| m.density.as_deref());
     let (dims, data): ([u32; 3], &[f32]) = match grid {
         Some(g) => (g.dims, &g.data),
@@ -205,6 +241,6 @@ pub(crate) fn upload_density(ctx: &GpuContext, scene: &Scene) -> wgpu::Texture {
 }
 
 /// The density grid's 3D view.
-pub(crate) fn density_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::TextureView {
+fn density_view(ctx: &GpuContext, t: &wgpu::Texture) -> wgpu::TextureView {
     ctx.view(t, Some(wgpu::TextureViewDimension::D3), 0, None)
 }

@@ -36,7 +36,7 @@
 use crate::gpu::PassTimer;
 use crate::gpu::pass::Pass;
 use crate::gpu::types::{BounceLightParams, BounceParams, EmitParams, SurfaceBounceParams, VplGpu};
-use crate::passes::{DrawCtx, EyeFrame, LightFrame, array_view, density_view, layer_view, shadow_sampler};
+use crate::passes::{DrawCtx, EyeFrame, LightFrame, array_view, layer_view, shadow_sampler};
 use crate::settings::RenderSettings;
 use glam::Vec3;
 
@@ -101,7 +101,6 @@ pub(crate) fn record_lights(
     let surface = ctx.buffer("medium_vpls", u64::from(surface_count) * vpl_size, wgpu::BufferUsages::STORAGE);
     let shafts = ctx.buffer("medium_shaft_vpls", u64::from(shaft_count) * vpl_size, wgpu::BufferUsages::STORAGE);
     let (lo, hi, sigma_t, sigma_s, heterogeneous) = medium_params(m);
-    let density = density_view(ctx, &dc.geo.density);
     let shadow_sampler = shadow_sampler(ctx);
     let mut offset = 0;
     for lf in lights {
@@ -130,10 +129,9 @@ pub(crate) fn record_lights(
             .bind("recv_pos", &rp)
             .bind("recv_nrm", &rn)
             .bind("irradiance", &lf.irradiance)
-            .bind("materials", &dc.geo.materials)
+            .shared(&dc.geo.scene)
             .bind("shadow_map", &sh)
             .bind("shadow_sampler", &shadow_sampler)
-            .bind("density", &density)
             .bind("vpls", &surface)
             .group();
         let shafts_pass = Pass::new(ctx, "medium_bounce_shafts")
@@ -142,7 +140,7 @@ pub(crate) fn record_lights(
             .bind("recv_pos", &rp)
             .bind("shadow_map", &sh)
             .bind("shadow_sampler", &shadow_sampler)
-            .bind("density", &density)
+            .shared(&dc.geo.scene)
             .bind("vpls", &shafts)
             .group();
         lights_pass.dispatch(enc, timer, [k, k, lf.faces]);
@@ -262,7 +260,6 @@ pub(crate) fn record_beam_emitters(
         return out;
     };
     let ctx = dc.ctx;
-    let density = density_view(ctx, &dc.geo.density);
     let landing_bounds = landing_box(dc.scene);
     for (fi, f) in frames.iter().enumerate() {
         let lf = lights[f.light];
@@ -278,8 +275,7 @@ pub(crate) fn record_beam_emitters(
                 .bind("stats", stats)
                 .bind("sums", &sums)
                 .bind("vpls", &vpls)
-                .bind("density_grid", &density)
-                .bind("materials", &dc.geo.materials);
+                .shared(&dc.geo.scene);
             let consts = [("emit_landing", f64::from(u8::from(landing.is_some())))];
             // (one slice per block for the landing light: no range pass)
             let first = usize::from(landing.is_some());
@@ -350,7 +346,6 @@ fn record_glow_of(
     timer: &mut PassTimer,
 ) -> (wgpu::Buffer, u32) {
     let ctx = dc.ctx;
-    let density = density_view(ctx, &dc.geo.density);
     let (params, sums, vpls, bins) =
         emitter_buffers(ctx, label, m, lf, (s.medium.bounce_grid, GLOW_SLICES), (offset, count), None);
     let pass = Pass::new(ctx, "medium_bounce_glow")
@@ -359,7 +354,7 @@ fn record_glow_of(
         .bind("surface", vpls_in)
         .bind("sums", &sums)
         .bind("vpls", &vpls)
-        .bind("density", &density);
+        .shared(&dc.geo.scene);
     let groups = (count * GLOW_DIRS).div_ceil(64);
     record_emitter_passes((pass, &[]), Err(groups), bins, 0, enc, timer);
     (vpls, bins)
@@ -416,15 +411,13 @@ fn record_surface_gather(
         }),
     );
     let (ep, en) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
-    let density = density_view(ctx, &dc.geo.density);
     Pass::new(ctx, "medium_bounce_surfaces")
         .bind("sp", &params)
         .bind("vpls", vpls)
         .bind("eye_pos", &ep)
         .bind("eye_nrm", &en)
-        .bind("materials", &dc.geo.materials)
+        .shared(&dc.geo.scene)
         .bind("radiance", &eye.radiance)
-        .bind("density", &density)
         .dispatch(enc, timer, [cam.width.div_ceil(8), cam.height.div_ceil(8), 1]);
 }
 
@@ -484,7 +477,6 @@ fn record_camera_gather(
             _pad: [0; 3],
         }),
     );
-    let density = density_view(ctx, &dc.geo.density);
     let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
     let pass = Pass::new(ctx, "medium_bounce")
         .constants(&[("bounce_segments", 0.0)])
@@ -494,7 +486,7 @@ fn record_camera_gather(
         .bind("spec_pos", &sv)
         .bind("out_full", images.0)
         .bind("out_caustic", images.1)
-        .bind("density", &density)
+        .shared(&dc.geo.scene)
         .bind_all(segs.bindings())
         .group();
     pass.dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);

@@ -106,12 +106,11 @@ pub fn cast_rays(
         ctx.buffer_init("rays", bytemuck::cast_slice(&queries), storage),
     ];
     let u = ctx.uniform("query_params", bytemuck::bytes_of(&params));
+    let scene_group =
+        crate::geometry::scene_group_of(&ctx, scene, Some([&materials, &bvh_nodes, &bvh_tris, &bvh_instances]));
     let pass = Pass::new(&ctx, "ray_query")
         .constants(&[("bvh_stack_limit", f64::from(opts.stack_limit))])
-        .bind("materials", &materials)
-        .bind("bvh_nodes", &bvh_nodes)
-        .bind("bvh_tris", &bvh_tris)
-        .bind("bvh_instances", &bvh_instances)
+        .shared(&scene_group)
         .bind("rays", &queries)
         .bind("results", &results)
         .bind("qp", &u)

@@ -4,8 +4,8 @@
 // a triangle whose corners take different paths (`part_applies`), and a beam's entry in the beam
 // buffer and the hierarchy (`emit`), for beam_refine (the grid's triangles, level by level) and
 // beam_shrink (the parts of the triangles whose corners take different paths). A stage importing it
-// declares `light` (LightGpu), `bp` (BeamParams), the scene's `materials` and BVH
-// (shared/raytrace.wgsl), `slots`, `beams`, `stats` (shared/beams.wgsl) and `density_grid`.
+// declares `light` (LightGpu), `bp` (BeamParams), `slots`, `beams` and `stats` (shared/beams.wgsl),
+// and imports the scene group (shared/scene.wgsl: materials, BVH, density grid).
 
 // One traced edge.
 struct Edge {

@@ -2,8 +2,8 @@
 // CPU `scene::environment::Environment::lookup` read it. For a unit direction d toward the sky,
 // the map is read at R_y(-angle) d, at u = 0.5 + atan2(x, -z) / 2pi, v = acos(y) / pi (texel
 // (0, 0) top-left), bilinearly between texel centres, wrapping around in u and clamped in v.
-// Needs an `env_map: texture_2d<f32>` binding (linear radiance, Rgba32Float, loaded with
-// textureLoad: no sampler, no filterable-float feature) in the importing stage; `rot` is
+// Reads the scene group's `env_map` (shared/scene.wgsl: linear radiance, Rgba32Float, loaded
+// with textureLoad: no sampler, no filterable-float feature); `rot` is
 // (cos angle, sin angle, 1 if the scene has an environment else 0, unused). Imported by
 // composite.
 

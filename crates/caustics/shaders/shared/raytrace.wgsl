@@ -6,7 +6,7 @@
 // Benthin and Wald (2013), the CPU reference's model. Rays are (o, d) with unit d; a bottom
 // level is traversed with d mapped by the instance's linear part, unnormalised, so distances
 // stay world distances (instances are similarity transforms).
-// The importing stage declares: materials, bvh_nodes, bvh_tris, bvh_instances.
+// It reads the scene group's materials and BVH (shared/scene.wgsl, imported by the stage).
 
 const BVH_STACK: u32 = 32u;
 // Stack entries used per bottom level (at most BVH_STACK); tests lower it to check that an

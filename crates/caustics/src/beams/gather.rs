@@ -3,11 +3,11 @@
 //! and tools.
 
 use crate::error::{Error, Result};
-use crate::gpu::pass::Pass;
+use crate::gpu::pass::{Pass, SharedGroup};
 use crate::gpu::types::{BEAM_FLAG_FRAGMENTS, BeamGpu};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::image_io::Image;
-use crate::passes::{DrawCtx, density_view, upload_density};
+use crate::passes::DrawCtx;
 use crate::scene::Scene;
 use crate::settings::{BeamSettings, BeamVolume};
 
@@ -31,21 +31,17 @@ pub(super) fn record_surface(
 ) {
     if let Some(hulls) = &f.hulls {
         record_hull_polygons(ctx, f, hulls, HullsOf::Ends, enc, timer);
-        let density = density_view(ctx, &dc.geo.density);
         let resources = [
             f.params.as_entire_binding(),
             eye_views.0.clone(),
             eye_views.1.clone(),
             f.beams.as_entire_binding(),
             hulls.as_entire_binding(),
-            dc.geo.materials.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&density),
             f.stats.as_entire_binding(),
         ];
-        draw_hulls(ctx, f, "beam_surface_raster", &resources, accum, enc, timer);
+        draw_hulls(ctx, f, "beam_surface_raster", (&resources, &dc.geo.scene), accum, enc, timer);
         return;
     }
-    let density = density_view(ctx, &dc.geo.density);
     let records = ChunkRecords::new(ctx, "beam_surface_chunks", f.chunks.surface_n, f.chunks.surface);
     for c in 0..f.chunks.surface_n {
         Pass::new(ctx, "beam_surface")
@@ -55,11 +51,10 @@ pub(super) fn record_surface(
             .bind("beams", &f.beams)
             .bind("order", &f.order)
             .bind("stats", &f.stats)
-            .bind("materials", &dc.geo.materials)
             .bind("radiance", accum.0)
             .bind("caustic", accum.1)
             .bind("chunk", records.binding(c))
-            .bind("density_grid", &density)
+            .shared(&dc.geo.scene)
             .dispatch_indirect(enc, timer, &f.dispatch, 12 * u64::from(f.chunks.gather_n + c));
     }
 }
@@ -71,7 +66,7 @@ pub(super) fn record_gather_chunks(
     f: &BeamFrame,
     eye_views: &[wgpu::BindingResource; 4],
     images: (&wgpu::Buffer, &wgpu::Buffer),
-    density: &wgpu::TextureView,
+    scene: &SharedGroup,
     segs: Option<(&crate::passes::EyeSegments, u32)>,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
@@ -102,7 +97,7 @@ pub(super) fn record_gather_chunks(
             .bind("out_caustic", images.1)
             .bind("chunk", records.binding(c))
             .bind("foot", &foot_buf)
-            .bind("density_grid", density)
+            .shared(scene)
             .bind("recv_nrm", eye_views[2].clone())
             .bind("spec_nrm", eye_views[3].clone())
             .bind_all(seg_bindings)
@@ -168,7 +163,8 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
         wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
     );
     let nv = ctx.view(&none, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
-    let density = upload_density(&ctx, scene);
+    // (the density grid of the scene; no surfaces to hit)
+    let scene_group = crate::geometry::scene_group_of(&ctx, scene, None);
     // (positions and normals: the normals are never read where no surface is)
     let tv: [wgpu::BindingResource; 4] = std::array::from_fn(|_| wgpu::BindingResource::TextureView(&nv));
     let mut timer = PassTimer::disabled();
@@ -177,7 +173,6 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     let chunks = Chunks::new(&bp, &foot, (1, chunk_scale(&ctx, b)));
     let dispatch = chunks.dispatch_buffer(&ctx);
     record_order(&ctx, (&params, bp.slots), (&slot_buf, &order, &stats), (&chunks, &dispatch), &mut enc, &mut timer);
-    let dv = density_view(&ctx, &density);
     let f = BeamFrame {
         light: 0,
         params,
@@ -194,9 +189,9 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     };
     if b.volume.on(ctx.device.features()) == BeamVolume::Hulls {
         let hulls = hull_buffer(&ctx, f.capacity);
-        record_volume_hulls(&ctx, &f, &hulls, &tv, (&full, &caustic), &dv, &mut enc, &mut timer);
+        record_volume_hulls(&ctx, &f, &hulls, &tv, (&full, &caustic), &scene_group, &mut enc, &mut timer);
     } else {
-        record_gather_chunks(&ctx, &f, &tv, (&full, &caustic), &dv, None, &mut enc, &mut timer);
+        record_gather_chunks(&ctx, &f, &tv, (&full, &caustic), &scene_group, None, &mut enc, &mut timer);
     }
     ctx.end_scope();
     ctx.queue.submit([enc.finish()]);

@@ -1,7 +1,7 @@
 //! The hull draws: each beam's hull polygon on the image (`beam_hull`), drawn by `beam_raster`
 //! (volume caustic) or `beam_surface_raster` (surface caustic), and their pipelines.
 
-use crate::gpu::pass::Pass;
+use crate::gpu::pass::{Pass, SharedGroup};
 use crate::gpu::types::{BEAM_HULL_PARTS, BeamHull};
 use crate::gpu::{GpuContext, PassTimer};
 
@@ -45,14 +45,14 @@ pub(super) fn record_hull_polygons(
 }
 
 /// The hulls of one light's beams drawn by render stage `stage` (`beam_raster`: the volume
-/// caustic; `beam_surface_raster`: the surface caustic) with group 0 `resources`, indirectly
-/// (instance k the list's k-th beam; `beam_order` wrote the count), blended into a float image in
+/// caustic; `beam_surface_raster`: the surface caustic) with group 0 `resources` and the scene
+/// group, indirectly (instance k the list's k-th beam; `beam_order` wrote the count), blended into a float image in
 /// list order, then `beam_resolve`: that image added to both `images`.
 pub(super) fn draw_hulls(
     ctx: &GpuContext,
     f: &BeamFrame,
     stage: &str,
-    resources: &[wgpu::BindingResource],
+    (resources, scene): (&[wgpu::BindingResource], &SharedGroup),
     images: (&wgpu::Buffer, &wgpu::Buffer),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
@@ -88,6 +88,7 @@ pub(super) fn draw_hulls(
         });
         rp.set_pipeline(&rpl);
         rp.set_bind_group(0, &rbg, &[]);
+        rp.set_bind_group(scene.index, &scene.group, &[]);
         rp.draw_indirect(&f.dispatch, f.chunks.hull_args() + 12);
     }
     Pass::new(ctx, "beam_resolve")
@@ -106,7 +107,7 @@ pub(super) fn record_volume_hulls(
     hulls: &wgpu::Buffer,
     eye_views: &[wgpu::BindingResource; 4],
     images: (&wgpu::Buffer, &wgpu::Buffer),
-    density: &wgpu::TextureView,
+    scene: &SharedGroup,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -119,12 +120,11 @@ pub(super) fn record_volume_hulls(
         f.beams.as_entire_binding(),
         hulls.as_entire_binding(),
         foot.as_entire_binding(),
-        wgpu::BindingResource::TextureView(density),
         f.stats.as_entire_binding(),
         eye_views[2].clone(),
         eye_views[3].clone(),
     ];
-    draw_hulls(ctx, f, "beam_raster", &resources, images, enc, timer);
+    draw_hulls(ctx, f, "beam_raster", (&resources, scene), images, enc, timer);
 }
 
 /// The hull draws' image: float32, so that the blend adds as the gather's sums do.

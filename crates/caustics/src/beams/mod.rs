@@ -29,7 +29,7 @@
 use crate::error::Result;
 use crate::gpu::types::{BEAM_FLAG_FRAGMENTS, BEAM_FLAG_SURFACE, BeamGpu};
 use crate::gpu::{GpuContext, PassTimer};
-use crate::passes::{DrawCtx, EyeFrame, LightFrame, density_view, layer_view};
+use crate::passes::{DrawCtx, EyeFrame, LightFrame, layer_view};
 use crate::scene::Light;
 use crate::settings::{BeamVolume, RenderSettings};
 
@@ -163,16 +163,16 @@ pub(crate) fn record_gather(
     // The first surfaces: the eye's receivers and specular front (positions, normals).
     let eye_views = [&eye.recv.pos, &eye.front.pos, &eye.recv.nrm, &eye.front.nrm].map(|t| layer_view(ctx, t, 0));
     let views = eye_views.each_ref().map(wgpu::BindingResource::TextureView);
-    let density = density_view(ctx, &dc.geo.density);
+    let scene = &dc.geo.scene;
     for f in frames {
         if let Some(hulls) = &f.hulls {
-            record_volume_hulls(ctx, f, hulls, &views, images, &density, enc, timer);
+            record_volume_hulls(ctx, f, hulls, &views, images, scene, enc, timer);
         } else {
-            record_gather_chunks(ctx, f, &views, images, &density, None, enc, timer);
+            record_gather_chunks(ctx, f, &views, images, scene, None, enc, timer);
         }
         if segs.kept {
             for slot in 0..crate::gpu::types::EYE_SEGMENTS as u32 {
-                record_gather_chunks(ctx, f, &views, images, &density, Some((segs, slot)), enc, timer);
+                record_gather_chunks(ctx, f, &views, images, scene, Some((segs, slot)), enc, timer);
             }
         }
     }

@@ -4,7 +4,7 @@
 use crate::gpu::pass::Pass;
 use crate::gpu::types::{BEAM_KINDS, BEAM_ORDER_RUN, BeamGpu, BeamLevel, BeamParams, BeamPart, BeamTri};
 use crate::gpu::{GpuContext, PassTimer};
-use crate::passes::{DrawCtx, density_view};
+use crate::passes::DrawCtx;
 
 use super::params::{Chunks, KINDS, kinds};
 use super::{BeamFrame, STATS_WORDS};
@@ -48,7 +48,6 @@ pub(super) fn record_light_beams(
     let parts =
         crate::gpu::storage(ctx, "beam_parts", cap.min(PARTS_MAX) * std::mem::size_of::<BeamPart>() as u64, storage);
     let geo = dc.geo;
-    let density = density_view(ctx, &geo.density);
     for l in 0..=levels {
         let lv = BeamLevel {
             level: l,
@@ -61,14 +60,12 @@ pub(super) fn record_light_beams(
             .bind("light", light_buf)
             .bind("bp", &params)
             .bind("lv", &lvb)
-            .bind("materials", &geo.materials)
-            .bind_all(geo.bvh_bindings())
+            .shared(&geo.scene)
             .bind("work", &work)
             .bind("args", &args)
             .bind("slots", &slot_buf)
             .bind("beams", &beams)
             .bind("stats", &stats)
-            .bind("density_grid", &density)
             .bind("parts", &parts);
         if l == 0 {
             let groups = (per_level(0) as u32).div_ceil(64);
@@ -88,14 +85,12 @@ pub(super) fn record_light_beams(
     Pass::new(ctx, "beam_shrink")
         .bind("light", light_buf)
         .bind("bp", &params)
-        .bind("materials", &geo.materials)
-        .bind_all(geo.bvh_bindings())
+        .shared(&geo.scene)
         .bind("parts", &parts)
         .bind("args", &args)
         .bind("slots", &slot_buf)
         .bind("beams", &beams)
         .bind("stats", &stats)
-        .bind("density_grid", &density)
         .dispatch_indirect(enc, timer, &indirect, at);
     let chunks = Chunks::new(bp, &footprint, (kinds(bp), scale));
     let dispatch = chunks.dispatch_buffer(ctx);

@@ -314,12 +314,11 @@ pub(crate) fn record_gather(
         .bind("gp", &params)
         .bind("eye_pos", &erp)
         .bind("eye_nrm", &ern)
-        .bind("materials", &dc.geo.materials)
+        .shared(&dc.geo.scene)
         .bind("records", &rb)
         .bind("table", table)
         .bind("radiance", &eye.radiance)
         .bind("caustic", &eye.caustic)
-        .bind_all(dc.geo.bvh_bindings())
         .bind("gather_stats", &counters)
         .dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
     counters

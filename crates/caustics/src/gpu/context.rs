@@ -1,7 +1,7 @@
 //! [`GpuContext`]: the device and queue, adapter choice and device requirements, and the
 //! caches of pipelines and bind group layouts shared by its clones.
 
-use super::layout::{render_stage_bindings, stage_bindings};
+use super::layout::{compute_stage_layout, render_stage_layout, shared_group_bindings};
 use super::pool::{self, ResourceCounts};
 use super::stages::{logged_build, stage_source};
 use crate::error::{Error, Result};
@@ -186,35 +186,55 @@ impl GpuContext {
 
     /// The pipeline layout of compute stage `name`: group 0 as its WGSL declares it (the
     /// bindings its entry point uses, as wgpu's derived layouts have them), with the bind group
-    /// layout shared by every stage whose group 0 is the same.
+    /// layout shared by every stage whose group 0 is the same, and the layout of each shared
+    /// group it declares ([`GpuContext::shared_layout`]).
     pub fn stage_layout(&self, name: &str) -> wgpu::PipelineLayout {
-        self.layout_of(name, stage_bindings(name).unwrap_or_else(|e| panic!("{e}")))
+        let (entries, shared) = compute_stage_layout(name).unwrap_or_else(|e| panic!("{e}"));
+        self.layout_of(name, entries, &shared)
     }
 
-    /// The pipeline layout of render stage `name` ([`render_stage_bindings`]).
+    /// The pipeline layout of render stage `name` ([`super::render_stage_bindings`]).
     pub fn render_stage_layout(&self, name: &str) -> wgpu::PipelineLayout {
-        self.layout_of(name, render_stage_bindings(name).unwrap_or_else(|e| panic!("{e}")))
+        let (entries, shared) = render_stage_layout(name).unwrap_or_else(|e| panic!("{e}"));
+        self.layout_of(name, entries, &shared)
     }
 
-    fn layout_of(&self, name: &str, entries: Vec<wgpu::BindGroupLayoutEntry>) -> wgpu::PipelineLayout {
-        let bgl = self
-            .layouts
+    /// The bind group layout of shared group `group` (`gpu::layout::SHARED_GROUPS`): every
+    /// binding its WGSL module declares, one layout per context for every pipeline that uses it.
+    pub(crate) fn shared_layout(&self, group: u32) -> wgpu::BindGroupLayout {
+        let entries = shared_group_bindings(group).unwrap_or_else(|e| panic!("{e}"));
+        self.group_layout(&format!("shared group {group}"), entries)
+    }
+
+    fn group_layout(&self, label: &str, entries: Vec<wgpu::BindGroupLayoutEntry>) -> wgpu::BindGroupLayout {
+        self.layouts
             .lock()
             .unwrap_or_else(|e| e.into_inner())
             .entry(entries.clone())
             .or_insert_with(|| {
-                self.device
-                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(name), entries: &entries })
+                self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(label),
+                    entries: &entries,
+                })
             })
-            .clone();
+            .clone()
+    }
+
+    fn layout_of(&self, name: &str, entries: Vec<wgpu::BindGroupLayoutEntry>, shared: &[u32]) -> wgpu::PipelineLayout {
+        let own = self.group_layout(name, entries);
+        let shared: Vec<(u32, wgpu::BindGroupLayout)> = shared.iter().map(|&g| (g, self.shared_layout(g))).collect();
+        let groups = shared.iter().map(|(g, _)| *g as usize + 1).max().unwrap_or(1);
+        let layouts: Vec<Option<&wgpu::BindGroupLayout>> = (0..groups as u32)
+            .map(|g| if g == 0 { Some(&own) } else { shared.iter().find(|(s, _)| *s == g).map(|(_, l)| l) })
+            .collect();
         self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some(name),
-            bind_group_layouts: &[Some(&bgl)],
+            bind_group_layouts: &layouts,
             immediate_size: 0,
         })
     }
 
-    /// Distinct bind group layouts of the compute stages built so far.
+    /// Distinct bind group layouts of the stages built so far (shared groups included).
     pub fn shared_layouts(&self) -> usize {
         self.layouts.lock().unwrap_or_else(|e| e.into_inner()).len()
     }

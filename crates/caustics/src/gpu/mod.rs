@@ -13,6 +13,7 @@ mod stages;
 mod timer;
 
 pub use context::{GpuContext, list_adapters};
+pub(crate) use layout::SCENE_GROUP;
 pub use layout::{render_stage_bindings, stage_bindings};
 pub use pool::ResourceCounts;
 use stages::parse_stage;

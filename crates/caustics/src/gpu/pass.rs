@@ -18,7 +18,13 @@
 //! one recording can bind what several variants read. The bind group comes from the context's
 //! pool ([`super::pool`]); [`Pass::group`] keeps it for several dispatches and [`Bound::variant`]
 //! dispatches it with another variant of the same stage.
+//!
+//! The groups above 0 are shared by many stages ([`SharedGroup`]): the scene's (group 1,
+//! `shaders/shared/scene.wgsl`: materials, BVH, density grid, environment map) is made once per
+//! geometry upload and given with [`Pass::shared`]. A stage that imports a shared group's module
+//! must be given that group, and one that does not must not (both panic, naming the stage).
 
+use super::layout::SHARED_GROUPS;
 use super::pool::LayoutOf;
 use super::{GpuContext, PassTimer};
 use std::collections::HashMap;
@@ -49,7 +55,35 @@ pub(crate) struct Global {
 #[derive(Debug)]
 pub(crate) struct Interface {
     pub stage: String,
+    /// Group 0.
     pub globals: Vec<Global>,
+    /// The shared groups it declares (imports), in order.
+    pub shared: Vec<u32>,
+}
+
+/// A bind group shared by many stages: group `index` of every pipeline whose stage imports the
+/// shared WGSL module that declares it (`gpu::layout::SHARED_GROUPS`), with the one layout that
+/// module gives it. Made once by its owner (the scene's: [`crate::geometry::Geometry::scene`]).
+#[derive(Clone, Debug)]
+pub(crate) struct SharedGroup {
+    pub index: u32,
+    pub group: wgpu::BindGroup,
+}
+
+impl SharedGroup {
+    /// Shared group `index` over `entries` (counted, not pooled: its owner keeps it).
+    pub fn new(ctx: &GpuContext, index: u32, entries: &[wgpu::BindGroupEntry]) -> SharedGroup {
+        let label = SHARED_GROUPS.iter().find(|(g, _, _)| *g == index).map_or("shared group", |(_, m, _)| *m);
+        SharedGroup { index, group: ctx.shared_bind_group(label, index, entries) }
+    }
+}
+
+/// What shared group `index` is, for messages.
+fn shared_name(index: u32) -> String {
+    SHARED_GROUPS
+        .iter()
+        .find(|(g, _, _)| *g == index)
+        .map_or(format!("group {index}"), |(_, _, what)| format!("{what} (group {index})"))
 }
 
 /// What a resource offered for a binding is.
@@ -61,7 +95,7 @@ pub(crate) enum Offered {
 }
 
 impl Interface {
-    /// Reflect compute stage `stage` (its `main`). Only group 0 is used.
+    /// Reflect compute stage `stage` (its `main`): group 0, and the shared groups above it.
     pub fn reflect(stage: &str) -> crate::error::Result<Interface> {
         let (module, info) = super::parse_stage(stage)?;
         let ep = module
@@ -71,15 +105,22 @@ impl Interface {
             .ok_or_else(|| crate::error::Error::Shader { name: stage.into(), message: "no entry point main".into() })?;
         let uses = info.get_entry_point(ep);
         let mut globals = Vec::new();
+        let mut shared = Vec::new();
         for (handle, var) in module.global_variables.iter() {
             let Some(binding) = &var.binding else { continue };
             let name = var.name.clone().unwrap_or_default();
             let used = !uses[handle].is_empty();
             if binding.group != 0 {
-                return Err(crate::error::Error::Shader {
-                    name: stage.into(),
-                    message: format!("{name}: only group 0 is used"),
-                });
+                if !SHARED_GROUPS.iter().any(|(g, _, _)| *g == binding.group) {
+                    return Err(crate::error::Error::Shader {
+                        name: stage.into(),
+                        message: format!("{name}: group {} is no shared group", binding.group),
+                    });
+                }
+                if !shared.contains(&binding.group) {
+                    shared.push(binding.group);
+                }
+                continue;
             }
             let kind = match (&module.types[var.ty].inner, var.space) {
                 (_, naga::AddressSpace::Uniform) => Kind::Uniform,
@@ -90,7 +131,8 @@ impl Interface {
             globals.push(Global { name, binding: binding.binding, kind, used });
         }
         globals.sort_by_key(|g| g.binding);
-        Ok(Interface { stage: stage.into(), globals })
+        shared.sort_unstable();
+        Ok(Interface { stage: stage.into(), globals, shared })
     }
 
     /// The reflected interface of `stage`, reflected once per process (the sources are built in).
@@ -137,6 +179,23 @@ impl Interface {
             return Err(format!("stage {stage}: nothing bound to {}", missing.join(", ")));
         }
         Ok(out)
+    }
+
+    /// Whether the shared groups `given` (by index) are those the stage declares; else why not.
+    pub fn check_shared(&self, given: &[u32]) -> Result<(), String> {
+        let stage = &self.stage;
+        for (i, g) in given.iter().enumerate() {
+            if given[..i].contains(g) {
+                return Err(format!("stage {stage}: {} is given twice", shared_name(*g)));
+            }
+            if !self.shared.contains(g) {
+                return Err(format!("stage {stage} does not use {}, which is given", shared_name(*g)));
+            }
+        }
+        match self.shared.iter().find(|g| !given.contains(g)) {
+            Some(g) => Err(format!("stage {stage}: {} is not given", shared_name(*g))),
+            None => Ok(()),
+        }
     }
 }
 
@@ -192,12 +251,13 @@ pub(crate) struct Pass<'a> {
     label: &'a str,
     constants: Vec<(&'a str, f64)>,
     entries: Vec<(&'a str, wgpu::BindingResource<'a>)>,
+    shared: Vec<&'a SharedGroup>,
 }
 
 impl<'a> Pass<'a> {
     /// A pass of compute stage `stage` (also its label and timer name).
     pub fn new(ctx: &'a GpuContext, stage: &'a str) -> Pass<'a> {
-        Pass { ctx, stage, label: stage, constants: Vec::new(), entries: Vec::new() }
+        Pass { ctx, stage, label: stage, constants: Vec::new(), entries: Vec::new(), shared: Vec::new() }
     }
 
     /// The values of the stage's pipeline-overridable constants.
@@ -218,6 +278,12 @@ impl<'a> Pass<'a> {
         self
     }
 
+    /// Set shared bind group `group` (the scene's: `.shared(&geo.scene)`).
+    pub fn shared(mut self, group: &'a SharedGroup) -> Pass<'a> {
+        self.shared.push(group);
+        self
+    }
+
     /// Bind each (name, resource) of `pairs`.
     pub fn bind_all<R: Resource<'a>>(self, pairs: impl IntoIterator<Item = (&'a str, R)>) -> Pass<'a> {
         pairs.into_iter().fold(self, |pass, (name, resource)| pass.bind(name, resource))
@@ -229,6 +295,9 @@ impl<'a> Pass<'a> {
         let interface = Interface::of(self.stage);
         let offers: Vec<(&str, Offered)> = self.entries.iter().map(|(n, r)| (*n, offered(r))).collect();
         let bindings = interface.resolve(&offers).unwrap_or_else(|e| panic!("{e}"));
+        let given: Vec<u32> = self.shared.iter().map(|g| g.index).collect();
+        interface.check_shared(&given).unwrap_or_else(|e| panic!("{e}"));
+        let shared = self.shared.iter().map(|g| (g.index, g.group.clone())).collect();
         let mut entries: Vec<wgpu::BindGroupEntry> = bindings
             .into_iter()
             .zip(self.entries)
@@ -237,7 +306,14 @@ impl<'a> Pass<'a> {
         entries.sort_by_key(|e| e.binding);
         let pipeline = self.ctx.compute_pipeline_with(self.stage, &self.constants);
         let group = self.ctx.bind_group(self.label, LayoutOf::Compute(pipeline.clone()), &entries);
-        Bound { ctx: self.ctx.clone(), stage: self.stage.to_string(), label: self.label.to_string(), pipeline, group }
+        Bound {
+            ctx: self.ctx.clone(),
+            stage: self.stage.to_string(),
+            label: self.label.to_string(),
+            pipeline,
+            group,
+            shared,
+        }
     }
 
     /// Record the pass: `groups` workgroups.
@@ -266,6 +342,8 @@ pub(crate) struct Bound {
     label: String,
     pipeline: wgpu::ComputePipeline,
     group: wgpu::BindGroup,
+    /// The shared groups, by index.
+    shared: Vec<(u32, wgpu::BindGroup)>,
 }
 
 impl Bound {
@@ -301,16 +379,23 @@ impl Bound {
 
     /// Dispatch `groups` workgroups inside the open pass `cp`.
     pub fn dispatch_in(&self, cp: &mut wgpu::ComputePass, [x, y, z]: [u32; 3]) {
-        cp.set_pipeline(&self.pipeline);
-        cp.set_bind_group(0, &self.group, &[]);
+        self.set(cp);
         cp.dispatch_workgroups(x, y, z);
     }
 
     /// Dispatch indirectly (`args` at byte `offset`) inside the open pass `cp`.
     pub fn dispatch_indirect_in(&self, cp: &mut wgpu::ComputePass, args: &wgpu::Buffer, offset: u64) {
+        self.set(cp);
+        cp.dispatch_workgroups_indirect(args, offset);
+    }
+
+    /// Set the pipeline, its own group and the shared ones.
+    fn set(&self, cp: &mut wgpu::ComputePass) {
         cp.set_pipeline(&self.pipeline);
         cp.set_bind_group(0, &self.group, &[]);
-        cp.dispatch_workgroups_indirect(args, offset);
+        for (index, group) in &self.shared {
+            cp.set_bind_group(*index, group, &[]);
+        }
     }
 }
 
@@ -361,6 +446,21 @@ mod tests {
         assert!(kind.unwrap_err().contains("mp is a Uniform binding"));
         let view = mask().resolve(&[("mp", UNIFORM), ("irradiance", Offered::View), ("mask", STORAGE)]);
         assert!(view.unwrap_err().contains("irradiance"));
+    }
+
+    #[test]
+    fn a_shared_group_missing_extra_or_twice_is_refused_with_the_stage() {
+        let trace = Interface::of("photon_trace");
+        assert_eq!(trace.shared, [1]);
+        assert!(trace.check_shared(&[1]).is_ok());
+        let missing = trace.check_shared(&[]).unwrap_err();
+        assert!(
+            missing.contains("photon_trace") && missing.contains("scene group (group 1) is not given"),
+            "{missing}"
+        );
+        assert!(trace.check_shared(&[1, 1]).unwrap_err().contains("given twice"));
+        let extra = mask().check_shared(&[1]).unwrap_err();
+        assert!(extra.contains("caustic_mask does not use the scene group"), "{extra}");
     }
 
     #[test]

@@ -48,6 +48,19 @@ impl GpuContext {
         })
     }
 
+    /// A bind group of shared group `group` (`gpu::layout::SHARED_GROUPS`) binding `entries`,
+    /// which its owner keeps (not pooled; counted): the scene group of a geometry upload.
+    pub(crate) fn shared_bind_group(
+        &self,
+        label: &str,
+        group: u32,
+        entries: &[wgpu::BindGroupEntry],
+    ) -> wgpu::BindGroup {
+        let layout = self.shared_layout(group);
+        self.pool().counts.bind_groups += 1;
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(label), layout: &layout, entries })
+    }
+
     /// The open scope's next resource: the kept one if `reuse` accepts its slot, else one `make`
     /// creates (counted), kept as `keep_as` says. Outside a scope, `make` alone.
     fn pooled<T: Clone>(

@@ -74,6 +74,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("beam_receive", include_str!("../../shaders/shared/beam_receive.wgsl")),
     ("beam_fan", include_str!("../../shaders/shared/beam_fan.wgsl")),
     ("sphere_table", include_str!("../../shaders/shared/sphere_table.wgsl")),
+    ("scene", include_str!("../../shaders/shared/scene.wgsl")),
 ];
 
 /// Build a pipeline with `make`; with the environment variable `CAUSTICS_LOG_PIPELINES` set,
@@ -121,9 +122,13 @@ pub fn validate_stage(name: &str) -> Result<naga::Module> {
 
 /// Stage `name` parsed and validated by naga, with what each function uses.
 pub(super) fn parse_stage(name: &str) -> Result<(naga::Module, naga::valid::ModuleInfo)> {
-    let src = stage_source(name);
-    let module = naga::front::wgsl::parse_str(&src)
-        .map_err(|e| Error::Shader { name: name.into(), message: e.emit_to_string(&src) })?;
+    parse_source(name, &stage_source(name))
+}
+
+/// WGSL `src` (named `name` in errors) parsed and validated by naga.
+pub(super) fn parse_source(name: &str, src: &str) -> Result<(naga::Module, naga::valid::ModuleInfo)> {
+    let module = naga::front::wgsl::parse_str(src)
+        .map_err(|e| Error::Shader { name: name.into(), message: e.emit_to_string(src) })?;
     let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
         .validate(&module)
         .map_err(|e| Error::Shader { name: name.into(), message: format!("{e:?}") })?;

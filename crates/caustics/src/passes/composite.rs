@@ -6,7 +6,6 @@ use super::raster::has_specular_meshes;
 use super::{Composited, DrawCtx, EyeFrame, EyeSegments, LightFrame, array_view, layer_view};
 use crate::error::Result;
 use crate::frame::{Feature, Frame};
-use crate::geometry::density_view;
 use crate::gpu::PassTimer;
 use crate::gpu::pass::Pass;
 use crate::gpu::types::*;
@@ -41,7 +40,6 @@ fn record_medium(
     };
     let scatters = m.sigma_s.max_element() > 0.0;
     let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
-    let density = density_view(ctx, &dc.geo.density);
     for (li, lf) in lights.iter().enumerate() {
         let flags = u32::from(li == 0) | (u32::from(scatters) << 1);
         let params = ctx.uniform(
@@ -74,7 +72,7 @@ fn record_medium(
             .bind("shadow_sampler", &shadow_sampler)
             .bind("out_full", images.0)
             .bind("out_caustic", images.1)
-            .bind("density", &density)
+            .shared(&dc.geo.scene)
             .bind_all(segs.bindings())
             .group();
         pass.dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
@@ -143,7 +141,6 @@ pub(crate) fn record_composite(
         seg_slots * std::mem::size_of::<EyeSegmentGpu>() as u64,
         wgpu::BufferUsages::STORAGE,
     );
-    let density = density_view(ctx, &dc.geo.density);
     // The specular pixels listed by the first pass and the indirect dispatch of the second.
     let spec_list = ctx.buffer("composite_list", (w as u64) * (h as u64) * 4, wgpu::BufferUsages::STORAGE);
     let spec_count = ctx.buffer("composite_count", 16, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
@@ -162,7 +159,6 @@ pub(crate) fn record_composite(
         &eye.back2.nrm,
     ]
     .map(|t| layer_view(ctx, t, 0));
-    let env_view = ctx.view(&dc.geo.environment, Some(wgpu::TextureViewDimension::D2), 0, Some(1));
     let env = dc.scene.environment.is_some();
     let consts = |pass: u32| {
         [
@@ -185,17 +181,14 @@ pub(crate) fn record_composite(
         .bind("spec2_nrm", &spec2_nrm)
         .bind("back2_pos", &back2_pos)
         .bind("back2_nrm", &back2_nrm)
-        .bind("materials", &dc.geo.materials)
         .bind("radiance", &eye.radiance)
         .bind("caustic_in", &eye.caustic)
         .bind("out_full", &out_full)
         .bind("out_caustic", &out_caustic)
-        .bind("env_map", &env_view)
-        .bind_all(dc.geo.bvh_bindings())
         .bind("spec_list", &spec_list)
         .bind("spec_count", &spec_count)
         .bind("segments", &segments)
-        .bind("density", &density)
+        .shared(&dc.geo.scene)
         .group();
     pass.dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
     enc.copy_buffer_to_buffer(&spec_count, 0, &spec_args, 0, 16);

@@ -5,7 +5,6 @@ use super::raster::{Raster, Subset, has_specular_meshes};
 use super::{DrawCtx, EyeFrame, GBuffer, LightFrame, array_view, layer_view};
 use crate::error::Result;
 use crate::frame::{Feature, Frame};
-use crate::geometry::density_view;
 use crate::gpu::pass::Pass;
 use crate::gpu::types::*;
 use crate::gpu::{GpuContext, PassTimer};
@@ -116,7 +115,6 @@ pub(crate) fn record_shade(
         }),
     );
     let tapb = ctx.uniform("env_taps", bytemuck::bytes_of(taps));
-    let density = density_view(ctx, &dc.geo.density);
     let (erp, ern) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
     let (shv, rpv) = (array_view(ctx, &lf.shadow), array_view(ctx, &lf.recv.pos));
     Pass::new(ctx, "shade_receivers")
@@ -128,10 +126,9 @@ pub(crate) fn record_shade(
         .bind("shadow_sampler", &shadow_sampler)
         .bind("recv_pos", &rpv)
         .bind("irradiance", &lf.irradiance)
-        .bind("materials", &dc.geo.materials)
         .bind("radiance", &eye.radiance)
         .bind("caustic", &eye.caustic)
-        .bind("density", &density)
+        .shared(&dc.geo.scene)
         .bind("taps", &tapb)
         .bind("caustic_mask", &lf.caustic_mask)
         .bind("shadow_tiles", &lf.shadow_tiles)

@@ -4,7 +4,6 @@
 use super::raster::{Raster, Subset};
 use super::{DEPTH_FORMAT, DrawCtx, FrameConsts, GBuffer, LightFrame, array_view, texture};
 use crate::error::Result;
-use crate::geometry::density_view;
 use crate::gpu::pass::Pass;
 use crate::gpu::types::*;
 use crate::gpu::{GpuContext, PassTimer};
@@ -242,7 +241,6 @@ pub(crate) fn record_light(
         Some(v) => [&v[0], &v[1], &v[2], &v[3]],
         None => [&fpv, &fnv, &bpv, &bnv],
     };
-    let density = density_view(ctx, &dc.geo.density);
     let emit = crate::techniques::Emit {
         ctx,
         settings: s,
@@ -257,7 +255,6 @@ pub(crate) fn record_light(
         recv_pos: &rpv,
         recv_nrm: &rnv,
         geo: dc.geo,
-        density: &density,
         stats: &stats,
         accum: &accum,
         splat_targets: &splat_targets,

@@ -30,9 +30,7 @@ mod photon_maps;
 mod raster;
 mod validate;
 
-pub(crate) use crate::geometry::{
-    Geometry, density_view, material_records, object_transform, upload_density, upload_geometry,
-};
+pub(crate) use crate::geometry::{Geometry, material_records, object_transform, upload_geometry};
 pub(crate) use composite::{Composite, Display};
 pub use dump::{DumpImage, DumpKind};
 pub(crate) use dump::{bytes_to_image, dump_images};

@@ -154,11 +154,9 @@ pub(crate) struct Emit<'a> {
     pub layer2: [&'a wgpu::TextureView; 4],
     pub recv_pos: &'a wgpu::TextureView,
     pub recv_nrm: &'a wgpu::TextureView,
-    /// The scene's materials and its BVH for the exact tracer (`crate::accel`).
+    /// The scene (its group: the materials, the BVH for the exact tracer (`crate::accel`), and
+    /// the density grid photons march for their path's transmittance, shared/trace.wgsl).
     pub geo: &'a crate::geometry::Geometry,
-    /// The medium's density grid (1 x 1 x 1 without one): photons march it for their path's
-    /// transmittance (shared/trace.wgsl, `fog_add`).
-    pub density: &'a wgpu::TextureView,
     pub stats: &'a wgpu::Buffer,
     pub accum: &'a wgpu::Buffer,
     /// The splat mode's extra buffers (multi-resolution maps).
@@ -199,8 +197,8 @@ impl Emit<'_> {
 
 impl<'a> Emit<'a> {
     /// A pass of tracing stage `stage` (`photon_trace`, `adaptive_refine`) with what every
-    /// tracing stage reads bound: the light, the light-space geometry buffers, the materials,
-    /// the BVH, the density grid, and the flux bookkeeping.
+    /// tracing stage reads bound: the light, the light-space geometry buffers, the scene group
+    /// (materials, BVH, density grid), and the flux bookkeeping.
     pub fn tracing(&self, stage: &'a str) -> Pass<'a> {
         Pass::new(self.ctx, stage)
             .constants(&self.stages.trace)
@@ -211,14 +209,12 @@ impl<'a> Emit<'a> {
             .bind("back_nrm", self.back_nrm)
             .bind("recv_pos", self.recv_pos)
             .bind("recv_nrm", self.recv_nrm)
-            .bind("materials", &self.geo.materials)
             .bind("stats", self.stats)
             .bind("front_pos2", self.layer2[0])
             .bind("front_nrm2", self.layer2[1])
             .bind("back_pos2", self.layer2[2])
             .bind("back_nrm2", self.layer2[3])
-            .bind_all(self.geo.bvh_bindings())
-            .bind("density_grid", self.density)
+            .shared(&self.geo.scene)
     }
 }
 
