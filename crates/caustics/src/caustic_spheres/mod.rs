@@ -29,7 +29,9 @@
 //! that rows are dense where the caustic forms, downstream of the object along ω.
 
 pub mod cache;
+pub(crate) mod frame;
 pub mod gpu;
+pub(crate) mod visibility;
 
 use glam::{Quat, Vec3};
 use std::f32::consts::PI;

@@ -3,11 +3,11 @@
 
 use super::stats::{StatsJob, free_slot};
 use super::{FrameOutputs, FrameRequest, LightOutputs, LightState, Renderer};
+use crate::caustic_spheres::frame::SphereInputs;
 use crate::error::{Error, Result};
 use crate::gpu::PassTimer;
 use crate::passes::{DrawCtx, EyeFrame, FrameConsts, LightFrame};
 use crate::scene::Scene;
-use crate::scene::environment_lights;
 use std::sync::atomic::Ordering;
 
 impl Renderer {
@@ -26,7 +26,6 @@ impl Renderer {
                 "caustic-spheres needs the objects' tables first (Renderer::set_caustic_spheres)",
             ));
         }
-        let sphere_vis = if spheres_on { self.sphere_visibility()? } else { None };
         // Geometry: uploaded once (again when the tessellation changes); moved objects rewrite
         // their transforms and analytic shapes.
         if self.geometry.as_ref().is_none_or(|(t, _)| *t != s.shading.tessellation) {
@@ -124,45 +123,19 @@ impl Renderer {
             ctx.end_scope();
         }
         let bounce = self.bounce.as_ref();
-        let mut sphere_stats = None;
-        // The direct sphere records, also read by `sphere_volume` in a scene with a medium.
-        let mut records = Vec::new();
+        // Caustic spheres (their own scope): the records, weighted on the GPU by the
+        // environment's visibility from each object, then `sphere_gather`.
+        let mut spheres = None;
         if spheres_on && let Some(sp) = &self.spheres {
             ctx.begin_scope("spheres", enc);
-            let n_own = self.scene.lights.len();
-            let vis = |li: usize, object: usize| -> f32 {
-                match (&sphere_vis, li.checked_sub(n_own)) {
-                    (Some(v), Some(k)) => v.get(&object).and_then(|r| r.get(k)).copied().unwrap_or(1.0),
-                    _ => 1.0,
-                }
-            };
-            // The environment's regions spread over their sub-directions (`env_taps`).
-            // (`sphere_visibility` has one value per such light.)
-            let sphere_lights = match (&self.scene.environment, &self.env_taps) {
-                (Some(env), Some((_, taps))) if s.environment.taps >= 2 => {
-                    let drawn: Vec<bool> = self.env_segments().iter().map(|l| l.facing.max_element() > 0.0).collect();
-                    let rot = environment_lights::rotation(env.rotate_y);
-                    crate::caustic_spheres::gpu::spread_lights(&scene.lights, n_own, taps, &drawn, rot)
-                }
-                _ => scene.lights.clone(),
-            };
-            records = sp.records(&sphere_lights, &self.transforms, self.sphere_blend, vis);
-            use crate::caustic_spheres::gpu::{record_compile, record_gather};
-            sphere_stats = Some(if sp.compiled {
-                // Section 6: each object's records summed into its compiled table first (the
-                // records grouped by object, in the order of the tables).
-                let mut grouped = Vec::with_capacity(records.len());
-                for (oi, _, _) in &sp.objects {
-                    grouped.extend(records.iter().filter(|r| r.base[1] == *oi as u32).copied());
-                }
-                let objects = sp.compiled_records(&self.transforms);
-                let compiled = record_compile(&dc, sp, &grouped, &objects, enc, &mut timer);
-                record_gather(&dc, &eye, (sp, &compiled), &objects, enc, &mut timer)
-            } else {
-                record_gather(&dc, &eye, (sp, &sp.table), &records, enc, &mut timer)
-            });
+            let (lights, vis) = (self.sphere_lights(&scene.lights), self.sphere_visibility_update()?);
+            let own = self.scene.lights.len();
+            let inputs = SphereInputs { lights: &lights, own, transforms: &self.transforms, blend: self.sphere_blend };
+            let state = (&mut self.sphere_vis, vis);
+            spheres = Some(crate::caustic_spheres::frame::record(&dc, &eye, sp, state, inputs, enc, &mut timer));
             ctx.end_scope();
         }
+        let sphere_stats = spheres.as_ref().map(|f| f.stats.clone());
         // The beams (volume caustics, and with `SurfaceCaustics::Beams` the surface caustic,
         // added to the eye's accumulators before the composite shows them through glass).
         ctx.begin_scope("beams", enc);
@@ -186,17 +159,8 @@ impl Renderer {
             crate::medium_bounce::record(&dc, &eye, bf, &s, (&full, &caustic), &eye_segments, landing, enc, &mut timer);
         }
         crate::beams::record_gather(&dc, &eye, &beams, &s, (&full, &caustic), &eye_segments, enc, &mut timer);
-        if let Some(sp) = self.spheres.as_ref().filter(|_| scene.medium.is_some() && !records.is_empty()) {
-            let vol = (&sp.table, &records[..]);
-            crate::caustic_spheres::gpu::record_volume(
-                &dc,
-                &eye,
-                vol,
-                s.medium.steps,
-                (&full, &caustic),
-                enc,
-                &mut timer,
-            );
+        if let Some(f) = &spheres {
+            f.record_volume(&dc, &eye, s.medium.steps, (&full, &caustic), enc, &mut timer);
         }
         let display = crate::passes::record_display(&dc, &full, enc, &mut timer);
         self.outputs = Some((full, caustic, display));

@@ -123,8 +123,6 @@ struct LightState {
 type SegmentKey = (u32, environment_lights::SplitRule);
 /// The segmentation and the sub-directions per region (`RenderSettings::env_taps`).
 type TapsKey = (SegmentKey, u32);
-/// Per caustic-sphere object, the visibility of each drawn environment light.
-type SphereVisibility = std::collections::HashMap<usize, Vec<f32>>;
 
 /// The persistent GPU renderer (module documentation).
 pub struct Renderer {
@@ -160,8 +158,9 @@ pub struct Renderer {
     /// the technique is `Technique::CausticSpheres`.
     spheres: Option<crate::caustic_spheres::gpu::GpuSpheres>,
     sphere_blend: crate::caustic_spheres::Blend,
-    /// The environment regions' visibility per sphere object, and what it was computed for.
-    sphere_vis: Option<(Vec<u32>, Arc<SphereVisibility>)>,
+    /// The environment regions' visibility per sphere object on the GPU, and what it was
+    /// computed for.
+    sphere_vis: Option<crate::caustic_spheres::visibility::VisibilityState>,
 }
 
 impl Renderer {
