@@ -20,6 +20,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("sphere_visibility", include_str!("../../shaders/sphere_visibility.wgsl")),
     ("sphere_visibility_sum", include_str!("../../shaders/sphere_visibility_sum.wgsl")),
     ("sphere_weights", include_str!("../../shaders/sphere_weights.wgsl")),
+    ("sphere_trace", include_str!("../../shaders/sphere_trace.wgsl")),
     ("composite", include_str!("../../shaders/composite.wgsl")),
     ("medium_scatter", include_str!("../../shaders/medium_scatter.wgsl")),
     ("coverage_mip", include_str!("../../shaders/coverage_mip.wgsl")),
