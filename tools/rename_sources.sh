@@ -17,7 +17,7 @@ perl -pi -e '
     s/\.photons\.technique\s*=\s*(?:crate::settings::|caustics::settings::|caustics::render::)?Technique::CausticSpheres/.sources.distant = caustics::settings::DistantSource::Spheres/g;
     s/\bTechnique::(Basic|Hierarchical|AdaptiveLevel|AdaptiveError)\b/Emission::$1/g;
     s/\.photons\.technique\b/.photons.emission/g;
-    s/\.technique\.emission\(\)/.emission/g;
+    s/\.photons\.emission\.emission\(\)/.photons.emission/g;
     s/\bSurfaceCaustics::/LocalSource::/g;
     s/\bSurfaceCaustics\b/LocalSource/g;
     s/\.surface_caustics\b(?!_)/.sources.local/g;

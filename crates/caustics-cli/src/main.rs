@@ -81,6 +81,9 @@ enum Command {
         scene: Option<PathBuf>,
         #[command(flatten)]
         sphere_args: spheres::SphereArgs,
+        /// Where the tables are built: the GPU's exact tracer, or the CPU reference (its check).
+        #[arg(long, value_enum, default_value_t = spheres::On::Gpu)]
+        on: spheres::On,
     },
     /// Compare two images (EXR or PNG): RMSE, relative MSE, PSNR, FLIP, energy ratio.
     Compare {
@@ -165,12 +168,17 @@ fn run(cli: Cli) -> Result<()> {
         Command::Info => info(),
         Command::Bench(args) => bench::run(*args),
         Command::View(args) => view::run(*args),
-        Command::Precompute { scene, sphere_args } => {
+        Command::Precompute { scene, sphere_args, on } => {
             let scene = match &scene {
                 Some(p) => Scene::load(p)?,
                 None => Scene::default_scene(),
             };
-            let built = spheres::build(&scene, &sphere_args)?;
+            let ctx = match on {
+                spheres::On::Gpu => Some(caustics::gpu::GpuContext::new(None)?),
+                spheres::On::Cpu => None,
+            };
+            let builder = ctx.as_ref().map_or(spheres::Builder::Cpu, spheres::Builder::Gpu);
+            let built = spheres::build(&scene, &sphere_args, builder)?;
             if built.is_empty() {
                 println!("{}: no caustic object, nothing to precompute", scene.source);
             }
@@ -240,7 +248,7 @@ fn run(cli: Cli) -> Result<()> {
                         }
                         _ if caustic_spheres => {
                             let sphere_args = &resolved.spheres;
-                            let tables = spheres::build(&scene, sphere_args)?;
+                            let tables = spheres::build(&scene, sphere_args, spheres::Builder::Gpu(&ctx))?;
                             progress::exit_on_ctrl_c();
                             let t0 = std::time::Instant::now();
                             let mut r = caustics::renderer::Renderer::with_context(

@@ -1,15 +1,35 @@
 //! Caustic spheres on the command line: `caustics precompute SCENE` builds the caches ahead of
 //! time, `caustics render --technique caustic-spheres` (and `bench`, `view`) loads (or builds)
-//! them and renders directional lights' caustics from them. The precomputation shows a progress bar (indicatif) and
-//! Ctrl-C cancels it cleanly (no cache file written).
+//! them and renders directional lights' caustics from them. Tables are built on the GPU
+//! (`caustics::caustic_spheres::build`) unless `precompute --on cpu` asks for the CPU
+//! reference's precomputation; both write the same cache files. The precomputation shows a
+//! progress bar (indicatif) and Ctrl-C cancels it cleanly (no cache file written).
 
 use caustics::Scene;
-use caustics::caustic_spheres::cache::Storage;
+use caustics::caustic_spheres::cache::{self, Storage};
 use caustics::caustic_spheres::{CausticSpheres, DirectionLayout, SphereSettings};
+use caustics::gpu::GpuContext;
 use caustics_reference::reference::Progress;
-use caustics_reference::reference::spheres::{Origin, load_or_precompute};
+use caustics_reference::reference::spheres::{Origin, precompute};
 use std::path::PathBuf;
 use std::sync::Arc;
+
+/// Where `precompute` builds the tables.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum On {
+    // The exact GPU tracer (`caustics::caustic_spheres::build`).
+    #[default]
+    Gpu,
+    // The CPU reference (all cores), the GPU builder's check.
+    Cpu,
+}
+
+/// The builder of tables not found in the cache.
+#[derive(Clone, Copy)]
+pub enum Builder<'a> {
+    Gpu(&'a GpuContext),
+    Cpu,
+}
 
 /// The caustic spheres' tables: `precompute`'s flags, and the `spheres` section of the other
 /// commands' settings (`--set spheres.directions=9`).
@@ -74,9 +94,54 @@ impl SphereArgs {
     }
 }
 
-/// The caustic spheres of every caustic object of `scene`: from the cache, or precomputed with
-/// a progress bar and cached. Reports what it did and the memory per object.
-pub fn build(scene: &Scene, args: &SphereArgs) -> caustics::Result<Vec<(usize, Arc<CausticSpheres>)>> {
+/// The caustic spheres of object `object`: read from the cache in `dir` when a file for the
+/// same object, material and settings is there and intact, else built by `builder` and written
+/// there (atomically). `storage` chooses f32 or half floats on disk. (The reference's
+/// `load_or_precompute`, with either builder.)
+fn load_or_build(
+    scene: &Scene,
+    object: usize,
+    settings: &SphereSettings,
+    (storage, dir): (Storage, &std::path::Path),
+    builder: Builder,
+    progress: &Progress,
+) -> caustics::Result<(CausticSpheres, Origin)> {
+    let Some(o) = scene.objects.get(object) else {
+        return Err(caustics::Error::input(&scene.source, "objects", format!("no object {object}")));
+    };
+    let key = cache::key(scene, o, settings);
+    let path = cache::path(dir, key, storage);
+    let reason = match std::fs::read(&path) {
+        Ok(bytes) => match cache::decode(&bytes, key, settings) {
+            Ok((sp, _)) => return Ok((sp, Origin::Cache)),
+            Err(e) => format!("{}: {e}", path.display()),
+        },
+        Err(e) => format!("{}: {e}", path.display()),
+    };
+    let sp = match builder {
+        Builder::Cpu => precompute(scene, object, settings, None, progress)?,
+        Builder::Gpu(ctx) => caustics::caustic_spheres::build_with(ctx, scene, object, settings, None, &mut |d, t| {
+            progress.report(d, t);
+            !progress.is_cancelled()
+        })?,
+    };
+    let bytes = cache::encode(&sp, key, storage);
+    cache::write(&path, &bytes)?;
+    // What the renderer uses is what a later run reads back (half floats included).
+    let (sp, _) = cache::decode(&bytes, key, settings).map_err(|e| caustics::Error::Output {
+        path: path.clone(),
+        message: format!("cache does not read back: {e}"),
+    })?;
+    Ok((sp, Origin::Built(reason)))
+}
+
+/// The caustic spheres of every caustic object of `scene`: from the cache, or built by
+/// `builder` with a progress bar and cached. Reports what it did and the memory per object.
+pub fn build(
+    scene: &Scene,
+    args: &SphereArgs,
+    builder: Builder,
+) -> caustics::Result<Vec<(usize, Arc<CausticSpheres>)>> {
     let settings = args.settings();
     settings.validate()?;
     let storage = if args.half { Storage::F16 } else { Storage::F32 };
@@ -93,7 +158,7 @@ pub fn build(scene: &Scene, args: &SphereArgs) -> caustics::Result<Vec<(usize, A
         }
         let t0 = std::time::Instant::now();
         let result = crate::progress::with_bar(&format!("caustic spheres, object {oi}"), &progress, || {
-            load_or_precompute(scene, oi, &settings, storage, &args.sphere_cache, &progress)
+            load_or_build(scene, oi, &settings, (storage, &args.sphere_cache), builder, &progress)
         });
         let (sp, origin) = result?;
         let mib = |b: u64| b as f64 / (1 << 20) as f64;
@@ -101,7 +166,8 @@ pub fn build(scene: &Scene, args: &SphereArgs) -> caustics::Result<Vec<(usize, A
         match origin {
             Origin::Cache => println!("caustic spheres, object {oi}: read from the cache"),
             Origin::Built(why) => println!(
-                "caustic spheres, object {oi}: precomputed in {:.1} s ({dirs} directions x {} photons; no usable cache: {why})",
+                "caustic spheres, object {oi}: precomputed on the {} in {:.1} s ({dirs} directions x {} photons; no usable cache: {why})",
+                if matches!(builder, Builder::Cpu) { "CPU" } else { "GPU" },
                 t0.elapsed().as_secs_f64(),
                 settings.photons
             ),
@@ -136,7 +202,7 @@ pub fn attach(
     }
     let t = match tables {
         Some(t) => t.clone(),
-        None => tables.insert(build(scene, args)?).clone(),
+        None => tables.insert(build(scene, args, Builder::Gpu(r.context()))?).clone(),
     };
     r.set_caustic_spheres(t, caustics::caustic_spheres::Blend::Triangle, args.half)?;
     r.set_caustic_spheres_compiled(args.sphere_compiled);

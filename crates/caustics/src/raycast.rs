@@ -164,34 +164,14 @@ pub fn region_visibility(
     object: usize,
     rotate_y: f32,
 ) -> Result<Vec<f32>> {
-    use crate::scene::environment_lights::{map_direction, rotation};
-    if object >= scene.objects.len() {
-        return Err(Error::input("<region visibility>", "object", format!("no object {object}")));
-    }
-    let t = transforms.get(object).copied().unwrap_or(glam::Affine3A::IDENTITY);
-    let moved = scene.objects[object]
-        .shape
-        .transformed(&t)
-        .map_err(|m| Error::input("<region visibility>", "transforms", m))?;
-    let (lo, hi) = moved.bounds();
-    let centre = 0.5 * (lo + hi);
+    let centre = object_centre(scene, transforms, object)?;
     let mut others = scene.clone();
     others.objects.remove(object);
     let mut other_t: Vec<glam::Affine3A> =
         (0..scene.objects.len()).map(|i| transforms.get(i).copied().unwrap_or(glam::Affine3A::IDENTITY)).collect();
     other_t.remove(object);
-    let r = rotation(rotate_y);
-    let mut rays = Vec::new();
-    let mut weights = Vec::new();
-    for l in lights {
-        for &m in &l.members {
-            let (x, y) = (m % env.width, m / env.width);
-            let uv = Vec2::new((x as f32 + 0.5) / env.width as f32, (y as f32 + 0.5) / env.height as f32);
-            let v = env.texels[m as usize] * env.texel_solid_angle(y);
-            weights.push((v.x as f64 + v.y as f64 + v.z as f64) / 3.0);
-            rays.push(Ray { origin: centre, dir: (r * map_direction(uv)).normalize(), t_max: f32::INFINITY });
-        }
-    }
+    let (dirs, weights) = region_rays(env, lights, rotate_y);
+    let rays: Vec<Ray> = dirs.iter().map(|&dir| Ray { origin: centre, dir, t_max: f32::INFINITY }).collect();
     let hits = if others.objects.is_empty() {
         vec![None; rays.len()]
     } else {
@@ -212,4 +192,43 @@ pub fn region_visibility(
             if all > 0.0 { (free / all) as f32 } else { 1.0 }
         })
         .collect())
+}
+
+/// The centre of object `object`'s bounds as moved by `transforms[object]` (none: as loaded),
+/// where [`region_visibility`] casts its rays from.
+pub(crate) fn object_centre(scene: &Scene, transforms: &[glam::Affine3A], object: usize) -> Result<Vec3> {
+    if object >= scene.objects.len() {
+        return Err(Error::input("<region visibility>", "object", format!("no object {object}")));
+    }
+    let t = transforms.get(object).copied().unwrap_or(glam::Affine3A::IDENTITY);
+    let moved = scene.objects[object]
+        .shape
+        .transformed(&t)
+        .map_err(|m| Error::input("<region visibility>", "transforms", m))?;
+    let (lo, hi) = moved.bounds();
+    Ok(0.5 * (lo + hi))
+}
+
+/// The rays of [`region_visibility`]: per light of `lights`, per member texel in order, the
+/// world direction toward the texel's centre (the environment turned by `rotate_y`) and its
+/// weight, the luminance of `L · Ω` (f64, as the sums are taken).
+pub(crate) fn region_rays(
+    env: &crate::scene::environment::Environment,
+    lights: &[crate::scene::environment_lights::EnvironmentLight],
+    rotate_y: f32,
+) -> (Vec<Vec3>, Vec<f64>) {
+    use crate::scene::environment_lights::{map_direction, rotation};
+    let r = rotation(rotate_y);
+    let mut dirs = Vec::new();
+    let mut weights = Vec::new();
+    for l in lights {
+        for &m in &l.members {
+            let (x, y) = (m % env.width, m / env.width);
+            let uv = Vec2::new((x as f32 + 0.5) / env.width as f32, (y as f32 + 0.5) / env.height as f32);
+            let v = env.texels[m as usize] * env.texel_solid_angle(y);
+            weights.push((v.x as f64 + v.y as f64 + v.z as f64) / 3.0);
+            dirs.push((r * map_direction(uv)).normalize());
+        }
+    }
+    (dirs, weights)
 }

@@ -560,3 +560,62 @@ fn region_visibility_scales_each_regions_caustic_through_spheres() {
     assert_same_caustic(&unoccluded, &d2.caustic, "both texels, no plate");
     assert!(unoccluded.sum() > both.sum() * 1.05, "{} vs {}", unoccluded.sum(), both.sum());
 }
+
+/// The visibility of the environment's regions from a caustic object, computed on the GPU
+/// inside the frame (`sphere_visibility`, `sphere_visibility_sum`: f64 sums emulated), is the
+/// CPU's `region_visibility` bit for bit, under a sky of varying texels (every region's sum
+/// rounds) partly hidden by a plate off to one side (fractions strictly between 0 and 1), and
+/// again after the plate moves (the values are redone when an object moves).
+#[test]
+fn gpu_region_visibility_is_the_cpus_bits() {
+    let Some(ctx) = gpu() else { return };
+    let (w, h) = (64u32, 32u32);
+    let texels: Vec<Vec3> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f32, (i / w) as f32);
+            Vec3::new(1.0 + 0.37 * (x * 0.31).sin().abs(), 0.5 + 0.013 * y * x.cos().abs(), 0.1 + 0.007 * (x + 3.0 * y))
+        })
+        .collect();
+    let env = caustics::scene::Environment::from_texels(w, h, texels, 0.0).unwrap();
+    let plate = r#", { "type": "rectangle", "center": [0.9, 2.2, 0.3], "normal": [0, -1, 0], "size": [1.2, 0.9], "material": "floor" }"#;
+    let mut sc = scene_with(&[(Vec3::NEG_Y, [1.0; 3])], plate);
+    sc.lights.clear();
+    sc.environment = Some(Arc::new(env));
+    let mut s = RenderSettings {
+        photons: caustics::settings::PhotonSettings {
+            count: 64,
+            caustic_map_size: 64,
+            ..Default::default()
+        },
+        sources: caustics::settings::SourceSettings { distant: caustics::settings::DistantSource::Spheres, ..Default::default() },
+        shading: caustics::settings::ShadingSettings { shadow_map_size: 128, ..Default::default() },
+        ..Default::default()
+    };
+    // One part per region, as `region_visibility` sees them.
+    s.environment.lights = 16;
+    s.environment.taps = 1;
+    let mut r = Renderer::with_context(ctx.clone(), sc, s).unwrap();
+    r.set_caustic_spheres(vec![(0, table())], Blend::Triangle, false).unwrap();
+    let mut fractions = 0;
+    for step in 0..2 {
+        if step == 1 {
+            r.set_object_transform(2, glam::Affine3A::from_translation(Vec3::new(-0.5, 0.2, -0.4))).unwrap();
+        }
+        r.render_once().unwrap();
+        let gpu = r.sphere_visibility_read().unwrap();
+        let cpu: Vec<f32> = r
+            .environment_lights()
+            .iter()
+            .zip(r.region_visibility(0).unwrap())
+            .filter(|(l, _)| l.facing.max_element() > 0.0)
+            .map(|(_, v)| v)
+            .collect();
+        assert_eq!(gpu.len(), 1);
+        assert_eq!(gpu[0].0, 0);
+        eprintln!("step {step}: GPU {:?}\n        CPU {cpu:?}", gpu[0].1);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&gpu[0].1), bits(&cpu), "step {step}");
+        fractions += cpu.iter().filter(|v| **v > 0.0 && **v < 1.0).count();
+    }
+    assert!(fractions >= 2, "the plate hides parts of regions ({fractions} fractions)");
+}

@@ -102,6 +102,12 @@ impl Progress {
         let t = self.total();
         if t == 0 { 0.0 } else { (self.done() as f64 / t as f64).min(1.0) }
     }
+    /// Report `done` of `total` units (work counted outside this crate, such as the GPU's
+    /// caustic-sphere precomputation).
+    pub fn report(&self, done: u64, total: u64) {
+        self.total.store(total, Ordering::Relaxed);
+        self.done.store(done, Ordering::Relaxed);
+    }
     fn add(&self, n: u64) {
         self.done.fetch_add(n, Ordering::Relaxed);
     }

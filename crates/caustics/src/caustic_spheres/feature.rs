@@ -1,32 +1,33 @@
 //! The caustic spheres feature: with `sources.distant = spheres`, the caustics of every
-//! directional light (the scene's and the environment's) from the objects' tables, looked up per
-//! camera pixel (`sphere_gather`, or `sphere_compile` first), and in a medium their volume
-//! caustic along the camera rays (`sphere_volume`).
+//! directional light (the scene's and the environment's) from the objects' tables
+//! ([`super::frame::record`]: the records weighted on the GPU by the environment's visibility
+//! from each object, then `sphere_gather`), and in a medium their volume caustic along the camera
+//! rays (`sphere_volume`).
 
-use super::gpu::{GpuSpheres, record_compile, record_gather, record_volume};
+use super::frame::{SphereFrame, SphereInputs};
+use super::gpu::GpuSpheres;
+use super::visibility::{VisibilityState, VisibilityUpdate};
 use crate::error::{Error, Result};
-use crate::frame::{Feature, Frame};
-use crate::gpu::types::SphereRecord;
-use crate::scene::environment_lights;
-use std::sync::Arc;
-
-/// Per caustic-sphere object, the visibility of each drawn environment light.
-pub(crate) type SphereVisibility = std::collections::HashMap<usize, Vec<f32>>;
+use crate::frame::{Feature, Frame, eye};
+use crate::scene::Light;
 
 /// The tables on the GPU and what a frame made of them.
 pub(crate) struct SpheresFeature {
     /// The tables (`Renderer::set_caustic_spheres`).
     pub spheres: Option<GpuSpheres>,
     pub blend: super::Blend,
-    /// The environment regions' visibility per object, and what it was computed for.
-    pub visibility: Option<(Vec<u32>, Arc<SphereVisibility>)>,
-    /// The frame's direct records (read again by `sphere_volume`).
-    records: Vec<SphereRecord>,
+    /// The environment regions' visibility per object on the GPU, and what it was computed for.
+    pub visibility: Option<VisibilityState>,
+    /// The next frame's lights (the environment's regions spread over their sub-directions) and
+    /// whether its visibility is computed again (`Renderer::encode` sets them).
+    pub next: Option<(Vec<Light>, VisibilityUpdate)>,
+    /// The frame's records, read again by `sphere_volume`.
+    frame: Option<SphereFrame>,
 }
 
 impl Default for SpheresFeature {
     fn default() -> Self {
-        SpheresFeature { spheres: None, blend: super::Blend::Triangle, visibility: None, records: Vec::new() }
+        SpheresFeature { spheres: None, blend: super::Blend::Triangle, visibility: None, next: None, frame: None }
     }
 }
 
@@ -36,8 +37,8 @@ impl SpheresFeature {
         if on && self.spheres.is_none() {
             return Err(Error::input(
                 "<renderer>",
-                "technique",
-                "caustic-spheres needs the objects' tables first (Renderer::set_caustic_spheres)",
+                "sources.distant",
+                "caustic spheres need the objects' tables first (Renderer::set_caustic_spheres)",
             ));
         }
         Ok(())
@@ -46,56 +47,28 @@ impl SpheresFeature {
 
 impl Feature for SpheresFeature {
     fn record(&mut self, f: &mut Frame) -> Result<()> {
-        self.records.clear();
-        let Some(sp) = self.spheres.as_ref().filter(|_| f.fc.caustic_spheres) else {
+        self.frame = None;
+        let next = self.next.take();
+        let (Some(sp), Some((lights, update))) = (self.spheres.as_ref().filter(|_| f.fc.caustic_spheres), next) else {
             return Ok(());
         };
         f.dc.ctx.begin_scope("spheres", f.enc);
-        let n_own = f.env.own_lights;
-        let vis_map = self.visibility.as_ref().map(|(_, v)| v.clone());
-        let vis = |li: usize, object: usize| -> f32 {
-            match (&vis_map, li.checked_sub(n_own)) {
-                (Some(v), Some(k)) => v.get(&object).and_then(|r| r.get(k)).copied().unwrap_or(1.0),
-                _ => 1.0,
-            }
-        };
-        // The environment's regions spread over their sub-directions (`env_taps`).
-        let scene = f.dc.scene;
-        let sphere_lights = match (&scene.environment, &f.env.taps) {
-            (Some(env), Some(taps)) if f.s.environment.taps >= 2 => {
-                let drawn: Vec<bool> = f.env.segments.iter().map(|l| l.facing.max_element() > 0.0).collect();
-                let rot = environment_lights::rotation(env.rotate_y);
-                super::gpu::spread_lights(&scene.lights, n_own, taps, &drawn, rot)
-            }
-            _ => scene.lights.clone(),
-        };
-        self.records = sp.records(&sphere_lights, f.transforms, self.blend, vis);
-        let eye = crate::frame::eye(&f.eye);
-        f.stats.spheres = Some(if sp.compiled {
-            // Section 6: each object's records summed into its compiled table first (the
-            // records grouped by object, in the order of the tables).
-            let mut grouped = Vec::with_capacity(self.records.len());
-            for (oi, _, _) in &sp.objects {
-                grouped.extend(self.records.iter().filter(|r| r.base[1] == *oi as u32).copied());
-            }
-            let objects = sp.compiled_records(f.transforms);
-            let compiled = record_compile(&f.dc, sp, &grouped, &objects, f.enc, f.timer);
-            record_gather(&f.dc, eye, (sp, &compiled), &objects, f.enc, f.timer)
-        } else {
-            record_gather(&f.dc, eye, (sp, &sp.table), &self.records, f.enc, f.timer)
-        });
+        let inputs =
+            SphereInputs { lights: &lights, own: f.env.own_lights, transforms: f.transforms, blend: self.blend };
+        let state = (&mut self.visibility, update);
+        let frame = super::frame::record(&f.dc, eye(&f.eye), sp, state, inputs, f.enc, f.timer);
         f.dc.ctx.end_scope();
+        f.stats.spheres = Some(frame.stats.clone());
+        self.frame = Some(frame);
         Ok(())
     }
 
     fn record_along_rays(&mut self, f: &mut Frame) -> Result<()> {
-        let Some(sp) = self.spheres.as_ref().filter(|_| f.dc.scene.medium.is_some() && !self.records.is_empty()) else {
-            return Ok(());
-        };
-        let images = f.images.as_ref().expect("the composite runs first");
-        let eye = crate::frame::eye(&f.eye);
-        let vol = (&sp.table, &self.records[..]);
-        record_volume(&f.dc, eye, vol, f.s.medium.steps, (&images.full, &images.caustic), f.enc, f.timer);
+        if let Some(frame) = &self.frame {
+            let images = f.images.as_ref().expect("the composite runs first");
+            let targets = (&images.full, &images.caustic);
+            frame.record_volume(&f.dc, eye(&f.eye), f.s.medium.steps, targets, f.enc, f.timer);
+        }
         Ok(())
     }
 }

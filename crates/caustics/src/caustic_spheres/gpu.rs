@@ -109,11 +109,41 @@ impl GpuSpheres {
         blend: Blend,
         visibility: impl Fn(usize, usize) -> f32,
     ) -> Vec<SphereRecord> {
+        let mut out = self.records_with(lights, transforms, blend, |li, oi| Err(visibility(li, oi)));
+        out.iter_mut().for_each(|r| r.base[3] = 0);
+        out
+    }
+
+    /// [`GpuSpheres::records`] with the visibility applied on the GPU (`sphere_weights`):
+    /// `index(light, object)` is the visibility's index in its GPU buffer, or None (1). An
+    /// indexed record carries the light's irradiance E (rgb) and its blend weight w (w), and
+    /// its index in `base.w` (`u32::MAX` on the others).
+    pub(crate) fn records_indexed(
+        &self,
+        lights: &[Light],
+        transforms: &[Affine3A],
+        blend: Blend,
+        index: impl Fn(usize, usize) -> Option<u32>,
+    ) -> Vec<SphereRecord> {
+        self.records_with(lights, transforms, blend, |li, oi| index(li, oi).ok_or(1.0))
+    }
+
+    /// The records, `weight(light, object)` a visibility index (Ok) or a factor (Err).
+    fn records_with(
+        &self,
+        lights: &[Light],
+        transforms: &[Affine3A],
+        blend: Blend,
+        weight: impl Fn(usize, usize) -> Result<u32, f32>,
+    ) -> Vec<SphereRecord> {
         let mut out = Vec::new();
         for (li, light) in lights.iter().enumerate() {
             let Light::Directional { direction, irradiance } = light else { continue };
             for ((oi, sp, base), layout) in self.objects.iter().zip(&self.layouts) {
-                let irradiance = *irradiance * visibility(li, *oi);
+                let (irradiance, index) = match weight(li, *oi) {
+                    Ok(index) => (*irradiance, Some(index)),
+                    Err(v) => (*irradiance * v, None),
+                };
                 if irradiance.max_element() <= 0.0 {
                     continue;
                 }
@@ -140,8 +170,11 @@ impl GpuSpheres {
                         rot: [row(rm.row(0)), row(rm.row(1)), row(rm.row(2))],
                         center: g.center.extend(g.radii[0]).to_array(),
                         shape: [g.radii[s - 1], s as f32, g.width as f32, g.height as f32],
-                        irradiance: (irradiance * w).extend(0.0).to_array(),
-                        base: [base + k * cells, *oi as u32, self.half as u32, 0],
+                        irradiance: match index {
+                            Some(_) => irradiance.extend(w).to_array(),
+                            None => (irradiance * w).extend(0.0).to_array(),
+                        },
+                        base: [base + k * cells, *oi as u32, self.half as u32, index.unwrap_or(u32::MAX)],
                     });
                 }
             }
@@ -157,7 +190,7 @@ impl GpuSpheres {
 /// environment's. A region with taps becomes one directional light per sub-direction k, from
 /// its direction with the region light's irradiance times its weight (the sub-region's total
 /// `Σ L Ω`: what a ball intercepts of it, whatever the spread); a region without taps stays one
-/// light. The renderer's visibility of the environment (`Renderer::sphere_visibility`) has
+/// light. The renderer's visibility of the environment (`super::visibility`, on the GPU) has
 /// one value per light returned, each sub-region's own. The records are cheap where the basic technique's taps are lookups
 /// of one turned map: a sub-direction is three more table lookups per pixel, exact for any
 /// caster (the table has every direction), not only for casters symmetric about their centre.
@@ -223,11 +256,12 @@ impl GpuSpheres {
 /// Records `sphere_compile` (the compiled variant, section 6 of the paper): per caustic object
 /// one dispatch over its compiled table's cells summing `records` of that object (`records`
 /// holds each object's records contiguously, in the order of `objects`). Returns the compiled
-/// buffer that `sphere_gather` reads with the `objects` records.
+/// buffer that `sphere_gather` reads with the `objects` records. `weighted`: the records as
+/// `sphere_weights` wrote them on the GPU (the same count and order, dropped ones black).
 pub(crate) fn record_compile(
     dc: &DrawCtx,
     spheres: &GpuSpheres,
-    records: &[SphereRecord],
+    (records, weighted): (&[SphereRecord], Option<&wgpu::Buffer>),
     objects: &[SphereRecord],
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
@@ -238,7 +272,10 @@ pub(crate) fn record_compile(
     let compiled = ctx.buffer("sphere_compiled", total.max(1) * 16, wgpu::BufferUsages::STORAGE);
     let zero = [SphereRecord::zeroed_record()];
     let recs = if records.is_empty() { &zero[..] } else { records };
-    let rb = ctx.buffer_init("sphere_compile_records", bytemuck::cast_slice(recs), wgpu::BufferUsages::STORAGE);
+    let rb = match weighted {
+        Some(b) => b.clone(),
+        None => ctx.buffer_init("sphere_compile_records", bytemuck::cast_slice(recs), wgpu::BufferUsages::STORAGE),
+    };
     let mut first = 0u32;
     for ((_, sp, _), obj) in spheres.objects.iter().zip(objects) {
         let count = records[first as usize..].iter().take_while(|r| r.base[1] == obj.base[1]).count() as u32;
@@ -275,7 +312,7 @@ pub(crate) fn record_gather(
     dc: &DrawCtx,
     eye: &EyeFrame,
     (spheres, table): (&GpuSpheres, &wgpu::Buffer),
-    records: &[SphereRecord],
+    records: Records,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) -> wgpu::Buffer {
@@ -287,8 +324,9 @@ pub(crate) fn record_gather(
     let medium = dc.scene.medium.as_ref().filter(|m| m.density.is_none());
     // The records that get every point of the box filter however many there are: those with at
     // least a 32nd of all records' irradiance (luminance r + g + b).
+    // (Records written on the GPU: `sphere_weights` computes it, copied in below.)
     let lum = |r: &SphereRecord| r.irradiance[0] + r.irradiance[1] + r.irradiance[2];
-    let heavy = records.iter().map(lum).sum::<f32>() / 32.0;
+    let heavy = records.cpu().iter().map(lum).sum::<f32>() / 32.0;
     // Rewritten (zeroed) every frame: a storage buffer from `buffer_init`.
     let counters =
         ctx.buffer_init("sphere_gather_stats", &[0u8; 8], wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
@@ -297,7 +335,7 @@ pub(crate) fn record_gather(
         bytemuck::bytes_of(&SphereGatherParams {
             width: w,
             height: h,
-            records: records.len() as u32,
+            records: records.len(),
             samples: spheres.pixel_samples,
             camera: cam.position.extend(1.0).to_array(),
             medium_lo: medium.map_or([0.0; 4], |m| m.bounds_min.extend(1.0).to_array()),
@@ -305,9 +343,12 @@ pub(crate) fn record_gather(
             sigma_t: medium.map_or(Vec3::ZERO, |m| m.sigma_s + m.sigma_a).extend(heavy).to_array(),
         }),
     );
-    let zero = [SphereRecord::zeroed_record()];
-    let recs = if records.is_empty() { &zero[..] } else { records };
-    let rb = ctx.buffer_init("sphere_records", bytemuck::cast_slice(recs), wgpu::BufferUsages::STORAGE);
+    let rb = records.buffer(ctx, "sphere_records");
+    if let Records::Gpu { counts, .. } = records {
+        use crate::gpu::types::SphereGatherParams as P;
+        enc.copy_buffer_to_buffer(counts, 0, &params, std::mem::offset_of!(P, records) as u64, 4);
+        enc.copy_buffer_to_buffer(counts, 4, &params, std::mem::offset_of!(P, sigma_t) as u64 + 12, 4);
+    }
     let (erp, ern) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
     Pass::new(ctx, "sphere_gather")
         .constants(&[("bvh_stack_limit", f64::from(spheres.stack_limit))])
@@ -334,7 +375,7 @@ pub(crate) fn record_gather(
 pub(crate) fn record_volume(
     dc: &DrawCtx,
     eye: &EyeFrame,
-    (table, records): (&wgpu::Buffer, &[SphereRecord]),
+    (table, records): (&wgpu::Buffer, Records),
     steps: u32,
     images: (&wgpu::Buffer, &wgpu::Buffer),
     enc: &mut wgpu::CommandEncoder,
@@ -342,7 +383,7 @@ pub(crate) fn record_volume(
 ) {
     use crate::gpu::types::SphereVolumeParams;
     let Some(m) = &dc.scene.medium else { return };
-    if m.density.is_some() || records.is_empty() || m.sigma_s.max_element() <= 0.0 {
+    if m.density.is_some() || records.len() == 0 || m.sigma_s.max_element() <= 0.0 {
         return;
     }
     let ctx = dc.ctx;
@@ -364,10 +405,14 @@ pub(crate) fn record_volume(
             width: w,
             height: h,
             steps: steps.max(1),
-            records: records.len() as u32,
+            records: records.len(),
         }),
     );
-    let rb = ctx.buffer_init("sphere_volume_records", bytemuck::cast_slice(records), wgpu::BufferUsages::STORAGE);
+    let rb = records.buffer(ctx, "sphere_volume_records");
+    if let Records::Gpu { counts, .. } = records {
+        use crate::gpu::types::SphereVolumeParams as P;
+        enc.copy_buffer_to_buffer(counts, 0, &params, std::mem::offset_of!(P, records) as u64, 4);
+    }
     let (rv, sv) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.front.pos, 0));
     Pass::new(ctx, "sphere_volume")
         .bind("vp", &params)
@@ -378,6 +423,47 @@ pub(crate) fn record_volume(
         .bind("out_full", images.0)
         .bind("out_caustic", images.1)
         .dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
+}
+
+/// A frame's records, as `sphere_gather` and `sphere_volume` read them.
+#[derive(Clone, Copy)]
+pub(crate) enum Records<'a> {
+    /// Written by the CPU.
+    Cpu(&'a [SphereRecord]),
+    /// Written by `sphere_weights`: up to `len` in `buffer`; `counts` holds how many (u32) and
+    /// `sphere_gather`'s full-filter threshold (f32 bits), copied into the passes' parameters.
+    Gpu { buffer: &'a wgpu::Buffer, len: u32, counts: &'a wgpu::Buffer },
+}
+
+impl Records<'_> {
+    /// The records' count as the CPU knows it (on the GPU: at most that many are kept).
+    fn len(&self) -> u32 {
+        match self {
+            Records::Cpu(r) => r.len() as u32,
+            Records::Gpu { len, .. } => *len,
+        }
+    }
+
+    /// The CPU's records (none for those written on the GPU).
+    fn cpu(&self) -> &[SphereRecord] {
+        match self {
+            Records::Cpu(r) => r,
+            Records::Gpu { .. } => &[],
+        }
+    }
+
+    /// The storage buffer of the records (a CPU list uploaded as `label`, one zeroed record
+    /// when empty).
+    fn buffer(&self, ctx: &GpuContext, label: &str) -> wgpu::Buffer {
+        match self {
+            Records::Cpu(records) => {
+                let zero = [SphereRecord::zeroed_record()];
+                let recs = if records.is_empty() { &zero[..] } else { records };
+                ctx.buffer_init(label, bytemuck::cast_slice(recs), wgpu::BufferUsages::STORAGE)
+            }
+            Records::Gpu { buffer, .. } => (*buffer).clone(),
+        }
+    }
 }
 
 impl SphereRecord {

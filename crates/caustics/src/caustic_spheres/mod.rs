@@ -28,11 +28,16 @@
 //! H latitudes in a frame whose pole is ω; the latitude is warped, θ = π t² (t ∈ [0, 1]), so
 //! that rows are dense where the caustic forms, downstream of the object along ω.
 
+pub mod build;
 pub mod cache;
 mod feature;
+pub(crate) mod frame;
 pub mod gpu;
+pub(crate) mod visibility;
 
-pub(crate) use feature::{SphereVisibility, SpheresFeature};
+pub use build::{build, build_with};
+
+pub(crate) use feature::SpheresFeature;
 
 use glam::{Quat, Vec3};
 use std::f32::consts::PI;

@@ -91,10 +91,6 @@ pub(crate) fn light_refs(lights: &[Arc<LightFrame>]) -> Vec<&LightFrame> {
 pub(crate) struct EnvFrame {
     /// The scene's own lights (the environment's directional lights follow them).
     pub own_lights: usize,
-    /// The segmentation (map frame, black regions included) and each region's sub-directions
-    /// (`None` without taps).
-    pub segments: Arc<Vec<crate::scene::environment_lights::EnvironmentLight>>,
-    pub taps: Option<Arc<Vec<crate::env_taps::RegionTaps>>>,
     /// Per light, its `shade_receivers` taps record.
     pub shade_taps: Vec<crate::gpu::types::EnvTapsGpu>,
 }

@@ -12,14 +12,13 @@ impl Renderer {
     /// Record a frame into `encoder` (module documentation: what is redone, call order).
     pub fn encode(&mut self, encoder: &mut wgpu::CommandEncoder, request: FrameRequest) -> Result<FrameOutputs<'_>> {
         let ctx = self.ctx.clone();
-        let spheres_on = self.settings.caustic_spheres();
-        self.features.spheres.check(spheres_on)?;
-        if spheres_on {
-            self.sphere_visibility()?; // (kept in the feature)
-        }
+        self.features.spheres.check(self.settings.caustic_spheres())?;
         self.update_geometry();
         // The scene as drawn: its lights, then the environment's directional lights.
         let scene = Scene { lights: self.lights_now(), ..self.scene.clone() };
+        if self.settings.caustic_spheres() {
+            self.features.spheres.next = Some((self.sphere_lights(&scene.lights), self.sphere_visibility_update()?));
+        }
         let fc = FrameConsts::new(&scene, &self.settings);
         let env = self.env_frame(scene.lights.len());
         ctx.begin_scope("frame", encoder);
@@ -84,12 +83,7 @@ impl Renderer {
 
     /// The environment as this frame's features see it (`lights`: the frame's light count).
     fn env_frame(&self, lights: usize) -> EnvFrame {
-        EnvFrame {
-            own_lights: self.scene.lights.len(),
-            segments: self.env_segments(),
-            taps: self.env_taps.as_ref().map(|(_, t)| t.clone()),
-            shade_taps: self.shade_taps(lights),
-        }
+        EnvFrame { own_lights: self.scene.lights.len(), shade_taps: self.shade_taps(lights) }
     }
 
     /// What the last frame made, for the caller.

@@ -1,9 +1,9 @@
 //! The renderer's environment light: its segmentation into directional lights and their taps,
-//! the light list a frame draws, the environment's rotation, and the caustic spheres' visibility
-//! of its regions.
+//! the light list a frame draws, the environment's rotation, and what the caustic spheres need
+//! of it (their lights, the rays of their visibility of its regions).
 
 use super::Renderer;
-use crate::caustic_spheres::SphereVisibility;
+use crate::caustic_spheres::visibility::{VisibilityRays, VisibilityUpdate};
 use crate::error::{Error, Result};
 use crate::scene::Light;
 use crate::scene::environment_lights::{self, EnvironmentLight};
@@ -87,14 +87,16 @@ impl Renderer {
         lights
     }
 
-    /// Caustic spheres under an environment: per sphere object, the visibility of each drawn
-    /// environment light (the non-black regions of [`Renderer::environment_lights`], in the order
-    /// of [`Renderer::lights`] after the scene's own), from [`crate::raycast::region_visibility`].
-    /// Kept until an object moves, the environment turns or its segmentation changes; recomputing
-    /// it casts rays on the GPU and waits for them (a read-back, outside the steady state).
-    pub(super) fn sphere_visibility(&mut self) -> Result<Option<Arc<SphereVisibility>>> {
+    /// Caustic spheres under an environment: whether the frame computes the caustic objects'
+    /// visibility of the environment's drawn (non-black) regions again (on the GPU,
+    /// [`crate::caustic_spheres::visibility`]), and the rays it casts: when an object moved, the
+    /// environment turned or its segmentation changed. The parts are the drawn regions in the
+    /// order of the light list, each cut into its sub-regions where it has taps (the order of
+    /// `spread_lights`' lights): a sub-region below a floor is hidden even where its region is
+    /// partly seen.
+    pub(super) fn sphere_visibility_update(&self) -> Result<VisibilityUpdate> {
         let (Some(sp), Some(env)) = (&self.features.spheres.spheres, &self.scene.environment) else {
-            return Ok(None);
+            return Ok(VisibilityUpdate::None);
         };
         let objects: Vec<usize> = sp.objects.iter().map(|o| o.0).collect();
         let mut key: Vec<u32> = vec![
@@ -107,43 +109,60 @@ impl Renderer {
             key.extend(t.to_cols_array().iter().map(|v| v.to_bits()));
         }
         key.extend(objects.iter().map(|&o| o as u32));
-        if let Some((k, v)) = &self.features.spheres.visibility
-            && *k == key
-        {
-            return Ok(Some(v.clone()));
+        if self.features.spheres.visibility.as_ref().is_some_and(|v| v.key == key) {
+            return Ok(VisibilityUpdate::Keep);
         }
-        // The drawn (non-black) regions in the order of the light list, each cut into its
-        // sub-regions where it has taps (the order of `spread_lights`' lights): a sub-region
-        // below a floor is hidden even where its region is partly seen.
         let taps = self.env_taps.as_ref().map(|(_, t)| t.clone()).filter(|_| self.settings.environment.taps >= 2);
         let k = (self.settings.environment.taps as usize).min(crate::gpu::types::MAX_ENV_TAPS);
-        let mut parts = Vec::new();
+        let mut regions = Vec::new();
         for (i, region) in self.env_segments().iter().enumerate() {
             if region.facing.max_element() <= 0.0 {
                 continue;
             }
             match taps.as_ref().and_then(|t| t.get(i)).filter(|t| !t.is_empty()) {
-                Some(_) => parts.extend(environment_lights::subdivide(env, region, k)),
-                None => parts.push(region.clone()),
+                Some(_) => regions.extend(environment_lights::subdivide(env, region, k)),
+                None => regions.push(region.clone()),
             }
         }
-        let env = env.clone();
-        let mut map = std::collections::HashMap::new();
-        for &o in &objects {
-            let v = crate::raycast::region_visibility(
-                &self.ctx,
-                &self.base,
-                &self.transforms,
-                &env,
-                &parts,
-                o,
-                env.rotate_y,
-            )?;
-            map.insert(o, v);
+        let (dirs, weights) = crate::raycast::region_rays(env, &regions, env.rotate_y);
+        let mut parts = Vec::with_capacity(regions.len());
+        let mut first = 0u32;
+        for r in &regions {
+            parts.push((first, r.members.len() as u32));
+            first += r.members.len() as u32;
         }
-        let v = Arc::new(map);
-        self.features.spheres.visibility = Some((key, v.clone()));
-        Ok(Some(v))
+        let centres = objects
+            .iter()
+            .map(|&o| crate::raycast::object_centre(&self.base, &self.transforms, o))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(VisibilityUpdate::New(VisibilityRays { key, objects, centres, dirs, weights, parts }))
+    }
+
+    /// Caustic spheres under an environment: per caustic object (its index), the visibility of
+    /// each part (drawn region, or its sub-regions where it has taps) as the frames compute it
+    /// on the GPU (`Renderer::region_visibility`'s values, bit for bit); empty before the first
+    /// frame or without an environment. Blocking read-back: for tests and tools, not frames.
+    #[doc(hidden)]
+    pub fn sphere_visibility_read(&self) -> Result<Vec<(usize, Vec<f32>)>> {
+        let Some(v) = &self.features.spheres.visibility else { return Ok(Vec::new()) };
+        let bytes = self.ctx.read_buffer(&v.buffer, v.buffer.size())?;
+        let values: &[f32] = bytemuck::cast_slice(&bytes);
+        let n = v.parts as usize;
+        Ok(v.objects.iter().enumerate().map(|(i, &o)| (o, values[i * n..(i + 1) * n].to_vec())).collect())
+    }
+
+    /// The directional lights whose caustics the caustic spheres draw: `lights` (the frame's
+    /// list) with the environment's regions spread over their sub-directions (`env_taps`)
+    /// where it has taps.
+    pub(super) fn sphere_lights(&self, lights: &[Light]) -> Vec<Light> {
+        match (&self.scene.environment, &self.env_taps) {
+            (Some(env), Some((_, taps))) if self.settings.environment.taps >= 2 => {
+                let drawn: Vec<bool> = self.env_segments().iter().map(|l| l.facing.max_element() > 0.0).collect();
+                let rot = environment_lights::rotation(env.rotate_y);
+                crate::caustic_spheres::gpu::spread_lights(lights, self.scene.lights.len(), taps, &drawn, rot)
+            }
+            _ => lights.to_vec(),
+        }
     }
 
     /// Turn the environment to `rotate_y_deg` degrees about +Y (the scene format's
