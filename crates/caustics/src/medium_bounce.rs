@@ -36,6 +36,7 @@
 use crate::gpu::PassTimer;
 use crate::gpu::pass::Pass;
 use crate::gpu::types::{BounceLightParams, BounceParams, EmitParams, SurfaceBounceParams, VplGpu};
+use crate::passes::Composited;
 use crate::passes::{DrawCtx, EyeFrame, LightFrame, array_view, layer_view, shadow_sampler};
 use crate::settings::RenderSettings;
 use glam::Vec3;
@@ -147,7 +148,7 @@ pub(crate) fn record_lights(
         shafts_pass.dispatch(enc, timer, [k, k, lf.faces]);
         offset += lf.faces * k * k;
     }
-    let glow = record_glow(dc, m, lights, s, &surface, enc, timer);
+    let glow = record_glow(dc, lights, s, &surface, enc, timer);
     Some(BounceFrame { surface, surface_count, shafts, shaft_count, glow })
 }
 
@@ -289,7 +290,7 @@ pub(crate) fn record_beam_emitters(
             let (vpls, bins) =
                 emit(format!("medium_bounce_landing{fi}"), (s.medium.bounce_grid, 1), Some(landing_bounds));
             let label = format!("medium_bounce_landing_glow{fi}");
-            out.landing_glow.push(record_glow_of(dc, m, lf, s, (&vpls, 0, bins), &label, enc, timer));
+            out.landing_glow.push(record_glow_of(dc, lf, s, (&vpls, 0, bins), &label, enc, timer));
             out.landing.push((vpls, bins));
         }
     }
@@ -314,7 +315,6 @@ fn landing_box(scene: &crate::scene::Scene) -> (Vec3, Vec3) {
 /// light's `faces × grid²` in order): per light, its glow VPLs and their count.
 fn record_glow(
     dc: &DrawCtx,
-    m: &crate::scene::Medium,
     lights: &[&LightFrame],
     s: &RenderSettings,
     surface: &wgpu::Buffer,
@@ -327,17 +327,15 @@ fn record_glow(
     for (li, lf) in lights.iter().enumerate() {
         let count = lf.faces * k * k;
         let label = format!("medium_bounce_glow{li}");
-        out.push(record_glow_of(dc, m, lf, s, (surface, offset, count), &label, enc, timer));
+        out.push(record_glow_of(dc, lf, s, (surface, offset, count), &label, enc, timer));
         offset += count;
     }
     out
 }
 
 /// `medium_bounce_glow` for one light over `count` of its surface VPLs from `offset` in `vpls_in`.
-#[expect(clippy::too_many_arguments, reason = "the stage's resources")]
 fn record_glow_of(
     dc: &DrawCtx,
-    m: &crate::scene::Medium,
     lf: &LightFrame,
     s: &RenderSettings,
     (vpls_in, offset, count): (&wgpu::Buffer, u32, u32),
@@ -345,6 +343,7 @@ fn record_glow_of(
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) -> (wgpu::Buffer, u32) {
+    let m = dc.scene.medium.as_ref().expect("the medium bounce runs in a medium");
     let ctx = dc.ctx;
     let (params, sums, vpls, bins) =
         emitter_buffers(ctx, label, m, lf, (s.medium.bounce_grid, GLOW_SLICES), (offset, count), None);
@@ -425,33 +424,21 @@ fn record_surface_gather(
 /// composited images (full, caustic-only), after `medium_scatter`; then
 /// (`medium_bounce_segments`) along the segments `composite` kept of the paths beyond the
 /// specular surfaces, into the full image.
-#[expect(clippy::too_many_arguments, reason = "the frame's resources")]
-pub(crate) fn record(
-    dc: &DrawCtx,
-    eye: &EyeFrame,
-    bf: &BounceFrame,
-    s: &RenderSettings,
-    images: (&wgpu::Buffer, &wgpu::Buffer),
-    segs: &crate::passes::EyeSegments,
-    landing: &[(wgpu::Buffer, u32)],
-    enc: &mut wgpu::CommandEncoder,
-    timer: &mut PassTimer,
-) {
+pub(crate) fn record(f: &mut crate::frame::Frame, bf: &BounceFrame, landing: &[(wgpu::Buffer, u32)]) {
+    let (eye, out) = (crate::frame::eye(&f.eye), f.images.as_ref().expect("the composite runs first"));
     let lists = std::iter::once((&bf.surface, bf.surface_count)).chain(landing.iter().map(|(b, n)| (b, *n)));
     for (vpls, count) in lists {
-        record_camera_gather(dc, eye, (vpls, count), s, images, segs, enc, timer);
+        record_camera_gather(&f.dc, eye, (vpls, count), f.s, out, f.enc, f.timer);
     }
 }
 
 /// `medium_bounce` over one list of surface VPLs (`count` of them in `vpls`).
-#[expect(clippy::too_many_arguments, reason = "the frame's resources")]
 fn record_camera_gather(
     dc: &DrawCtx,
     eye: &EyeFrame,
     (vpls, count): (&wgpu::Buffer, u32),
     s: &RenderSettings,
-    images: (&wgpu::Buffer, &wgpu::Buffer),
-    segs: &crate::passes::EyeSegments,
+    out: &Composited,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -484,15 +471,15 @@ fn record_camera_gather(
         .bind("vpls", vpls)
         .bind("recv_pos", &rv)
         .bind("spec_pos", &sv)
-        .bind("out_full", images.0)
-        .bind("out_caustic", images.1)
+        .bind("out_full", &out.full)
+        .bind("out_caustic", &out.caustic)
         .shared(&dc.geo.scene)
-        .bind_all(segs.bindings())
+        .bind_all(out.segments.bindings())
         .group();
     pass.dispatch(enc, timer, [w.div_ceil(8), h.div_ceil(8), 1]);
-    if segs.kept {
+    if out.segments.kept {
         let segments = pass.variant("medium_bounce_segments", &[("bounce_segments", 1.0)]);
-        segments.dispatch_indirect(enc, timer, &segs.args, 0);
+        segments.dispatch_indirect(enc, timer, &out.segments.args, 0);
     }
 }
 
@@ -533,10 +520,7 @@ impl crate::frame::Feature for MediumBounce {
 
     fn record_along_rays(&mut self, f: &mut crate::frame::Frame) -> crate::Result<()> {
         let Some(bf) = &self.bounce else { return Ok(()) };
-        let images = f.images.as_ref().expect("the composite runs first");
-        let targets = (&images.full, &images.caustic);
-        let landing = &self.emitters.landing;
-        record(&f.dc, crate::frame::eye(&f.eye), bf, f.s, targets, &images.segments, landing, f.enc, f.timer);
+        record(f, bf, &self.emitters.landing);
         Ok(())
     }
 }

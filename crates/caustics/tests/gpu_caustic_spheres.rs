@@ -582,12 +582,11 @@ fn gpu_region_visibility_is_the_cpus_bits() {
     sc.lights.clear();
     sc.environment = Some(Arc::new(env));
     let mut s = RenderSettings {
-        photons: caustics::settings::PhotonSettings {
-            count: 64,
-            caustic_map_size: 64,
+        photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 64, ..Default::default() },
+        sources: caustics::settings::SourceSettings {
+            distant: caustics::settings::DistantSource::Spheres,
             ..Default::default()
         },
-        sources: caustics::settings::SourceSettings { distant: caustics::settings::DistantSource::Spheres, ..Default::default() },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 128, ..Default::default() },
         ..Default::default()
     };

@@ -25,9 +25,8 @@ impl Feature for Beams {
 
     fn record_along_rays(&mut self, f: &mut Frame) -> Result<()> {
         let images = f.images.as_ref().expect("the composite runs first");
-        let targets = (&images.full, &images.caustic);
         let beams: Vec<super::BeamFrame> = f.products.take().unwrap_or_default();
-        super::record_gather(&f.dc, eye(&f.eye), &beams, f.s, targets, &images.segments, f.enc, f.timer);
+        super::record_gather(&f.dc, eye(&f.eye), &beams, f.s, images, f.enc, f.timer);
         self.frames = beams;
         Ok(())
     }

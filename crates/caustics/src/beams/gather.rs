@@ -58,19 +58,26 @@ pub(super) fn record_surface(
             .dispatch_indirect(enc, timer, &f.dispatch, 12 * u64::from(f.chunks.gather_n + c));
     }
 }
+/// What the volume caustic's draws read and write: the camera's first surfaces (receiver and
+/// specular positions, then normals), the scene group, and the two images they add into.
+#[derive(Clone, Copy)]
+pub(super) struct GatherTargets<'a> {
+    pub eye_views: &'a [wgpu::BindingResource<'a>; 4],
+    pub images: (&'a wgpu::Buffer, &'a wgpu::Buffer),
+    pub scene: &'a SharedGroup,
+}
+
 /// `beam_gather` over light `f`'s chunks: along the camera rays, or (`segs`: the segments and a
 /// slot) along the kept segments in that slot.
-#[expect(clippy::too_many_arguments, reason = "the gathering stage's resources")]
 pub(super) fn record_gather_chunks(
     ctx: &GpuContext,
     f: &BeamFrame,
-    eye_views: &[wgpu::BindingResource; 4],
-    images: (&wgpu::Buffer, &wgpu::Buffer),
-    scene: &SharedGroup,
+    targets: &GatherTargets,
     segs: Option<(&crate::passes::EyeSegments, u32)>,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
+    let GatherTargets { eye_views, images, scene } = *targets;
     let (params, beams, order, stats) = (&f.params, &f.beams, &f.order, &f.stats);
     let (chunks, dispatch, foot) = (&f.chunks, &f.dispatch, f.footprint);
     let slot = segs.map_or(-1.0, |(_, k)| f64::from(k));
@@ -189,9 +196,11 @@ pub fn gather(ctx: &GpuContext, scene: &Scene, beams: &[Beam], b: &BeamSettings)
     };
     if b.volume.on(ctx.device.features()) == BeamVolume::Hulls {
         let hulls = hull_buffer(&ctx, f.capacity);
-        record_volume_hulls(&ctx, &f, &hulls, &tv, (&full, &caustic), &scene_group, &mut enc, &mut timer);
+        let targets = GatherTargets { eye_views: &tv, images: (&full, &caustic), scene: &scene_group };
+        record_volume_hulls(&ctx, &f, &hulls, &targets, &mut enc, &mut timer);
     } else {
-        record_gather_chunks(&ctx, &f, &tv, (&full, &caustic), &scene_group, None, &mut enc, &mut timer);
+        let targets = GatherTargets { eye_views: &tv, images: (&full, &caustic), scene: &scene_group };
+        record_gather_chunks(&ctx, &f, &targets, None, &mut enc, &mut timer);
     }
     ctx.end_scope();
     ctx.queue.submit([enc.finish()]);

@@ -100,17 +100,15 @@ pub(super) fn draw_hulls(
 
 /// The volume caustic of one light's beams drawn as their hulls (`beam_hull` into `hulls`, then
 /// `beam_raster`), added to both frame images.
-#[expect(clippy::too_many_arguments, reason = "the volume draw's resources")]
 pub(super) fn record_volume_hulls(
     ctx: &GpuContext,
     f: &BeamFrame,
     hulls: &wgpu::Buffer,
-    eye_views: &[wgpu::BindingResource; 4],
-    images: (&wgpu::Buffer, &wgpu::Buffer),
-    scene: &SharedGroup,
+    targets: &super::gather::GatherTargets,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
+    let super::gather::GatherTargets { eye_views, images, scene } = *targets;
     record_hull_polygons(ctx, f, hulls, HullsOf::Beams, enc, timer);
     let foot = ctx.constants("beam_footprint", bytemuck::cast_slice(&f.footprint));
     let resources = [

@@ -145,14 +145,12 @@ impl BeamFrame {
 /// Then, where `segs` were kept, along the segments `composite` kept of the paths beyond the specular
 /// surfaces (`beam_gather` with `gather_slot`, whichever way the camera rays' volume caustic is
 /// drawn), into the full image.
-#[expect(clippy::too_many_arguments, reason = "the frame's resources")]
 pub(crate) fn record_gather(
     dc: &DrawCtx,
     eye: &EyeFrame,
     frames: &[BeamFrame],
     s: &RenderSettings,
-    images: (&wgpu::Buffer, &wgpu::Buffer),
-    segs: &crate::passes::EyeSegments,
+    out: &crate::passes::Composited,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -163,16 +161,17 @@ pub(crate) fn record_gather(
     // The first surfaces: the eye's receivers and specular front (positions, normals).
     let eye_views = [&eye.recv.pos, &eye.front.pos, &eye.recv.nrm, &eye.front.nrm].map(|t| layer_view(ctx, t, 0));
     let views = eye_views.each_ref().map(wgpu::BindingResource::TextureView);
-    let scene = &dc.geo.scene;
+    let targets = gather::GatherTargets { eye_views: &views, images: (&out.full, &out.caustic), scene: &dc.geo.scene };
+    let segs = &out.segments;
     for f in frames {
         if let Some(hulls) = &f.hulls {
-            record_volume_hulls(ctx, f, hulls, &views, images, scene, enc, timer);
+            record_volume_hulls(ctx, f, hulls, &targets, enc, timer);
         } else {
-            record_gather_chunks(ctx, f, &views, images, scene, None, enc, timer);
+            record_gather_chunks(ctx, f, &targets, None, enc, timer);
         }
         if segs.kept {
             for slot in 0..crate::gpu::types::EYE_SEGMENTS as u32 {
-                record_gather_chunks(ctx, f, &views, images, scene, Some((segs, slot)), enc, timer);
+                record_gather_chunks(ctx, f, &targets, Some((segs, slot)), enc, timer);
             }
         }
     }

@@ -18,17 +18,16 @@ use crate::settings::RenderSettings;
 /// (`RenderSettings::medium_steps` steps, shadowed by the light's shadow map) to the full
 /// image; the second (`medium_segments`, over `composite`'s list of specular pixels) along the
 /// segments the pixels' paths travel in the medium beyond their specular surfaces.
-#[expect(clippy::too_many_arguments, reason = "the frame's resources")]
 fn record_medium(
     dc: &DrawCtx,
     eye: &EyeFrame,
     lights: &[&LightFrame],
     s: &RenderSettings,
-    images: (&wgpu::Buffer, &wgpu::Buffer),
-    segs: &EyeSegments,
+    out: &Composited,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
+    let segs = &out.segments;
     let Some(m) = &dc.scene.medium else { return };
     let ctx = dc.ctx;
     let cam = &dc.scene.camera;
@@ -70,8 +69,8 @@ fn record_medium(
             .bind("spec_pos", &sv)
             .bind("shadow_map", &shv)
             .bind("shadow_sampler", &shadow_sampler)
-            .bind("out_full", images.0)
-            .bind("out_caustic", images.1)
+            .bind("out_full", &out.full)
+            .bind("out_caustic", &out.caustic)
             .shared(&dc.geo.scene)
             .bind_all(segs.bindings())
             .group();
@@ -194,8 +193,9 @@ pub(crate) fn record_composite(
     enc.copy_buffer_to_buffer(&spec_count, 0, &spec_args, 0, 16);
     pass.variant("composite_specular", &consts(1)).dispatch_indirect(enc, timer, &spec_args, 0);
     let segs = EyeSegments { kept, list: spec_list, count: spec_count, args: spec_args, segments };
-    record_medium(dc, eye, lights, s, (&out_full, &out_caustic), &segs, enc, timer);
-    Composited { full: out_full, caustic: out_caustic, segments: segs }
+    let out = Composited { full: out_full, caustic: out_caustic, segments: segs };
+    record_medium(dc, eye, lights, s, &out, enc, timer);
+    out
 }
 
 /// `display`: the radiance image `out_full` tone-mapped into an Rgba8Unorm texture.

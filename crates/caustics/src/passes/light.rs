@@ -14,22 +14,20 @@ use crate::settings::Emission;
 use crate::settings::RenderSettings;
 use glam::Vec3;
 
-#[expect(clippy::too_many_arguments, reason = "every field of the light's uniform")]
+/// The light's uniform record: its faces, kind and power, the frame's grid sizes and splat, and
+/// the medium its photons cross.
 fn light_gpu(
     view: &LightView,
     light: &Light,
-    n: u32,
-    m: u32,
-    g: u32,
-    sigma: f32,
+    s: &RenderSettings,
+    fc: &FrameConsts,
     scale: f64,
-    caster_radius: f32,
-    multi_bounce: f32,
-    lens: f32,
     crop: [f32; 4],
     medium: Option<&crate::scene::Medium>,
-    grid_steps: u32,
 ) -> LightGpu {
+    let (n, m, g, sigma, grid_steps) = (fc.n, fc.m, fc.g, s.photons.splat_sigma, s.medium.light_steps);
+    let (caster_radius, multi_bounce) = (fc.caster_radius, fc.multi_bounce);
+    let lens = s.photons.splat.lens_flag(s.photons.emission);
     let mut faces = [FaceGpu { world_to_clip: [[0.0; 4]; 4], clip_to_world: [[0.0; 4]; 4], origin: [0.0; 4] }; 6];
     for (f, face) in view.faces.iter().enumerate() {
         faces[f] = FaceGpu {
@@ -130,7 +128,6 @@ pub(crate) fn light_record(
 ) -> (LightView, LightGpu, f64) {
     let view = s.light_view(scene, light);
     let scale = (1u64 << 52) as f64 / flux_bound(&view, light);
-    let lens = s.photons.splat.lens_flag(s.photons.emission);
     // A directional light's view covers the whole scene: the basic technique's dense grid is
     // spread over the casters only. The hierarchical technique keeps the whole face (its tiles
     // follow a coverage mip of the full grid, and its statistics and batch plan count whole-face
@@ -144,21 +141,7 @@ pub(crate) fn light_record(
         _ => FULL_FACE,
     };
     let medium = scene.medium.as_ref();
-    let lg = light_gpu(
-        &view,
-        light,
-        fc.n,
-        fc.m,
-        fc.g,
-        s.photons.splat_sigma,
-        scale,
-        fc.caster_radius,
-        fc.multi_bounce,
-        lens,
-        crop,
-        medium,
-        s.medium.light_steps,
-    );
+    let lg = light_gpu(&view, light, s, fc, scale, crop, medium);
     (view, lg, scale)
 }
 
