@@ -1,7 +1,7 @@
 //! The camera's passes: its geometry buffers (`record_eye`) and the shading of its diffuse
 //! surfaces per light (`record_shade`).
 
-use super::raster::{Raster, Subset, has_specular_meshes};
+use super::raster::{Draw, Raster, RasterPass, Subset, has_specular_meshes};
 use super::{DrawCtx, EyeFrame, GBuffer, LightFrame, array_view, layer_view};
 use crate::error::Result;
 use crate::frame::{Feature, Frame};
@@ -33,23 +33,15 @@ pub(crate) fn record_eye(
         ("eye_specular_front", &raster.none, &front, Subset::Specular),
         ("eye_specular_back", &raster.back, &back, Subset::Specular),
     ] {
-        dc.pass(enc, timer, name, pl, Some((&gb.pos, &gb.nrm)), &gb.depth, 0, cam_clip, subset);
+        dc.pass(enc, timer, RasterPass::gbuffer(name, pl, gb), Draw { world_to_clip: cam_clip, layer: 0, subset });
     }
     // The second specular layer (meshes behind the first layer's object), front and back; not
     // drawn in scenes without specular meshes, where `composite` does not read it.
     let front2 = GBuffer::new(ctx, "eye_specular_front2", w, h, 1);
     let back2 = GBuffer::new(ctx, "eye_specular_back2", w, h, 1);
     if has_specular_meshes(scene) {
-        dc.peel(
-            enc,
-            timer,
-            raster,
-            &front,
-            0,
-            cam_clip,
-            Subset::SpecularMeshes,
-            [("eye_specular_front2", &front2), ("eye_specular_back2", &back2)],
-        );
+        let draw = Draw { world_to_clip: cam_clip, layer: 0, subset: Subset::SpecularMeshes };
+        dc.peel(enc, timer, raster, &front, draw, [("eye_specular_front2", &front2), ("eye_specular_back2", &back2)]);
     }
     let img_bytes = (w as u64) * (h as u64) * 16;
     let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;

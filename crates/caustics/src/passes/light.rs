@@ -1,8 +1,8 @@
 //! A light's passes: its uniform record and photon crop, the light-space buffers, the photon
 //! stage, `caustic_resolve`, the temporal filter, the shading tiles, and its flux bookkeeping.
 
-use super::raster::{Raster, Subset};
-use super::{DEPTH_FORMAT, DrawCtx, FrameConsts, GBuffer, LightFrame, array_view, texture};
+use super::raster::{Draw, RasterPass, Subset};
+use super::{DEPTH_FORMAT, FrameConsts, GBuffer, LightFrame, array_view, texture};
 use crate::error::Result;
 use crate::gpu::pass::Pass;
 use crate::gpu::types::*;
@@ -147,18 +147,26 @@ pub(crate) fn light_record(
 
 /// Everything one light does in a frame: the light-space buffers of every face, the technique's
 /// photon stage, `caustic_resolve`, the temporal filter, and the copy of the map into a texture.
-#[expect(clippy::too_many_arguments, reason = "a light's passes are described by all of these")]
+/// One light of the frame as `record_light` takes it: its index, view, uniform record and the
+/// fixed-point scale of its flux sums (`light_record`).
+pub(crate) struct LightJob<'a> {
+    pub index: usize,
+    pub view: &'a LightView,
+    pub record: &'a LightGpu,
+    pub scale: f64,
+}
+
 pub(crate) fn record_light(
-    dc: &DrawCtx,
-    raster: &Raster,
+    f: &mut crate::frame::Frame,
     stages: &crate::techniques::Stages,
-    (s, inspect): (&RenderSettings, crate::settings::Inspect),
-    fc: &FrameConsts,
-    (li, view, lg, scale): (usize, &LightView, &LightGpu, f64),
+    inspect: crate::settings::Inspect,
+    job: LightJob,
     temporal: Option<&mut crate::temporal::TemporalFilter>,
-    enc: &mut wgpu::CommandEncoder,
-    timer: &mut PassTimer,
 ) -> Result<(LightFrame, crate::techniques::Pending)> {
+    let (dc, s, fc) = (&f.dc, f.s, f.fc);
+    let (enc, timer) = (&mut *f.enc, &mut *f.timer);
+    let raster = &super::raster_pipelines(dc.ctx);
+    let LightJob { index: li, view, record: lg, scale } = job;
     let (ctx, scene) = (dc.ctx, dc.scene);
     let (n, g, m) = (fc.n, fc.g, fc.m);
     let nf = view.faces.len() as u32;
@@ -175,18 +183,11 @@ pub(crate) fn record_light(
     });
     for (f, face) in view.faces.iter().enumerate() {
         let (f, clip) = (f as u32, face.world_to_clip);
-        dc.pass(enc, timer, "light_shadow", &raster.depth_only, None, &shadow, f, clip, Subset::All);
-        dc.pass(
-            enc,
-            timer,
-            "light_receivers",
-            &raster.none,
-            Some((&recv.pos, &recv.nrm)),
-            &recv.depth,
-            f,
-            clip,
-            Subset::Diffuse,
-        );
+        let draw = |subset| Draw { world_to_clip: clip, layer: f, subset };
+        let shadow_pass =
+            RasterPass { name: "light_shadow", pipeline: &raster.depth_only, color: None, depth: &shadow };
+        dc.pass(enc, timer, shadow_pass, draw(Subset::All));
+        dc.pass(enc, timer, RasterPass::gbuffer("light_receivers", &raster.none, &recv), draw(Subset::Diffuse));
         if f >= ne {
             continue;
         }
@@ -194,21 +195,13 @@ pub(crate) fn record_light(
             ("light_caster_front", &raster.none, &front, Subset::Casters),
             ("light_caster_back", &raster.back, &back, Subset::Casters),
         ] {
-            dc.pass(enc, timer, name, pl, Some((&gb.pos, &gb.nrm)), &gb.depth, f, clip, subset);
+            dc.pass(enc, timer, RasterPass::gbuffer(name, pl, gb), draw(subset));
         }
         // The second caster layer: the casters again, with a per-object depth peel against
         // this face's first layer (two-sided front, back faces), as the camera's.
         if let Some((front2, back2)) = &layer2_bufs {
-            dc.peel(
-                enc,
-                timer,
-                raster,
-                &front,
-                f,
-                clip,
-                Subset::Casters,
-                [("light_caster_front2", front2), ("light_caster_back2", back2)],
-            );
+            let names = [("light_caster_front2", front2), ("light_caster_back2", back2)];
+            dc.peel(enc, timer, raster, &front, draw(Subset::Casters), names);
         }
     }
     let texels = (m as u64) * (m as u64) * nf as u64;

@@ -35,7 +35,7 @@ pub(crate) use composite::{Composite, Display};
 pub use dump::{DumpImage, DumpKind};
 pub(crate) use dump::{bytes_to_image, dump_images};
 pub(crate) use eye::{Camera, Shading, shadow_sampler};
-pub(crate) use light::{flux_stats, light_record, record_light};
+pub(crate) use light::{LightJob, flux_stats, light_record, record_light};
 pub(crate) use photon_maps::PhotonMaps;
 pub(crate) use raster::raster_pipelines;
 

@@ -68,17 +68,8 @@ impl Feature for PhotonMaps {
                 )
             });
             f.dc.ctx.begin_scope(&format!("light{li}"), f.enc);
-            let out = super::record_light(
-                &f.dc,
-                &super::raster_pipelines(f.dc.ctx),
-                pl,
-                (s, self.inspect),
-                fc,
-                (li, &view, &record, scale),
-                self.temporal.as_mut(),
-                f.enc,
-                f.timer,
-            );
+            let job = super::LightJob { index: li, view: &view, record: &record, scale };
+            let out = super::record_light(f, pl, self.inspect, job, self.temporal.as_mut());
             f.dc.ctx.end_scope();
             let (frame, pending) = out?;
             self.states[li] = Some(LightState { record, frame: Arc::new(frame) });

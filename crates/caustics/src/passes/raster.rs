@@ -169,40 +169,51 @@ fn build_raster_pipelines(ctx: &GpuContext) -> [wgpu::RenderPipeline; 5] {
     ]
 }
 
+/// What a raster pass draws: `subset` of the scene seen through `world_to_clip`, into texture
+/// layer `layer` of its target.
+#[derive(Clone, Copy)]
+pub(super) struct Draw {
+    pub world_to_clip: Mat4,
+    pub layer: u32,
+    pub subset: Subset,
+}
+
+/// A raster pass: its name (label and timer entry), pipeline, and target: a geometry buffer,
+/// or a depth texture alone.
+pub(super) struct RasterPass<'a> {
+    pub name: &'a str,
+    pub pipeline: &'a wgpu::RenderPipeline,
+    pub color: Option<(&'a wgpu::Texture, &'a wgpu::Texture)>,
+    pub depth: &'a wgpu::Texture,
+}
+
+impl<'a> RasterPass<'a> {
+    /// A pass into a geometry buffer (position, normal, depth).
+    pub fn gbuffer(name: &'a str, pipeline: &'a wgpu::RenderPipeline, gb: &'a GBuffer) -> RasterPass<'a> {
+        RasterPass { name, pipeline, color: Some((&gb.pos, &gb.nrm)), depth: &gb.depth }
+    }
+}
+
 impl DrawCtx<'_> {
-    /// Rasterize `subset` into layer `layer` of a geometry buffer (or a depth-only target).
-    #[expect(clippy::too_many_arguments, reason = "a pass is described by all of these")]
-    pub(super) fn pass(
-        &self,
-        enc: &mut wgpu::CommandEncoder,
-        timer: &mut PassTimer,
-        name: &str,
-        pipeline: &wgpu::RenderPipeline,
-        gb_color: Option<(&wgpu::Texture, &wgpu::Texture)>,
-        depth: &wgpu::Texture,
-        layer: u32,
-        world_to_clip: Mat4,
-        subset: Subset,
-    ) {
-        self.pass_with(enc, timer, name, pipeline, gb_color, depth, layer, world_to_clip, subset, &[]);
+    /// Rasterize `draw` in pass `p`.
+    pub(super) fn pass(&self, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, p: RasterPass, draw: Draw) {
+        self.pass_with(enc, timer, p, draw, &[]);
     }
 
-    /// A second layer behind `first` (its texture layer `layer`): `subset` rasterized again with
-    /// the per-object depth peel (`raster_peel`: fragments of another object than the first
-    /// layer's, behind its surface), two-sided into `front2` and back faces into `back2`, in
-    /// passes named `names`. The camera's and the light's second layers.
-    #[expect(clippy::too_many_arguments, reason = "a pass is described by all of these")]
+    /// A second layer behind `first` (its texture layer `draw.layer`): `draw.subset` rasterized
+    /// again with the per-object depth peel (`raster_peel`: fragments of another object than the
+    /// first layer's, behind its surface), two-sided into `front2` and back faces into `back2`,
+    /// in passes named `names`. The camera's and the light's second layers.
     pub(super) fn peel(
         &self,
         enc: &mut wgpu::CommandEncoder,
         timer: &mut PassTimer,
         raster: &Raster,
         first: &GBuffer,
-        layer: u32,
-        world_to_clip: Mat4,
-        subset: Subset,
+        draw: Draw,
         [(front_name, front2), (back_name, back2)]: [(&str, &GBuffer); 2],
     ) {
+        let layer = draw.layer;
         let (first_pos, first_depth) =
             (layer_view(self.ctx, &first.pos, layer), layer_view(self.ctx, &first.depth, layer));
         let extra = [
@@ -210,26 +221,21 @@ impl DrawCtx<'_> {
             wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&first_depth) },
         ];
         for (name, pl, gb) in [(front_name, &raster.peel, front2), (back_name, &raster.peel_back, back2)] {
-            let color = Some((&gb.pos, &gb.nrm));
-            self.pass_with(enc, timer, name, pl, color, &gb.depth, layer, world_to_clip, subset, &extra);
+            self.pass_with(enc, timer, RasterPass::gbuffer(name, pl, gb), draw, &extra);
         }
     }
 
     /// `pass` with further bindings after the view uniform (binding 0).
-    #[expect(clippy::too_many_arguments, reason = "a pass is described by all of these")]
     fn pass_with(
         &self,
         enc: &mut wgpu::CommandEncoder,
         timer: &mut PassTimer,
-        name: &str,
-        pipeline: &wgpu::RenderPipeline,
-        gb_color: Option<(&wgpu::Texture, &wgpu::Texture)>,
-        depth: &wgpu::Texture,
-        layer: u32,
-        world_to_clip: Mat4,
-        subset: Subset,
+        p: RasterPass,
+        draw: Draw,
         extra: &[wgpu::BindGroupEntry],
     ) {
+        let RasterPass { name, pipeline, color: gb_color, depth } = p;
+        let Draw { world_to_clip, layer, subset } = draw;
         let ctx = self.ctx;
         let ubuf =
             ctx.uniform(name, bytemuck::bytes_of(&RasterView { world_to_clip: world_to_clip.to_cols_array_2d() }));

@@ -193,7 +193,15 @@ impl Hierarchical {
                 );
                 let trace = e.tracing("photon_trace").bind("tp", &tp).bind("photons", &self.tile);
                 trace.dispatch(enc, timer, [(t * t).div_ceil(64), 1, 1]);
-                build_mip(e, enc, timer, "hcm_mip", &self.mip, &self.tile, f, t, p.start, 1);
+                let chain = super::MipChain {
+                    name: "hcm_mip",
+                    cover: &self.mip,
+                    tile: &self.tile,
+                    g: t,
+                    down_to: p.start,
+                    source: 1,
+                };
+                build_mip(e, enc, timer, f, chain);
                 traversal.record(enc, timer, "hcm_traverse", if first { &begin } else { &end_begin });
                 first = false;
                 self.tiles += 1;

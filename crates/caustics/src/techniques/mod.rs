@@ -354,21 +354,21 @@ pub(crate) fn mip_words(g: u32, down_to: u32) -> u64 {
     mip_offset(g.trailing_zeros() - down_to.trailing_zeros() + 1, g)
 }
 
-/// Record the passes that build a coverage mip chain (level 0 is g × g, down to `down_to`²) of
-/// face `face`: source 0 = caster front buffer, 1 = a dense photon tile.
-#[expect(clippy::too_many_arguments, reason = "a pass is described by all of these")]
-pub(crate) fn build_mip(
-    e: &Emit,
-    enc: &mut wgpu::CommandEncoder,
-    timer: &mut PassTimer,
-    name: &str,
-    cover: &wgpu::Buffer,
-    tile: &wgpu::Buffer,
-    face: u32,
-    g: u32,
-    down_to: u32,
-    source: u32,
-) {
+/// A coverage mip chain: its passes' name, the buffer it is built in, level 0 `g` × `g` down to
+/// `down_to`², from `source` (0: the caster front buffer, 1: the dense photon tile `tile`, which
+/// is bound either way).
+pub(crate) struct MipChain<'a> {
+    pub name: &'a str,
+    pub cover: &'a wgpu::Buffer,
+    pub tile: &'a wgpu::Buffer,
+    pub g: u32,
+    pub down_to: u32,
+    pub source: u32,
+}
+
+/// Record the passes that build coverage mip chain `chain` of face `face`.
+pub(crate) fn build_mip(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTimer, face: u32, chain: MipChain) {
+    let MipChain { name, cover, tile, g, down_to, source } = chain;
     let levels = g.trailing_zeros() - down_to.trailing_zeros() + 1;
     let groups: Vec<(Bound, u32)> = (0..levels)
         .map(|l| {
@@ -476,7 +476,8 @@ pub(crate) fn emit(e: &Emit, enc: &mut wgpu::CommandEncoder, timer: &mut PassTim
     }
     let mut emission = emission(t, e)?;
     for f in 0..faces {
-        build_mip(e, enc, timer, "coverage_mip", &cover, &dummy, f, g, 1, 0);
+        let chain = MipChain { name: "coverage_mip", cover: &cover, tile: &dummy, g, down_to: 1, source: 0 };
+        build_mip(e, enc, timer, f, chain);
         enc.copy_buffer_to_buffer(&cover, mip_offset(g.trailing_zeros(), g) * 4, &pending.coverage, f as u64 * 4, 4);
         if e.inspect.coverage {
             let m = storage(e.ctx, "coverage_mask", (g as u64).pow(2) * 4, wgpu::BufferUsages::empty());
