@@ -51,28 +51,6 @@ struct SphereGatherParams {
 // [0]: occlusion rays (one per pixel and caustic object) that overflowed the BVH stack.
 @group(0) @binding(11) var<storage, read_write> gather_stats: array<atomic<u32>>;
 
-// Whether anything but object `skip` lies along o + t d, 0 < t < tmax (scene_occluded with
-// one object left out).
-fn occluded_except(o: vec3f, d: vec3f, tmax: f32, skip: u32) -> bool {
-    let count = arrayLength(&materials);
-    for (var i = 0u; i < count; i++) {
-        let m = materials[i];
-        if (m.kind.z == SHAPE_MESH || i == skip) { continue; }
-        if (rt_shape(m, o, d, tmax).x > 0.0) { return true; }
-    }
-    var best = rt_none();
-    best.t = tmax;
-    let ninst = arrayLength(&bvh_instances);
-    let inv_d = rt_inv(d);
-    for (var ii = 0u; ii < ninst; ii++) {
-        let inst = bvh_instances[ii];
-        if (inst.object == INVALID || inst.object == skip) { continue; }
-        if (rt_box(inst.lo.xyz, inst.hi.xyz, o, inv_d, tmax) >= 1e29) { continue; }
-        if (rt_instance(ii, o, d, &best, true)) { return true; }
-    }
-    return false;
-}
-
 // The world centre of record r's spheres (its object's frame mapped back to the world).
 fn world_center(r: SphereRecord) -> vec3f {
     let m = mat3x3f(r.to_obj[0].xyz, r.to_obj[1].xyz, r.to_obj[2].xyz);
@@ -172,7 +150,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
             let to = p - c;
             let dist = length(to);
             rt_overflow = 0u;
-            visible = dist > 0.0 && !occluded_except(c, to / dist, dist * (1.0 - 1e-4), object);
+            visible = dist > 0.0 && !scene_occluded_except(c, to / dist, dist * (1.0 - 1e-4), object);
             // A ray that overflowed the BVH stack may have missed an occluder: no caustic
             // (conservative), and counted in the frame's statistics.
             if (rt_overflow > 0u) { atomicAdd(&gather_stats[0], 1u); }

@@ -19,28 +19,6 @@
 // Per caustic object and ray (object-major): 1 where something is in the way.
 @group(0) @binding(3) var<storage, read_write> vis_blocked: array<u32>;
 
-// Whether anything but object `skip` lies along o + t d, 0 < t < tmax (`scene_occluded` over
-// the scene without object `skip`; `occluded_except` of sphere_gather).
-fn occluded_but(o: vec3f, d: vec3f, tmax: f32, skip: u32) -> bool {
-    let count = arrayLength(&materials);
-    for (var i = 0u; i < count; i++) {
-        let m = materials[i];
-        if (m.kind.z == SHAPE_MESH || i == skip) { continue; }
-        if (rt_shape(m, o, d, tmax).x > 0.0) { return true; }
-    }
-    var best = rt_none();
-    best.t = tmax;
-    let ninst = arrayLength(&bvh_instances);
-    let inv_d = rt_inv(d);
-    for (var ii = 0u; ii < ninst; ii++) {
-        let inst = bvh_instances[ii];
-        if (inst.object == INVALID || inst.object == skip) { continue; }
-        if (rt_box(inst.lo.xyz, inst.hi.xyz, o, inv_d, tmax) >= 1e29) { continue; }
-        if (rt_instance(ii, o, d, &best, true)) { return true; }
-    }
-    return false;
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3u) {
     let rays = vis_sizes[0];
@@ -49,5 +27,5 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let c = vis_centres[i / rays];
     let r = vis_dirs[i % rays];
     rt_overflow = 0u;
-    vis_blocked[i] = select(0u, 1u, occluded_but(c.xyz, r.xyz, r.w, u32(c.w)));
+    vis_blocked[i] = select(0u, 1u, scene_occluded_except(c.xyz, r.xyz, r.w, u32(c.w)));
 }
