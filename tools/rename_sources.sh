@@ -24,6 +24,7 @@ perl -pi -e '
     s/\.beams\.enabled\s*=\s*false/.sources.volume = caustics::settings::VolumeSource::None/g;
     s/\.beams\.enabled\s*=\s*true/.sources.volume = caustics::settings::VolumeSource::Beams/g;
     s/--set surface_caustics=beams/--set sources.local=beams/g;
+    s/photons\.(?:technique|emission)=caustic-spheres/sources.distant=spheres/g;
     s/photons\.technique=/photons.emission=/g;
     s/surface_caustics: ((?:caustics::(?:settings|render)::)?LocalSource::Beams|sc|surface),/sources: caustics::settings::SourceSettings { local: $1, ..Default::default() },/;
     s/RenderSettings \{ surface_caustics: LocalSource::Beams,/RenderSettings { sources: caustics::settings::SourceSettings { local: LocalSource::Beams, ..Default::default() },/;

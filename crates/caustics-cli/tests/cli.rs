@@ -338,7 +338,7 @@ fn sun_in_fog_renders_through_caustic_spheres() {
 
 #[test]
 fn caustic_spheres_by_flag_and_by_set_render_the_same_image() {
-    // `--technique caustic-spheres` is `--set photons.emission=caustic-spheres`: the same bits
+    // `--technique caustic-spheres` is `--set sources.distant=spheres`: the same bits
     // (GPU; skipped without an adapter, as the render then says).
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/glass_sphere_3dir.json");
     let cache = tmp("sphere-cache-alias");
@@ -360,7 +360,7 @@ fn caustic_spheres_by_flag_and_by_set_render_the_same_image() {
         eprintln!("skipping: {err}");
         return;
     }
-    let second = run(&["--set", "photons.emission=caustic-spheres"], &b);
+    let second = run(&["--set", "sources.distant=spheres"], &b);
     assert!(second.status.success(), "{}", String::from_utf8_lossy(&second.stderr));
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), "the two spellings render other bits");
     let _ = std::fs::remove_dir_all(&cache);
