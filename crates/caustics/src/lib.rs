@@ -53,7 +53,6 @@
 pub(crate) mod accel;
 pub mod beams;
 pub mod budget;
-#[allow(missing_docs)] // docs: after the caustic-spheres branch lands
 pub mod caustic_spheres;
 pub(crate) mod env_taps;
 pub mod error;

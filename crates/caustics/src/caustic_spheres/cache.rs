@@ -33,12 +33,14 @@ impl Default for Fnv {
 }
 
 impl Fnv {
+    /// Hash `bytes` in.
     pub fn write(&mut self, bytes: &[u8]) {
         for &b in bytes {
             self.0 ^= b as u64;
             self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
         }
     }
+    /// The hash.
     pub fn finish(self) -> u64 {
         self.0
     }
@@ -47,7 +49,9 @@ impl Fnv {
 /// Storage precision of the table on disk and on the GPU.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Storage {
+    /// 32-bit floats.
     F32,
+    /// 16-bit floats (half the memory).
     F16,
 }
 

@@ -23,9 +23,13 @@ use std::sync::Arc;
 pub struct GpuSpheres {
     /// (object index, table, index of its first vec4 in `table`).
     pub objects: Vec<(usize, Arc<CausticSpheres>, u32)>,
+    /// The table holds half floats.
     pub half: bool,
+    /// Per object, its direction layout.
     pub layouts: Vec<DirectionLayout>,
+    /// Every object's table.
     pub table: wgpu::Buffer,
+    /// Bytes of `table`.
     pub bytes: u64,
     /// The compiled variant (section 6): per frame `sphere_compile` sums every record of an
     /// object into one compiled table, and `sphere_gather` looks up one record per object.

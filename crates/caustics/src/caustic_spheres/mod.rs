@@ -139,6 +139,7 @@ pub enum Warp {
 /// The layout of light directions: an N×N octahedral grid, deduplicated.
 #[derive(Debug, Clone)]
 pub struct DirectionLayout {
+    /// Grid side N (odd).
     pub n: u32,
     /// Unique directions (travel directions, unit).
     pub dirs: Vec<Vec3>,
@@ -147,6 +148,7 @@ pub struct DirectionLayout {
 }
 
 impl DirectionLayout {
+    /// The layout of an N × N grid.
     pub fn new(n: u32) -> DirectionLayout {
         let mut dirs: Vec<Vec3> = Vec::new();
         let mut vertex = Vec::with_capacity((n * n) as usize);
@@ -233,8 +235,11 @@ pub fn basis(w: Vec3) -> (Vec3, Vec3) {
 pub struct SphereGeometry {
     /// Centre, in the object's frame (the scene file's pose).
     pub center: Vec3,
+    /// The spheres' radii (m), innermost first.
     pub radii: Vec<f32>,
+    /// Cells per sphere: columns (longitude) and rows (warped latitude).
     pub width: u32,
+    /// Rows per sphere (latitude, θ = π t²).
     pub height: u32,
 }
 
@@ -270,8 +275,11 @@ impl SphereGeometry {
 /// One caustic object's precomputed spheres.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CausticSpheres {
+    /// What the table was precomputed with.
     pub settings: SphereSettings,
+    /// Its spheres and cells.
     pub geometry: SphereGeometry,
+    /// The stored light directions (travel directions, unit), in the order of `data`.
     pub layout_dirs: Vec<Vec3>,
     /// Per direction, per sphere, per row, per column: [C.r, C.g, C.b, 0, d.x, d.y, d.z, 0].
     pub data: Vec<[f32; 8]>,
@@ -281,8 +289,11 @@ pub struct CausticSpheres {
 /// irradiance (m², r g b).
 #[derive(Debug, Clone, Copy)]
 pub struct Escaped {
+    /// Where it leaves the object (m, the object's frame).
     pub origin: Vec3,
+    /// Its unit direction.
     pub dir: Vec3,
+    /// Its flux per unit light irradiance (m², r g b).
     pub flux: Vec3,
 }
 

@@ -187,7 +187,7 @@ impl GpuContext {
     /// The pipeline layout of compute stage `name`: group 0 as its WGSL declares it (the
     /// bindings its entry point uses, as wgpu's derived layouts have them), with the bind group
     /// layout shared by every stage whose group 0 is the same, and the layout of each shared
-    /// group it declares ([`GpuContext::shared_layout`]).
+    /// group it declares (`GpuContext::shared_layout`).
     pub fn stage_layout(&self, name: &str) -> wgpu::PipelineLayout {
         let (entries, shared) = compute_stage_layout(name).unwrap_or_else(|e| panic!("{e}"));
         self.layout_of(name, entries, &shared)
