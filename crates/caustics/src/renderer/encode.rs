@@ -16,14 +16,10 @@ impl Renderer {
         self.update_geometry();
         // The scene as drawn: its lights, then the environment's directional lights.
         let scene = Scene { lights: self.lights_now(), ..self.scene.clone() };
-        if self.settings.caustic_spheres() {
-            self.features.spheres.next = Some((self.sphere_lights(&scene.lights), self.sphere_visibility_update()?));
-        }
+        self.prepare_spheres(&scene)?;
         let fc = FrameConsts::new(&scene, &self.settings);
         let env = self.env_frame(scene.lights.len());
-        ctx.begin_scope("frame", encoder);
-        let mut timer = PassTimer::new(&ctx, 2048);
-        ctx.end_scope();
+        let mut timer = self.frame_timer(encoder);
         let geo = &self.geometry.as_ref().expect("uploaded").1;
         let mut f = Frame {
             dc: crate::passes::DrawCtx { ctx: &ctx, geo, scene: &scene },
@@ -58,6 +54,23 @@ impl Renderer {
         self.outputs = Some((images.full, images.caustic, display));
         self.frame += 1;
         Ok(self.frame_outputs(&redone))
+    }
+
+    /// The frame's pass timer (its query set and buffers in the `frame` scope).
+    fn frame_timer(&self, encoder: &mut wgpu::CommandEncoder) -> PassTimer {
+        self.ctx.begin_scope("frame", encoder);
+        let timer = PassTimer::new(&self.ctx, 2048);
+        self.ctx.end_scope();
+        timer
+    }
+
+    /// Caustic spheres: the frame's lights and whether it computes the environment's visibility
+    /// again, for the feature.
+    fn prepare_spheres(&mut self, scene: &Scene) -> Result<()> {
+        if self.settings.caustic_spheres() {
+            self.features.spheres.next = Some((self.sphere_lights(&scene.lights), self.sphere_visibility_update()?));
+        }
+        Ok(())
     }
 
     /// The scene's GPU resources: uploaded once (again when the tessellation changes, which
