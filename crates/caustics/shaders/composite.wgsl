@@ -438,13 +438,42 @@ fn exit_from_inside(obj: u32, m: MaterialGpu, p: vec3f, d: vec3f) -> EyeHit {
     let a = abs(p);
     let o = p + d * (2e-5 * (1.0 + max(max(a.x, a.y), a.z)));
     let sh = scene_hit(o, d, 1e30);
-    // A hit the tracer may have missed (its stack overflowed) or another object: no exit, as
-    // before (the pixel is black where the light is lost).
-    if (sh.object != obj || rt_overflow != 0u) { return h; }
+    // A hit the tracer may have missed (its stack overflowed) or another object: no exit (the
+    // pixel is black where the light is lost, unless `inner_receiver` shows the other object:
+    // it is named in `object`, its point in `p`).
+    if (rt_overflow != 0u) { return h; }
+    if (sh.object != obj) {
+        h.object = sh.object;
+        h.p = sh.p;
+        return h;
+    }
     h.p = sh.p;
     h.n = sh.ns;
     h.ok = true;
     return h;
+}
+
+// The radiance of a diffuse surface met by a ray travelling inside the dielectric `obj` (at o,
+// along d) before it leaves it (a pool's floor under water, a stone in a glass block); w = -1
+// where the ray leaves first. The radiance is the screen-space search's in the camera's
+// receiver buffer (which holds the diffuse surfaces without the specular objects, so it sees
+// through the water to the floor). Where the exit was found, the search's surface must lie
+// before it and the exact tracer must confirm that something other than the object is there
+// (a search that strays changes nothing); where the tracer met another object instead of the
+// exit (`exit_from_inside`), that object must be diffuse.
+fn inner_receiver(obj: u32, o: vec3f, d: vec3f, exit: EyeHit) -> vec4f {
+    let miss = vec4f(0.0, 0.0, 0.0, -1.0);
+    if (!exit.ok) { return miss; }
+    let r = trace_receivers_t(o, d);
+    if (!(r.w < 1e30)) { return miss; }
+    if (exit.ok) {
+        if (!(r.w < distance(o, exit.p))) { return miss; }
+        let a = abs(o);
+        let o2 = o + d * (2e-5 * (1.0 + max(max(a.x, a.y), a.z)));
+        rt_overflow = 0u;
+        if (!scene_occluded_except(o2, d, r.w * 1.001 + 1e-4, obj) || rt_overflow != 0u) { return miss; }
+    }
+    return vec4f(r.rgb, r.w);
 }
 
 fn load_params() {
@@ -550,6 +579,13 @@ fn specular_pixel(px: vec2i, idx: u32) {
             var w = 1.0 - f1;
             for (var k = 0u; k < 4u; k++) {
                 let exit = exit_from_inside(obj, mat, p_in, t_in);
+                // A diffuse surface inside the object before the exit (a pool's floor under
+                // water, a stone in a glass block) is what the ray sees.
+                let inner = inner_receiver(obj, p_in, t_in, exit);
+                if (inner.w >= 0.0) {
+                    l += w * inner.rgb;
+                    break;
+                }
                 if (!exit.ok) { break; }
                 var n2 = exit.n;
                 if (dot(n2, t_in) < 0.0) { n2 = -n2; }

@@ -198,6 +198,7 @@ scenes!(
     mirror_ring,
     two_spheres;
     full: ball_over_bunny,
+    pool,
     bunny_over_ball,
     dragon_spheres,
     glass_buddha,

@@ -1,0 +1,94 @@
+//! Diffuse surfaces inside refractive volumes (a pool's floor under water, a stone on it, a
+//! pebble inside a glass ball): lit by the photons that refracted in and seen by camera rays
+//! that refracted in, against the CPU reference.
+
+mod common;
+
+use caustics::render::RenderSettings;
+use caustics::scene::Scene;
+use caustics_reference::metrics::{Mask, energy_ratio, hdr_flip};
+use caustics_reference::reference::{self, CausticPaths, ReferenceSettings};
+use common::gpu;
+
+fn pool(camera: [f32; 3], look_at: [f32; 3]) -> Scene {
+    let mut sc =
+        Scene::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/pool.json"))).unwrap();
+    sc.camera.width = 64;
+    sc.camera.height = 64;
+    sc.camera.position = camera.into();
+    sc.camera.look_at = look_at.into();
+    sc
+}
+
+/// 8 × 8 box averages (the reference's noise is per pixel; the comparison is of the picture).
+fn boxed(img: &caustics::image_io::Image) -> caustics::image_io::Image {
+    let (w, h) = (img.width / 8, img.height / 8);
+    let mut out = caustics::image_io::Image::new(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let mut s = [0.0f32; 3];
+            for dy in 0..8 {
+                for dx in 0..8 {
+                    let p = img.pixels[((y * 8 + dy) * img.width + x * 8 + dx) as usize];
+                    for c in 0..3 {
+                        s[c] += p[c] / 64.0;
+                    }
+                }
+            }
+            out.pixels[(y * w + x) as usize] = s;
+        }
+    }
+    out
+}
+
+fn measure(name: &str, sc: &Scene) -> Option<(f64, f64)> {
+    let ctx = gpu()?;
+    let rs = ReferenceSettings {
+        photons_per_light: 1_000_000,
+        camera_spp: 16,
+        caustic_paths: CausticPaths::All,
+        ..Default::default()
+    };
+    let cpu = reference::render(sc, &rs).unwrap();
+    let mut s = RenderSettings::default();
+    s.photons.count = 1024;
+    let gpu_out = caustics::render::render(&ctx, sc, &s).unwrap();
+    let (a, b) = (boxed(&gpu_out.image), boxed(&cpu.image));
+    let flip = hdr_flip(&a, &b, None::<&Mask>).unwrap().mean;
+    let energy = energy_ratio(&gpu_out.image, &cpu.image, None).unwrap();
+    eprintln!("{name}: GPU vs CPU reference (full), 8x8 HDR-FLIP {flip:.3}, energy {energy:.4}");
+    Some((flip, energy))
+}
+
+/// The floor and the stone under the pool's water, from above and from the side, and a pebble
+/// inside a glass ball, against the CPU reference in full mode (every bounce), 8 × 8-averaged
+/// at 64 × 64. Before camera rays inside a dielectric looked for the surfaces in it, everything
+/// under the water was black (energy 0.39 of the reference on the room of water).
+/// Measured on lavapipe (HDR-FLIP, energy): from above 0.132, 0.931; from the side 0.266,
+/// 0.805; the pebble 0.326, 0.821. The target (HDR-FLIP 0.10, energy within 3 %) is not
+/// met yet: the image-space search cannot see what the camera does not (the stone's far side,
+/// the floor behind it), the light the water traps and sends back down (total internal
+/// reflection, a diffuse bounce the GPU does not render) is missing, and the pebble is
+/// magnified less than through the exact lens. These bounds guard what works: the surfaces are
+/// lit and seen, with most of their light.
+#[test]
+fn surfaces_under_water_are_lit_and_seen() {
+    let cases = [
+        ("pool from above", pool([0.0, 2.4, 3.0], [0.0, 0.1, 0.0]), 0.2, 0.9),
+        ("pool from the side", pool([0.2, 0.25, 3.2], [0.0, 0.15, 0.0]), 0.35, 0.75),
+        ("pebble in a glass ball", ball_pebble(), 0.4, 0.75),
+    ];
+    for (name, sc, max_flip, min_energy) in cases {
+        let Some((flip, energy)) = measure(name, &sc) else { return };
+        assert!(flip <= max_flip, "{name}: 8x8 HDR-FLIP {flip}");
+        assert!((min_energy..=1.03).contains(&energy), "{name}: energy {energy}");
+    }
+}
+
+fn ball_pebble() -> Scene {
+    let mut ball =
+        Scene::from_json(include_str!("data/ball_pebble.json"), "<test>", std::path::Path::new(".")).unwrap();
+    ball.camera.width = 64;
+    ball.camera.height = 64;
+    ball
+}
