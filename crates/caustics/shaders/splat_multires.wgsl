@@ -8,11 +8,8 @@
 // (same layout), counts in `counts` (4 u32 per texel).
 
 #import splat
+#import splat_photons
 
-@group(0) @binding(0) var<uniform> light: LightGpu;
-@group(0) @binding(1) var<storage, read> sp: SplatParams;
-@group(0) @binding(2) var<storage, read> photons: array<Photon>;
-@group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
 @group(0) @binding(4) var<storage, read_write> flux0: array<atomic<u32>>;
 @group(0) @binding(5) var<storage, read_write> flux1: array<atomic<u32>>;
 @group(0) @binding(6) var<storage, read_write> flux2: array<atomic<u32>>;
@@ -52,10 +49,9 @@ fn kernel(d2: f32, r: f32) -> f32 {
 
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @builtin(local_invocation_index) lid: u32) {
-    let index = (wg.y * nwg.x + wg.x) * 64u + lid;
-    if (index >= sp.count) { return; }
+    let index = splat_index(wg, nwg, lid);
+    if (index == INVALID) { return; }
     let ph = photons[index];
-    if (ph.face == INVALID) { return; }
     let m = i32(light.info.w);
     let radii = RADII * light.params.z;
     let rr = i32(ceil(radii.w));

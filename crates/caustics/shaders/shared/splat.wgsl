@@ -1,6 +1,7 @@
-// Shared by the splat stages (photon_splat, splat_lens, splat_multires, caustic_triangles): 64-bit fixed-point
-// accumulation into `accum` (per face, per texel, per channel: (lo, hi) word pairs), the texel
-// index, and a normalised Gaussian splat. Uses the module-scope bindings `light` and `accum`.
+// Shared by the splat stages (photon_splat, splat_lens, splat_multires, splat_quads,
+// caustic_triangles): 64-bit fixed-point accumulation into `accum` (per face, per texel, per
+// channel: (lo, hi) word pairs), the texel index, and a normalised Gaussian splat. Uses the
+// module-scope bindings `light` and `accum` (shared/splat_photons.wgsl, or the stage's own).
 
 // Photon count of a splat dispatch, after the (indirect) dispatch arguments that the adaptive
 // techniques write on the GPU.
