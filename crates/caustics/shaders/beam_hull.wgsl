@@ -121,8 +121,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let v = array<vec3f, 3>(b.v0.xyz, b.v1.xyz, b.v2.xyz);
     let d = array<vec3f, 3>(b.d0.xyz, b.d1.xyz, b.d2.xyz);
     let len = vec3f(b.d0.w, b.d1.w, b.d2.w);
-    var nrm = normalize(cross(v[1] - v[0], v[2] - v[0]));
-    if (dot(nrm, d[0] + d[1] + d[2]) < 0.0) { nrm = -nrm; }
+    let nrm = beam_normal(v, d);
     let cs = vec3f(dot(nrm, d[0]), dot(nrm, d[1]), dot(nrm, d[2]));
     let ys = len * cs;
     let ym = max(max(ys.x, ys.y), ys.z);

@@ -30,11 +30,6 @@
 @group(0) @binding(7) var recv_nrm: texture_2d<f32>;
 @group(0) @binding(8) var spec_nrm: texture_2d<f32>;
 
-@vertex
-fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) k: u32) -> HullVertex {
-    return hull_vertex(vi, k);
-}
-
 @fragment
 fn fs_main(in: HullVertex) -> @location(0) vec4f {
     let px = vec2u(in.pos.xy);

@@ -22,11 +22,6 @@
 // The beam statistics: the fragments shaded are counted (as beam_raster's).
 @group(0) @binding(5) var<storage, read_write> stats: array<atomic<u32>>;
 
-@vertex
-fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) k: u32) -> HullVertex {
-    return hull_vertex(vi, k);
-}
-
 @fragment
 fn fs_main(in: HullVertex) -> @location(0) vec4f {
     let px = vec2u(in.pos.xy);

@@ -92,15 +92,8 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(workgroup_id) wg: ve
     } else if (gid.x < bp.width && gid.y < bp.height) {
         idx = gid.y * bp.width + gid.x;
         let cam = bp.camera.xyz;
-        let px = vec2i(gid.xy);
-        let ndc = vec2f((f32(gid.x) + 0.5) / f32(bp.width) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(bp.height) * 2.0);
-        let q = bp.clip_to_world * vec4f(ndc, 0.5, 1.0);
-        let d = normalize(q.xyz / q.w - cam);
-        var t_max = 1e30;
-        let r = textureLoad(recv_pos, px, 0);
-        let sp = textureLoad(spec_pos, px, 0);
-        if (r.w >= 0.0) { t_max = min(t_max, length(r.xyz - cam)); }
-        if (sp.w >= 0.0) { t_max = min(t_max, length(sp.xyz - cam)); }
+        let d = pixel_ray(bp.clip_to_world, cam, gid.xy, bp.width, bp.height);
+        let t_max = first_surface(recv_pos, spec_pos, vec2i(gid.xy), cam);
         let seg = box_clip(cam, d, t_max, lo, hi);
         if (seg.y > seg.x) {
             ro[0] = cam;

@@ -168,17 +168,10 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(workgroup_id) wg: ve
     }
     if (gid.x >= mp.width || gid.y >= mp.height) { return; }
     let idx = gid.y * mp.width + gid.x;
-    let px = vec2i(gid.xy);
     let cam = mp.camera.xyz;
-    let ndc = vec2f((f32(gid.x) + 0.5) / f32(mp.width) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(mp.height) * 2.0);
-    let q = mp.clip_to_world * vec4f(ndc, 0.5, 1.0);
-    let d = normalize(q.xyz / q.w - cam);
+    let d = pixel_ray(mp.clip_to_world, cam, gid.xy, mp.width, mp.height);
     // The first surface along the pixel's ray.
-    var t_max = 1e30;
-    let r = textureLoad(recv_pos, px, 0);
-    let sp = textureLoad(spec_pos, px, 0);
-    if (r.w >= 0.0) { t_max = min(t_max, length(r.xyz - cam)); }
-    if (sp.w >= 0.0) { t_max = min(t_max, length(sp.xyz - cam)); }
+    let t_max = first_surface(recv_pos, spec_pos, vec2i(gid.xy), cam);
     let seg = box_clip(cam, d, t_max, mp.lo.xyz, mp.hi.xyz);
     if (seg.y <= seg.x) { return; }
     if (mp.grid != 0u) {

@@ -8,17 +8,12 @@
 // dispatch arguments: the adaptive techniques write count and arguments on the GPU.
 
 #import splat
-
-@group(0) @binding(0) var<uniform> light: LightGpu;
-@group(0) @binding(1) var<storage, read> sp: SplatParams;
-@group(0) @binding(2) var<storage, read> photons: array<Photon>;
-@group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
+#import splat_photons
 
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @builtin(local_invocation_index) lid: u32) {
-    let index = (wg.y * nwg.x + wg.x) * 64u + lid;
-    if (index >= sp.count) { return; }
+    let index = splat_index(wg, nwg, lid);
+    if (index == INVALID) { return; }
     let ph = photons[index];
-    if (ph.face == INVALID) { return; }
     gauss_splat(ph.face, ph.pos, ph.flux.rgb, light.params.z);
 }

@@ -45,10 +45,7 @@ struct SphereVolumeParams {
 @group(0) @binding(6) var<storage, read_write> out_caustic: array<vec4f>;
 
 fn phase(cos_t: f32) -> f32 {
-    let g = vp.sigma_s.w;
-    if (g == 0.0) { return 0.25 / PI; }
-    let den = max(1.0 + g * g - 2.0 * g * cos_t, 1e-12);
-    return (1.0 - g * g) / (4.0 * PI * den * sqrt(den));
+    return hg_phase(cos_t, vp.sigma_s.w);
 }
 
 // An object-frame direction v of record r in the world (to_obj is a similarity A: A^-1 v is
@@ -62,16 +59,9 @@ fn to_world_dir(r: SphereRecord, v: vec3f) -> vec3f {
 fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (gid.x >= vp.width || gid.y >= vp.height) { return; }
     let idx = gid.y * vp.width + gid.x;
-    let px = vec2i(gid.xy);
     let cam = vp.camera.xyz;
-    let ndc = vec2f((f32(gid.x) + 0.5) / f32(vp.width) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(vp.height) * 2.0);
-    let q = vp.clip_to_world * vec4f(ndc, 0.5, 1.0);
-    let d = normalize(q.xyz / q.w - cam);
-    var t_max = 1e30;
-    let rp = textureLoad(recv_pos, px, 0);
-    let sp = textureLoad(spec_pos, px, 0);
-    if (rp.w >= 0.0) { t_max = min(t_max, length(rp.xyz - cam)); }
-    if (sp.w >= 0.0) { t_max = min(t_max, length(sp.xyz - cam)); }
+    let d = pixel_ray(vp.clip_to_world, cam, gid.xy, vp.width, vp.height);
+    let t_max = first_surface(recv_pos, spec_pos, vec2i(gid.xy), cam);
     let lo = vp.lo.xyz;
     let hi = vp.hi.xyz;
     let seg = box_clip(cam, d, t_max, lo, hi);

@@ -5,11 +5,7 @@
 // sigma), clamped to [0.5, LENS_MAX] texels. Weights are normalised: the whole flux lands.
 
 #import splat
-
-@group(0) @binding(0) var<uniform> light: LightGpu;
-@group(0) @binding(1) var<storage, read> sp: SplatParams;
-@group(0) @binding(2) var<storage, read> photons: array<Photon>;
-@group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
+#import splat_photons
 
 // Gaussian sigma per texel of beam diameter: photons a beam diameter apart blend smoothly.
 const LENS_K: f32 = 0.5;
@@ -19,10 +15,9 @@ const LENS_MAX: f32 = 6.0;
 
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @builtin(local_invocation_index) lid: u32) {
-    let index = (wg.y * nwg.x + wg.x) * 64u + lid;
-    if (index >= sp.count) { return; }
+    let index = splat_index(wg, nwg, lid);
+    if (index == INVALID) { return; }
     let ph = photons[index];
-    if (ph.face == INVALID) { return; }
     let base = light.params.z;
     var sigma = base;
     let d = bitcast<f32>(ph._pad);

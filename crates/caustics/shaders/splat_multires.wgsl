@@ -8,11 +8,8 @@
 // (same layout), counts in `counts` (4 u32 per texel).
 
 #import splat
+#import splat_photons
 
-@group(0) @binding(0) var<uniform> light: LightGpu;
-@group(0) @binding(1) var<storage, read> sp: SplatParams;
-@group(0) @binding(2) var<storage, read> photons: array<Photon>;
-@group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
 @group(0) @binding(4) var<storage, read_write> flux0: array<atomic<u32>>;
 @group(0) @binding(5) var<storage, read_write> flux1: array<atomic<u32>>;
 @group(0) @binding(6) var<storage, read_write> flux2: array<atomic<u32>>;
@@ -21,20 +18,16 @@
 const RADII: vec4f = vec4f(1.5, 3.5, 5.5, 7.5);
 
 fn add_to(map: u32, word: u32, value: f32) {
-    let v = max(value, 0.0);
-    let hi = floor(v / 4294967296.0);
-    let lo = u32(v - hi * 4294967296.0);
-    if (lo == 0u && hi == 0.0) { return; }
+    let w = fixed_words(max(value, 0.0));
+    if (w.x == 0u && w.y == 0u) { return; }
     var old = 0u;
     switch map {
-        case 0u: { old = atomicAdd(&flux0[word], lo); }
-        case 1u: { old = atomicAdd(&flux1[word], lo); }
-        case 2u: { old = atomicAdd(&flux2[word], lo); }
-        default: { old = atomicAdd(&accum[word], lo); }
+        case 0u: { old = atomicAdd(&flux0[word], w.x); }
+        case 1u: { old = atomicAdd(&flux1[word], w.x); }
+        case 2u: { old = atomicAdd(&flux2[word], w.x); }
+        default: { old = atomicAdd(&accum[word], w.x); }
     }
-    var carry = 0u;
-    if (old > 0xffffffffu - lo) { carry = 1u; }
-    let h = u32(hi) + carry;
+    let h = w.y + fixed_carry(old, w.x);
     if (h == 0u) { return; }
     switch map {
         case 0u: { atomicAdd(&flux0[word + 1u], h); }
@@ -50,12 +43,22 @@ fn kernel(d2: f32, r: f32) -> f32 {
     return exp(-2.0 * d2 / (r * r));
 }
 
+// The four kernels' weights (radii) at texel t for a photon at continuous texel position pos: 0
+// outside the m x m map.
+fn kernels(t: vec2i, pos: vec2f, radii: vec4f, m: i32) -> vec4f {
+    var k = vec4f(0.0);
+    if (t.x < 0 || t.y < 0 || t.x >= m || t.y >= m) { return k; }
+    let dd = vec2f(t) + 0.5 - pos;
+    let d2 = dot(dd, dd);
+    for (var i = 0u; i < 4u; i++) { k[i] = kernel(d2, radii[i]); }
+    return k;
+}
+
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @builtin(local_invocation_index) lid: u32) {
-    let index = (wg.y * nwg.x + wg.x) * 64u + lid;
-    if (index >= sp.count) { return; }
+    let index = splat_index(wg, nwg, lid);
+    if (index == INVALID) { return; }
     let ph = photons[index];
-    if (ph.face == INVALID) { return; }
     let m = i32(light.info.w);
     let radii = RADII * light.params.z;
     let rr = i32(ceil(radii.w));
@@ -63,11 +66,8 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     var wsum = vec4f(0.0);
     for (var y = -rr; y <= rr; y++) {
         for (var x = -rr; x <= rr; x++) {
-            let t = c + vec2i(x, y);
-            if (t.x < 0 || t.y < 0 || t.x >= m || t.y >= m) { continue; }
-            let dd = vec2f(t) + 0.5 - ph.pos;
-            let d2 = dot(dd, dd);
-            for (var i = 0u; i < 4u; i++) { wsum[i] += kernel(d2, radii[i]); }
+            let k = kernels(c + vec2i(x, y), ph.pos, radii, m);
+            for (var i = 0u; i < 4u; i++) { wsum[i] += k[i]; }
         }
     }
     let s = light.params.y;
@@ -85,14 +85,11 @@ fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @
     for (var y = -rr; y <= rr; y++) {
         for (var x = -rr; x <= rr; x++) {
             let t = c + vec2i(x, y);
-            if (t.x < 0 || t.y < 0 || t.x >= m || t.y >= m) { continue; }
-            let dd = vec2f(t) + 0.5 - ph.pos;
-            let d2 = dot(dd, dd);
+            let k = kernels(t, ph.pos, radii, m);
             let tex = texel_index(ph.face, t);
             for (var i = 0u; i < 4u; i++) {
-                let k = kernel(d2, radii[i]);
-                if (k <= 0.0 || wsum[i] <= 0.0) { continue; }
-                let w = k / wsum[i] * s;
+                if (k[i] <= 0.0 || wsum[i] <= 0.0) { continue; }
+                let w = k[i] / wsum[i] * s;
                 add_to(i, tex * 6u, ph.flux.r * w);
                 add_to(i, tex * 6u + 2u, ph.flux.g * w);
                 add_to(i, tex * 6u + 4u, ph.flux.b * w);

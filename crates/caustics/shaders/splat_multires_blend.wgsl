@@ -32,21 +32,16 @@ fn to_f32(lo: u32, hi: u32) -> f32 {
 }
 
 fn sum64(word: u32, v_in: f32) {
-    let v = max(v_in, 0.0);
-    let hi = floor(v / 4294967296.0);
-    let lo = u32(v - hi * 4294967296.0);
-    let old = atomicAdd(&sums[word], lo);
-    var carry = 0u;
-    if (old > 0xffffffffu - lo) { carry = 1u; }
-    atomicAdd(&sums[word + 1u], u32(hi) + carry);
+    let w = fixed_words(max(v_in, 0.0));
+    let old = atomicAdd(&sums[word], w.x);
+    atomicAdd(&sums[word + 1u], w.y + fixed_carry(old, w.x));
 }
 
 fn store(b: u32, v: vec3f) {
     for (var c = 0u; c < 3u; c++) {
-        let x = max(v[c], 0.0);
-        let hi = floor(x / 4294967296.0);
-        accum[b + 2u * c] = u32(x - hi * 4294967296.0);
-        accum[b + 2u * c + 1u] = u32(hi);
+        let w = fixed_words(max(v[c], 0.0));
+        accum[b + 2u * c] = w.x;
+        accum[b + 2u * c + 1u] = w.y;
     }
 }
 

@@ -15,20 +15,16 @@
 // lands once. The photon count and indirect arguments come from `sp` (written on the GPU).
 
 #import splat
+#import splat_photons
 #import triangles
 
-@group(0) @binding(0) var<uniform> light: LightGpu;
-@group(0) @binding(1) var<storage, read> sp: SplatParams;
-@group(0) @binding(2) var<storage, read> photons: array<Photon>;
-@group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
 @group(0) @binding(4) var<storage, read> corners: array<vec4f>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3u, @builtin(num_workgroups) nwg: vec3u, @builtin(local_invocation_index) lid: u32) {
-    let index = (wg.y * nwg.x + wg.x) * 64u + lid;
-    if (index >= sp.count) { return; }
+    let index = splat_index(wg, nwg, lid);
+    if (index == INVALID) { return; }
     let ph = photons[index];
-    if (ph.face == INVALID) { return; }
     if ((ph._pad & 1u) != 0u) {
         let top = corners[2u * index];
         let bottom = corners[2u * index + 1u];

@@ -1,6 +1,6 @@
-// Shared WGSL (`#import beam_fan`, after `#import beams`): the vertex stage of the beams' hull
-// draws (beam_raster, beam_surface_raster). Instance k is part k % BEAM_HULL_PARTS of the
-// ordered list's (k / BEAM_HULL_PARTS)-th beam, its vertices a triangle fan over the hull
+// Shared WGSL (`#import beam_fan`, after `#import beams`): the vertex stage (`vs_main`) of the
+// beams' hull draws (beam_raster, beam_surface_raster). Instance k is part k % BEAM_HULL_PARTS
+// of the ordered list's (k / BEAM_HULL_PARTS)-th beam, its vertices a triangle fan over the hull
 // polygon beam_hull made for that part (BEAM_HULL_VERTICES per instance: the triangles past the
 // hull's vertex count are degenerate and draw nothing; an empty part draws none). A stage
 // importing it declares `bp` (BeamParams) and `hulls` (array<BeamHull>).
@@ -12,7 +12,8 @@ struct HullVertex {
     @location(1) @interpolate(flat) heights: vec2f,
 }
 
-fn hull_vertex(vi: u32, k: u32) -> HullVertex {
+@vertex
+fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) k: u32) -> HullVertex {
     let h = hulls[k];
     let tri = vi / 3u;
     let corner = vi % 3u;

@@ -153,8 +153,7 @@ fn beam_irradiance(b: BeamGpu, x: vec3f, n: vec3f) -> vec3f {
     let v = array<vec3f, 3>(b.v0.xyz, b.v1.xyz, b.v2.xyz);
     let dir = array<vec3f, 3>(b.d0.xyz, b.d1.xyz, b.d2.xyz);
     let t_end = vec3f(b.d0.w, b.d1.w, b.d2.w);
-    var nrm = normalize(cross(v[1] - v[0], v[2] - v[0]));
-    if (dot(nrm, dir[0] + dir[1] + dir[2]) < 0.0) { nrm = -nrm; }
+    let nrm = beam_normal(v, dir);
     let c = vec3f(dot(nrm, dir[0]), dot(nrm, dir[1]), dot(nrm, dir[2]));
     if (any(c <= vec3f(0.0))) { return vec3f(0.0); }
     let s = array<vec3f, 3>(dir[0] / c.x, dir[1] / c.y, dir[2] / c.z);

@@ -270,7 +270,7 @@ fn beam_radiance(b: BeamGpu, bs: BeamSpace, thin: vec2f, hr: vec2f, o: vec3f, d:
             let sa = kq.x + ya * (kq.y + ya * kq.z);
             let sm = kq.x + y * (kq.y + y * kq.z);
             let sb = kq.x + yb * (kq.y + yb * kq.z);
-            acc += phi / cos_t * bm_phase(dot(dl, -d), g) * tr * (2.0 * inv_quadratic_integral(sa, sm, sb, du));
+            acc += phi / cos_t * hg_phase(dot(dl, -d), g) * tr * (2.0 * inv_quadratic_integral(sa, sm, sb, du));
         }
     }
     return bp.sigma_s.rgb * acc;
@@ -393,7 +393,7 @@ fn footprint_point(o: vec3f, sd: vec3f, y: f32, pre: f32, dl: vec3f, g: f32, cam
     } else {
         tr = exp(-bp.sigma_t.rgb * (pre + seg_in_box(o, x) + seg_in_box(cam, x)));
     }
-    return bm_phase(dot(dl, -vd), g) * tr / (dist2 * z * z * z);
+    return hg_phase(dot(dl, -vd), g) * tr / (dist2 * z * z * z);
 }
 
 // The unit camera ray through image point p (pixels, (0, 0) the top-left corner).
@@ -490,14 +490,9 @@ fn beam_pixel(bi: u32, px: vec2u, v: PixelView, heights: vec2f, acc: ptr<functio
         let seg = box_clip(cam, d, t_max, bp.lo.xyz, bp.hi.xyz);
         if (seg.y <= seg.x) { continue; }
         // The ray against the bounding sphere.
-        let tc = dot(oc, d);
-        let h2 = bound.w * bound.w - (dot(oc, oc) - tc * tc);
-        if (h2 <= 0.0) { continue; }
-        let hh = sqrt(h2);
-        let t0 = max(tc - hh, seg.x);
-        let t1 = min(tc + hh, seg.y);
-        if (t1 > t0) {
-            *acc += inv_rays * beam_radiance(b, bs, thin, heights, cam + d * t0, d, t1 - t0, t0 - seg.x, cam);
+        let t = bound_span(bound, cam, d, seg);
+        if (t.y > t.x) {
+            *acc += inv_rays * beam_radiance(b, bs, thin, heights, cam + d * t.x, d, t.y - t.x, t.x - seg.x, cam);
         }
     }
     if (thin_part.y > thin_part.x) {
@@ -509,15 +504,19 @@ fn beam_pixel(bi: u32, px: vec2u, v: PixelView, heights: vec2f, acc: ptr<functio
 // (its part in the box), added to `acc`: the ray alone (no footprint: the pixel's footprint
 // after glass is not tracked, so a focal line thinner than the pixel is point-sampled there).
 fn beam_segment(bi: u32, o: vec3f, d: vec3f, seg: vec2f, acc: ptr<function, vec3f>) {
-    let bound = beams[bi].bound;
+    let t = bound_span(beams[bi].bound, o, d, seg);
+    if (t.y <= t.x) { return; }
+    let b = beams[bi];
+    *acc += beam_radiance(b, beam_space(b), vec2f(1.0, 0.0), vec2f(0.0, 3.0e38), o + d * t.x, d, t.y - t.x, t.x - seg.x, o);
+}
+
+// The part of `seg` of the ray o + t d inside a beam's bounding sphere `bound` (centre xyz,
+// radius w): (t0, t1), empty (t1 <= t0) where the ray misses it.
+fn bound_span(bound: vec4f, o: vec3f, d: vec3f, seg: vec2f) -> vec2f {
     let oc = bound.xyz - o;
     let tc = dot(oc, d);
     let h2 = bound.w * bound.w - (dot(oc, oc) - tc * tc);
-    if (h2 <= 0.0) { return; }
+    if (h2 <= 0.0) { return vec2f(1.0, 0.0); }
     let hh = sqrt(h2);
-    let t0 = max(tc - hh, seg.x);
-    let t1 = min(tc + hh, seg.y);
-    if (t1 <= t0) { return; }
-    let b = beams[bi];
-    *acc += beam_radiance(b, beam_space(b), vec2f(1.0, 0.0), vec2f(0.0, 3.0e38), o + d * t0, d, t1 - t0, t0 - seg.x, o);
+    return vec2f(max(tc - hh, seg.x), min(tc + hh, seg.y));
 }

@@ -227,6 +227,13 @@ fn beam_clip(b: BeamGpu, v: array<vec3f, 3>, s: array<vec3f, 3>, nrm: vec3f) -> 
     return vec4f(nrm, dot(nrm, v[0]));
 }
 
+// The unit normal of a beam's base (vertices v), turned along its edges (directions d).
+fn beam_normal(v: array<vec3f, 3>, d: array<vec3f, 3>) -> vec3f {
+    var nrm = normalize(cross(v[1] - v[0], v[2] - v[0]));
+    if (dot(nrm, d[0] + d[1] + d[2]) < 0.0) { nrm = -nrm; }
+    return nrm;
+}
+
 // A beam in beam space: base vertices v, unit edge directions dir, the base's normal (along the
 // edges), the edges scaled to unit height s_i = d_i / (n . d_i), and the heights of the edges'
 // ends.
@@ -249,8 +256,7 @@ fn beam_space(b: BeamGpu) -> BeamSpace {
     var r: BeamSpace;
     r.v = array<vec3f, 3>(b.v0.xyz, b.v1.xyz, b.v2.xyz);
     r.dir = array<vec3f, 3>(b.d0.xyz, b.d1.xyz, b.d2.xyz);
-    var nrm = normalize(cross(r.v[1] - r.v[0], r.v[2] - r.v[0]));
-    if (dot(nrm, r.dir[0] + r.dir[1] + r.dir[2]) < 0.0) { nrm = -nrm; }
+    let nrm = beam_normal(r.v, r.dir);
     r.nrm = nrm;
     for (var i = 0; i < 3; i++) {
         let c = dot(nrm, r.dir[i]);
@@ -266,8 +272,3 @@ fn beam_space(b: BeamGpu) -> BeamSpace {
     return r;
 }
 
-fn bm_phase(cos_t: f32, g: f32) -> f32 {
-    if (g == 0.0) { return 0.25 / PI; }
-    let den = max(1.0 + g * g - 2.0 * g * cos_t, 1e-12);
-    return (1.0 - g * g) / (4.0 * PI * den * sqrt(den));
-}

@@ -228,6 +228,19 @@ fn texel_area(face: Face, p: vec3f, n: vec3f, m: f32) -> f32 {
     return perp / max(abs(dot(n, tl)), 1e-4);
 }
 
+// 64-bit fixed point (two u32 words, low then high): sums that do not depend on the order their
+// terms arrive in (the caustic maps, the splat and emitter sums). A non-negative v as its two
+// words, rounded down.
+fn fixed_words(v: f32) -> vec2u {
+    let hi = floor(v / 4294967296.0);
+    return vec2u(u32(v - hi * 4294967296.0), u32(hi));
+}
+
+// The carry into the high word when lo is added to a low word that held `old` (atomicAdd's result).
+fn fixed_carry(old: u32, lo: u32) -> u32 {
+    return select(0u, 1u, old > 0xffffffffu - lo);
+}
+
 // A uniform number in [0, 1) from a key and a second number (a PCG hash of both): the random
 // Fresnel choices of the photon tracer's residual pass (shared/trace.wgsl) and of the beams'
 // residual branch (shared/beam_trace.wgsl), the same in every run.

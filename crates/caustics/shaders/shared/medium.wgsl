@@ -88,6 +88,25 @@ fn grid_optical_depth(grid: texture_3d<f32>, a: vec3f, b: vec3f, lo: vec3f, hi: 
     return s * dt;
 }
 
+// The unit direction from the camera at cam through the centre of pixel gid of a width x height
+// image (clip_to_world: the inverse of the camera's view-projection).
+fn pixel_ray(clip_to_world: mat4x4f, cam: vec3f, gid: vec2u, width: u32, height: u32) -> vec3f {
+    let ndc = vec2f((f32(gid.x) + 0.5) / f32(width) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(height) * 2.0);
+    let q = clip_to_world * vec4f(ndc, 0.5, 1.0);
+    return normalize(q.xyz / q.w - cam);
+}
+
+// The distance from the camera at cam to the first surface pixel px sees: the nearer of the
+// eye's diffuse and specular buffers' points (w < 0: none); 1e30 where it sees neither.
+fn first_surface(recv_pos: texture_2d<f32>, spec_pos: texture_2d<f32>, px: vec2i, cam: vec3f) -> f32 {
+    var t_max = 1e30;
+    let r = textureLoad(recv_pos, px, 0);
+    let sp = textureLoad(spec_pos, px, 0);
+    if (r.w >= 0.0) { t_max = min(t_max, length(r.xyz - cam)); }
+    if (sp.w >= 0.0) { t_max = min(t_max, length(sp.xyz - cam)); }
+    return t_max;
+}
+
 // The Henyey-Greenstein phase function (1/sr) of asymmetry g at the scattering angle's cosine
 // (g = 0: isotropic, 1 / (4 pi)).
 fn hg_phase(cos_t: f32, g: f32) -> f32 {

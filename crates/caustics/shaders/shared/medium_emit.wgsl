@@ -46,14 +46,9 @@ const EMIT_WORDS: u32 = 24u;
 // on this stage's `sums`: WGSL passes no pointer to a storage array of atomics to a shared
 // function without the unrestricted-pointer-parameters extension.)
 fn emit_add(word: u32, value: f32) {
-    let v = max(value * ep.scale, 0.0);
-    let hi = floor(v / 4294967296.0);
-    let lo = u32(v - hi * 4294967296.0);
-    if (lo == 0u && hi == 0.0) { return; }
-    let old = atomicAdd(&sums[word], lo);
-    var carry = 0u;
-    if (old > 0xffffffffu - lo) { carry = 1u; }
-    let h = u32(hi) + carry;
+    let w = fixed_words(max(value * ep.scale, 0.0));
+    if (w.x == 0u && w.y == 0u) { return; }
+    let h = w.y + fixed_carry(atomicAdd(&sums[word], w.x), w.x);
     if (h != 0u) { atomicAdd(&sums[word + 1u], h); }
 }
 

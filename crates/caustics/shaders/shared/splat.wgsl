@@ -1,6 +1,7 @@
-// Shared by the splat stages (photon_splat, splat_lens, splat_multires, caustic_triangles): 64-bit fixed-point
-// accumulation into `accum` (per face, per texel, per channel: (lo, hi) word pairs), the texel
-// index, and a normalised Gaussian splat. Uses the module-scope bindings `light` and `accum`.
+// Shared by the splat stages (photon_splat, splat_lens, splat_multires, splat_quads,
+// caustic_triangles): 64-bit fixed-point accumulation into `accum` (per face, per texel, per
+// channel: (lo, hi) word pairs), the texel index, and a normalised Gaussian splat. Uses the
+// module-scope bindings `light` and `accum` (shared/splat_photons.wgsl, or the stage's own).
 
 // Photon count of a splat dispatch, after the (indirect) dispatch arguments that the adaptive
 // techniques write on the GPU.
@@ -12,14 +13,9 @@ struct SplatParams {
 }
 
 fn add64(word: u32, value: f32) {
-    let v = max(value, 0.0);
-    let hi = floor(v / 4294967296.0);
-    let lo = u32(v - hi * 4294967296.0);
-    if (lo == 0u && hi == 0.0) { return; }
-    let old = atomicAdd(&accum[word], lo);
-    var carry = 0u;
-    if (old > 0xffffffffu - lo) { carry = 1u; }
-    let h = u32(hi) + carry;
+    let w = fixed_words(max(value, 0.0));
+    if (w.x == 0u && w.y == 0u) { return; }
+    let h = w.y + fixed_carry(atomicAdd(&accum[word], w.x), w.x);
     if (h != 0u) { atomicAdd(&accum[word + 1u], h); }
 }
 

@@ -66,6 +66,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("hierarchy", include_str!("../../shaders/shared/hierarchy.wgsl")),
     ("coverage", include_str!("../../shaders/shared/coverage.wgsl")),
     ("splat", include_str!("../../shaders/shared/splat.wgsl")),
+    ("splat_photons", include_str!("../../shaders/shared/splat_photons.wgsl")),
     ("triangles", include_str!("../../shaders/shared/triangles.wgsl")),
     ("environment", include_str!("../../shaders/shared/environment.wgsl")),
     ("medium", include_str!("../../shaders/shared/medium.wgsl")),
