@@ -4,8 +4,7 @@
 //! Surface caustics from beams (`LocalSource::Beams`): the beams' flux onto a floor, the
 //! photon caustic map on the same frame, no double counting, shadowed receivers, determinism.
 
-#[path = "../common/mod.rs"]
-mod common;
+use crate::common;
 
 mod flux;
 mod gather;

@@ -5,7 +5,7 @@
 //! accepts a directional light with a medium since the GPU's direct light in media handles
 //! them). Small sizes for lavapipe.
 
-mod common;
+use crate::common;
 use caustics::Scene;
 use caustics::caustic_spheres::{Blend, CausticSpheres, SphereSettings};
 use caustics::render::RenderSettings;

@@ -2,7 +2,7 @@
 //! lens's focus, the mirror ring's cusp, agreement with the reference images, determinism.
 //! Without an adapter they skip with a printed reason, except in CI (`CI=true`), where they fail.
 
-mod common;
+use crate::common;
 use caustics::Scene;
 use caustics::image_io::Image;
 use caustics::lightspace::LightView;

@@ -1,0 +1,30 @@
+//! The GPU tests, one module per subject, in one test binary: one link of wgpu and naga, one
+//! device whose pipelines every test shares (each shader is compiled once), and cargo's test
+//! threads balanced over all of them. Run one with
+//! `cargo test --release -p caustics --test gpu -- MODULE::TEST --exact`. Without an adapter
+//! the tests skip with a printed reason, except in CI (`CI=true`), where they fail.
+//! (`gpu_bits`, the frame's recorded hashes, is a binary of its own.)
+
+#[path = "../common/mod.rs"]
+mod common;
+#[path = "../common/temp_scene.rs"]
+mod temp_scene;
+
+mod adaptive;
+mod basic;
+mod beams;
+mod budget;
+mod caustic_spheres;
+mod environment;
+mod exact;
+mod golden;
+mod layers;
+mod lens;
+mod light_layers;
+mod medium;
+mod renderer;
+mod sphere_build;
+mod sphere_volume;
+mod spill;
+mod splat;
+mod temporal;
