@@ -23,6 +23,7 @@ mod lens;
 mod light_layers;
 mod medium;
 mod renderer;
+mod shared;
 mod sphere_build;
 mod sphere_volume;
 mod spill;
