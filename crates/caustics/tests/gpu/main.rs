@@ -3,7 +3,8 @@
 //! threads balanced over all of them. Run one with
 //! `cargo test --release -p caustics --test gpu -- MODULE::TEST --exact`. Without an adapter
 //! the tests skip with a printed reason, except in CI (`CI=true`), where they fail.
-//! (`gpu_bits`, the frame's recorded hashes, is a binary of its own.)
+//! Binaries of their own: `gpu_bits` (the frame's recorded hashes) and `gpu_budget` (the
+//! time-budget controller times frames: no other test may run beside it).
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -13,7 +14,6 @@ mod temp_scene;
 mod adaptive;
 mod basic;
 mod beams;
-mod budget;
 mod caustic_spheres;
 mod environment;
 mod exact;

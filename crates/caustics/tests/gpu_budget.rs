@@ -5,7 +5,7 @@
 //! frame's cost independent of the grid: the budget is about frames where something moves).
 //! One device for the whole binary.
 
-use crate::common;
+mod common;
 
 use caustics::budget::{BudgetController, BudgetSettings};
 use caustics::render::{Emission, RenderSettings};
