@@ -1,6 +1,6 @@
 //! A scene written to a temporary folder with its files (generated meshes) and loaded from
 //! there, as a user's scene would be. Included by the test files that build their own meshes
-//! (`#[path = "common/temp_scene.rs"] mod temp_scene;`).
+//! (the `gpu` binary's `temp_scene` module).
 
 use caustics::Scene;
 use std::sync::atomic::{AtomicU32, Ordering};

@@ -7,7 +7,7 @@
 //!   changed settings, moved camera) renders the image and caustic maps of a fresh renderer
 //!   set to that state, bit for bit.
 
-mod common;
+use crate::common;
 use caustics::Scene;
 use caustics::render::{RenderSettings, SplatMode};
 use caustics::renderer::{FrameRequest, FrameStats, Renderer};

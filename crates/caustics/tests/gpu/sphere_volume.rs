@@ -5,7 +5,8 @@
 //! accepts a directional light with a medium since the GPU's direct light in media handles
 //! them). Small sizes for lavapipe.
 
-mod common;
+use crate::common;
+use crate::shared::ball_mask;
 use caustics::Scene;
 use caustics::caustic_spheres::{Blend, CausticSpheres, SphereSettings};
 use caustics::render::RenderSettings;
@@ -65,28 +66,6 @@ fn render_gpu(ctx: &caustics::gpu::GpuContext, sc: &Scene, steps: u32) -> causti
     let mut r = Renderer::with_context(ctx.clone(), sc.clone(), s).unwrap();
     r.set_caustic_spheres(vec![(0, table())], Blend::Triangle, false).unwrap();
     r.render_once().unwrap()
-}
-
-/// The pixels whose footprint (corners and centre) misses the ball: the GPU stops its march
-/// at the ball, the reference sees the volume caustic through the glass only after refraction,
-/// which neither renders the same way (the mask of `tests/gpu_beams.rs`).
-fn ball_mask(sc: &Scene) -> caustics_reference::metrics::Mask {
-    let cam = &sc.camera;
-    let (w, h) = (cam.width, cam.height);
-    let mut mask = caustics_reference::metrics::Mask::all(w, h);
-    for y in 0..h {
-        for x in 0..w {
-            let mut hit = false;
-            for (dx, dy) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (0.5, 0.5)] {
-                let d = cam.ray_dir(x as f32 + dx, y as f32 + dy);
-                let oc = cam.position - Vec3::new(0.0, 1.5, 0.0);
-                let b = oc.dot(d);
-                hit |= b * b - (oc.length_squared() - 0.25) > 0.0 && b < 0.0;
-            }
-            mask.include[(y * w + x) as usize] = !hit;
-        }
-    }
-    mask
 }
 
 /// The in-medium caustic of the ball (the caustic-only image: a black floor has none) against

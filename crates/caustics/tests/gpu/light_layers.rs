@@ -11,9 +11,8 @@
 //! select; the exact tracer traces the same scene through the BVH (gpu_exact.rs).
 //! Without an adapter the test skips with a printed reason, except in CI (`CI=true`).
 
-mod common;
-#[path = "common/temp_scene.rs"]
-mod temp_scene;
+use crate::common;
+use crate::temp_scene;
 use caustics::Scene;
 use caustics::image_io::Image;
 use caustics::render::{Emission, RenderSettings, render};

@@ -7,7 +7,7 @@
 //! reference; a mirror isolates the layering.)
 //! Without an adapter the test skips with a printed reason, except in CI (`CI=true`).
 
-mod common;
+use crate::common;
 use caustics::Scene;
 use caustics::image_io::Image;
 use caustics::render::{RenderSettings, render};

@@ -11,7 +11,7 @@ use std::f32::consts::PI;
 
 fn scene() -> Scene {
     let mut s = Scene::from_json(
-        include_str!("../../../scenes/glass_sphere.json"),
+        include_str!("../../../../scenes/glass_sphere.json"),
         "<test>",
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes").as_path(),
     )

@@ -3,7 +3,7 @@
 //! with the dense grid, flux conservation, batching, budget errors, stability.
 //! Without an adapter they skip with a printed reason, except in CI (`CI=true`), where they fail.
 
-mod common;
+use crate::common;
 use caustics::Scene;
 use caustics::render::{Emission, GpuRender, Inspect, RenderSettings, render, render_inspect};
 use common::gpu;

@@ -5,7 +5,7 @@
 //! against the CPU reference, and the camera's caustic image of two stacked balls against the
 //! CPU reference restricted to the GPU's path classes.
 
-mod common;
+use crate::common;
 
 use caustics::raycast::{CastOptions, Ray, cast_rays};
 use caustics::render::{Emission, RenderSettings, Tracer};
@@ -19,7 +19,7 @@ fn scene(json: &str) -> Scene {
 }
 
 fn base_scene() -> Scene {
-    scene(include_str!("../../../scenes/glass_sphere.json"))
+    scene(include_str!("../../../../scenes/glass_sphere.json"))
 }
 
 /// Deterministic uniform numbers in [0, 1).

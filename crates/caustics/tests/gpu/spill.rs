@@ -11,7 +11,7 @@
 //!   path, and `Auto` on a scene that gets no spill face renders `Off`'s bits;
 //! - two frames are bit-identical and the frames after the first create no GPU object.
 
-mod common;
+use crate::common;
 use caustics::Scene;
 use caustics::lightspace::{LightView, MAX_SPOT_FRUSTUM_DEG};
 use caustics::render::{RenderSettings, SpillFaces, Tracer, render};

@@ -4,7 +4,7 @@
 //! of a one-texel sun and its shadow, its caustic against a plain directional light, rotation,
 //! the renderer's pooled resources, and the per-region occlusion.
 
-mod common;
+use crate::common;
 use caustics::Scene;
 use caustics::render::{RenderSettings, render};
 use caustics::renderer::{FrameRequest, Renderer};

@@ -8,9 +8,8 @@
 //! lens equations do not hold (spherical aberration).
 //! Without an adapter the tests skip with a printed reason, except in CI (`CI=true`).
 
-mod common;
-#[path = "common/temp_scene.rs"]
-mod temp_scene;
+use crate::common;
+use crate::temp_scene;
 use caustics::Scene;
 use caustics::render::{Inspect, RenderSettings, SplatMode, render_inspect};
 use caustics::settings::Emission;

@@ -4,8 +4,7 @@
 //! Surface caustics from beams (`LocalSource::Beams`): the beams' flux onto a floor, the
 //! photon caustic map on the same frame, no double counting, shadowed receivers, determinism.
 
-#[path = "../common/mod.rs"]
-mod common;
+use crate::common;
 
 mod flux;
 mod gather;
@@ -13,6 +12,7 @@ mod pipeline;
 mod surface;
 mod volume;
 
+use crate::shared::fresnel;
 use caustics::Scene;
 use caustics::beams::{self, Beam};
 use caustics::render::{RenderSettings, render};
@@ -51,18 +51,6 @@ fn render_settings(b: BeamSettings) -> RenderSettings {
         beams: b,
         ..Default::default()
     }
-}
-
-/// Unpolarised Fresnel reflectance (as shared/common.wgsl), eta = n_t / n_i.
-fn fresnel(cos_i: f64, eta: f64) -> f64 {
-    let s2 = (1.0 - cos_i * cos_i) / (eta * eta);
-    if s2 >= 1.0 {
-        return 1.0;
-    }
-    let ct = (1.0 - s2).sqrt();
-    let rs = (cos_i - eta * ct) / (cos_i + eta * ct);
-    let rp = (eta * cos_i - ct) / (eta * cos_i + ct);
-    0.5 * (rs * rs + rp * rp)
 }
 
 /// A glass ball (R 0.5, IOR 1.5, centre 1.5 m up) lit at 45° by a uniform spot 4.24 m away, no

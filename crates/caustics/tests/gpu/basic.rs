@@ -2,7 +2,8 @@
 //! lens's focus, the mirror ring's cusp, agreement with the reference images, determinism.
 //! Without an adapter they skip with a printed reason, except in CI (`CI=true`), where they fail.
 
-mod common;
+use crate::common;
+use crate::shared::fresnel;
 use caustics::Scene;
 use caustics::image_io::Image;
 use caustics::lightspace::LightView;
@@ -32,18 +33,6 @@ fn small(mut s: Scene, w: u32) -> Scene {
     s.camera.height = s.camera.height * w / s.camera.width;
     s.camera.width = w;
     s
-}
-
-/// Unpolarised Fresnel reflectance, eta = n_t / n_i.
-fn fresnel(cos_i: f64, eta: f64) -> f64 {
-    let s2 = (1.0 - cos_i * cos_i) / (eta * eta);
-    if s2 >= 1.0 {
-        return 1.0;
-    }
-    let ct = (1.0 - s2).sqrt();
-    let rs = (cos_i - eta * ct) / (cos_i + eta * ct);
-    let rp = (eta * cos_i - ct) / (eta * cos_i + ct);
-    0.5 * (rs * rs + rp * rp)
 }
 
 /// Flux (W, r+g+b) a point source of intensity `i` sends through a glass ball of radius r at

@@ -7,7 +7,7 @@
 //! margin fixed beforehand (1.5×), and so do the rows (C summed over a latitude: less noise, so
 //! a bias shows sooner).
 
-mod common;
+use crate::common;
 use caustics::Scene;
 use caustics::caustic_spheres::{self, CausticSpheres, DirectionLayout, Escaped, SphereGeometry, SphereSettings};
 use caustics_reference::reference::spheres;

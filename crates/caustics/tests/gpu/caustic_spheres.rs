@@ -2,7 +2,7 @@
 //! of the same tables, linearity in the lights, a moved object, and no photons traced for the
 //! directional lights the spheres handle. Small sizes for lavapipe.
 
-mod common;
+use crate::common;
 use caustics::Scene;
 use caustics::caustic_spheres::{Blend, CausticSpheres, DirectionLayout, SphereSettings};
 use caustics::image_io::Image;

@@ -7,8 +7,7 @@
 //! between a lit floor and the fog (`medium_bounce`), and a floor caustic's glow in the fog,
 //! against the CPU reference.
 
-#[path = "../common/mod.rs"]
-mod common;
+use crate::common;
 
 mod bounce;
 mod direct;

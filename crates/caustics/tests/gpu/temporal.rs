@@ -3,7 +3,7 @@
 //! deterministic, and `reset` or a map-size change starts from the new frame.
 //! Without an adapter they skip with a printed reason, except in CI (`CI=true`), where they fail.
 
-mod common;
+use crate::common;
 use caustics::Scene;
 use caustics::image_io::Image;
 use caustics::render::{RenderSettings, render};

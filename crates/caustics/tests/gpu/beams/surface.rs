@@ -3,6 +3,22 @@
 //! energy against the CPU reference.
 
 use super::*;
+use caustics::render::GpuRender;
+use caustics::settings::LocalSource;
+use std::sync::OnceLock;
+
+/// `ball_at_45(48, 48, false)` under `surface_settings(source)`, rendered once for the tests
+/// that look at it (a render is the same bits every time: `gpu_bits`, and
+/// `surface_caustic_from_beams_is_deterministic_and_creates_nothing_after_the_first_frame`).
+fn floor_render(ctx: &caustics::gpu::GpuContext, source: LocalSource) -> &'static GpuRender {
+    static BEAMS: OnceLock<GpuRender> = OnceLock::new();
+    static PHOTONS: OnceLock<GpuRender> = OnceLock::new();
+    let cell = match source {
+        LocalSource::Beams => &BEAMS,
+        LocalSource::Photons => &PHOTONS,
+    };
+    cell.get_or_init(|| render(ctx, &ball_at_45(48, 48, false), &surface_settings(source)).unwrap())
+}
 
 /// The floor area (y = 0) pixel (x, y) sees: its corner rays' quad (shoelace in x, z).
 fn floor_footprint(sc: &Scene, x: u32, y: u32) -> f64 {
@@ -18,10 +34,9 @@ fn floor_footprint(sc: &Scene, x: u32, y: u32) -> f64 {
 
 #[test]
 fn surface_caustic_from_beams_carries_the_beams_flux_onto_the_floor() {
-    use caustics::settings::LocalSource;
     let Some(ctx) = gpu() else { return };
     let sc = ball_at_45(48, 48, false);
-    let out = render(&ctx, &sc, &surface_settings(LocalSource::Beams)).unwrap();
+    let out = floor_render(&ctx, LocalSource::Beams);
     let (stats, list) = &out.beams[0];
     println!("{stats:?}");
     assert!(stats.beams > 100 && stats.overflow == 0);
@@ -80,11 +95,9 @@ fn surface_caustic_from_beams_carries_the_beams_flux_onto_the_floor() {
 
 #[test]
 fn surface_caustic_from_beams_matches_the_photon_map_and_replaces_it() {
-    use caustics::settings::LocalSource;
     let Some(ctx) = gpu() else { return };
-    let sc = ball_at_45(48, 48, false);
-    let photons = render(&ctx, &sc, &surface_settings(LocalSource::Photons)).unwrap();
-    let from_beams = render(&ctx, &sc, &surface_settings(LocalSource::Beams)).unwrap();
+    let photons = floor_render(&ctx, LocalSource::Photons);
+    let from_beams = floor_render(&ctx, LocalSource::Beams);
     // No double counting: with beams the light's photon stage traces nothing (its map is not
     // added), and the direct light is the same bits.
     println!("photons traced: {} (photons), {} (beams)", photons.photons_traced, from_beams.photons_traced);
@@ -93,7 +106,7 @@ fn surface_caustic_from_beams_matches_the_photon_map_and_replaces_it() {
     let direct = |o: &caustics::render::GpuRender| -> Vec<f32> {
         o.image.pixels.iter().zip(&o.caustic.pixels).map(|(a, c)| a[0] - c[0]).collect()
     };
-    let (dp, db) = (direct(&photons), direct(&from_beams));
+    let (dp, db) = (direct(photons), direct(from_beams));
     let worst_direct = dp.iter().zip(&db).map(|(a, b)| (a - b).abs() / a.abs().max(1e-3)).fold(0.0f32, f32::max);
     println!("direct light (image - caustic): worst relative difference {worst_direct:.2e}");
     assert!(worst_direct < 1e-4);
@@ -132,7 +145,6 @@ fn surface_caustic_from_beams_matches_the_photon_map_and_replaces_it() {
 
 #[test]
 fn surface_caustic_from_beams_stops_at_the_receiver_the_beams_land_on() {
-    use caustics::settings::LocalSource;
     let Some(ctx) = gpu() else { return };
     // A small table under the caustic: the beams that land on it light it, not the floor
     // under it (the floor there is in the table's shadow), and the same holds for photons.
@@ -146,7 +158,7 @@ fn surface_caustic_from_beams_stops_at_the_receiver_the_beams_land_on() {
     // from the ball's focus near (0.64, 0.86, 0) through the table's edges, the shadow spans
     // x 1.58 to 2.34 on the floor; sample x 1.95 to 2.2, |z| < 0.12, which the caustic lights
     // without the table.
-    let bare = render(&ctx, &ball_at_45(48, 48, false), &surface_settings(LocalSource::Beams)).unwrap();
+    let bare = floor_render(&ctx, LocalSource::Beams);
     let cam = &sc.camera;
     let (mut shadowed, mut lit_table) = (Vec::new(), 0.0f32);
     for y in 0..cam.height {
@@ -177,7 +189,6 @@ fn surface_caustic_from_beams_stops_at_the_receiver_the_beams_land_on() {
 #[test]
 fn surface_caustic_from_beams_is_deterministic_and_creates_nothing_after_the_first_frame() {
     use caustics::renderer::Renderer;
-    use caustics::settings::LocalSource;
     let Some(ctx) = gpu() else { return };
     // In fog: the surface caustic and the volume caustic from the same beams.
     let sc = ball_in_fog(14.0, 16, 12);
@@ -227,7 +238,6 @@ fn surface_caustic_from_beams_is_deterministic_and_creates_nothing_after_the_fir
 /// (issue 14's energy bound for the volume caustic).
 #[test]
 fn surface_caustic_energy_against_the_cpu_reference() {
-    use caustics::settings::LocalSource;
     let Some(ctx) = gpu() else { return };
     let sc = ball_at_45(48, 48, false);
     let rs = caustics_reference::reference::ReferenceSettings {
@@ -242,7 +252,7 @@ fn surface_caustic_energy_against_the_cpu_reference() {
     let reference = total(&cpu.caustic);
     assert!(reference > 0.0);
     let ratio = |s: RenderSettings| total(&render(&ctx, &sc, &s).unwrap().caustic) / reference;
-    let spill = ratio(surface_settings(LocalSource::Photons));
+    let spill = total(&floor_render(&ctx, LocalSource::Photons).caustic) / reference;
     let no_spill = ratio(RenderSettings {
         shading: caustics::settings::ShadingSettings {
             spill_faces: caustics::render::SpillFaces::Off,
@@ -250,7 +260,7 @@ fn surface_caustic_energy_against_the_cpu_reference() {
         },
         ..surface_settings(LocalSource::Photons)
     });
-    let beams = ratio(surface_settings(LocalSource::Beams));
+    let beams = total(&floor_render(&ctx, LocalSource::Beams).caustic) / reference;
     println!(
         "caustic energy / CPU reference: photons {spill:.4}, without the spill face {no_spill:.4}, beams {beams:.4}"
     );

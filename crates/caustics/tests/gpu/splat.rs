@@ -2,7 +2,7 @@
 //! error against the CPU reference on the sphere scene, thin-lens sizes on a spherical lens.
 //! Without an adapter they skip with a printed reason, except in CI (`CI=true`), where they fail.
 
-mod common;
+use crate::common;
 use caustics::Scene;
 use caustics::render::{GpuRender, RenderSettings, SplatMode, render};
 use caustics::settings::Emission;

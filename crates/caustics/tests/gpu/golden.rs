@@ -3,7 +3,7 @@
 //! written beside the golden file (`*.actual.png`, `*.difference.png`). To accept new output:
 //! `CAUSTICS_ACCEPT_GOLDEN=1 cargo test --release --test gpu_golden`.
 
-mod common;
+use crate::common;
 use caustics::Scene;
 use caustics::image_io::Image;
 use caustics::render::{RenderSettings, render};
