@@ -64,7 +64,7 @@
 //! So the controller settles on the best level whose cost is at most `T·(1 + band)` while the
 //! next one up is predicted over `T`: the **band** is `[cost of that level, T·(1 + band)]`;
 //! with a well predicted cost the settled level is the best that meets `T` (tests:
-//! `crates/caustics/tests/budget.rs`).
+//! `crates/caustics/tests/cpu/budget.rs`).
 //!
 //! # Why it is stable
 //!

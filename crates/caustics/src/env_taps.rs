@@ -35,7 +35,7 @@
 //! centre, good for small turns (fine regions) and compact casters.
 //!
 //! A region that cannot be cut (one texel, a black region, the merged region of D < 6) gets no
-//! taps, and its light renders exactly as a plain directional light (`tests/gpu_environment.rs`).
+//! taps, and its light renders exactly as a plain directional light (`tests/gpu/environment.rs`).
 
 use crate::gpu::types::{EnvTapsGpu, MAX_ENV_TAPS};
 use crate::scene::Environment;

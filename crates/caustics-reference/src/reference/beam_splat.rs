@@ -2,7 +2,7 @@
 //! segments toward the camera, integrated on the CPU by quadrature: the check of `beam_raster`'s
 //! per-pixel integral (`shaders/shared/beam_scatter.wgsl`) independent of its code, and with the
 //! light paths themselves (`super::branch::trace_segments`) of the beams' construction
-//! (the retired `beam_splat` example, `tests/gpu_beams.rs`; docs/benchmarks.md, "Beams: the GPU's beams
+//! (the retired `beam_splat` example, `tests/gpu/beams/`; docs/benchmarks.md, "Beams: the GPU's beams
 //! integrated on the CPU").
 //!
 //! Each point's light goes to the pixel it projects into (the box pixel filter, as the CPU

@@ -2,7 +2,7 @@
 //! objects with every dielectric interface transmitting with weight 1 − F (total internal
 //! reflection followed) and mirrors and conductors reflecting with their reflectance, as `beam_refine`'s branch 0 (`shaders/shared/beam_trace.wgsl`,
 //! `trace_edge`), with its path signature. Ground truth for the flux the transmitted beams carry
-//! (`tests/gpu_beams.rs`) and for where their paths change (the retired `beam_paths` example: docs/benchmarks.md, "Retired measurement programs").
+//! (`tests/gpu/beams/`) and for where their paths change (the retired `beam_paths` example: docs/benchmarks.md, "Retired measurement programs").
 
 use super::geometry::{Accel, spawn};
 use super::optics::{fresnel_conductor, fresnel_dielectric, reflect, refract};
@@ -161,7 +161,7 @@ pub struct Leaf {
 /// (total internal reflection followed, mirrors and conductors reflecting with their
 /// reflectance, as [`trace`]); branches whose weight falls below `min_weight` are dropped.
 /// `leaf` gets each path's [`Leaf`]. Ground truth for the beams' branches together, the
-/// residual branch's light (`tests/gpu_beams.rs`).
+/// residual branch's light (`tests/gpu/beams/`).
 pub fn tree(
     scene: &Scene,
     accel: &Accel,

@@ -4,7 +4,7 @@
 //! the photons that leave it read back and deposited on the spheres in photon order on the CPU
 //! ([`CausticSpheres::deposit`]): the same bits in every run on one device. The CPU
 //! precomputation (`caustics_reference::reference::spheres::precompute`) stays as its check
-//! (`tests/gpu_sphere_build.rs`).
+//! (`tests/gpu/sphere_build.rs`).
 //!
 //! Why deposit on the CPU: this is a precomputation, not the frame path; the deposit sums each
 //! cell in f64 in photon order, which a GPU would have to reproduce with fixed-point atomics or

@@ -1,7 +1,7 @@
 //! Small golden images: the catalogue's analytic scenes rendered at 96 px wide, compared with the
 //! stored EXR by HDR-FLIP and energy. On failure the actual image and a difference heat map are
 //! written beside the golden file (`*.actual.png`, `*.difference.png`). To accept new output:
-//! `CAUSTICS_ACCEPT_GOLDEN=1 cargo test --release --test gpu_golden`.
+//! `CAUSTICS_ACCEPT_GOLDEN=1 cargo test --release --test gpu -- golden::`.
 
 use crate::common;
 use caustics::Scene;

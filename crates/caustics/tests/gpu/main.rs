@@ -29,3 +29,4 @@ mod sphere_volume;
 mod spill;
 mod splat;
 mod temporal;
+mod water;

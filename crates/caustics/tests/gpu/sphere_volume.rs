@@ -70,7 +70,7 @@ fn render_gpu(ctx: &caustics::gpu::GpuContext, sc: &Scene, steps: u32) -> causti
 
 /// The in-medium caustic of the ball (the caustic-only image: a black floor has none) against
 /// the CPU reference with single scattering, over the pixels that do not see the ball: in the
-/// fog of `tests/gpu_beams.rs` (σs 0.3, σa 0.05 /m) and in a thin, non-absorbing one
+/// fog of `tests/gpu/beams/` (σs 0.3, σa 0.05 /m) and in a thin, non-absorbing one
 /// (σs 0.02 /m), where the transmittance is within 10 % of 1 and what is left is the fluence
 /// the spheres store. `VOLUME_SIZE=WxH`, `VOLUME_DUMP=DIR` for measurements.
 #[test]

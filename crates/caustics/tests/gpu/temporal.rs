@@ -15,7 +15,7 @@ use glam::Vec3;
 const M: u32 = 64;
 
 /// Without spill faces (their count of texels and faces per light is this file's; a spill face's
-/// filtering is checked in `tests/gpu_spill.rs`).
+/// filtering is checked in `tests/gpu/spill.rs`).
 fn settings(m: u32) -> RenderSettings {
     RenderSettings {
         photons: caustics::settings::PhotonSettings { count: 128, caustic_map_size: m, ..Default::default() },

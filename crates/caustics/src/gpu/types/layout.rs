@@ -1,9 +1,9 @@
-//! What `tests/shaders.rs` checks against the WGSL: [`CONSTANTS`], and [`LAYOUTS`], every
+//! What `tests/cpu/shaders.rs` checks against the WGSL: [`CONSTANTS`], and [`LAYOUTS`], every
 //! struct's fields as the `layouts!` macro lists them (`offset_of!` on each struct in scope).
 
 use super::*;
 
-/// (name, value) of the constants the WGSL declares under the same name: `tests/shaders.rs`
+/// (name, value) of the constants the WGSL declares under the same name: `tests/cpu/shaders.rs`
 /// checks that at least one stage declares each, and that every stage that does has this value.
 pub const CONSTANTS: &[(&str, u32)] = &[
     ("KIND_DIFFUSE", KIND_DIFFUSE),
@@ -34,7 +34,7 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("BEAM_HULL_PARTS", BEAM_HULL_PARTS),
 ];
 
-/// One field of a Rust GPU struct as the layout test (`tests/shaders.rs`) compares it with the
+/// One field of a Rust GPU struct as the layout test (`tests/cpu/shaders.rs`) compares it with the
 /// WGSL member or members it mirrors.
 #[derive(Debug, Clone, Copy)]
 pub struct FieldLayout {
@@ -117,7 +117,7 @@ macro_rules! layouts {
     (@members $f:ident [$($to:ident),+]) => { &[$(stringify!($to)),+] };
     ($($rust:ident $(as $wgsl:ident)? { $($f:ident $(=> $to:tt)?),* $(,)? })*) => {
         /// Every Rust struct the shaders read or write and the WGSL struct it mirrors, field by
-        /// field. `tests/shaders.rs` checks each against naga's layout of the WGSL in every
+        /// field. `tests/cpu/shaders.rs` checks each against naga's layout of the WGSL in every
         /// stage that declares it: the span, and every member's name, offset and size.
         pub const LAYOUTS: &[StructLayout] = &[$(StructLayout {
             rust: stringify!($rust),

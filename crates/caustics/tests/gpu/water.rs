@@ -2,7 +2,7 @@
 //! pebble inside a glass ball): lit by the photons that refracted in and seen by camera rays
 //! that refracted in, against the CPU reference.
 
-mod common;
+use crate::common;
 
 use caustics::render::RenderSettings;
 use caustics::scene::Scene;
@@ -87,7 +87,7 @@ fn surfaces_under_water_are_lit_and_seen() {
 
 fn ball_pebble() -> Scene {
     let mut ball =
-        Scene::from_json(include_str!("data/ball_pebble.json"), "<test>", std::path::Path::new(".")).unwrap();
+        Scene::from_json(include_str!("../data/ball_pebble.json"), "<test>", std::path::Path::new(".")).unwrap();
     ball.camera.width = 64;
     ball.camera.height = 64;
     ball
