@@ -454,25 +454,21 @@ fn exit_from_inside(obj: u32, m: MaterialGpu, p: vec3f, d: vec3f) -> EyeHit {
 }
 
 // The radiance of a diffuse surface met by a ray travelling inside the dielectric `obj` (at o,
-// along d) before it leaves it (a pool's floor under water, a stone in a glass block); w = -1
-// where the ray leaves first. The radiance is the screen-space search's in the camera's
-// receiver buffer (which holds the diffuse surfaces without the specular objects, so it sees
-// through the water to the floor). Where the exit was found, the search's surface must lie
-// before it and the exact tracer must confirm that something other than the object is there
-// (a search that strays changes nothing); where the tracer met another object instead of the
-// exit (`exit_from_inside`), that object must be diffuse.
+// along d) before it leaves it at `exit` (a pool's floor under water, a stone in a glass
+// block); w = -1 where the ray leaves first or no exit was found. Whether something lies there
+// is the exact tracer's answer (a diffuse object along the ray before the exit); what the ray
+// sees is the screen-space search's in the camera's receiver buffer, which holds the diffuse
+// surfaces without the specular objects and so sees through the water to the floor (near a
+// silhouette, where the search does not settle, the surface it ends on).
 fn inner_receiver(obj: u32, o: vec3f, d: vec3f, exit: EyeHit) -> vec4f {
     let miss = vec4f(0.0, 0.0, 0.0, -1.0);
     if (!exit.ok) { return miss; }
+    let a = abs(o);
+    let o2 = o + d * (2e-5 * (1.0 + max(max(a.x, a.y), a.z)));
+    rt_overflow = 0u;
+    if (!scene_diffuse_except(o2, d, distance(o, exit.p), obj) || rt_overflow != 0u) { return miss; }
     let r = trace_receivers_t(o, d);
     if (!(r.w < 1e30)) { return miss; }
-    if (exit.ok) {
-        if (!(r.w < distance(o, exit.p))) { return miss; }
-        let a = abs(o);
-        let o2 = o + d * (2e-5 * (1.0 + max(max(a.x, a.y), a.z)));
-        rt_overflow = 0u;
-        if (!scene_occluded_except(o2, d, r.w * 1.001 + 1e-4, obj) || rt_overflow != 0u) { return miss; }
-    }
     return vec4f(r.rgb, r.w);
 }
 

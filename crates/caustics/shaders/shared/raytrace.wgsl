@@ -329,6 +329,28 @@ fn scene_occluded_except(o: vec3f, d: vec3f, tmax: f32, skip: u32) -> bool {
     return false;
 }
 
+// Whether a diffuse object other than `skip` lies along o + t d, 0 < t < tmax (the camera's
+// rays inside a dielectric: a floor or a stone in the water, `composite`'s inner_receiver).
+fn scene_diffuse_except(o: vec3f, d: vec3f, tmax: f32, skip: u32) -> bool {
+    let count = arrayLength(&materials);
+    for (var i = 0u; i < count; i++) {
+        let m = materials[i];
+        if (m.kind.z == SHAPE_MESH || i == skip || m.kind.x != KIND_DIFFUSE) { continue; }
+        if (rt_shape(m, o, d, tmax).x > 0.0) { return true; }
+    }
+    var best = rt_none();
+    best.t = tmax;
+    let ninst = arrayLength(&bvh_instances);
+    let inv_d = rt_inv(d);
+    for (var ii = 0u; ii < ninst; ii++) {
+        let inst = bvh_instances[ii];
+        if (inst.object == INVALID || inst.object == skip || materials[inst.object].kind.x != KIND_DIFFUSE) { continue; }
+        if (rt_box(inst.lo.xyz, inst.hi.xyz, o, inv_d, tmax) >= 1e29) { continue; }
+        if (rt_instance(ii, o, d, &best, true)) { return true; }
+    }
+    return false;
+}
+
 // Origin of a ray leaving surface point p (geometric normal ng) along d: moved off the surface
 // to the side d goes, by a distance relative to the coordinates' magnitude (as the CPU
 // reference's `spawn`).

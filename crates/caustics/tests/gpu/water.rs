@@ -64,8 +64,8 @@ fn measure(name: &str, sc: &Scene) -> Option<(f64, f64)> {
 /// inside a glass ball, against the CPU reference in full mode (every bounce), 8 × 8-averaged
 /// at 64 × 64. Before camera rays inside a dielectric looked for the surfaces in it, everything
 /// under the water was black (energy 0.39 of the reference on the room of water).
-/// Measured on lavapipe (HDR-FLIP, energy): from above 0.132, 0.931; from the side 0.266,
-/// 0.805; the pebble 0.326, 0.821. The target (HDR-FLIP 0.10, energy within 3 %) is not
+/// Measured on lavapipe (HDR-FLIP, energy): from above 0.125, 0.943; from the side 0.255,
+/// 0.819; the pebble 0.279, 0.882. The target (HDR-FLIP 0.10, energy within 3 %) is not
 /// met yet: the image-space search cannot see what the camera does not (the stone's far side,
 /// the floor behind it), the light the water traps and sends back down (total internal
 /// reflection, a diffuse bounce the GPU does not render) is missing, and the pebble is
