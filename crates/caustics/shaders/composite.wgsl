@@ -466,7 +466,7 @@ fn inner_receiver(obj: u32, o: vec3f, d: vec3f, exit: EyeHit) -> vec4f {
     let a = abs(o);
     let o2 = o + d * (2e-5 * (1.0 + max(max(a.x, a.y), a.z)));
     rt_overflow = 0u;
-    if (!scene_diffuse_except(o2, d, distance(o, exit.p), obj) || rt_overflow != 0u) { return miss; }
+    if (!scene_occluded_except(o2, d, distance(o, exit.p), obj, true) || rt_overflow != 0u) { return miss; }
     let r = trace_receivers_t(o, d);
     if (!(r.w < 1e30)) { return miss; }
     return vec4f(r.rgb, r.w);

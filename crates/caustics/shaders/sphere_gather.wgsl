@@ -150,7 +150,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
             let to = p - c;
             let dist = length(to);
             rt_overflow = 0u;
-            visible = dist > 0.0 && !scene_occluded_except(c, to / dist, dist * (1.0 - 1e-4), object);
+            visible = dist > 0.0 && !scene_occluded_except(c, to / dist, dist * (1.0 - 1e-4), object, false);
             // A ray that overflowed the BVH stack may have missed an occluder: no caustic
             // (conservative), and counted in the frame's statistics.
             if (rt_overflow > 0u) { atomicAdd(&gather_stats[0], 1u); }

@@ -27,5 +27,5 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     let c = vis_centres[i / rays];
     let r = vis_dirs[i % rays];
     rt_overflow = 0u;
-    vis_blocked[i] = select(0u, 1u, scene_occluded_except(c.xyz, r.xyz, r.w, u32(c.w)));
+    vis_blocked[i] = select(0u, 1u, scene_occluded_except(c.xyz, r.xyz, r.w, u32(c.w), false));
 }

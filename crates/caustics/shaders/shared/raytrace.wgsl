@@ -307,13 +307,14 @@ fn scene_occluded(o: vec3f, d: vec3f, tmax: f32) -> bool {
     return false;
 }
 
-// Whether anything but object `skip` lies along o + t d, 0 < t < tmax (`scene_occluded` with
-// one object left out: caustic spheres' occlusion and visibility rays).
-fn scene_occluded_except(o: vec3f, d: vec3f, tmax: f32, skip: u32) -> bool {
+// Whether anything but object `skip` lies along o + t d, 0 < t < tmax; with `diffuse_only`,
+// only diffuse objects count (caustic spheres' occlusion and visibility rays: every object; the
+// camera's rays inside a dielectric, `composite`'s inner_receiver: a floor or a stone in it).
+fn scene_occluded_except(o: vec3f, d: vec3f, tmax: f32, skip: u32, diffuse_only: bool) -> bool {
     let count = arrayLength(&materials);
     for (var i = 0u; i < count; i++) {
         let m = materials[i];
-        if (m.kind.z == SHAPE_MESH || i == skip) { continue; }
+        if (m.kind.z == SHAPE_MESH || i == skip || (diffuse_only && m.kind.x != KIND_DIFFUSE)) { continue; }
         if (rt_shape(m, o, d, tmax).x > 0.0) { return true; }
     }
     var best = rt_none();
@@ -323,28 +324,7 @@ fn scene_occluded_except(o: vec3f, d: vec3f, tmax: f32, skip: u32) -> bool {
     for (var ii = 0u; ii < ninst; ii++) {
         let inst = bvh_instances[ii];
         if (inst.object == INVALID || inst.object == skip) { continue; }
-        if (rt_box(inst.lo.xyz, inst.hi.xyz, o, inv_d, tmax) >= 1e29) { continue; }
-        if (rt_instance(ii, o, d, &best, true)) { return true; }
-    }
-    return false;
-}
-
-// Whether a diffuse object other than `skip` lies along o + t d, 0 < t < tmax (the camera's
-// rays inside a dielectric: a floor or a stone in the water, `composite`'s inner_receiver).
-fn scene_diffuse_except(o: vec3f, d: vec3f, tmax: f32, skip: u32) -> bool {
-    let count = arrayLength(&materials);
-    for (var i = 0u; i < count; i++) {
-        let m = materials[i];
-        if (m.kind.z == SHAPE_MESH || i == skip || m.kind.x != KIND_DIFFUSE) { continue; }
-        if (rt_shape(m, o, d, tmax).x > 0.0) { return true; }
-    }
-    var best = rt_none();
-    best.t = tmax;
-    let ninst = arrayLength(&bvh_instances);
-    let inv_d = rt_inv(d);
-    for (var ii = 0u; ii < ninst; ii++) {
-        let inst = bvh_instances[ii];
-        if (inst.object == INVALID || inst.object == skip || materials[inst.object].kind.x != KIND_DIFFUSE) { continue; }
+        if (diffuse_only && materials[inst.object].kind.x != KIND_DIFFUSE) { continue; }
         if (rt_box(inst.lo.xyz, inst.hi.xyz, o, inv_d, tmax) >= 1e29) { continue; }
         if (rt_instance(ii, o, d, &best, true)) { return true; }
     }
