@@ -137,8 +137,8 @@ fn emit(p: Photon, level: u32) {
 
 // Emit photon p standing for the cell whose corners are lattice points cell_corners(a, b, d)
 // (traced beforehand); the cell is one of a cells x cells grid. With FLAG_QUADS, with its quad
-// if the corners agree with p (valid, on p's face, same path signature flux.w, no edge over
-// max_edge). Otherwise p is a Gaussian as wide as its cell's image where the corners on p's path
+// if the corners agree with p (valid, on p's face or, for a point light's cube, on a face across
+// a seam, same path signature flux.w, no edge over max_edge). Otherwise p is a Gaussian as wide as its cell's image where the corners on p's path
 // (at (+-1/2, +-1/2) cells) tell its size (light spreading thin, quads dropped at silhouettes;
 // fallback_sigma_bits), as the dense grid's triangles size theirs from ray differentials; else
 // of the fixed sigma.
@@ -156,7 +156,14 @@ fn emit_cell(p: Photon, level: u32, a: u32, b: u32, d: u32, cells: u32) {
     var sum_a = vec4f(0.0);
     var sum_m = vec3f(0.0);
     for (var q = 0u; q < 4u; q++) {
-        let same = c[q].face == p.face && c[q].flux.w == p.flux.w;
+        var same = c[q].face == p.face && c[q].flux.w == p.flux.w;
+        if (!same && light.info.x == 6u && c[q].face != INVALID && c[q].flux.w == p.flux.w) {
+            // A corner across a seam of a point light's cube: in p's face's coordinates (past
+            // its map); splat_quads spreads the quad over the faces it covers.
+            let t = texel_in_face(light.faces[c[q].face], light.faces[p.face], c[q].pos, f32(light.info.w));
+            same = t.z != 0.0;
+            c[q].pos = t.xy;
+        }
         ok = ok && same;
         if (same) {
             let dq = vec2f(f32(q & 1u) - 0.5, f32(q >> 1u) - 0.5);

@@ -7,7 +7,9 @@
 // area, so density comes from geometry, not from counting photons.
 // - Folds: a triangle that flips orientation (past a caustic cusp) is a sheet of light like any
 //   other: its flux is spread over its (unsigned) area, and overlapping sheets add up.
-// - Discontinuities: a quad is used only if its four photons are valid, land on the same face,
+// - Discontinuities: a quad is used only if its four photons are valid, land on the same face
+//   (or, for a point light's cube, on faces the quad's corners all lie in front of: the quad is
+//   then spread over the faces across the seam, shared/triangles.wgsl `triangle_cube`),
 //   followed the same path (Photon.flux.w: the path signature the tracer writes: objects and
 //   internal reflections) and no edge spans more than `max_edge` texels (an edge that long
 //   crosses a gap between surfaces). Otherwise each valid corner's quarter is splatted as a
@@ -74,20 +76,36 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     q[1] = load(x + 1, y);
     q[2] = load(x, y + 1);
     q[3] = load(x + 1, y + 1);
+    // The corners' landing points in face f's texel coordinates.
+    var pos = array<vec2f, 4>(q[0].pos, q[1].pos, q[2].pos, q[3].pos);
     let f = q[0].face;
     var ok = f != INVALID;
+    var one_path = f != INVALID;
     for (var k = 1; k < 4; k++) {
         ok = ok && q[k].face == f && q[k].flux.w == q[0].flux.w;
+        one_path = one_path && q[k].face != INVALID && q[k].flux.w == q[0].flux.w;
+    }
+    if (!ok && one_path && light.info.x == 6u) {
+        // A quad across a seam of a cube: its corners in face f's coordinates (extended past
+        // its map); `triangle` spreads each triangle over the faces it covers.
+        var inside = true;
+        for (var k = 0; k < 4; k++) {
+            var c = vec3f(q[k].pos, 1.0);
+            if (q[k].face != f) { c = texel_in_face(light.faces[q[k].face], light.faces[f], q[k].pos, f32(light.info.w)); }
+            inside = inside && c.z != 0.0;
+            pos[k] = c.xy;
+        }
+        ok = inside;
     }
     if (ok) {
-        let e = max(max(distance(q[0].pos, q[1].pos), distance(q[0].pos, q[2].pos)),
-                    max(max(distance(q[1].pos, q[3].pos), distance(q[2].pos, q[3].pos)), distance(q[0].pos, q[3].pos)));
+        let e = max(max(distance(pos[0], pos[1]), distance(pos[0], pos[2])),
+                    max(max(distance(pos[1], pos[3]), distance(pos[2], pos[3])), distance(pos[0], pos[3])));
         ok = e <= tp.max_edge;
     }
     if (ok) {
         let quad = 0.25 * (q[0].flux.rgb + q[1].flux.rgb + q[2].flux.rgb + q[3].flux.rgb);
-        triangle(f, q[0].pos, q[1].pos, q[3].pos, 0.5 * quad);
-        triangle(f, q[0].pos, q[3].pos, q[2].pos, 0.5 * quad);
+        triangle(f, pos[0], pos[1], pos[3], 0.5 * quad);
+        triangle(f, pos[0], pos[3], pos[2], 0.5 * quad);
         return;
     }
     for (var k = 0; k < 4; k++) {

@@ -9,7 +9,8 @@
 // (the bilinear estimate of where the light through the cell's corners lands; no extra
 // tracing; a neighbour beyond the tile's edge, not traced with this tile, is estimated as the
 // point reflection of the opposite neighbour through the photon). It is used (Photon._pad bit
-// 0, corners stored) only if those eight neighbours are valid, on the photon's face and path
+// 0, corners stored) only if those eight neighbours are valid, on the photon's face (or across a
+// seam of a point light's cube: `in_face_of`) and path
 // (signature flux.w) and no quad edge is longer than max(32, 8 M / N) texels; otherwise the
 // photon is a Gaussian (splat_quads) as wide as its cell's image where the neighbours on its
 // path tell it (light spreading thin; fallback_sigma_bits), else of the fixed sigma.
@@ -35,6 +36,21 @@ fn at(x: i32, y: i32) -> Photon {
     return tile[u32(y) * lp.finest + u32(x)];
 }
 
+// Neighbour n of photon p, for p's dual quad: where n landed across a seam of a point light's
+// cube on p's path, its landing point in p's face's coordinates (past its map; splat_quads
+// spreads the quad over the faces it covers), else n as it is.
+fn in_face_of(p: Photon, n: Photon) -> Photon {
+    var m = n;
+    if (light.info.x == 6u && n.face != INVALID && n.face != p.face && n.flux.w == p.flux.w) {
+        let t = texel_in_face(light.faces[n.face], light.faces[p.face], n.pos, f32(light.info.w));
+        if (t.z != 0.0) {
+            m.pos = t.xy;
+            m.face = p.face;
+        }
+    }
+    return m;
+}
+
 // Copy photon c of the tile to slot k, with its dual quad when FLAG_QUADS asks for one.
 fn store(k: u32, c: vec2u) {
     var p = tile[c.y * lp.finest + c.x];
@@ -49,7 +65,7 @@ fn store(k: u32, c: vec2u) {
     for (var q = 0u; q < 4u; q++) { sum[q] = vec2f(0.0); }
     for (var dy = -1; dy <= 1; dy++) {
         for (var dx = -1; dx <= 1; dx++) {
-            var n = at(i32(c.x) + dx, i32(c.y) + dy);
+            var n = in_face_of(p, at(i32(c.x) + dx, i32(c.y) + dy));
             let t = i32(lp.finest);
             let ox = i32(c.x) + dx;
             let oy = i32(c.y) + dy;
@@ -57,7 +73,7 @@ fn store(k: u32, c: vec2u) {
                 // Across the tile's edge (not traced with this tile): the point reflection of
                 // the opposite neighbour through the photon, exact for a locally affine map, so
                 // that the quads of neighbouring tiles meet.
-                n = at(i32(c.x) - dx, i32(c.y) - dy);
+                n = in_face_of(p, at(i32(c.x) - dx, i32(c.y) - dy));
                 n.pos = 2.0 * p.pos - n.pos;
             }
             let same = n.face == p.face && n.flux.w == p.flux.w;

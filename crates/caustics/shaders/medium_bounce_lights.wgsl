@@ -61,9 +61,7 @@ fn shadow(p: vec3f, n: vec3f) -> f32 {
     }
     if (f >= light.info.x) { return 1.0; }
     let l = to_light(light, p);
-    let texel = sqrt(texel_area(light.faces[f], p, l.xyz, s));
-    let prec = min(depth_precision(light.faces[f], p, l.xyz), 8.0 * texel);
-    let po = p + n * (1.5 * texel) + l.xyz * (1.0 * texel + prec);
+    let po = shadow_lookup_point(light.faces[f], p, n, l.xyz, s);
     let q = project_face(light.faces[f], po, s);
     if (q.w < 0.5) { return 1.0; }
     return shadow_pcf(shadow_map, shadow_sampler, q, f, s);

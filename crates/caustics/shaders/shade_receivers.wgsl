@@ -81,10 +81,7 @@ fn shadow(p: vec3f, n: vec3f) -> f32 {
     if (q0.w < 0.0) { return 1.0; }
     let f = u32(q0.w);
     let l = to_light(light, p);
-    let texel = sqrt(texel_area(light.faces[f], p, l.xyz, s));
-    // (and the depth's rounding: depth_precision; capped at 8 texels)
-    let prec = min(depth_precision(light.faces[f], p, l.xyz), 8.0 * texel);
-    let po = p + n * (1.5 * texel) + l.xyz * (1.0 * texel + prec);
+    let po = shadow_lookup_point(light.faces[f], p, n, l.xyz, s);
     let q = project_face(light.faces[f], po, s);
     if (q.w < 0.5) { return 1.0; }
     if (sp.tiles != 0u) {
@@ -99,7 +96,7 @@ fn shadow(p: vec3f, n: vec3f) -> f32 {
     return shadow_pcf(shadow_map, shadow_sampler, q, f, s);
 }
 
-fn caustic_at(p: vec3f) -> vec3f {
+fn caustic_at(p: vec3f, n: vec3f) -> vec3f {
     let m = light.info.w;
     let q = face_of(p, f32(m));
     if (q.w < 0.0) { return vec3f(0.0); }
@@ -116,6 +113,22 @@ fn caustic_at(p: vec3f) -> vec3f {
         if (caustic_mask[(f * n_t + c.y) * n_t + c.x] == 0u) { return vec3f(0.0); }
     }
     let fr = g - floor(g);
+    // Same surface: the texel's receiver point lies within 4 texels of p. Under a grazing light
+    // the bilinear neighbours' points lie up to 1.5 texels / cos apart along the surface (cos of
+    // the light's angle to the normal): where none lies within 4 texels, those within that reach
+    // (and 4 texels of p's tangent plane) are taken instead. (Taking them always blurred sharp
+    // caustics under low lights; taking none drew stripes of no caustic.)
+    var r = caustic_bilinear(f, base, fr, p, n, 4.0 * texel, 1e30);
+    let wide = 1.5 / max(abs(dot(n, l.xyz)), 0.05);
+    if (r.w <= 1e-6 && wide > 4.0) { r = caustic_bilinear(f, base, fr, p, n, wide * texel, 4.0 * texel); }
+    if (r.w <= 1e-6) { return vec3f(0.0); }
+    return r.rgb / r.w;
+}
+
+// The bilinear lookup of `caustic_at` over the texels whose receiver point lies within `reach`
+// of p and within `plane` of p's tangent plane: the weighted sum and the weights' sum (w).
+fn caustic_bilinear(f: u32, base: vec2i, fr: vec2f, p: vec3f, n: vec3f, reach: f32, plane: f32) -> vec4f {
+    let m = light.info.w;
     var acc = vec3f(0.0);
     var wsum = 0.0;
     for (var k = 0; k < 4; k++) {
@@ -124,14 +137,13 @@ fn caustic_at(p: vec3f) -> vec3f {
         if (t.x < 0 || t.y < 0 || t.x >= i32(m) || t.y >= i32(m)) { continue; }
         let r = textureLoad(recv_pos, t, f, 0);
         if (r.w < 0.0) { continue; }
-        // Same surface: the texel's receiver point lies within a few texels of p.
-        if (length(r.xyz - p) > 4.0 * texel) { continue; }
+        let off = r.xyz - p;
+        if (length(off) > reach || abs(dot(off, n)) > plane) { continue; }
         let w = select(1.0 - fr.x, fr.x, o.x == 1) * select(1.0 - fr.y, fr.y, o.y == 1);
         acc += w * irradiance[(f * m + u32(t.y)) * m + u32(t.x)].rgb;
         wsum += w;
     }
-    if (wsum <= 1e-6) { return vec3f(0.0); }
-    return acc / wsum;
+    return vec4f(acc, wsum);
 }
 
 // The pixel's footprint on the receiver: the steps to the neighbouring pixels' positions on the
@@ -155,7 +167,7 @@ fn pixel_footprint(p: vec3f, px: vec2i, object: f32) -> Footprint {
 // the pixel's footprint on the receiver (from the neighbouring pixels' positions on the same
 // object). Without it, a caustic sharper than a pixel would be point-sampled at the pixel centre
 // and its peak overstated.
-fn caustic_box(p: vec3f, px: vec2i, object: f32) -> vec3f {
+fn caustic_box(p: vec3f, n: vec3f, px: vec2i, object: f32) -> vec3f {
     let fp = pixel_footprint(p, px, object);
     let dx = fp.dx;
     let dy = fp.dy;
@@ -164,7 +176,7 @@ fn caustic_box(p: vec3f, px: vec2i, object: f32) -> vec3f {
         for (var i = 0; i < 3; i++) {
             let o = (f32(i) + 0.5) / 3.0 - 0.5;
             let q = (f32(j) + 0.5) / 3.0 - 0.5;
-            acc += caustic_at(p + o * dx + q * dy);
+            acc += caustic_at(p + o * dx + q * dy, n);
         }
     }
     return acc / 9.0;
@@ -192,7 +204,7 @@ fn caustic_taps(p: vec3f, n: vec3f, px: vec2i, object: f32) -> vec3f {
         // The turned point must lie on the plane's side of c that p does.
         if (a * b <= 0.0) { continue; }
         let s = a / b;
-        acc += t.weight.rgb * caustic_at(c + s * qr) * (s * s * s);
+        acc += t.weight.rgb * caustic_at(c + s * qr, n) * (s * s * s);
     }
     return acc;
 }
@@ -222,7 +234,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     if (taps.info.x > 0u) {
         ec = caustic_taps(p, n, vec2i(gid.xy), pw.w);
     } else {
-        ec = caustic_box(p, vec2i(gid.xy), pw.w);
+        ec = caustic_box(p, n, vec2i(gid.xy), pw.w);
     }
     if (sp.medium_lo.w > 0.5) {
         var tr: vec3f;

@@ -4,7 +4,9 @@
 //!
 //! - spot light (cone up to 75°): one perspective view along the spot axis, square, with a field
 //!   of view of twice the cone angle;
-//! - point light, or a spot wider than 75°: a cube of six 90° perspective views;
+//! - point light, or a spot wider than 75° (up to 90°: a hemisphere): a cube of six 90°
+//!   perspective views on one eye; caustic triangles and shadow lookups cross its seams
+//!   (docs/photon-tracing.md, "Wide lights");
 //! - directional light: one orthographic view along the light direction, covering the scene's
 //!   bounds.
 //!

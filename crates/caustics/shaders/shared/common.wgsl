@@ -178,6 +178,21 @@ fn project_face(face: Face, p: vec3f, size: f32) -> vec4f {
     return vec4f((ndc.x * 0.5 + 0.5) * size, (0.5 - ndc.y * 0.5) * size, ndc.z, select(0.0, 1.0, inside));
 }
 
+// Texel coordinates, in face `dst` of an M x M map, of the direction through texel coordinates
+// `pos` of face `src` (which may lie beyond its map): perspective faces on one eye (a point
+// light's cube), so a direction maps to a point of any face it lies in front of, and straight
+// lines stay straight. z = 1 where the direction lies in front of `dst` (less than about 84
+// degrees off its axis), else 0.
+fn texel_in_face(src: Face, dst: Face, pos: vec2f, m: f32) -> vec3f {
+    // A point on the ray on the far plane: far from the eye, so the direction is precise.
+    let h = src.clip_to_world * vec4f(2.0 * pos.x / m - 1.0, 1.0 - 2.0 * pos.y / m, 1.0, 1.0);
+    let p = h.xyz / h.w;
+    let c = dst.world_to_clip * vec4f(p, 1.0);
+    if (c.w <= 0.1 * distance(p, src.origin.xyz)) { return vec3f(0.0); }
+    let ndc = c.xy / c.w;
+    return vec3f((ndc.x * 0.5 + 0.5) * m, (0.5 - ndc.y * 0.5) * m, 1.0);
+}
+
 // The distance along unit u from p over which face's depth (ndc z, a float in [0, 1]) changes by
 // 8 ulps of a float near 1 (2^-24 each): what a shadow lookup's offset toward the light must add
 // for the rounding of the stored and the looked-up depths. A perspective face's depth is
@@ -255,17 +270,42 @@ fn hash_uniform(key: u32, n: u32) -> f32 {
 // Shadow-map lookups shared by the stages that read a light's shadow map (`shadow_map`: one
 // layer per face, depth; `ss`: a comparison sampler).
 
+// Where a receiver point p (unit normal n, unit `to_l` toward the light) is looked up in `face`
+// of a size x size shadow map: offset along n and toward the light by its texels (one texel's
+// width at p across the light's ray), and the depth's rounding (`depth_precision`, capped at 8
+// texels). The normal offset: the 3x3 PCF's bilinear taps reach texel centres up to 1.5 texels
+// beyond the lookup's own ray, where a receiver lit at a grazing angle (sine s of the light's
+// angle to it) lies farther from the light by 1.5 texels * cos / s; lifting p off the surface by
+// d brings it d / s nearer along its ray, so d must exceed 1.5 texels * cos: 2.5 * cos where that
+// is more than 1.5 (a point light 5 cm above a floor drew the floor in rings of acne). For
+// perspective faces only: a directional light's texels are one size everywhere, and there the
+// larger offset moved the shadow edges of glass_sphere_studio's low lights (HDR-FLIP against
+// the CPU reference 0.0523 -> 0.0528) with no acne to remove.
+fn shadow_lookup_point(face: Face, p: vec3f, n: vec3f, to_l: vec3f, size: f32) -> vec3f {
+    let texel = sqrt(texel_area(face, p, to_l, size));
+    let prec = min(depth_precision(face, p, to_l), 8.0 * texel);
+    var lift = 1.5;
+    if (face.origin.w < 0.5) { lift = max(1.5, 2.5 * sqrt(max(1.0 - dot(n, to_l) * dot(n, to_l), 0.0))); }
+    return p + n * (lift * texel) + to_l * (1.0 * texel + prec);
+}
+
 // 3x3 PCF around q (texel x, texel y, ndc depth: `project_face` of an offset point) in layer f
-// of a size x size map: the fraction of the nine comparisons that pass.
+// of a size x size map: the fraction of the comparisons that pass, of the taps inside the face
+// (a tap past its edge would read the edge texels, clamped, for a direction they do not hold:
+// at a cube's seams that drew lines).
 fn shadow_pcf(shadow_map: texture_depth_2d_array, ss: sampler_comparison, q: vec4f, f: u32, size: f32) -> f32 {
     var vis = 0.0;
+    var taps = 0.0;
     for (var y = -1; y <= 1; y++) {
         for (var x = -1; x <= 1; x++) {
             let uv = (q.xy + vec2f(f32(x), f32(y))) / size;
+            if (any(uv < vec2f(0.0)) || any(uv > vec2f(1.0))) { continue; }
             vis += textureSampleCompareLevel(shadow_map, ss, uv, f, q.z);
+            taps += 1.0;
         }
     }
-    return vis / 9.0;
+    if (taps == 0.0) { return 1.0; }
+    return vis / taps;
 }
 
 // Whether the light reaches the medium point x through face f (0..1): one bilinear comparison

@@ -51,6 +51,11 @@ fn clipped_area(a: vec2f, b: vec2f, c: vec2f, t: vec2f) -> f32 {
 
 fn triangle(face: u32, a: vec2f, b: vec2f, c: vec2f, flux: vec3f) {
     let m = i32(light.info.w);
+    let mf = f32(m);
+    if (light.info.x == 6u && (any(min(a, min(b, c)) < vec2f(0.0)) || any(max(a, max(b, c)) > vec2f(mf)))) {
+        triangle_cube(face, a, b, c, flux);
+        return;
+    }
     let centroid = clamp(vec2i(floor((a + b + c) / 3.0)), vec2i(0), vec2i(m - 1));
     let area = 0.5 * abs(cross2(b - a, c - a));
     let lo = max(vec2i(floor(min(a, min(b, c)))), vec2i(0));
@@ -69,4 +74,68 @@ fn triangle(face: u32, a: vec2f, b: vec2f, c: vec2f, flux: vec3f) {
         }
     }
     if (wsum < 1.0) { deposit(face, centroid, flux * (1.0 - wsum)); }
+}
+
+// The share of triangle (a, b, c) (texel coordinates of one face) inside the m x m map: 1 for
+// a triangle of no area whose centroid lies in the map, else 0 for one.
+fn map_share(a: vec2f, b: vec2f, c: vec2f, m: f32) -> f32 {
+    let area = 0.5 * abs(cross2(b - a, c - a));
+    if (area < 1e-6) {
+        let g = (a + b + c) / 3.0;
+        return select(0.0, 1.0, all(g >= vec2f(0.0)) && all(g < vec2f(m)));
+    }
+    // The map as the unit square (scaled coordinates): one clipping of the whole triangle.
+    return clamp(clipped_area(a / m, b / m, c / m, vec2f(0.0)) * m * m / area, 0.0, 1.0);
+}
+
+// A caustic triangle of a point light's cube (or a spot light's wider than a face) that leaves
+// its face's map: given in face f's texel coordinates, extended past the map, it crosses a seam
+// of the cube. Each face g the triangle's corners lie in front of receives the part of the
+// triangle inside g's map, re-projected into g (exact clipped area per texel, as `triangle`),
+// the shares normalised so that the whole flux lands once. Without it the quads across a seam
+// fell back to Gaussians held inside one face, drawing the seams as bright and dark lines.
+fn triangle_cube(f: u32, a: vec2f, b: vec2f, c: vec2f, flux: vec3f) {
+    let m = i32(light.info.w);
+    let mf = f32(m);
+    var share: array<f32, 6>;
+    var total = 0.0;
+    for (var g = 0u; g < 6u; g++) {
+        share[g] = 0.0;
+        let ga = texel_in_face(light.faces[f], light.faces[g], a, mf);
+        let gb = texel_in_face(light.faces[f], light.faces[g], b, mf);
+        let gc = texel_in_face(light.faces[f], light.faces[g], c, mf);
+        if (ga.z == 0.0 || gb.z == 0.0 || gc.z == 0.0) { continue; }
+        share[g] = map_share(ga.xy, gb.xy, gc.xy, mf);
+        total += share[g];
+    }
+    if (total <= 0.0) {
+        deposit(f, clamp(vec2i(floor((a + b + c) / 3.0)), vec2i(0), vec2i(m - 1)), flux);
+        return;
+    }
+    for (var g = 0u; g < 6u; g++) {
+        if (share[g] <= 0.0) { continue; }
+        let ga = texel_in_face(light.faces[f], light.faces[g], a, mf).xy;
+        let gb = texel_in_face(light.faces[f], light.faces[g], b, mf).xy;
+        let gc = texel_in_face(light.faces[f], light.faces[g], c, mf).xy;
+        let part = flux * (share[g] / total);
+        let area = 0.5 * abs(cross2(gb - ga, gc - ga));
+        let centroid = clamp(vec2i(floor((ga + gb + gc) / 3.0)), vec2i(0), vec2i(m - 1));
+        let lo = max(vec2i(floor(min(ga, min(gb, gc)))), vec2i(0));
+        let hi = min(vec2i(floor(max(ga, max(gb, gc)))), vec2i(m - 1));
+        if (area < 1e-6 || all(lo == hi)) {
+            deposit(g, centroid, part);
+            continue;
+        }
+        // The texel weights of the in-map part, renormalised to it (they sum to its share).
+        var wsum = 0.0;
+        for (var y = lo.y; y <= hi.y; y++) {
+            for (var x = lo.x; x <= hi.x; x++) {
+                let w = clipped_area(ga, gb, gc, vec2f(f32(x), f32(y))) / area;
+                if (w <= 0.0) { continue; }
+                wsum += w;
+                deposit(g, vec2i(x, y), part * (w / share[g]));
+            }
+        }
+        if (wsum < share[g]) { deposit(g, centroid, part * (1.0 - wsum / share[g])); }
+    }
 }

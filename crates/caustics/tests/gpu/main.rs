@@ -30,3 +30,4 @@ mod spill;
 mod splat;
 mod temporal;
 mod water;
+mod wide_lights;
