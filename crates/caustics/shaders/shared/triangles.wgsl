@@ -56,6 +56,15 @@ fn triangle(face: u32, a: vec2f, b: vec2f, c: vec2f, flux: vec3f) {
         triangle_cube(face, a, b, c, flux);
         return;
     }
+    triangle_in_face(face, a, b, c, flux, 1.0);
+}
+
+// `flux`, the part of a triangle's flux that lands in face `face`'s map (`share` of the
+// triangle's area there lies inside the map), spread over the texels the triangle (a, b, c)
+// covers by exact clipped area, renormalised to the share; rounding (and a triangle of no area,
+// or inside one texel) goes to the texel of its centroid (clamped).
+fn triangle_in_face(face: u32, a: vec2f, b: vec2f, c: vec2f, flux: vec3f, share: f32) {
+    let m = i32(light.info.w);
     let centroid = clamp(vec2i(floor((a + b + c) / 3.0)), vec2i(0), vec2i(m - 1));
     let area = 0.5 * abs(cross2(b - a, c - a));
     let lo = max(vec2i(floor(min(a, min(b, c)))), vec2i(0));
@@ -70,10 +79,10 @@ fn triangle(face: u32, a: vec2f, b: vec2f, c: vec2f, flux: vec3f) {
             let w = clipped_area(a, b, c, vec2f(f32(x), f32(y))) / area;
             if (w <= 0.0) { continue; }
             wsum += w;
-            deposit(face, vec2i(x, y), flux * w);
+            deposit(face, vec2i(x, y), flux * (w / share));
         }
     }
-    if (wsum < 1.0) { deposit(face, centroid, flux * (1.0 - wsum)); }
+    if (wsum < share) { deposit(face, centroid, flux * (1.0 - wsum / share)); }
 }
 
 // The share of triangle (a, b, c) (texel coordinates of one face) inside the m x m map: 1 for
@@ -117,25 +126,6 @@ fn triangle_cube(f: u32, a: vec2f, b: vec2f, c: vec2f, flux: vec3f) {
         let ga = texel_in_face(light.faces[f], light.faces[g], a, mf).xy;
         let gb = texel_in_face(light.faces[f], light.faces[g], b, mf).xy;
         let gc = texel_in_face(light.faces[f], light.faces[g], c, mf).xy;
-        let part = flux * (share[g] / total);
-        let area = 0.5 * abs(cross2(gb - ga, gc - ga));
-        let centroid = clamp(vec2i(floor((ga + gb + gc) / 3.0)), vec2i(0), vec2i(m - 1));
-        let lo = max(vec2i(floor(min(ga, min(gb, gc)))), vec2i(0));
-        let hi = min(vec2i(floor(max(ga, max(gb, gc)))), vec2i(m - 1));
-        if (area < 1e-6 || all(lo == hi)) {
-            deposit(g, centroid, part);
-            continue;
-        }
-        // The texel weights of the in-map part, renormalised to it (they sum to its share).
-        var wsum = 0.0;
-        for (var y = lo.y; y <= hi.y; y++) {
-            for (var x = lo.x; x <= hi.x; x++) {
-                let w = clipped_area(ga, gb, gc, vec2f(f32(x), f32(y))) / area;
-                if (w <= 0.0) { continue; }
-                wsum += w;
-                deposit(g, vec2i(x, y), part * (w / share[g]));
-            }
-        }
-        if (wsum < share[g]) { deposit(g, centroid, part * (1.0 - wsum / share[g])); }
+        triangle_in_face(g, ga, gb, gc, flux * (share[g] / total), share[g]);
     }
 }
