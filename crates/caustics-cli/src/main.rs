@@ -308,6 +308,7 @@ fn run(cli: Cli) -> Result<()> {
                         camera_spp: cpu.spp,
                         seed: cpu.seed,
                         medium_single_scattering_only: cpu.single_scattering,
+                        max_depth: cpu.max_depth,
                         caustic_paths,
                         // The caustic maps get a spill face where the GPU's would (at the GPU's
                         // default caustic map size when none is given).

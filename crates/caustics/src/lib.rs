@@ -62,6 +62,7 @@ pub mod gpu;
 pub mod image_io;
 pub mod lightspace;
 pub(crate) mod medium_bounce;
+pub(crate) mod medium_multiple;
 pub mod output;
 pub(crate) mod passes;
 pub mod raycast;

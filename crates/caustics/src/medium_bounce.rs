@@ -374,19 +374,22 @@ pub(crate) fn record_surfaces(
     // the beams' for the volume caustic's light.
     let fog = std::iter::once((&bf.shafts, bf.shaft_count)).chain(bf.glow.iter().map(|(b, n)| (b, *n)));
     for (vpls, count) in fog {
-        record_surface_gather(dc, eye, vpls, count, true, enc, timer);
+        record_surface_gather(dc, eye, (vpls, count), (true, false), enc, timer);
     }
     for (vpls, count) in beam_vpls {
-        record_surface_gather(dc, eye, vpls, *count, false, enc, timer);
+        record_surface_gather(dc, eye, (vpls, *count), (false, false), enc, timer);
     }
 }
 
-fn record_surface_gather(
+/// `medium_bounce_surfaces` over `count` emitters in `vpls`: `layers`, they stand for fog
+/// filling the space (the layer gain applies); `isotropic`, they scatter the same way in every
+/// direction (the multiple-scattering grid's: src/medium_multiple/), else by the medium's phase
+/// function about their direction.
+pub(crate) fn record_surface_gather(
     dc: &DrawCtx,
     eye: &EyeFrame,
-    vpls: &wgpu::Buffer,
-    count: u32,
-    layers: bool,
+    (vpls, count): (&wgpu::Buffer, u32),
+    (layers, isotropic): (bool, bool),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut PassTimer,
 ) {
@@ -399,7 +402,7 @@ fn record_surface_gather(
         bytemuck::bytes_of(&SurfaceBounceParams {
             lo,
             hi,
-            sigma_t: [sigma_t[0], sigma_t[1], sigma_t[2], sigma_s[3]],
+            sigma_t: [sigma_t[0], sigma_t[1], sigma_t[2], if isotropic { 0.0 } else { sigma_s[3] }],
             camera: cam.position.extend(1.0).to_array(),
             width: cam.width,
             height: cam.height,

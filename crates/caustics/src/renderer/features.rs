@@ -11,13 +11,14 @@ pub(crate) struct Features {
     pub spheres: crate::caustic_spheres::SpheresFeature,
     pub beams: crate::beams::Beams,
     pub bounce: crate::medium_bounce::MediumBounce,
+    pub multiple: crate::medium_multiple::MediumMultiple,
     pub composite: crate::passes::Composite,
     pub display: crate::passes::Display,
 }
 
 impl Features {
     /// Before the composite, in order.
-    pub fn surfaces(&mut self) -> [&mut dyn Feature; 6] {
+    pub fn surfaces(&mut self) -> [&mut dyn Feature; 7] {
         [
             &mut self.camera,
             &mut self.photon_maps,
@@ -25,12 +26,13 @@ impl Features {
             &mut self.spheres,
             &mut self.beams,
             &mut self.bounce,
+            &mut self.multiple,
         ]
     }
 
     /// From the composite on, along the camera rays, in order.
-    pub fn along_rays(&mut self) -> [&mut dyn Feature; 5] {
-        [&mut self.composite, &mut self.bounce, &mut self.beams, &mut self.spheres, &mut self.display]
+    pub fn along_rays(&mut self) -> [&mut dyn Feature; 6] {
+        [&mut self.composite, &mut self.bounce, &mut self.beams, &mut self.spheres, &mut self.multiple, &mut self.display]
     }
 
     /// Tell every feature what changed.

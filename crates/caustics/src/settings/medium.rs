@@ -29,11 +29,25 @@ pub struct MediumSettings {
     /// specular surface"). Default on; off, glass shows what lies behind it as if the medium
     /// ended at its surface (cheaper).
     pub beyond_specular: bool,
+    /// Multiple scattering (light scattered twice or more in the medium, docs/media.md
+    /// "Multiple scattering"): photons per light on random walks through the medium and the
+    /// scene, whose second and later scattering events fill a grid the camera and the surfaces
+    /// read (`medium_ms_*`, src/medium_multiple/), 0 to 16777216; 0 leaves multiple scattering
+    /// out (single scattering only, as before it existed).
+    pub multiple_photons: u32,
+    /// Cells of that grid along the medium box's longest side (the others in proportion), 2 to
+    /// 128.
+    pub multiple_grid: u32,
 }
 
 impl Default for MediumSettings {
     fn default() -> Self {
-        MediumSettings { steps: 64, light_steps: 16, bounce_grid: 16, bounce_steps: 8, beyond_specular: true }
+        MediumSettings {
+            steps: 64, light_steps: 16, bounce_grid: 16, bounce_steps: 8,
+            beyond_specular: true,
+            multiple_photons: 262_144,
+            multiple_grid: 32,
+        }
     }
 }
 
@@ -51,6 +65,12 @@ impl MediumSettings {
         }
         if !(1..=4096).contains(&self.bounce_steps) {
             return Err(("medium.bounce_steps", format!("must be 1 to 4096 (got {})", self.bounce_steps)));
+        }
+        if self.multiple_photons > 1 << 24 {
+            return Err(("medium.multiple_photons", format!("must be 0 to 16777216 (got {})", self.multiple_photons)));
+        }
+        if !(2..=128).contains(&self.multiple_grid) {
+            return Err(("medium.multiple_grid", format!("must be 2 to 128 (got {})", self.multiple_grid)));
         }
         Ok(())
     }

@@ -60,7 +60,8 @@ fn render_gpu(ctx: &caustics::gpu::GpuContext, sc: &Scene, steps: u32) -> causti
             ..Default::default()
         },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
-        medium: caustics::settings::MediumSettings { steps, ..Default::default() },
+        // (single scattering: the tests compare with the reference's single-scattering mode)
+        medium: caustics::settings::MediumSettings { steps, multiple_photons: 0, ..Default::default() },
         ..Default::default()
     };
     let mut r = Renderer::with_context(ctx.clone(), sc.clone(), s).unwrap();

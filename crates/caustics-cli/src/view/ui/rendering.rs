@@ -195,6 +195,20 @@ fn medium_controls(
             })),
         );
     }
+    let mut multiple = s.medium.multiple_photons > 0;
+    let r = ui.checkbox(&mut multiple, "multiple scattering").on_hover_text(
+        "Light scattered twice or more in the fog, from a grid photons fill (off: single scattering only, cheaper)",
+    );
+    if r.changed() {
+        let multiple_photons = if multiple { caustics::settings::MediumSettings::default().multiple_photons } else { 0 };
+        act(
+            session,
+            Action::SetSettings(Box::new(caustics::render::RenderSettings {
+                medium: caustics::settings::MediumSettings { multiple_photons, ..s.medium },
+                ..s.clone()
+            })),
+        );
+    }
     let mut beyond = s.medium.beyond_specular;
     let r = ui.checkbox(&mut beyond, "fog seen through glass").on_hover_text(
         "The medium along the camera rays beyond glass and mirrors: attenuation and the fog's light (off: cheaper)",

@@ -153,3 +153,29 @@ pub struct EmitParams {
 
 /// Segments kept per specular pixel (`EYE_SEGMENTS` in `shaders/shared/medium.wgsl`).
 pub const EYE_SEGMENTS: u64 = 2;
+
+/// The multiple-scattering grid's stages (`medium_ms_trace`, `medium_ms_resolve`,
+/// `medium_ms_view`: shaders/shared/medium_multiple.wgsl).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct MsParams {
+    pub clip_to_world: [[f32; 4]; 4],
+    pub camera: [f32; 4],
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+    /// rgb = sigma_s, w = Henyey-Greenstein g.
+    pub sigma_s: [f32; 4],
+    /// rgb = sigma_t, w = the free flights' majorant (1/m).
+    pub sigma_t: [f32; 4],
+    /// A directional light's emission disk: centre, radius (m).
+    pub disk: [f32; 4],
+    /// xyz = cells per axis, w = 1 with a density grid.
+    pub dims: [u32; 4],
+    pub photons: u32,
+    pub seed: u32,
+    pub _pad: [u32; 2],
+    pub width: u32,
+    pub height: u32,
+    pub steps: u32,
+    pub max_events: u32,
+}

@@ -49,6 +49,8 @@ fn render_settings(b: BeamSettings) -> RenderSettings {
         photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 64, ..Default::default() },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 256, ..Default::default() },
         beams: b,
+        // (single scattering: the tests compare with the reference's single-scattering mode)
+        medium: caustics::settings::MediumSettings { multiple_photons: 0, ..Default::default() },
         ..Default::default()
     }
 }

@@ -5,13 +5,14 @@
 //! scattering in a smoke puff against the CPU reference; single scattering of a directional
 //! light (a sun whose light enters the box from outside) against the CPU reference; light
 //! between a lit floor and the fog (`medium_bounce`), and a floor caustic's glow in the fog,
-//! against the CPU reference.
+//! against the CPU reference; multiple scattering (`medium_ms_*`) against the full reference.
 
 use crate::common;
 
 mod bounce;
 mod direct;
 mod glass;
+mod multiple;
 
 use caustics::Scene;
 use caustics::render::{RenderSettings, render};
@@ -31,6 +32,8 @@ fn settings() -> RenderSettings {
     RenderSettings {
         photons: caustics::settings::PhotonSettings { count: 64, caustic_map_size: 64, ..Default::default() },
         shading: caustics::settings::ShadingSettings { shadow_map_size: 512, ..Default::default() },
+        // (single scattering: the tests compare with the reference's single-scattering mode)
+        medium: caustics::settings::MediumSettings { multiple_photons: 0, ..Default::default() },
         ..Default::default()
     }
 }

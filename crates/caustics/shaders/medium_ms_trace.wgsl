@@ -1,0 +1,176 @@
+// Stage: medium_ms_trace. The medium's multiple scattering, photons' part (src/medium_multiple/,
+// docs/media.md "Multiple scattering"): `mp.photons` photons of one light, each on its own
+// random walk (a deterministic PCG stream per photon): emitted by the light's intensity over
+// its cone (a spot), the sphere (a point light) or a disk beyond the scene (a directional
+// light), then, up to `mp.max_events` events, exact through every surface (scene_hit:
+// dielectrics choose reflection or refraction by Fresnel, mirrors and conductors reflect with
+// their colour, diffuse surfaces bounce by the cosine with Russian roulette by albedo) and
+// through the medium outside the dielectrics by free-flight sampling against the majorant
+// (delta tracking with spectral weights, Kutz et al. 2017: a homogeneous grey medium needs no
+// null events; a density grid's are its empty space). At every scattering event after the
+// path's first in the medium (or after two diffuse bounces) the photon's scattered flux is
+// added to the cell that holds it (64-bit fixed point: the same sums in any order). The first
+// scattering event is the single scattering the other passes draw exactly (`medium_scatter`,
+// the beams, `medium_bounce`), so the grid holds orders two and up.
+
+#import shapes
+#import raytrace
+#import medium
+#import scene
+#import medium_multiple
+
+@group(0) @binding(0) var<uniform> light: LightGpu;
+@group(0) @binding(1) var<uniform> mp: MsParams;
+// Per cell, r, g, b as 64-bit fixed-point words (low, high).
+@group(0) @binding(2) var<storage, read_write> sums: array<atomic<u32>>;
+
+var<private> rng_state: u32;
+
+fn rnd() -> f32 {
+    rng_state = rng_state * 747796405u + 2891336453u;
+    var s = rng_state;
+    s = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
+    s = (s >> 22u) ^ s;
+    return f32(s >> 8u) * (1.0 / 16777216.0);
+}
+
+// An orthonormal pair perpendicular to unit a.
+fn ms_basis(a: vec3f) -> mat2x3f {
+    let t = normalize(cross(select(vec3f(1.0, 0.0, 0.0), vec3f(0.0, 1.0, 0.0), abs(a.x) > 0.9), a));
+    return mat2x3f(t, cross(a, t));
+}
+
+// A direction at cosine c to unit a, at azimuth phi.
+fn ms_around(a: vec3f, c: f32, phi: f32) -> vec3f {
+    let b = ms_basis(a);
+    let s = sqrt(max(1.0 - c * c, 0.0));
+    return normalize(a * c + (b[0] * cos(phi) + b[1] * sin(phi)) * s);
+}
+
+fn deposit(x: vec3f, flux: vec3f) {
+    let c = ms_cell(x) * 6u;
+    let scale = ms_scale(light);
+    for (var ch = 0u; ch < 3u; ch++) {
+        let v = flux[ch] * scale;
+        if (!(v > 0.0)) { continue; }
+        let w = fixed_words(v);
+        let old = atomicAdd(&sums[c + ch * 2u], w.x);
+        let hi = w.y + fixed_carry(old, w.x);
+        if (hi != 0u) { atomicAdd(&sums[c + ch * 2u + 1u], hi); }
+    }
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) nwg: vec3u) {
+    let i = gid.y * nwg.x * 64u + gid.x;
+    if (i >= mp.photons) { return; }
+    // The photon's stream: its index and the seed through one PCG step.
+    rng_state = (i ^ (mp.seed * 2654435769u)) * 747796405u + 2891336453u;
+    rng_state = ((rng_state >> ((rng_state >> 28u) + 4u)) ^ rng_state) * 277803737u;
+    let n = f32(max(mp.photons, 1u));
+    var o: vec3f;
+    var d: vec3f;
+    var flux: vec3f;
+    if (light.info.y == LIGHT_DIRECTIONAL) {
+        d = normalize(light.axis.xyz);
+        let r = mp.disk.w * sqrt(rnd());
+        let phi = 2.0 * PI * rnd();
+        let b = ms_basis(d);
+        o = mp.disk.xyz - d * (mp.disk.w + 1.0) + (b[0] * cos(phi) + b[1] * sin(phi)) * r;
+        flux = light.power.rgb * (PI * mp.disk.w * mp.disk.w) / n;
+    } else {
+        o = light.faces[0].origin.xyz;
+        if (light.info.y == LIGHT_SPOT) {
+            let cc = cos(light.axis.w);
+            let c = 1.0 - rnd() * (1.0 - cc);
+            d = ms_around(light.axis.xyz, c, 2.0 * PI * rnd());
+            flux = intensity_toward(light, d) * (2.0 * PI * (1.0 - cc)) / n;
+        } else {
+            d = ms_around(vec3f(0.0, 0.0, 1.0), 1.0 - 2.0 * rnd(), 2.0 * PI * rnd());
+            flux = light.power.rgb * (4.0 * PI) / n;
+        }
+    }
+    let lo = mp.lo.xyz;
+    let hi = mp.hi.xyz;
+    let maj = mp.sigma_t.w;
+    let g = mp.sigma_s.w;
+    var in_medium = true;
+    var scatters = 0u;
+    var diffuse = 0u;
+    for (var ev = 0u; ev < mp.max_events; ev++) {
+        if (!any(flux > vec3f(0.0))) { return; }
+        let h = scene_hit(o, d, 1e30);
+        // The medium along the segment: free flights against the majorant.
+        var scattered = false;
+        if (in_medium && maj > 0.0) {
+            let seg = box_clip(o, d, h.t, lo, hi);
+            var t = seg.x;
+            while (seg.y > seg.x) {
+                t -= log(1.0 - rnd()) / maj;
+                if (t >= seg.y) { break; }
+                let x = o + d * t;
+                var rho = 1.0;
+                if (mp.dims.w != 0u) { rho = grid_density(density_grid, x, lo, hi); }
+                let ss = rho * mp.sigma_s.rgb;
+                let sn = max(vec3f(maj) - rho * mp.sigma_t.rgb, vec3f(0.0));
+                let ps = (ss.r + ss.g + ss.b) / (3.0 * maj);
+                let pn = (sn.r + sn.g + sn.b) / (3.0 * maj);
+                let u = rnd();
+                if (u < ps) {
+                    flux *= ss / (maj * ps);
+                    if (scatters >= 1u || diffuse >= 2u) { deposit(x, flux); }
+                    scatters++;
+                    // Henyey-Greenstein about the direction of travel (isotropic at g = 0).
+                    var c = 1.0 - 2.0 * rnd();
+                    if (abs(g) > 1e-3) {
+                        let q = (1.0 - g * g) / (1.0 - g + 2.0 * g * rnd());
+                        c = clamp((1.0 + g * g - q * q) / (2.0 * g), -1.0, 1.0);
+                    }
+                    d = ms_around(d, c, 2.0 * PI * rnd());
+                    o = x;
+                    scattered = true;
+                    break;
+                } else if (u < ps + pn) {
+                    flux *= sn / (maj * pn);
+                } else {
+                    return;
+                }
+            }
+        }
+        if (scattered) { continue; }
+        if (h.object == INVALID) { return; }
+        let mat = materials[h.object];
+        let front = dot(d, h.ng) < 0.0;
+        let ng = select(-h.ng, h.ng, front);
+        let ns = select(-h.ns, h.ns, front);
+        if (mat.kind.x == KIND_DIFFUSE) {
+            // Russian roulette by the albedo's largest channel (at most 0.95).
+            let a = mat.a.rgb;
+            let keep = min(max(max(a.r, a.g), a.b), 0.95);
+            if (rnd() >= keep) { return; }
+            flux *= a / keep;
+            diffuse++;
+            let u1 = rnd();
+            d = ms_around(ng, sqrt(1.0 - u1), 2.0 * PI * rnd());
+            o = rt_spawn(h.p, h.ng, d);
+            in_medium = true;
+            continue;
+        }
+        var n = ns;
+        var eta = 1.0;
+        var reflect_it = true;
+        if (mat.kind.x == KIND_MIRROR || mat.kind.x == KIND_CONDUCTOR) {
+            flux *= rt_metal_weight(mat, d, ns);
+        } else {
+            let fz = rt_dielectric_fresnel(mat, d, ns, ng, front);
+            n = fz.n;
+            eta = fz.eta;
+            reflect_it = rnd() < fz.f;
+        }
+        let bz = rt_bounce(d, n, ng, eta, reflect_it);
+        // Inside a dielectric after entering it, or reflecting inside it: no medium there.
+        in_medium = !(mat.kind.x == KIND_DIELECTRIC && (front != bz.reflected));
+        d = bz.dir;
+        o = rt_spawn(h.p, h.ng, d);
+    }
+}
