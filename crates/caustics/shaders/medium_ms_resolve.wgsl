@@ -36,17 +36,19 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     cells[c] = vec4f(cells[c].rgb + p, 0.0);
 }
 
+// Cells per side of an emitter block (`gpu::types::MS_BLOCK`).
+const MS_BLOCK: u32 = 2u;
 fn emitter(e: u32) {
-    let ed = (mp.dims.xyz + 1u) / 2u;
+    let ed = (mp.dims.xyz + MS_BLOCK - 1u) / MS_BLOCK;
     if (e >= ed.x * ed.y * ed.z) { return; }
-    let b = vec3u(e % ed.x, (e / ed.x) % ed.y, e / (ed.x * ed.y)) * 2u;
+    let b = vec3u(e % ed.x, (e / ed.x) % ed.y, e / (ed.x * ed.y)) * MS_BLOCK;
     let size = (mp.hi.xyz - mp.lo.xyz) / vec3f(mp.dims.xyz);
     var power = vec3f(0.0);
     var w = 0.0;
     var m1 = vec3f(0.0);
     var m2 = vec3f(0.0);
-    for (var k = 0u; k < 8u; k++) {
-        let c = b + vec3u(k & 1u, (k >> 1u) & 1u, k >> 2u);
+    for (var k = 0u; k < MS_BLOCK * MS_BLOCK * MS_BLOCK; k++) {
+        let c = b + vec3u(k % MS_BLOCK, (k / MS_BLOCK) % MS_BLOCK, k / (MS_BLOCK * MS_BLOCK));
         if (any(c >= mp.dims.xyz)) { continue; }
         let pc = cells[c.x + mp.dims.x * (c.y + mp.dims.y * c.z)].rgb;
         // Relative to the block's first cell's centre.

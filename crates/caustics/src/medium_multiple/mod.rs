@@ -26,7 +26,7 @@
 
 use crate::frame::{Feature, Frame};
 use crate::gpu::pass::Pass;
-use crate::gpu::types::{MsParams, VplGpu};
+use crate::gpu::types::{MS_BLOCK, MsParams, VplGpu};
 use crate::passes::{DrawCtx, LightFrame, layer_view};
 use crate::settings::RenderSettings;
 
@@ -106,7 +106,7 @@ fn record_lights(
     let ctx = dc.ctx;
     let d = dims(dc.scene.medium.as_ref()?, s.medium.multiple_grid);
     let count = d[0] * d[1] * d[2];
-    let emitters = d.iter().map(|x| x.div_ceil(2)).product::<u32>();
+    let emitters = d.iter().map(|x| x.div_ceil(MS_BLOCK)).product::<u32>();
     let cells = ctx.buffer("medium_ms_cells", u64::from(count) * 16, wgpu::BufferUsages::STORAGE);
     let vpls = ctx.buffer(
         "medium_ms_vpls",

@@ -32,6 +32,7 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("BEAM_ORDER_RUN", BEAM_ORDER_RUN),
     ("BEAM_HULL_MAX", BEAM_HULL_MAX),
     ("BEAM_HULL_PARTS", BEAM_HULL_PARTS),
+    ("MS_BLOCK", MS_BLOCK),
 ];
 
 /// One field of a Rust GPU struct as the layout test (`tests/cpu/shaders.rs`) compares it with the
