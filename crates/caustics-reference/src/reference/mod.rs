@@ -48,13 +48,10 @@ pub use trace::{CausticPaths, Deposit};
 use trace::{PhotonOut, PhotonTargets, Tracer};
 
 fn check_scene(scene: &Scene) -> Result<()> {
-    // The loader refuses these; scenes built in code are checked here. A directional light
-    // with a medium is rendered here (its light enters the box from the vacuum outside it; the
-    // GPU's volume caustics from caustic spheres are compared with it), though the loader
-    // refuses it for the GPU's direct light in media.
-    if scene.medium.is_some() && scene.environment.is_some() {
-        return Err(Error::input(&scene.source, "medium", "a medium cannot be combined with an environment light"));
-    }
+    // The loader refuses what the renderer cannot draw; scenes built in code are checked here.
+    // (A directional or environment light with a medium: their light enters the box from the
+    // vacuum outside it.)
+    let _ = scene;
     Ok(())
 }
 

@@ -451,6 +451,17 @@ impl<'a> Tracer<'a> {
             }
             l += incident * m.transmittance(x, dir, dist, rng) * m.phase(wi, dir);
         }
+        // The environment: one sample from its distribution (the phase-sampled ray that escapes
+        // adds nothing: `trace_camera`), attenuated by the medium on its way out of the box.
+        if let Some(env) = self.scene.environment.as_deref()
+            && let Some(s) = env.sample(rng.next_2d())
+            && s.radiance.max_element() > 0.0
+        {
+            rays += 1;
+            if !self.accel.occluded(x, s.dir, f32::INFINITY) {
+                l += s.radiance * m.transmittance(x, s.dir, f32::INFINITY, rng) * (m.phase(wi, s.dir) / s.pdf);
+            }
+        }
         (l, rays)
     }
 
@@ -532,7 +543,9 @@ impl<'a> Tracer<'a> {
             }
             let Some(h) = hit else {
                 if let Some(env) = env {
-                    if !seen_diffuse {
+                    // (after a scattering event in the medium the environment was sampled there:
+                    // `medium_direct`; this ray, sampled by the phase function, adds nothing)
+                    if !seen_diffuse && !scattered {
                         l += beta * env.lookup(d);
                     } else if let Some(pb) = bsdf_pdf {
                         let pl = env.pdf(d);
@@ -633,7 +646,8 @@ impl<'a> Tracer<'a> {
                 if !self.accel.occluded(spawn(p, ng_raw, s.dir), s.dir, f32::INFINITY) {
                     let pb = s.dir.dot(ng) / PI;
                     let w = if last { 1.0 } else { s.pdf * s.pdf / (s.pdf * s.pdf + pb * pb) };
-                    e += s.radiance * (s.dir.dot(ns).max(0.0) * w / s.pdf);
+                    let t = if self.media.is_some() { self.transmittance(p, s.dir, f32::INFINITY, rng) } else { Vec3::ONE };
+                    e += s.radiance * t * (s.dir.dot(ns).max(0.0) * w / s.pdf);
                 }
             }
         }

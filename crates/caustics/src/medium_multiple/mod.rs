@@ -38,7 +38,7 @@ const MAX_EVENTS: u32 = 256;
 pub(crate) fn wanted(scene: &crate::scene::Scene, s: &RenderSettings) -> bool {
     scene.medium.as_ref().is_some_and(|m| m.sigma_s.max_element() > 0.0)
         && s.medium.multiple_photons > 0
-        && !scene.lights.is_empty()
+        && (!scene.lights.is_empty() || scene.environment.is_some())
 }
 
 /// Cells per axis: `grid` along the box's longest side, the others in proportion (at least 2).
@@ -95,7 +95,7 @@ struct MsFrame {
 /// `medium_ms_trace` and `medium_ms_resolve` for every light, then the emitters.
 fn record_lights(
     dc: &DrawCtx,
-    lights: &[&LightFrame],
+    (lights, own): (&[&LightFrame], usize),
     s: &RenderSettings,
     enc: &mut wgpu::CommandEncoder,
     timer: &mut crate::gpu::PassTimer,
@@ -113,11 +113,17 @@ fn record_lights(
         u64::from(emitters) * std::mem::size_of::<VplGpu>() as u64,
         wgpu::BufferUsages::STORAGE,
     );
-    let photons = s.medium.multiple_photons;
-    let groups = photons.div_ceil(64);
-    let gx = groups.min(65535);
     let mut last = None;
     for (i, lf) in lights.iter().enumerate() {
+        // The environment's directional lights (after the scene's own) share one light's
+        // photons: each is a part of one light.
+        let photons = if i < own {
+            s.medium.multiple_photons
+        } else {
+            (s.medium.multiple_photons / (lights.len() - own) as u32).max(1024)
+        };
+        let groups = photons.div_ceil(64);
+        let gx = groups.min(65535);
         let p = ctx.uniform("medium_ms_params", bytemuck::bytes_of(&params(dc, s, None, (photons, i as u32 + 1))));
         let sums = ctx.buffer(&format!("medium_ms_sums{i}"), u64::from(count) * 24, wgpu::BufferUsages::STORAGE);
         Pass::new(ctx, "medium_ms_trace")
@@ -153,7 +159,7 @@ impl Feature for MediumMultiple {
         if f.redone.iter().any(|&r| r) || self.grid.is_none() {
             f.dc.ctx.begin_scope("medium_ms_lights", f.enc);
             let lights = crate::frame::light_refs(&f.lights);
-            self.grid = record_lights(&f.dc, &lights, f.s, f.enc, f.timer);
+            self.grid = record_lights(&f.dc, (&lights, f.env.own_lights), f.s, f.enc, f.timer);
             f.dc.ctx.end_scope();
         }
         let Some(grid) = &self.grid else { return Ok(()) };

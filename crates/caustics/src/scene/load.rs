@@ -302,11 +302,6 @@ pub(super) fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                     format!("min must be below max on every axis (an empty or inverted box: min {lo}, max {hi})"),
                 ));
             }
-            if let Some((k, _)) = &environment {
-                return Err(
-                    cx.err("medium", format!("a medium cannot be combined with an environment light (lights[{k}])"))
-                );
-            }
             let sigma_s = cx.nonneg_rgb("medium.sigma_s", m.sigma_s)?;
             let sigma_a = cx.nonneg_rgb("medium.sigma_a", m.sigma_a)?;
             let density = match &m.density {
