@@ -646,7 +646,8 @@ impl<'a> Tracer<'a> {
                 if !self.accel.occluded(spawn(p, ng_raw, s.dir), s.dir, f32::INFINITY) {
                     let pb = s.dir.dot(ng) / PI;
                     let w = if last { 1.0 } else { s.pdf * s.pdf / (s.pdf * s.pdf + pb * pb) };
-                    let t = if self.media.is_some() { self.transmittance(p, s.dir, f32::INFINITY, rng) } else { Vec3::ONE };
+                    let t =
+                        if self.media.is_some() { self.transmittance(p, s.dir, f32::INFINITY, rng) } else { Vec3::ONE };
                     e += s.radiance * t * (s.dir.dot(ns).max(0.0) * w / s.pdf);
                 }
             }

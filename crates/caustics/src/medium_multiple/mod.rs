@@ -50,7 +50,12 @@ fn dims(m: &crate::scene::Medium, grid: u32) -> [u32; 3] {
 }
 
 /// The stages' parameters (the camera's part left zero where `eye` is `None`).
-fn params(dc: &DrawCtx, s: &RenderSettings, eye: Option<&crate::passes::EyeFrame>, photons_seed: (u32, u32)) -> MsParams {
+fn params(
+    dc: &DrawCtx,
+    s: &RenderSettings,
+    eye: Option<&crate::passes::EyeFrame>,
+    photons_seed: (u32, u32),
+) -> MsParams {
     let scene = dc.scene;
     let m = scene.medium.as_ref().expect("multiple scattering needs a medium");
     let g = match m.phase {

@@ -32,7 +32,14 @@ impl Features {
 
     /// From the composite on, along the camera rays, in order.
     pub fn along_rays(&mut self) -> [&mut dyn Feature; 6] {
-        [&mut self.composite, &mut self.bounce, &mut self.beams, &mut self.spheres, &mut self.multiple, &mut self.display]
+        [
+            &mut self.composite,
+            &mut self.bounce,
+            &mut self.beams,
+            &mut self.spheres,
+            &mut self.multiple,
+            &mut self.display,
+        ]
     }
 
     /// Tell every feature what changed.

@@ -43,7 +43,10 @@ pub struct MediumSettings {
 impl Default for MediumSettings {
     fn default() -> Self {
         MediumSettings {
-            steps: 64, light_steps: 16, bounce_grid: 16, bounce_steps: 8,
+            steps: 64,
+            light_steps: 16,
+            bounce_grid: 16,
+            bounce_steps: 8,
             beyond_specular: true,
             multiple_photons: 262_144,
             multiple_grid: 32,

@@ -258,7 +258,9 @@ fn negative_texels_are_set_to_zero_with_a_warning() {
 /// A fog box (σs 1 /m, no absorption) around the camera under a uniform sky of radiance `l`,
 /// nothing else in it (one tiny black square far below, as a scene needs an object).
 pub fn uniform_sky_in_fog(l: Vec3, size: u32) -> Scene {
-    let cam = format!(r#"{{ "position": [0, 0, 0], "look_at": [0, 0.3, -3], "fov_y_deg": 70, "width": {size}, "height": {size} }}"#);
+    let cam = format!(
+        r#"{{ "position": [0, 0, 0], "look_at": [0, 0.3, -3], "fov_y_deg": 70, "width": {size}, "height": {size} }}"#
+    );
     let speck = r#"{ "type": "rectangle", "center": [0, -30, 0], "normal": [0, 1, 0], "size": [0.1, 0.1], "material": "floor" }"#;
     let json = format!(
         r#"{{ "schema_version": 1, "name": "uniform_sky_fog", "camera": {cam}, "lights": [ {ENV} ],
@@ -288,11 +290,13 @@ fn fog_without_absorption_under_a_uniform_sky_keeps_the_skys_radiance() {
         ..Default::default()
     };
     let mean = |o: &reference::ReferenceOutput| {
-        o.image.pixels.iter().fold(glam::DVec3::ZERO, |a, p| a + Vec3::from_array(*p).as_dvec3()) / o.image.pixels.len() as f64
+        o.image.pixels.iter().fold(glam::DVec3::ZERO, |a, p| a + Vec3::from_array(*p).as_dvec3())
+            / o.image.pixels.len() as f64
     };
     let full = mean(&reference::render(&s, &rs).unwrap()) / l.as_dvec3();
-    let single = mean(&reference::render(&s, &ReferenceSettings { medium_single_scattering_only: true, ..rs }).unwrap())
-        / l.as_dvec3();
+    let single =
+        mean(&reference::render(&s, &ReferenceSettings { medium_single_scattering_only: true, ..rs }).unwrap())
+            / l.as_dvec3();
     println!("mean / sky radiance: every order {full}, single scattering {single}");
     // Measured: 0.996 (each channel), single scattering 0.221.
     assert!((full - 1.0).abs().max_element() < 0.02, "every order: {full}");

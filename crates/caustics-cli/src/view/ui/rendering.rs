@@ -200,7 +200,8 @@ fn medium_controls(
         "Light scattered twice or more in the fog, from a grid photons fill (off: single scattering only, cheaper)",
     );
     if r.changed() {
-        let multiple_photons = if multiple { caustics::settings::MediumSettings::default().multiple_photons } else { 0 };
+        let multiple_photons =
+            if multiple { caustics::settings::MediumSettings::default().multiple_photons } else { 0 };
         act(
             session,
             Action::SetSettings(Box::new(caustics::render::RenderSettings {

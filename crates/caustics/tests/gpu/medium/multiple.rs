@@ -11,7 +11,8 @@ use super::*;
 /// out: the reference's light through glass into dense fog comes from photon beams whose rare
 /// bright pixels would need minutes of reference to average; docs/benchmarks.md measures it.)
 fn dense_fog_room(w: u32, h: u32, ball: bool) -> Scene {
-    let ball = if ball { r#"{ "type": "sphere", "center": [0, 0.8, 0], "radius": 0.4, "material": "glass" },"# } else { "" };
+    let ball =
+        if ball { r#"{ "type": "sphere", "center": [0, 0.8, 0], "radius": 0.4, "material": "glass" },"# } else { "" };
     scene(&format!(
         r#"{{ "schema_version": 1, "name": "dense_fog_room",
   "camera": {{ "position": [0.0, 1.5, 1.9], "look_at": [0.0, 0.6, 0.0], "fov_y_deg": 50.0, "width": {w}, "height": {h} }},
@@ -46,7 +47,9 @@ fn full_reference(sc: &Scene, spp: u32, seed: u64) -> caustics::image_io::Image 
 /// Sum over the image's rows `rows` (all channels).
 fn band(img: &caustics::image_io::Image, rows: std::ops::Range<u32>) -> f64 {
     let w = img.width;
-    rows.flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| img.get(x, y).iter().map(|&c| f64::from(c)).sum::<f64>()).sum()
+    rows.flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| img.get(x, y).iter().map(|&c| f64::from(c)).sum::<f64>())
+        .sum()
 }
 
 #[test]
@@ -64,7 +67,9 @@ fn multiple_scattering_in_a_dense_fog_room_matches_the_full_reference() {
         let r = 0.5 * (a + b);
         let noise = (a - b).abs() / r;
         let (gm, gs) = (band(&g.image, rows.clone()) / r, band(&single.image, rows) / r);
-        println!("{name}: GPU / reference {gm:.4} (single scattering only {gs:.4}; the reference's seeds differ by {noise:.4})");
+        println!(
+            "{name}: GPU / reference {gm:.4} (single scattering only {gs:.4}; the reference's seeds differ by {noise:.4})"
+        );
         // Measured (lavapipe): top 0.961, bottom 1.003, all 0.978; single scattering only
         // 0.18, 0.16, 0.17. Bound: the issue's 5 % per band (3 % for the whole) plus the
         // reference's own spread.
@@ -161,10 +166,10 @@ fn fog_without_absorption_under_a_uniform_sky_keeps_the_skys_radiance() {
               "bounds": { "min": [-2, -2, -2], "max": [2, 2, 2] } } }"#,
     );
     let l = Vec3::new(1.0, 0.5, 0.25);
-    sc.environment =
-        Some(Arc::new(caustics::scene::Environment::from_texels(64, 32, vec![l; 64 * 32], 17.0).unwrap()));
+    sc.environment = Some(Arc::new(caustics::scene::Environment::from_texels(64, 32, vec![l; 64 * 32], 17.0).unwrap()));
     let mean = |img: &caustics::image_io::Image| {
-        img.pixels.iter().fold(glam::DVec3::ZERO, |a, p| a + Vec3::from_array(*p).as_dvec3()) / img.pixels.len() as f64
+        img.pixels.iter().fold(glam::DVec3::ZERO, |a, p| a + Vec3::from_array(*p).as_dvec3())
+            / img.pixels.len() as f64
             / l.as_dvec3()
     };
     let full = mean(&render(&ctx, &sc, &ms_settings(1 << 18)).unwrap().image);
