@@ -209,12 +209,7 @@ fn a_camera_move_keeps_the_lights_vpls_and_matches_a_fresh_renderer() {
     // (16 x 16: the medium's passes cost per pixel, and what is compared is bits, not sizes)
     let mut sc = lit_floor_fog_scene();
     (sc.camera.width, sc.camera.height) = (16, 16);
-    let frame = |r: &mut Renderer| {
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        r.encode(&mut enc, FrameRequest { stats: true }).unwrap();
-        ctx.queue.submit([enc.finish()]);
-        r.wait_stats().unwrap().expect("the frame asked for statistics")
-    };
+    let frame = |r: &mut Renderer| frame_stats(&ctx, r);
     let mut light = sc.lights[0].clone();
     if let caustics::scene::Light::Spot { position, .. } = &mut light {
         *position += Vec3::new(0.3, 0.0, -0.2);

@@ -62,6 +62,14 @@ fn with_grid(mut sc: Scene, g: DensityGrid) -> Scene {
     sc
 }
 
+/// One frame of `r` with statistics, and its statistics.
+fn frame_stats(ctx: &caustics::gpu::GpuContext, r: &mut Renderer) -> caustics::renderer::FrameStats {
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    r.encode(&mut enc, FrameRequest { stats: true }).unwrap();
+    ctx.queue.submit([enc.finish()]);
+    r.wait_stats().unwrap().expect("the frame asked for statistics")
+}
+
 /// `scenes/glass_sphere_fog.json` without its ball, at 32 × 32: a spot light over a floor of
 /// albedo 0.8 in fog, seen from above; the top rows see only fog, the bottom rows the floor.
 fn lit_floor_fog_scene() -> Scene {

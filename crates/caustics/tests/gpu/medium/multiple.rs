@@ -115,12 +115,7 @@ fn a_camera_move_keeps_the_grid_and_matches_a_fresh_renderer() {
     // passes not recorded). The image is a fresh renderer's, bit for bit.
     let sc = dense_fog_room(12, 12, false);
     let s = ms_settings(1 << 14);
-    let frame = |r: &mut Renderer| {
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        r.encode(&mut enc, FrameRequest { stats: true }).unwrap();
-        ctx.queue.submit([enc.finish()]);
-        r.wait_stats().unwrap().expect("the frame asked for statistics")
-    };
+    let frame = |r: &mut Renderer| frame_stats(&ctx, r);
     let mut light = sc.lights[0].clone();
     if let caustics::scene::Light::Spot { position, .. } = &mut light {
         *position += Vec3::new(0.3, 0.0, -0.2);
