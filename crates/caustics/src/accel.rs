@@ -191,6 +191,115 @@ impl SceneBvh {
     }
 }
 
+/// A bottom level refit in place (deformed meshes, [`SceneBvh::refit`]): the tree's topology
+/// is kept and its boxes are recomputed bottom-up. Nodes are grouped by height (leaves 0, an
+/// inner node one above the higher of its children), so that every node of a level depends only
+/// on lower levels: the GPU refits one level per dispatch (`shaders/bvh_refit.wgsl`), the CPU in
+/// the same order. Boxes are minima and maxima of the vertices (leaves) and of the two children
+/// (inner nodes), exact operations: both give the same bits.
+impl SceneBvh {
+    /// The instance of mesh object `object` (an index into [`SceneBvh::instances`]).
+    pub fn instance_of(&self, object: usize) -> Option<usize> {
+        self.instances.iter().position(|i| i.0 as usize == object)
+    }
+
+    /// Instance `k`'s nodes and triangles (global index ranges).
+    pub fn instance_ranges(&self, k: usize) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
+        let (_, root, first, _) = self.instances[k];
+        let next = self.instances.get(k + 1);
+        let nodes_end = next.map_or(self.nodes.len(), |n| n.1 as usize);
+        let tris_end = next.map_or(self.tris.len(), |n| n.2 as usize);
+        (root as usize..nodes_end, first as usize..tris_end)
+    }
+
+    /// Instance `k`'s nodes (global indices) by height, leaves first; empty for a mesh without
+    /// triangles (its one node is the empty box, which stays).
+    pub fn refit_levels(&self, k: usize) -> Vec<Vec<u32>> {
+        let (nodes, tris) = self.instance_ranges(k);
+        if tris.is_empty() {
+            return Vec::new();
+        }
+        // Heights by an explicit post-order walk (children before their parent).
+        let mut height = vec![0u32; nodes.len()];
+        let mut levels: Vec<Vec<u32>> = Vec::new();
+        let mut stack = vec![(nodes.start, false)];
+        while let Some((i, children_done)) = stack.pop() {
+            let n = self.nodes[i];
+            let h = if n.count != 0 {
+                0
+            } else if children_done {
+                let (a, b) = (n.a as usize - nodes.start, n.a as usize + 1 - nodes.start);
+                height[a].max(height[b]) + 1
+            } else {
+                stack.push((i, true));
+                stack.push((n.a as usize, false));
+                stack.push((n.a as usize + 1, false));
+                continue;
+            };
+            height[i - nodes.start] = h;
+            if levels.len() <= h as usize {
+                levels.resize(h as usize + 1, Vec::new());
+            }
+            levels[h as usize].push(i as u32);
+        }
+        for l in &mut levels {
+            l.sort_unstable();
+        }
+        levels
+    }
+
+    /// Refit instance `k` to its mesh's new vertices (`positions`, `normals`, `indices` as the
+    /// mesh has them, in the scene file's pose; same vertex count and triangles as it was built
+    /// from): its triangles rewritten (leaf order kept), its node boxes recomputed bottom-up
+    /// (`levels`: [`SceneBvh::refit_levels`]) and its bounds set to the root's box.
+    pub fn refit(&mut self, k: usize, levels: &[Vec<u32>], positions: &[Vec3], normals: &[Vec3], indices: &[[u32; 3]]) {
+        let (_, tris) = self.instance_ranges(k);
+        for t in &mut self.tris[tris] {
+            let pi = t.p0[3].to_bits();
+            let idx = indices[pi as usize];
+            let p = idx.map(|i| positions[i as usize]);
+            let n = idx.map(|i| normals.get(i as usize).copied().unwrap_or(Vec3::ZERO));
+            *t = BvhTri {
+                p0: p[0].extend(f32::from_bits(pi)).to_array(),
+                p1: p[1].extend(0.0).to_array(),
+                p2: p[2].extend(0.0).to_array(),
+                n0: n[0].extend(0.0).to_array(),
+                n1: n[1].extend(0.0).to_array(),
+                n2: n[2].extend(0.0).to_array(),
+            };
+        }
+        for level in levels {
+            for &i in level {
+                let n = self.nodes[i as usize];
+                let (lo, hi) = if n.count == 0 {
+                    let (a, b) = (self.nodes[n.a as usize], self.nodes[n.a as usize + 1]);
+                    (Vec3::from(a.lo).min(Vec3::from(b.lo)), Vec3::from(a.hi).max(Vec3::from(b.hi)))
+                } else {
+                    leaf_box(&self.tris[n.a as usize..(n.a + n.count) as usize])
+                };
+                self.nodes[i as usize].lo = lo.to_array();
+                self.nodes[i as usize].hi = hi.to_array();
+            }
+        }
+        let root = self.nodes[self.instances[k].1 as usize];
+        self.instances[k].3 = (Vec3::from(root.lo), Vec3::from(root.hi));
+    }
+}
+
+/// The box of a leaf's triangles: the minimum and maximum of their vertices, in the order
+/// `shaders/bvh_refit.wgsl` takes them.
+fn leaf_box(tris: &[BvhTri]) -> (Vec3, Vec3) {
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for t in tris {
+        for p in [t.p0, t.p1, t.p2] {
+            let p = Vec3::new(p[0], p[1], p[2]);
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    (lo, hi)
+}
+
 /// An affine map as three rows (x, y, z) of a 3 × 4 matrix.
 fn rows(t: &Affine3A) -> [[f32; 4]; 3] {
     let m = t.matrix3;
@@ -261,5 +370,61 @@ mod tests {
         // The leaf-order triangles are the mesh's (positions by original index).
         let tris: Vec<[Vec3; 3]> = m.indices.iter().map(|t| t.map(|i| m.positions[i as usize])).collect();
         assert!(brute(&tris, Vec3::new(0.0, 0.0, -5.0), Vec3::Z).is_some_and(|t| (t - 4.0).abs() < 0.01));
+    }
+
+    fn two_meshes() -> (Scene, Vec<crate::scene::TriMesh>) {
+        use crate::scene::{Shape, Tessellation};
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+        let mut scene = Scene::load(&dir.join("glass_sphere.json")).expect("catalogue scene");
+        let t = Tessellation::default();
+        let a = Shape::Sphere { center: Vec3::ZERO, radius: 1.0 }.tessellate(&t);
+        let b = Shape::Cylinder { base_center: Vec3::X, axis: Vec3::Y, radius: 0.5, height: 1.0 }.tessellate(&t);
+        let mut o = scene.objects[0].clone();
+        scene.objects.clear();
+        for m in [&a, &b] {
+            o.shape = Shape::Mesh(std::sync::Arc::new(m.clone()));
+            scene.objects.push(o.clone());
+        }
+        (scene, vec![a, b])
+    }
+
+    #[test]
+    fn refit_of_unchanged_vertices_is_the_build_and_a_deformed_refit_nests() {
+        let (scene, meshes) = two_meshes();
+        let built = SceneBvh::build(&scene);
+        let mut b = built.clone();
+        for (k, m) in meshes.iter().enumerate() {
+            let levels = b.refit_levels(k);
+            let (nodes, _) = b.instance_ranges(k);
+            assert_eq!(levels.iter().map(Vec::len).sum::<usize>(), nodes.len(), "every node in one level");
+            b.refit(k, &levels, &m.positions, &m.normals, &m.indices);
+        }
+        assert!(b.nodes == built.nodes && b.tris == built.tris && b.instances == built.instances);
+        // The second mesh deformed: its boxes contain their children and triangles, the first
+        // mesh's are untouched, and the bounds are the positions' (every vertex is used).
+        let m = &meshes[1];
+        let moved: Vec<Vec3> =
+            m.positions.iter().map(|p| *p + Vec3::new(0.3 * (p.y * 5.0).sin(), p.x * 0.2, 0.1)).collect();
+        let levels = b.refit_levels(1);
+        b.refit(1, &levels, &moved, &m.normals, &m.indices);
+        let (nodes, tris) = b.instance_ranges(1);
+        assert_eq!(b.nodes[..nodes.start], built.nodes[..nodes.start]);
+        assert_ne!(b.tris[tris.clone()], built.tris[tris.clone()]);
+        for i in nodes {
+            let n = b.nodes[i];
+            let inside = |p: [f32; 4]| (0..3).all(|ax| p[ax] >= n.lo[ax] && p[ax] <= n.hi[ax]);
+            if n.count == 0 {
+                for c in [b.nodes[n.a as usize], b.nodes[n.a as usize + 1]] {
+                    assert!(inside([c.lo[0], c.lo[1], c.lo[2], 0.0]) && inside([c.hi[0], c.hi[1], c.hi[2], 0.0]));
+                }
+            } else {
+                for t in &b.tris[n.a as usize..(n.a + n.count) as usize] {
+                    assert!(inside(t.p0) && inside(t.p1) && inside(t.p2), "triangle outside its leaf");
+                }
+            }
+        }
+        let lo = moved.iter().fold(Vec3::splat(f32::MAX), |a, p| a.min(*p));
+        let hi = moved.iter().fold(Vec3::splat(f32::MIN), |a, p| a.max(*p));
+        assert_eq!(b.instances[1].3, (lo, hi));
     }
 }

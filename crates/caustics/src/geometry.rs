@@ -4,9 +4,9 @@
 //! feature (so it sits below the frame's modules).
 
 use crate::gpu::GpuContext;
-use crate::gpu::pass::SharedGroup;
+use crate::gpu::pass::{Pass, SharedGroup};
 use crate::gpu::types::*;
-use crate::scene::{Material, Scene, Tessellation};
+use crate::scene::{Material, Scene, Tessellation, TriMesh};
 use glam::Mat4;
 use std::ops::Range;
 
@@ -17,6 +17,8 @@ pub(crate) struct Geometry {
     pub(crate) indices: wgpu::Buffer,
     /// Index ranges per object.
     pub(crate) ranges: Vec<Range<u32>>,
+    /// Vertex ranges per object (a deformed mesh rewrites its range: [`Geometry::refit_mesh`]).
+    pub(crate) vertex_ranges: Vec<Range<u32>>,
     /// Per object: material and analytic shape (in the current pose).
     pub materials: wgpu::Buffer,
     /// Per object: [`ObjectTransform`] from the scene file's pose to the current one.
@@ -25,6 +27,14 @@ pub(crate) struct Geometry {
     /// when objects move ([`Geometry::write_instances`]).
     pub bvh: crate::accel::SceneBvh,
     pub bvh_instances: wgpu::Buffer,
+    /// The BVH's nodes and triangles (also in [`Geometry::scene`]): a deformed mesh rewrites
+    /// its triangles and refits its nodes' boxes in place ([`Geometry::refit_mesh`]).
+    pub bvh_nodes: wgpu::Buffer,
+    pub bvh_tris: wgpu::Buffer,
+    /// Per BVH instance, made at its first refit: its nodes by height, leaves first
+    /// ([`crate::accel::SceneBvh::refit_levels`]), and on the GPU the same lists in one buffer,
+    /// each level at an offset storage bindings accept, as (byte offset, nodes).
+    refit_plans: Vec<Option<RefitPlan>>,
     /// The scene group (`shaders/shared/scene.wgsl`) over the materials, the BVH (its nodes and
     /// triangles are held only there, with these instances), the medium's density grid
     /// (R32Float, 3D; 1×1×1 holding 1 without one) and the environment map (linear radiance,
@@ -33,12 +43,117 @@ pub(crate) struct Geometry {
     pub scene: SharedGroup,
 }
 
+/// The refit of one bottom level ([`Geometry::refit_plans`]).
+struct RefitPlan {
+    levels: Vec<Vec<u32>>,
+    buffer: wgpu::Buffer,
+    offsets: Vec<(u64, u32)>,
+}
+
 impl Geometry {
     /// Write the BVH instances for the objects' transforms (from the scene file's pose).
     pub(crate) fn write_instances(&self, ctx: &GpuContext, transforms: &[glam::Affine3A]) {
         let inst = self.bvh.instance_records(transforms);
         ctx.queue.write_buffer(&self.bvh_instances, 0, bytemuck::cast_slice(&inst));
     }
+
+    /// Mesh object `object` deformed (`mesh`: its new vertices in the scene file's pose, same
+    /// vertex count and triangles): its vertices and BVH triangles rewritten on the GPU (queue
+    /// writes: they land before the frame's commands), and the CPU BVH refit (its instance's
+    /// bounds too: the caller rewrites the instances). Returns the BVH instance whose nodes
+    /// [`Geometry::record_refits`] must refit on the GPU (None: the object has no triangles in
+    /// the BVH, or is no mesh).
+    pub(crate) fn refit_mesh(&mut self, ctx: &GpuContext, object: usize, mesh: &TriMesh) -> Option<usize> {
+        let vr = self.vertex_ranges.get(object)?.clone();
+        if vr.len() == mesh.positions.len() {
+            let v: Vec<Vertex> = mesh
+                .positions
+                .iter()
+                .zip(&mesh.normals)
+                .map(|(p, n)| Vertex { position: p.to_array(), normal: n.to_array(), object: object as u32 })
+                .collect();
+            let at = u64::from(vr.start) * std::mem::size_of::<Vertex>() as u64;
+            ctx.queue.write_buffer(&self.vertices, at, bytemuck::cast_slice(&v));
+        }
+        let k = self.bvh.instance_of(object)?;
+        if self.refit_plans.len() < self.bvh.instances.len() {
+            self.refit_plans.resize_with(self.bvh.instances.len(), || None);
+        }
+        let plan = self.refit_plans[k].get_or_insert_with(|| refit_plan(ctx, &self.bvh, k));
+        self.bvh.refit(k, &plan.levels, &mesh.positions, &mesh.normals, &mesh.indices);
+        let (_, tris) = self.bvh.instance_ranges(k);
+        if tris.is_empty() {
+            return None;
+        }
+        let at = tris.start as u64 * std::mem::size_of::<BvhTri>() as u64;
+        ctx.queue.write_buffer(&self.bvh_tris, at, bytemuck::cast_slice(&self.bvh.tris[tris]));
+        Some(k)
+    }
+
+    /// Record the GPU refit of BVH instances `instances` ([`Geometry::refit_mesh`]): one
+    /// compute pass timed as `bvh_refit`, one dispatch per level of each, leaves first (the
+    /// dispatches of a compute pass see the writes of those before them).
+    pub(crate) fn record_refits(
+        &self,
+        ctx: &GpuContext,
+        instances: &[usize],
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut crate::gpu::PassTimer,
+    ) {
+        if instances.is_empty() {
+            return;
+        }
+        ctx.begin_scope("bvh_refit", enc);
+        let mut bound = Vec::new();
+        for &k in instances {
+            let Some(plan) = self.refit_plans.get(k).and_then(Option::as_ref) else { continue };
+            for &(offset, count) in &plan.offsets {
+                let level = wgpu::BufferBinding {
+                    buffer: &plan.buffer,
+                    offset,
+                    size: std::num::NonZeroU64::new(u64::from(count) * 4),
+                };
+                let pass = Pass::new(ctx, "bvh_refit")
+                    .bind("level", level)
+                    .bind("tris", &self.bvh_tris)
+                    .bind("nodes", &self.bvh_nodes)
+                    .group();
+                let groups = count.div_ceil(64);
+                let gx = groups.min(65535);
+                bound.push((pass, [gx, groups.div_ceil(gx), 1]));
+            }
+        }
+        ctx.end_scope();
+        let mut cp = crate::gpu::pass::begin(enc, timer, "bvh_refit");
+        for (pass, groups) in &bound {
+            pass.dispatch_in(&mut cp, *groups);
+        }
+    }
+}
+
+/// The refit plan of BVH instance `k`: its levels, uploaded once, each at an offset aligned for
+/// a storage binding.
+fn refit_plan(ctx: &GpuContext, bvh: &crate::accel::SceneBvh, k: usize) -> RefitPlan {
+    let levels = bvh.refit_levels(k);
+    let align = (ctx.device.limits().min_storage_buffer_offset_alignment / 4).max(1) as usize;
+    let mut words: Vec<u32> = Vec::new();
+    let mut offsets = Vec::new();
+    for l in &levels {
+        offsets.push((words.len() as u64 * 4, l.len() as u32));
+        words.extend(l);
+        // Padding (never read: each level's binding ends with it).
+        words.resize(words.len().div_ceil(align) * align, u32::MAX);
+    }
+    if words.is_empty() {
+        words.push(u32::MAX);
+    }
+    let buffer = ctx.kept_buffer(
+        "bvh_refit_levels",
+        words.len() as u64 * 4,
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+    );
+    ctx.queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&words));
+    RefitPlan { levels, buffer, offsets }
 }
 
 /// Upload the triangles of `scene` (the pose of its file) with identity transforms.
@@ -46,9 +161,11 @@ pub(crate) fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation)
     let mut vertices: Vec<Vertex> = Vec::new();
     let mut indices: Vec<u32> = Vec::new();
     let mut ranges = Vec::new();
+    let mut vertex_ranges = Vec::new();
     for (i, o) in scene.objects.iter().enumerate() {
         let m = o.shape.tessellate(t);
         let base = vertices.len() as u32;
+        vertex_ranges.push(base..base + m.positions.len().min(m.normals.len()) as u32);
         for (p, n) in m.positions.iter().zip(&m.normals) {
             vertices.push(Vertex { position: p.to_array(), normal: n.to_array(), object: i as u32 });
         }
@@ -62,19 +179,27 @@ pub(crate) fn upload_geometry(ctx: &GpuContext, scene: &Scene, t: &Tessellation)
     let bvh = crate::accel::SceneBvh::build(scene);
     let (nodes, tris) = bvh.gpu_arrays();
     let inst = bvh.instance_records(&[]);
-    let bvh_nodes = ctx.buffer_init("bvh_nodes", bytemuck::cast_slice(&nodes), storage);
-    let bvh_tris = ctx.buffer_init("bvh_tris", bytemuck::cast_slice(&tris), storage);
-    let bvh_instances = ctx.buffer_init("bvh_instances", bytemuck::cast_slice(&inst), storage);
+    // Read back by the refit's tests (`Renderer::read_bvh`).
+    let readable = storage | wgpu::BufferUsages::COPY_SRC;
+    let bvh_nodes = ctx.buffer_init("bvh_nodes", bytemuck::cast_slice(&nodes), readable);
+    let bvh_tris = ctx.buffer_init("bvh_tris", bytemuck::cast_slice(&tris), readable);
+    let bvh_instances = ctx.buffer_init("bvh_instances", bytemuck::cast_slice(&inst), readable);
     let materials = ctx.buffer_init("materials", bytemuck::cast_slice(&material_records(scene)), storage);
     let environment = upload_environment(ctx, scene);
     let density = upload_density(ctx, scene);
     let scene_group = scene_group(ctx, [&materials, &bvh_nodes, &bvh_tris, &bvh_instances], &density, &environment);
+    let refit_plans = bvh.instances.iter().map(|_| None).collect();
     Geometry {
         bvh_instances,
+        bvh_nodes,
+        bvh_tris,
+        refit_plans,
         bvh,
+        // COPY_DST (`buffer_init` adds it): a deformed mesh rewrites its vertices.
         vertices: ctx.buffer_init("vertices", bytemuck::cast_slice(&vertices), wgpu::BufferUsages::VERTEX),
         indices: ctx.buffer_init("indices", bytemuck::cast_slice(&indices), wgpu::BufferUsages::INDEX),
         ranges,
+        vertex_ranges,
         materials,
         transforms: ctx.buffer_init("object_transforms", bytemuck::cast_slice(&transforms), storage),
         scene: scene_group,

@@ -55,6 +55,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("beam_raster", include_str!("../../shaders/beam_raster.wgsl")),
     ("beam_surface_raster", include_str!("../../shaders/beam_surface_raster.wgsl")),
     ("beam_resolve", include_str!("../../shaders/beam_resolve.wgsl")),
+    ("bvh_refit", include_str!("../../shaders/bvh_refit.wgsl")),
 ];
 /// Shared WGSL every stage begins with (`shaders/shared/common.wgsl`): the structs the host
 /// writes, optics, light-space projection and fixed-point helpers.

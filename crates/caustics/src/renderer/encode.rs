@@ -13,7 +13,7 @@ impl Renderer {
     pub fn encode(&mut self, encoder: &mut wgpu::CommandEncoder, request: FrameRequest) -> Result<FrameOutputs<'_>> {
         let ctx = self.ctx.clone();
         self.features.spheres.check(self.settings.caustic_spheres())?;
-        self.update_geometry();
+        let refits = self.update_geometry();
         // The scene as drawn: its lights, then the environment's directional lights.
         let scene = Scene { lights: self.lights_now(), ..self.scene.clone() };
         self.prepare_spheres(&scene)?;
@@ -21,6 +21,7 @@ impl Renderer {
         let env = self.env_frame(scene.lights.len());
         let mut timer = self.frame_timer(encoder);
         let geo = &self.geometry.as_ref().expect("uploaded").1;
+        geo.record_refits(&ctx, &refits, encoder, &mut timer);
         let mut f = Frame {
             dc: crate::passes::DrawCtx { ctx: &ctx, geo, scene: &scene },
             s: &self.settings,
@@ -74,16 +75,27 @@ impl Renderer {
     }
 
     /// The scene's GPU resources: uploaded once (again when the tessellation changes, which
-    /// forgets every light's maps); moved objects rewrite their transforms and analytic shapes.
-    fn update_geometry(&mut self) {
+    /// forgets every light's maps); moved objects rewrite their transforms and analytic shapes;
+    /// deformed meshes rewrite their vertices and BVH triangles and refit the BVH on the CPU.
+    /// Returns the BVH instances whose nodes the frame refits on the GPU
+    /// (`Geometry::record_refits`, once the frame's timer is made).
+    fn update_geometry(&mut self) -> Vec<usize> {
         let tessellation = self.settings.shading.tessellation;
         if self.geometry.as_ref().is_none_or(|(t, _)| *t != tessellation) {
             self.ctx.drop_scopes("");
+            // Built from the meshes as they are now: nothing to refit.
+            self.deformed.clear();
             self.geometry = Some((tessellation, crate::passes::upload_geometry(&self.ctx, &self.base, &tessellation)));
             self.objects_dirty = true;
             self.features.photon_maps.forget();
         }
-        let geo = &self.geometry.as_ref().expect("uploaded").1;
+        let geo = &mut self.geometry.as_mut().expect("uploaded").1;
+        let mut refits = Vec::new();
+        for object in std::mem::take(&mut self.deformed) {
+            let crate::scene::Shape::Mesh(m) = &self.base.objects[object].shape else { continue };
+            refits.extend(geo.refit_mesh(&self.ctx, object, m));
+            self.objects_dirty = true;
+        }
         if self.objects_dirty {
             let t: Vec<_> = self.transforms.iter().map(crate::passes::object_transform).collect();
             self.ctx.queue.write_buffer(&geo.transforms, 0, bytemuck::cast_slice(&t));
@@ -92,6 +104,7 @@ impl Renderer {
             self.ctx.queue.write_buffer(&geo.materials, 0, bytemuck::cast_slice(&m));
             self.objects_dirty = false;
         }
+        refits
     }
 
     /// The environment as this frame's features see it (`lights`: the frame's light count).

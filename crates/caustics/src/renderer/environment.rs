@@ -108,6 +108,8 @@ impl Renderer {
         for t in &self.transforms {
             key.extend(t.to_cols_array().iter().map(|v| v.to_bits()));
         }
+        // A deformed mesh may hide other regions.
+        key.extend([self.deformations as u32, (self.deformations >> 32) as u32]);
         key.extend(objects.iter().map(|&o| o as u32));
         if self.features.spheres.visibility.as_ref().is_some_and(|v| v.key == key) {
             return Ok(VisibilityUpdate::Keep);

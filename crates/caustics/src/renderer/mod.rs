@@ -47,11 +47,11 @@ pub use crate::gpu::ResourceCounts;
 use crate::output::FluxStats;
 use crate::passes::Geometry;
 use crate::scene::environment_lights::{self, EnvironmentLight};
-use crate::scene::{Camera, Light, Material, Scene};
+use crate::scene::{Camera, Light, Material, Scene, Shape};
 use crate::settings::RenderSettings;
 use crate::techniques::TechniqueStats;
 use crate::temporal::{TemporalFilter, TemporalSettings};
-use glam::Affine3A;
+use glam::{Affine3A, Vec3};
 use std::sync::Arc;
 
 mod encode;
@@ -60,6 +60,7 @@ mod features;
 mod readback;
 mod stats;
 
+pub use readback::BvhReadback;
 use stats::StatsSlot;
 
 /// What a frame should produce beyond the image.
@@ -130,6 +131,11 @@ pub struct Renderer {
     settings: RenderSettings,
     geometry: Option<(crate::scene::Tessellation, Geometry)>,
     objects_dirty: bool,
+    /// Mesh objects deformed since the last frame ([`Renderer::set_mesh_vertices`]): the next
+    /// frame rewrites their vertices and refits their BVH.
+    deformed: Vec<usize>,
+    /// Counts mesh deformations (part of what keys the caustic spheres' visibility).
+    deformations: u64,
     /// The frame's features and their persistent state ([`crate::frame`]).
     features: features::Features,
     frame: u64,
@@ -165,6 +171,8 @@ impl Renderer {
             settings,
             geometry: None,
             objects_dirty: true,
+            deformed: Vec::new(),
+            deformations: 0,
             features: features::Features::default(),
             frame: 0,
             outputs: None,
@@ -310,13 +318,77 @@ impl Renderer {
         self.scene.objects[index].shape = shape;
         let after = self.scene.objects[index].shape.bounds();
         self.transforms[index] = transform;
+        self.redo_lights_seeing(before, after);
+        self.objects_dirty = true;
+        Ok(())
+    }
+
+    /// Redo the lights whose views see the box `before` or `after` (an object's bounds before
+    /// and after it changed).
+    fn redo_lights_seeing(&mut self, before: (Vec3, Vec3), after: (Vec3, Vec3)) {
         for (l, light) in self.lights_now().iter().enumerate() {
             let view = self.settings.light_view(&self.scene, light);
             if view.faces.iter().any(|f| box_in_view(before, f.world_to_clip) || box_in_view(after, f.world_to_clip)) {
                 self.features.changed(Change::Light(l));
             }
         }
-        self.objects_dirty = true;
+    }
+
+    /// Deform mesh object `index`: its vertices' new `positions` and shading `normals`, in the
+    /// scene file's pose (its transform, [`Renderer::set_object_transform`], still applies), as
+    /// many as the mesh has; its triangles stay. The next frame rewrites the vertices on the GPU
+    /// and refits the mesh's BVH there (its topology kept, its boxes recomputed: the pass
+    /// `bvh_refit` of the frame's timings). The lights that see the mesh before or after are
+    /// redone. An object that is no mesh, a wrong count or a value that is not finite is
+    /// refused and changes nothing.
+    pub fn set_mesh_vertices(&mut self, index: usize, positions: &[Vec3], normals: &[Vec3]) -> Result<()> {
+        let field = |f: &str| format!("objects[{index}]{f}");
+        let Some(o) = self.base.objects.get(index) else {
+            return Err(Error::input("<renderer>", field(""), "no such object"));
+        };
+        let Shape::Mesh(m) = &o.shape else {
+            return Err(Error::input(
+                "<renderer>",
+                field(".shape"),
+                "is not a mesh: only a mesh's vertices can be set",
+            ));
+        };
+        for (name, given, want) in [("positions", positions, m.positions.len()), ("normals", normals, m.normals.len())]
+        {
+            if given.len() != want {
+                return Err(Error::input(
+                    "<renderer>",
+                    field(&format!(".{name}")),
+                    format!("the mesh has {want} vertices, {} {name} were given", given.len()),
+                ));
+            }
+            if let Some(i) = given.iter().position(|v| !v.is_finite()) {
+                return Err(Error::input("<renderer>", field(&format!(".{name}[{i}]")), "values must be finite"));
+            }
+        }
+        let Shape::Mesh(m) = &mut self.base.objects[index].shape else { unreachable!("checked above") };
+        if m.positions == positions && m.normals == normals {
+            return Ok(());
+        }
+        let mesh = Arc::make_mut(m);
+        mesh.positions.copy_from_slice(positions);
+        mesh.normals.copy_from_slice(normals);
+        let base = &self.base.objects[index].shape;
+        let t = self.transforms[index];
+        let shape = if t == Affine3A::IDENTITY {
+            // The scene file's pose: the same mesh (a fresh renderer of the deformed scene has it).
+            base.clone()
+        } else {
+            base.transformed(&t).map_err(|m| Error::input("<renderer>", field(".transform"), m))?
+        };
+        let before = self.scene.objects[index].shape.bounds();
+        self.scene.objects[index].shape = shape;
+        let after = self.scene.objects[index].shape.bounds();
+        self.redo_lights_seeing(before, after);
+        if !self.deformed.contains(&index) {
+            self.deformed.push(index);
+        }
+        self.deformations += 1;
         Ok(())
     }
 

@@ -30,6 +30,30 @@ impl Renderer {
         Ok(bytes_to_image(&data, c.width, c.height))
     }
 
+    /// The exact tracer's BVH as the CPU keeps it and as the GPU holds it after the last frame
+    /// (blocking; the refit's tests). Before the first frame: an error.
+    #[doc(hidden)]
+    pub fn read_bvh(&self) -> Result<BvhReadback> {
+        let geo = &self.geometry.as_ref().ok_or_else(|| Error::Device("no frame rendered yet".into()))?.1;
+        let (cpu_nodes, cpu_tris) = geo.bvh.gpu_arrays();
+        let read = |b: &wgpu::Buffer| self.ctx.read_buffer(b, b.size());
+        let inst = read(&geo.bvh_instances)?;
+        Ok(BvhReadback {
+            gpu_nodes: bytemuck::pod_collect_to_vec(&read(&geo.bvh_nodes)?),
+            gpu_tris: bytemuck::pod_collect_to_vec(&read(&geo.bvh_tris)?),
+            gpu_instances: bytemuck::pod_collect_to_vec(&inst),
+            cpu_instances: geo.bvh.instance_records(&self.transforms),
+            cpu_nodes,
+            cpu_tris,
+            ranges: (0..geo.bvh.instances.len())
+                .map(|k| {
+                    let (n, t) = geo.bvh.instance_ranges(k);
+                    (geo.bvh.instances[k].0 as usize, n, t)
+                })
+                .collect(),
+        })
+    }
+
     fn light_frame(&self, light: usize) -> Result<&LightFrame> {
         self.features
             .photon_maps
@@ -157,4 +181,18 @@ impl TemporalFilter {
         self.lights.truncate(r.lights().len());
         out
     }
+}
+
+/// The BVH on the CPU and on the GPU ([`Renderer::read_bvh`]).
+#[doc(hidden)]
+#[derive(Debug, Clone)]
+pub struct BvhReadback {
+    pub cpu_nodes: Vec<crate::gpu::types::BvhNode>,
+    pub gpu_nodes: Vec<crate::gpu::types::BvhNode>,
+    pub cpu_tris: Vec<crate::gpu::types::BvhTri>,
+    pub gpu_tris: Vec<crate::gpu::types::BvhTri>,
+    pub cpu_instances: Vec<crate::gpu::types::BvhInstance>,
+    pub gpu_instances: Vec<crate::gpu::types::BvhInstance>,
+    /// Per mesh object: (object, its nodes, its triangles), global index ranges.
+    pub ranges: Vec<(usize, std::ops::Range<usize>, std::ops::Range<usize>)>,
 }

@@ -22,6 +22,7 @@ mod layers;
 mod lens;
 mod light_layers;
 mod medium;
+mod refit;
 mod renderer;
 mod shared;
 mod sphere_build;
