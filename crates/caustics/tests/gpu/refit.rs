@@ -216,3 +216,43 @@ fn bad_vertices_are_input_errors() {
     r.set_mesh_vertices(0, &p, &n).unwrap();
     assert_eq!(frame(&mut r).lights_redone, [false]);
 }
+
+/// The refit's cost on the Stanford bunny (glass, 64 × 64), deformed every frame: prints the
+/// `bvh_refit` pass's median and the frame's passes summed (a measurement, not a check; run it
+/// by name).
+#[test]
+#[ignore = "a measurement: run by name"]
+fn refit_cost_on_the_bunny() {
+    let Some(ctx) = gpu() else { return };
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let mut scene = Scene::load(&dir.join("glass_bunny.json")).unwrap();
+    scene.camera.width = 64;
+    scene.camera.height = 64;
+    let object = scene.objects.iter().position(|o| matches!(o.shape, Shape::Mesh(_))).unwrap();
+    let Shape::Mesh(mesh) = scene.objects[object].shape.clone() else { unreachable!() };
+    let mut r = Renderer::with_context(ctx, scene, settings()).unwrap();
+    frame(&mut r);
+    let (mut refit, mut total) = (Vec::new(), Vec::new());
+    for i in 0..8 {
+        let a = 0.002 * (i + 1) as f32;
+        let p: Vec<Vec3> = mesh.positions.iter().map(|&q| q + Vec3::new(a * (40.0 * q.y).sin(), 0.0, 0.0)).collect();
+        r.set_mesh_vertices(object, &p, &mesh.normals).unwrap();
+        let s = frame(&mut r);
+        if s.timings.is_empty() {
+            eprintln!("no timestamp queries on this adapter");
+            return;
+        }
+        refit.push(s.timings.iter().find(|(n, _)| n == "bvh_refit").unwrap().1);
+        total.push(s.timings.iter().map(|(_, ms)| ms).sum::<f64>());
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    eprintln!(
+        "bunny ({} triangles): bvh_refit median {:.3} ms, the frame's passes {:.1} ms",
+        mesh.indices.len(),
+        median(&mut refit),
+        median(&mut total)
+    );
+}
