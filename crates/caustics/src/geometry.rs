@@ -65,13 +65,14 @@ impl Geometry {
     /// the BVH, or is no mesh).
     pub(crate) fn refit_mesh(&mut self, ctx: &GpuContext, object: usize, mesh: &TriMesh) -> Option<usize> {
         let vr = self.vertex_ranges.get(object)?.clone();
-        if vr.len() == mesh.positions.len() {
-            let v: Vec<Vertex> = mesh
-                .positions
-                .iter()
-                .zip(&mesh.normals)
-                .map(|(p, n)| Vertex { position: p.to_array(), normal: n.to_array(), object: object as u32 })
-                .collect();
+        let v: Vec<Vertex> = mesh
+            .positions
+            .iter()
+            .zip(&mesh.normals)
+            .map(|(p, n)| Vertex { position: p.to_array(), normal: n.to_array(), object: object as u32 })
+            .collect();
+        // As many as uploaded (the caller keeps the counts): never past the object's range.
+        if v.len() == vr.len() {
             let at = u64::from(vr.start) * std::mem::size_of::<Vertex>() as u64;
             ctx.queue.write_buffer(&self.vertices, at, bytemuck::cast_slice(&v));
         }

@@ -123,6 +123,15 @@ fn the_gpu_refit_is_the_cpu_refit_and_its_boxes_nest() {
         (b.gpu_instances[0].lo[..3].to_vec(), b.gpu_instances[0].hi[..3].to_vec()),
         (lo.to_array().to_vec(), hi.to_array().to_vec())
     );
+    // Deformed again: the frame creates no GPU object (the refit's levels, bind groups and
+    // pipeline are kept).
+    let (p2, n2) = deformed(&TriMesh { positions: p.clone(), normals: n.clone(), indices: mesh.indices.clone() });
+    r.set_mesh_vertices(0, &p2, &n2).unwrap();
+    let before = r.created();
+    frame(&mut r);
+    assert_eq!((r.created() - before).total(), 0, "a second deformation created GPU objects");
+    let again = r.read_bvh().unwrap();
+    assert!(node_bits(&again.gpu_nodes) == node_bits(&again.cpu_nodes));
     // A camera-only frame refits nothing.
     let mut cam = r.scene().camera.clone();
     cam.position.x += 0.1;
