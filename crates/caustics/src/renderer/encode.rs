@@ -11,9 +11,32 @@ use crate::scene::Scene;
 impl Renderer {
     /// Record a frame into `encoder` (module documentation: what is redone, call order).
     pub fn encode(&mut self, encoder: &mut wgpu::CommandEncoder, request: FrameRequest) -> Result<FrameOutputs<'_>> {
-        let ctx = self.ctx.clone();
         self.features.spheres.check(self.settings.caustic_spheres())?;
-        let refits = self.update_geometry();
+        let (refits, deformed) = self.update_geometry();
+        match self.record_frame(encoder, request, &refits) {
+            Ok(redone) => Ok(self.frame_outputs(&redone)),
+            Err(e) => {
+                // An encoder whose frame failed is not submitted: the next frame refits the
+                // deformed meshes again (the same work: the CPU's refit gives the same boxes).
+                for o in deformed {
+                    if !self.deformed.contains(&o) {
+                        self.deformed.push(o);
+                    }
+                }
+                Err(e)
+            }
+        }
+    }
+
+    /// [`Renderer::encode`] after the geometry's update (`refits`: the BVH instances to refit on
+    /// the GPU): the frame's passes; per light, whether it was redone.
+    fn record_frame(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        request: FrameRequest,
+        refits: &[usize],
+    ) -> Result<Vec<bool>> {
+        let ctx = self.ctx.clone();
         // The scene as drawn: its lights, then the environment's directional lights.
         let scene = Scene { lights: self.lights_now(), ..self.scene.clone() };
         self.prepare_spheres(&scene)?;
@@ -21,7 +44,7 @@ impl Renderer {
         let env = self.env_frame(scene.lights.len());
         let mut timer = self.frame_timer(encoder);
         let geo = &self.geometry.as_ref().expect("uploaded").1;
-        geo.record_refits(&ctx, &refits, encoder, &mut timer);
+        geo.record_refits(&ctx, refits, encoder, &mut timer);
         let mut f = Frame {
             dc: crate::passes::DrawCtx { ctx: &ctx, geo, scene: &scene },
             s: &self.settings,
@@ -54,7 +77,7 @@ impl Renderer {
         }
         self.outputs = Some((images.full, images.caustic, display));
         self.frame += 1;
-        Ok(self.frame_outputs(&redone))
+        Ok(redone)
     }
 
     /// The frame's pass timer (its query set and buffers in the `frame` scope).
@@ -78,8 +101,8 @@ impl Renderer {
     /// forgets every light's maps); moved objects rewrite their transforms and analytic shapes;
     /// deformed meshes rewrite their vertices and BVH triangles and refit the BVH on the CPU.
     /// Returns the BVH instances whose nodes the frame refits on the GPU
-    /// (`Geometry::record_refits`, once the frame's timer is made).
-    fn update_geometry(&mut self) -> Vec<usize> {
+    /// (`Geometry::record_refits`, once the frame's timer is made) and the deformed objects.
+    fn update_geometry(&mut self) -> (Vec<usize>, Vec<usize>) {
         let tessellation = self.settings.shading.tessellation;
         if self.geometry.as_ref().is_none_or(|(t, _)| *t != tessellation) {
             self.ctx.drop_scopes("");
@@ -91,7 +114,8 @@ impl Renderer {
         }
         let geo = &mut self.geometry.as_mut().expect("uploaded").1;
         let mut refits = Vec::new();
-        for object in std::mem::take(&mut self.deformed) {
+        let deformed = std::mem::take(&mut self.deformed);
+        for &object in &deformed {
             let crate::scene::Shape::Mesh(m) = &self.base.objects[object].shape else { continue };
             refits.extend(geo.refit_mesh(&self.ctx, object, m));
             self.objects_dirty = true;
@@ -104,7 +128,7 @@ impl Renderer {
             self.ctx.queue.write_buffer(&geo.materials, 0, bytemuck::cast_slice(&m));
             self.objects_dirty = false;
         }
-        refits
+        (refits, deformed)
     }
 
     /// The environment as this frame's features see it (`lights`: the frame's light count).

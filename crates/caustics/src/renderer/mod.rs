@@ -340,7 +340,8 @@ impl Renderer {
     /// and refits the mesh's BVH there (its topology kept, its boxes recomputed: the pass
     /// `bvh_refit` of the frame's timings). The lights that see the mesh before or after are
     /// redone. An object that is no mesh, a wrong count or a value that is not finite is
-    /// refused and changes nothing.
+    /// refused and changes nothing. Precomputed caustic spheres of the object
+    /// ([`Renderer::set_caustic_spheres`]) are not recomputed: they stay those of its old shape.
     pub fn set_mesh_vertices(&mut self, index: usize, positions: &[Vec3], normals: &[Vec3]) -> Result<()> {
         let field = |f: &str| format!("objects[{index}]{f}");
         let Some(o) = self.base.objects.get(index) else {
