@@ -1,5 +1,6 @@
 //! The scene's ray-tracing acceleration structure for the GPU (`shaders/shared/raytrace.wgsl`):
-//! one bottom-level BVH2 per mesh object, built once from the mesh as the scene file poses it,
+//! one bottom-level BVH2 per mesh object, built once from the mesh as the scene file poses it
+//! (refit in place when the mesh deforms: [`SceneBvh::refit`], on the GPU `bvh_refit`),
 //! and a top level of instances (per mesh object: its transform from the file's pose to the
 //! current one and the inverse, its world bounds), rewritten when an object moves. Analytic
 //! shapes (spheres, cylinders, rectangles) are not in it: the tracer intersects them exactly.

@@ -1,6 +1,7 @@
 //! The scene on the GPU ([`Geometry`]): triangles, per-object material records and analytic
 //! shapes, transforms, the environment map, the medium's density grid and the exact tracer's BVH,
-//! uploaded once and rewritten where objects move. Every feature's passes read it; it reads no
+//! uploaded once and rewritten where objects move or meshes deform (their vertices, BVH
+//! triangles and boxes: [`Geometry::refit_mesh`]). Every feature's passes read it; it reads no
 //! feature (so it sits below the frame's modules).
 
 use crate::gpu::GpuContext;

@@ -33,7 +33,8 @@
 //!
 //! State is the loaded scene plus what changed since: the camera, the lights, a transform per
 //! object (relative to the pose the scene file gives, a rotation, translation and uniform
-//! scale), the settings and the temporal filter. A fresh renderer brought to the same state
+//! scale), the vertices of deformed meshes ([`Renderer::set_mesh_vertices`]: their BVH refit,
+//! not rebuilt), the settings and the temporal filter. A fresh renderer brought to the same state
 //! renders the same maps and image bit for bit as one that got there frame by frame.
 //!
 //! This file holds the renderer's state and its setters and getters; [`Renderer::encode`] lives in
