@@ -73,6 +73,13 @@ run 40 "$B" render scenes/glass_sphere_fog.json "${A[@]}" --size 1920x1080 --set
 run 60 "$B" bench --frames 12 scenes/glass_sphere_fog.json "${A[@]}" --technique basic --photons 1024 \
     --size 1920x1080 --phases full,camera --out "$OUT/sphere_fog_loop"
 
+# The animated pool (issue 41, item 6): its waves every frame at 1920x1080 (BVH refit per pass),
+# from above and from under water (target: under 16 ms a frame).
+run 60 "$B" bench --frames 20 scenes/pool_sun.json "${A[@]}" --technique basic --photons 1024 \
+    --size 1920x1080 --phases camera,mesh --out "$OUT/pool_sun_loop"
+run 60 "$B" bench --frames 20 scenes/pool_sun_under.json "${A[@]}" --technique basic --photons 1024 \
+    --size 1920x1080 --phases camera,mesh --out "$OUT/pool_sun_under_loop"
+
 log "3. frame loop, built-in scene, 1920x1080"
 run 90 "$B" bench --frames 20 "${A[@]}" --technique basic,adaptive-level --photons 1024,2048 --size 1920x1080 \
     --out "$OUT/frameloop"

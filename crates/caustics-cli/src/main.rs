@@ -69,6 +69,9 @@ enum Command {
         /// CPU backend: camera samples per pixel (the `cpu` section: `--set cpu.KEY=VALUE`).
         #[arg(long)]
         spp: Option<u32>,
+        /// Pose the scene's animated objects (`waves`) at this time, in seconds (default 0).
+        #[arg(long)]
+        time: Option<f32>,
         #[command(flatten)]
         grid: settings_args::GridArgs,
         #[command(flatten)]
@@ -104,6 +107,17 @@ enum Command {
     View(Box<view::ViewArgs>),
     /// List GPU adapters with their features and limits.
     Info,
+}
+
+/// `--time T`: the scene posed at `t` seconds (a warning where nothing in it moves).
+pub(crate) fn at_time(scene: &Scene, t: f32) -> Result<Scene, Error> {
+    if !t.is_finite() {
+        return Err(Error::input("<command line>", "--time", format!("must be a finite number of seconds (got {t})")));
+    }
+    if !scene.is_animated() {
+        eprintln!("warning: --time {t}: {} has no animated object (`waves`); nothing moves", scene.source);
+    }
+    Ok(scene.at_time(t))
 }
 
 pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -185,7 +199,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Compare { a, b, mask, heatmap } => Ok(compare::run(&a, &b, mask.as_deref(), heatmap.as_deref())?),
-        Command::Render { scene, output, size, backend, adapter, dump, caustic_output, spp, grid, settings } => {
+        Command::Render { scene, output, size, backend, adapter, dump, caustic_output, spp, time, grid, settings } => {
             let mut resolved = settings.resolve(RenderSettings::default(), Some(&grid))?;
             resolved.cpu.spp = spp.unwrap_or(resolved.cpu.spp);
             if settings.print_settings {
@@ -205,6 +219,9 @@ fn run(cli: Cli) -> Result<()> {
             };
             for w in &scene.warnings {
                 eprintln!("warning: {w}");
+            }
+            if let Some(t) = time {
+                scene = at_time(&scene, t)?;
             }
             if let Some((w, h)) = size {
                 scene.camera.width = w;

@@ -394,3 +394,24 @@ fn technique_beams_is_surface_caustics_from_beams() {
     let (c, _) = render("photons.exr", &[]).unwrap();
     assert!(a != c, "the photon maps' surface caustic is the same as the beams'");
 }
+
+/// `render --time T` poses the scene's waves at T seconds: the same T gives the same bytes,
+/// another T another image; a time that is no number exits 2 naming the flag.
+#[test]
+fn render_time_poses_the_waves() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/pool_sun.json");
+    let render = |t: &str, name: &str| {
+        let out = tmp(name);
+        let args = ["render", scene, "--backend", "cpu", "--size", "16x12", "--photons", "64", "--spp", "1"];
+        let o = caustics().args(args).args(["--time", t, "-o", out.to_str().unwrap()]).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(&out).unwrap()
+    };
+    let (a, again, later) = (render("0", "t0.exr"), render("0", "t0_again.exr"), render("0.5", "t05.exr"));
+    assert_eq!(a, again, "the same time rendered twice differs");
+    assert_ne!(a, later, "the waves did not move");
+    let out = tmp("nan.png");
+    let e = run_err(&["render", scene, "--backend", "cpu", "--time", "NaN", "-o", out.to_str().unwrap()]);
+    assert!(e.contains("--time"), "{e}");
+    assert!(!out.exists(), "a refused render wrote {}", out.display());
+}

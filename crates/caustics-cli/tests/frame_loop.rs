@@ -54,6 +54,28 @@ fn frame_loop_bench_writes_four_phases() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
+/// The `mesh` phase on the animated pool: its waves move every frame, the BVH is refit on the
+/// GPU (a `bvh_refit` time where the adapter has timestamps) and the light is redone.
+#[test]
+fn frame_loop_mesh_phase_refits_the_waves() {
+    let out = std::env::temp_dir().join(format!("caustics-frameloop-mesh-{}", std::process::id()));
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/pool_sun.json");
+    let args = [scene, "--frames", "3", "--phases", "mesh", "--technique", "basic", "--photons", "32"];
+    let tiny = ["--size", "32x24", "--caustic-map", "64", "--out", out.to_str().unwrap()];
+    if bench("mesh-phase bench", &[&args[..], &tiny].concat()).is_none() {
+        return;
+    }
+    let js: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("frameloop_pool_sun.json")).unwrap()).unwrap();
+    let p = &js["runs"][0]["phases"]["mesh"];
+    assert_eq!(p["frames"], 3, "{p}");
+    let passes = p["pass_ms_median"].as_object().unwrap();
+    if !passes.is_empty() {
+        assert!(passes.get("bvh_refit").and_then(|v| v.as_f64()).is_some_and(|x| x >= 0.0), "{passes:?}");
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
 /// `caustics bench` on a scene with fog: the beam table has a column for every beam pass and,
 /// on an adapter with timestamp queries (lavapipe has them), a time for each pass that ran —
 /// `beam_shrink` included (it was left out of the table once).

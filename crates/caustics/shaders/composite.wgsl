@@ -31,7 +31,8 @@ struct CompositeParams {
     height: u32,
     // 1 when the scene has specular meshes: else the second-layer buffers are empty.
     layer2: u32,
-    _pad: u32,
+    // The closed dielectric object the camera is in, plus 1 (a camera under water); 0: none.
+    camera_inside: u32,
     // The medium (`composite_medium`): its box, w of `medium_hi` 1 for a density grid; sigma_t
     // (1/m), w = the midpoint rule's steps along a segment in a density grid.
     medium_lo: vec4f,
@@ -416,7 +417,7 @@ fn mesh_interaction(h: EyeHit, d: vec3f, wr: vec3f) -> MeshResult {
 // through the camera's first-layer buffers (`march_exit_eye`); where that finds no exit (the
 // back surface off screen or hidden behind something else), the exact BVH tracer
 // (`shared/raytrace.wgsl`) from just inside the surface, kept when what it meets is this object.
-fn exit_from_inside(obj: u32, m: MaterialGpu, p: vec3f, d: vec3f) -> EyeHit {
+fn exit_from_inside(obj: u32, m: MaterialGpu, p: vec3f, d: vec3f, march: bool) -> EyeHit {
     var h: EyeHit;
     h.ok = false;
     h.object = obj;
@@ -432,8 +433,10 @@ fn exit_from_inside(obj: u32, m: MaterialGpu, p: vec3f, d: vec3f) -> EyeHit {
         h.ok = true;
         return h;
     }
-    let marched = march_exit_eye(p, d);
-    if (marched.ok) { return marched; }
+    if (march) {
+        let marched = march_exit_eye(p, d);
+        if (marched.ok) { return marched; }
+    }
     rt_overflow = 0u;
     let a = abs(p);
     let o = p + d * (2e-5 * (1.0 + max(max(a.x, a.y), a.z)));
@@ -460,9 +463,27 @@ fn exit_from_inside(obj: u32, m: MaterialGpu, p: vec3f, d: vec3f) -> EyeHit {
 // sees is the screen-space search's in the camera's receiver buffer, which holds the diffuse
 // surfaces without the specular objects and so sees through the water to the floor (near a
 // silhouette, where the search does not settle, the surface it ends on).
-fn inner_receiver(obj: u32, o: vec3f, d: vec3f, exit: EyeHit) -> vec4f {
+// `exact`: the exit came from the exact tracer alone (`exit_from_inside` without the march), so
+// a ray that met another object first names it: a diffuse one is what the ray sees.
+fn inner_receiver(obj: u32, o: vec3f, d: vec3f, exit: EyeHit, exact: bool) -> vec4f {
     let miss = vec4f(0.0, 0.0, 0.0, -1.0);
-    if (!exit.ok) { return miss; }
+    if (!exit.ok) {
+        if (!exact || exit.object == obj || exit.object >= arrayLength(&materials)) { return miss; }
+        if (materials[exit.object].kind.x != KIND_DIFFUSE) { return miss; }
+        // The exact point, read where the camera sees it (within 2 % of its distance); else
+        // the screen-space search.
+        let q = to_pixel(exit.p);
+        if (q.z > 0.0) {
+            let px = pix(q.xy);
+            let rp = textureLoad(recv_pos, px, 0);
+            if (rp.w >= 0.0 && distance(rp.xyz, exit.p) <= 0.02 * distance(exit.p, cp.camera.xyz)) {
+                return vec4f(radiance[u32(px.y) * cp.width + u32(px.x)].rgb, distance(o, exit.p));
+            }
+        }
+        let r = trace_receivers_t(o, d);
+        if (!(r.w < 1e30)) { return miss; }
+        return vec4f(r.rgb, r.w);
+    }
     let a = abs(o);
     let o2 = o + d * (2e-5 * (1.0 + max(max(a.x, a.y), a.z)));
     rt_overflow = 0u;
@@ -525,6 +546,41 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(workgroup_id) wg: ve
     spec_list[k] = idx;
 }
 
+// The radiance along a ray travelling inside the dielectric `obj` from p_in along t_in, with
+// weight w_in: a diffuse surface inside before the exit (a pool's floor under water, a stone in
+// a glass block) is what it sees; else it refracts out at the exit, or reflects totally and goes
+// on, up to four times. `march`: find mesh exits through the camera's buffers first (rays that
+// entered from outside).
+fn inside_ray(obj: u32, mat: MaterialGpu, p0: vec3f, t0: vec3f, w_in: f32, march: bool) -> vec3f {
+    let ior = mat.a.x;
+    let ext = mat.a.y;
+    var l = vec3f(0.0);
+    var p_in = p0;
+    var t_in = t0;
+    let w = w_in;
+    for (var k = 0u; k < 4u; k++) {
+        let exit = exit_from_inside(obj, mat, p_in, t_in, march);
+        let inner = inner_receiver(obj, p_in, t_in, exit, !march);
+        if (inner.w >= 0.0) {
+            l += w * inner.rgb;
+            break;
+        }
+        if (!exit.ok) { break; }
+        var n2 = exit.n;
+        if (dot(n2, t_in) < 0.0) { n2 = -n2; }
+        let cos2 = dot(t_in, n2);
+        let t2 = refract_dir(t_in, -n2, ior / ext);
+        if (t2.w > 0.5) {
+            let f2 = fresnel_dielectric(cos2, ext / ior);
+            l += w * (1.0 - f2) * shade_ray(exit.p, t2.xyz, obj, vec3f(w * (1.0 - f2)));
+            break;
+        }
+        p_in = exit.p;
+        t_in = reflect(t_in, n2);
+    }
+    return l;
+}
+
 // A pixel whose nearest surface is specular (listed by the first pass).
 fn specular_pixel(px: vec2i, idx: u32) {
     let s = textureLoad(spec_pos, px, 0);
@@ -556,6 +612,20 @@ fn specular_pixel(px: vec2i, idx: u32) {
     } else if (mat.kind.x == KIND_CONDUCTOR) {
         let fc = fresnel_conductor(cos1, mat.a.rgb, mat.b.rgb);
         l = fc * shade_ray(p, refl, obj, fc);
+    } else if (mat.kind.x == KIND_DIELECTRIC && obj + 1u == cp.camera_inside) {
+        // The camera is inside the object (under water): its ray meets the surface from inside,
+        // refracts out (unless totally reflected) and reflects back in. What the reflection
+        // meets inside is found as after a total internal reflection below, but the exit by the
+        // exact tracer: the camera's buffers march rays that entered from outside.
+        let ior = mat.a.x;
+        let ext = mat.a.y;
+        let t = refract_dir(d, n, ior / ext);
+        var f = 1.0;
+        if (t.w > 0.5) {
+            f = fresnel_dielectric(cos1, ext / ior);
+            l = (1.0 - f) * shade_ray(p, t.xyz, obj, vec3f(1.0 - f));
+        }
+        l += inside_ray(obj, mat, p, refl, f, false);
     } else if (mat.kind.x == KIND_DIELECTRIC) {
         let ior = mat.a.x;
         let ext = mat.a.y;
@@ -570,31 +640,7 @@ fn specular_pixel(px: vec2i, idx: u32) {
             // Inside: to the exit (exactly for a sphere; marched through the camera's buffers
             // for a mesh, with the exact BVH tracer where the march finds none); total internal
             // reflection followed up to three times.
-            var p_in = p;
-            var t_in = t1.xyz;
-            var w = 1.0 - f1;
-            for (var k = 0u; k < 4u; k++) {
-                let exit = exit_from_inside(obj, mat, p_in, t_in);
-                // A diffuse surface inside the object before the exit (a pool's floor under
-                // water, a stone in a glass block) is what the ray sees.
-                let inner = inner_receiver(obj, p_in, t_in, exit);
-                if (inner.w >= 0.0) {
-                    l += w * inner.rgb;
-                    break;
-                }
-                if (!exit.ok) { break; }
-                var n2 = exit.n;
-                if (dot(n2, t_in) < 0.0) { n2 = -n2; }
-                let cos2 = dot(t_in, n2);
-                let t2 = refract_dir(t_in, -n2, ior / ext);
-                if (t2.w > 0.5) {
-                    let f2 = fresnel_dielectric(cos2, ext / ior);
-                    l += w * (1.0 - f2) * shade_ray(exit.p, t2.xyz, obj, vec3f(w * (1.0 - f2)));
-                    break;
-                }
-                p_in = exit.p;
-                t_in = reflect(t_in, n2);
-            }
+            l += inside_ray(obj, mat, p, t1.xyz, 1.0 - f1, true);
         }
     }
     out_full[idx] = vec4f(l, 0.0);

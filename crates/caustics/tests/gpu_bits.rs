@@ -196,6 +196,8 @@ scenes!(
     glass_sphere_3dir,
     glass_sphere_sky,
     mirror_ring,
+    pool_sun,
+    pool_sun_under,
     two_spheres;
     full: ball_over_bunny,
     pool,

@@ -1,5 +1,5 @@
 //! `caustics bench --frames N`: the frame-loop benchmark of the persistent renderer, phase by
-//! phase (`full`, `camera`, `light`, `object`): the scene's animation, per-frame samples, and the
+//! phase (`full`, `camera`, `light`, `object`, `mesh`): the scene's animation, per-frame samples, and the
 //! markdown and JSON report.
 
 use super::{BenchArgs, settings, setup};
@@ -10,7 +10,10 @@ use serde_json::{Value, json};
 use std::fmt::Write as _;
 
 /// The phases of the frame-loop benchmark, in order.
-const PHASES: [&str; 4] = ["full", "camera", "light", "object"];
+const PHASES: [&str; 5] = ["full", "camera", "light", "object", "mesh"];
+
+/// The frame rate the `mesh` phase advances an animated scene's time by (frames per second).
+const MESH_FPS: f32 = 30.0;
 
 /// `--phases`: the phases named, each known and once, in the order of [`PHASES`].
 fn parse_phases(s: &str) -> Result<Vec<&'static str>> {
@@ -80,6 +83,10 @@ fn animate(r: &mut caustics::renderer::Renderer, base: &Scene, phase: &str, i: u
             r.set_light(k, l)?;
         }
     }
+    if phase == "mesh" {
+        deform(r, base, i)?;
+        return Ok(());
+    }
     if object && let Some(k) = base.objects.iter().position(|o| o.caustic_caster) {
         // The first caster moves on a small circle and turns about the up axis through its centre.
         let (lo, hi) = base.objects[k].shape.bounds();
@@ -92,6 +99,36 @@ fn animate(r: &mut caustics::renderer::Renderer, base: &Scene, phase: &str, i: u
         r.set_object_transform(k, t)?;
     }
     Ok(())
+}
+
+/// The `mesh` phase's frame `i`: an animated scene (`waves`) at time (i + 1) / 30 s; else the
+/// first mesh object's vertices swell and shrink along their normals (a wave of 1 % of its size
+/// running across it), so every frame rewrites its vertices and refits its BVH on the GPU.
+fn deform(r: &mut caustics::renderer::Renderer, base: &Scene, i: u32) -> caustics::Result<()> {
+    if base.is_animated() {
+        return r.set_time((i as f32 + 1.0) / MESH_FPS);
+    }
+    let Some((k, m)) = base.objects.iter().enumerate().find_map(|(k, o)| match &o.shape {
+        caustics::scene::Shape::Mesh(m) => Some((k, m)),
+        _ => None,
+    }) else {
+        return Ok(());
+    };
+    let (lo, hi) = m.bounds();
+    let size = (hi - lo).max_element();
+    let phi = (i as f32 + 1.0) * 0.7;
+    let positions: Vec<glam::Vec3> = m
+        .positions
+        .iter()
+        .zip(&m.normals)
+        .map(|(p, n)| *p + 0.01 * size * (phi + 6.0 * (p.x - lo.x) / size).sin() * *n)
+        .collect();
+    r.set_mesh_vertices(k, &positions, &m.normals)
+}
+
+/// Whether the scene has a mesh for the `mesh` phase to deform.
+fn has_mesh(scene: &Scene) -> bool {
+    scene.objects.iter().any(|o| matches!(o.shape, caustics::scene::Shape::Mesh(_)))
 }
 
 /// One frame's measurements.
@@ -221,8 +258,16 @@ pub fn frame_loop(a: &BenchArgs) -> Result<()> {
                 for (k, l) in scene.lights.iter().enumerate() {
                     r.set_light(k, l.clone())?;
                 }
-                for k in 0..scene.objects.len() {
+                for (k, o) in scene.objects.iter().enumerate() {
                     r.set_object_transform(k, glam::Affine3A::IDENTITY)?;
+                    if let caustics::scene::Shape::Mesh(m) = &o.shape {
+                        r.set_mesh_vertices(k, &m.positions, &m.normals)?;
+                    }
+                }
+                if name == "mesh" && !has_mesh(&scene) {
+                    bar.inc(a.frames as u64);
+                    bar.suspend(|| println!("{t} {n}^2 mesh: skipped, the scene has no mesh to deform"));
+                    continue;
                 }
                 let mut samples = Vec::new();
                 bar.set_message(format!("{t} {n}^2 {name}"));
@@ -267,7 +312,7 @@ fn fmt_ms(v: f64) -> String {
     if v.is_finite() { format!("{v:.1}") } else { "-".into() }
 }
 
-const FULL_NOTE: &str = "`full`: every frame moves the camera (orbit), every light (small circle) and the first caster (circle and turn) at once, so every pass is redone; the renderer, its resources and pipelines are kept. `camera`: an orbit about the look-at point, a full turn over the phase. `light`: the first light on a circle of 5 % of the scene's size. `object`: the first caster on a circle of 10 % of its size, turning about the up axis.";
+const FULL_NOTE: &str = "`full`: every frame moves the camera (orbit), every light (small circle) and the first caster (circle and turn) at once, so every pass is redone; the renderer, its resources and pipelines are kept. `camera`: an orbit about the look-at point, a full turn over the phase. `light`: the first light on a circle of 5 % of the scene's size. `object`: the first caster on a circle of 10 % of its size, turning about the up axis. `mesh`: a mesh's vertices change every frame (an animated scene's waves at 30 frames a second, else the first mesh swelling along its normals by 1 % of its size): its vertices rewritten and its BVH refit on the GPU (`bvh_refit`), the lights that see it redone.";
 
 fn frame_markdown(scene: &str, adapter: &str, a: &BenchArgs, runs: &[(Technique, u32, Vec<Phase>)]) -> String {
     let mut s = String::new();

@@ -49,14 +49,15 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 0)]
     cpu_photons: u64,
     /// Frame-loop benchmark: render this many frames of each phase (`full`, `camera`, `light`,
-    /// `object`) with the persistent renderer, for each technique and photon grid given, and
+    /// `object`, `mesh`) with the persistent renderer, for each technique and photon grid given, and
     /// report frame ms (median, p95), GPU ms per pass and resource creations per phase, the
     /// first frame apart (frameloop_SCENE.md and .json).
     #[arg(long, default_value_t = 0)]
     frames: u32,
     /// Frame-loop benchmark: the phases to run, comma-separated, in the order of `full`,
-    /// `camera`, `light`, `object` (all four if omitted).
-    #[arg(long, default_value = "full,camera,light,object")]
+    /// `camera`, `light`, `object`, `mesh` (all if omitted; `mesh` is skipped in a scene
+    /// without a mesh).
+    #[arg(long, default_value = "full,camera,light,object,mesh")]
     phases: String,
     #[command(flatten)]
     settings: crate::settings_args::SettingsArgs,

@@ -39,6 +39,12 @@ pub struct ViewArgs {
     /// Adapter to use (a part of its name, see `caustics info`).
     #[arg(long)]
     pub adapter: Option<String>,
+    /// Start the animation (`waves` objects) at this time, in seconds.
+    #[arg(long)]
+    pub time: Option<f32>,
+    /// Start with the animation playing.
+    #[arg(long)]
+    pub play: bool,
     /// Folder for screenshots (F12).
     #[arg(long, default_value = ".")]
     pub screenshot_dir: PathBuf,
@@ -68,6 +74,11 @@ pub fn prepare(args: ViewArgs) -> Result<Start, Error> {
     };
     for w in &scene.warnings {
         eprintln!("warning: {w}");
+    }
+    if let Some(t) = args.time
+        && !t.is_finite()
+    {
+        return Err(Error::input("<command line>", "--time", format!("must be a finite number of seconds (got {t})")));
     }
     if !(0.25..=1.0).contains(&args.scale) {
         return Err(Error::input("<command line>", "--scale", format!("must lie in [0.25, 1] (got {})", args.scale)));

@@ -630,3 +630,42 @@ fn medium_density_and_beam_settings_change_live() {
     drop(ctx.run_ui(raw, |ui| ui::draw(ui, &mut state, &mut s, None)));
     assert!(s.error.is_none(), "{:?}", s.error);
 }
+
+#[test]
+fn the_pool_plays_its_waves() {
+    // An animated scene: a time poses the waves (the renderer's mesh changes, the view's
+    // generation too), the same time again renders nothing, and playing keeps frames coming
+    // with the time moving on; pausing stops them.
+    let Some(d) = device() else { return };
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/pool_sun.json");
+    let scene = Scene::load(&path).unwrap();
+    let mut s = Session::new(&d.0, &d.1, scene.clone(), small_settings(), tmp("")).expect("a session on the pool");
+    assert!(s.animated());
+    s.act(Action::Resize { width: 32, height: 24 }).unwrap();
+    frame(&mut s);
+    let mesh = |s: &Session| match &s.scene().objects[0].shape {
+        caustics::scene::Shape::Mesh(m) => m.positions.clone(),
+        _ => panic!("the water is no mesh"),
+    };
+    let rest = mesh(&s);
+    let g = s.generation();
+    s.act(Action::SetTime(0.5)).unwrap();
+    assert!(s.generation() > g && s.needs_frame());
+    frame(&mut s);
+    let posed = mesh(&s);
+    assert_ne!(rest, posed, "the waves did not move");
+    let caustics::scene::Shape::Mesh(want) = &scene.at_time(0.5).objects[0].shape else { unreachable!() };
+    assert_eq!(posed, want.positions, "the renderer's waves are not the scene's at 0.5 s");
+    s.act(Action::SetTime(0.5)).unwrap();
+    assert!(!s.render().unwrap(), "the same time rendered again");
+    s.act(Action::Play(true)).unwrap();
+    for _ in 0..2 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        assert!(s.render().unwrap(), "playing renders");
+        s.wait_stats();
+    }
+    assert!(s.time() > 0.5 && s.playing());
+    s.act(Action::Play(false)).unwrap();
+    s.render().unwrap();
+    assert!(!s.needs_frame(), "paused, yet frames keep coming");
+}

@@ -111,6 +111,12 @@ impl Running {
         }
         let mut session = Session::new(&device, &queue, scene, settings, args.screenshot_dir.clone())?;
         session.sphere_args = spheres;
+        if let Some(t) = args.time {
+            session.act(crate::view::session::Action::SetTime(t))?;
+        }
+        if args.play {
+            session.act(crate::view::session::Action::Play(true))?;
+        }
         let egui_ctx = egui::Context::default();
         let egui_state = egui_winit::State::new(
             egui_ctx.clone(),

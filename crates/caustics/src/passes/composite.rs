@@ -83,6 +83,52 @@ fn record_medium(
     }
 }
 
+/// The closed dielectric object the camera is in (a camera under water), if any: a sphere by its
+/// radius, a mesh by the parity of its surface crossings along three axes (the majority, so a
+/// ray through an edge or a vertex does not decide alone), tested only inside the mesh's bounds.
+/// Open shapes (cylinders, rectangles) have no inside.
+pub(crate) fn camera_inside(scene: &crate::scene::Scene, p: glam::Vec3) -> Option<usize> {
+    use crate::scene::{Material, Shape};
+    scene.objects.iter().position(|o| {
+        if !matches!(scene.material_of(o), Material::Dielectric { .. }) {
+            return false;
+        }
+        match &o.shape {
+            Shape::Sphere { center, radius } => p.distance(*center) < *radius,
+            Shape::Mesh(m) => {
+                let (lo, hi) = m.bounds();
+                if !(p.cmpgt(lo).all() && p.cmplt(hi).all()) {
+                    return false;
+                }
+                let odd = |d: glam::Vec3| {
+                    let hits = m.indices.iter().filter(|t| {
+                        let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                        crossing(p, d, a, b, c)
+                    });
+                    hits.count() % 2 == 1
+                };
+                [glam::Vec3::X, glam::Vec3::Y, glam::Vec3::Z].into_iter().filter(|d| odd(*d)).count() >= 2
+            }
+            _ => false,
+        }
+    })
+}
+
+/// Whether the ray `o + t d` (t > 0) crosses the triangle (a, b, c) (Möller–Trumbore).
+fn crossing(o: glam::Vec3, d: glam::Vec3, a: glam::Vec3, b: glam::Vec3, c: glam::Vec3) -> bool {
+    let (e1, e2) = (b - a, c - a);
+    let q = d.cross(e2);
+    let det = e1.dot(q);
+    if det.abs() < 1e-20 {
+        return false;
+    }
+    let s = (o - a) / det;
+    let u = s.dot(q);
+    let r = s.cross(e1);
+    let v = d.dot(r);
+    u >= 0.0 && v >= 0.0 && u + v <= 1.0 && e2.dot(r) > 0.0
+}
+
 /// `composite` (image-space refraction and reflection of the camera's specular surfaces) and the
 /// medium (`medium_scatter`, scenes with one): (radiance image, caustic-only image). The
 /// renderer adds the volume caustics (`crate::beams`), then [`record_display`].
@@ -126,7 +172,7 @@ pub(crate) fn record_composite(
             width: w,
             height: h,
             layer2: layer2 as u32,
-            _pad: 0,
+            camera_inside: camera_inside(dc.scene, cam.position).map_or(0, |o| o as u32 + 1),
             medium_lo,
             medium_hi,
             medium_sigma_t,

@@ -335,6 +335,22 @@ impl Renderer {
         }
     }
 
+    /// Pose the scene's animated objects (`waves`) at time `t` (seconds; the scene file poses
+    /// them at 0): each one's mesh is deformed ([`Renderer::set_mesh_vertices`]: its BVH refit
+    /// on the GPU in the next frame, the lights that see it redone). Nothing else changes.
+    pub fn set_time(&mut self, t: f32) -> Result<()> {
+        if !t.is_finite() {
+            return Err(Error::input("<renderer>", "time", format!("must be a finite number of seconds (got {t})")));
+        }
+        for i in 0..self.base.objects.len() {
+            if let Some(w) = self.base.objects[i].waves.clone() {
+                let m = w.mesh(t);
+                self.set_mesh_vertices(i, &m.positions, &m.normals)?;
+            }
+        }
+        Ok(())
+    }
+
     /// Deform mesh object `index`: its vertices' new `positions` and shading `normals`, in the
     /// scene file's pose (its transform, [`Renderer::set_object_transform`], still applies), as
     /// many as the mesh has; its triangles stay. The next frame rewrites the vertices on the GPU

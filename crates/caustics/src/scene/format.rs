@@ -237,6 +237,7 @@ pub enum ObjectDesc {
     Rectangle(RectangleDesc),
     Cylinder(CylinderDesc),
     Mesh(MeshDesc),
+    Waves(WavesDesc),
 }
 
 #[derive(Debug, Deserialize)]
@@ -287,13 +288,49 @@ pub struct MeshDesc {
     pub caustic_caster: Option<bool>,
 }
 
+/// A closed water body with a wavy top (`scene::waves`, this project's extension).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WavesDesc {
+    #[serde(default)]
+    pub center: [f32; 2],
+    pub size: [f32; 2],
+    pub surface: f32,
+    pub bottom: f32,
+    #[serde(default = "waves_grid")]
+    pub grid: u32,
+    #[serde(default = "yes")]
+    pub smooth_normals: bool,
+    pub waves: Vec<WaveDesc>,
+    pub material: String,
+    #[serde(default)]
+    pub caustic_caster: Option<bool>,
+}
+
+fn waves_grid() -> u32 {
+    64
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WaveDesc {
+    pub amplitude: f32,
+    pub wavelength: f32,
+    pub direction_deg: f32,
+    #[serde(default)]
+    pub steepness: f32,
+    #[serde(default)]
+    pub phase: f32,
+}
+
 impl<'de> Deserialize<'de> for ObjectDesc {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let (tag, f) = tagged(d, &["sphere", "rectangle", "cylinder", "mesh"])?;
+        let (tag, f) = tagged(d, &["sphere", "rectangle", "cylinder", "mesh", "waves"])?;
         Ok(match tag.as_str() {
             "sphere" => ObjectDesc::Sphere(variant(f)?),
             "rectangle" => ObjectDesc::Rectangle(variant(f)?),
             "cylinder" => ObjectDesc::Cylinder(variant(f)?),
+            "waves" => ObjectDesc::Waves(variant(f)?),
             _ => ObjectDesc::Mesh(variant(f)?),
         })
     }

@@ -190,7 +190,8 @@ pub(super) fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
             ObjectDesc::Sphere(SphereDesc { material, caustic_caster, .. })
             | ObjectDesc::Rectangle(RectangleDesc { material, caustic_caster, .. })
             | ObjectDesc::Cylinder(CylinderDesc { material, caustic_caster, .. })
-            | ObjectDesc::Mesh(MeshDesc { material, caustic_caster, .. }) => (material, caustic_caster),
+            | ObjectDesc::Mesh(MeshDesc { material, caustic_caster, .. })
+            | ObjectDesc::Waves(WavesDesc { material, caustic_caster, .. }) => (material, caustic_caster),
         };
         let material = material_names.iter().position(|n| n == mat_name).ok_or_else(|| {
             cx.err(
@@ -198,6 +199,7 @@ pub(super) fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                 format!("unknown material \"{mat_name}\" (the scene defines: {})", material_names.join(", ")),
             )
         })?;
+        let mut waves = None;
         let shape = match o {
             ObjectDesc::Sphere(SphereDesc { center, radius, .. }) => Shape::Sphere {
                 center: cx.finite3(&f("center"), *center)?,
@@ -275,8 +277,15 @@ pub(super) fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                 }
                 Shape::Mesh(Arc::new(m))
             }
+            ObjectDesc::Waves(w) => {
+                let body = load_waves(&cx, &f, w)?;
+                let shape = Shape::Mesh(Arc::new(body.mesh(0.0)));
+                waves = Some(Arc::new(body));
+                shape
+            }
         };
-        objects.push(Object { shape, material, caustic_caster: caster.unwrap_or(materials[material].is_specular()) });
+        let caustic_caster = caster.unwrap_or(materials[material].is_specular());
+        objects.push(Object { shape, material, caustic_caster, waves });
     }
     if objects.is_empty() {
         return Err(cx.err("objects", "the scene has no object"));
@@ -337,4 +346,47 @@ pub(super) fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
 fn resolve_path(base: &Path, p: &str) -> PathBuf {
     let p = Path::new(p);
     if p.is_absolute() { p.to_path_buf() } else { base.join(p) }
+}
+
+/// A `waves` object's fields checked (`f` names a field of the object).
+fn load_waves(cx: &Ctx, f: &dyn Fn(&str) -> String, w: &WavesDesc) -> Result<waves::Waves> {
+    let finite = |field: &str, x: f32| {
+        if x.is_finite() { Ok(x) } else { Err(cx.err(f(field), format!("must be a finite number (got {x})"))) }
+    };
+    let center = Vec2::new(finite("center[0]", w.center[0])?, finite("center[1]", w.center[1])?);
+    let size = Vec2::new(cx.positive(&f("size[0]"), w.size[0])?, cx.positive(&f("size[1]"), w.size[1])?);
+    let surface = finite("surface", w.surface)?;
+    let bottom = finite("bottom", w.bottom)?;
+    if !(2..=1024).contains(&w.grid) {
+        return Err(cx.err(f("grid"), format!("must lie in 2..=1024 quads per side (got {})", w.grid)));
+    }
+    if w.waves.is_empty() || w.waves.len() > 64 {
+        return Err(cx.err(f("waves"), format!("must list 1 to 64 waves (got {})", w.waves.len())));
+    }
+    let mut out = Vec::new();
+    for (k, d) in w.waves.iter().enumerate() {
+        let g = |s: &str| format!("waves[{k}].{s}");
+        let amplitude = finite(&g("amplitude"), d.amplitude)?;
+        if amplitude < 0.0 {
+            return Err(cx.err(f(&g("amplitude")), format!("must not be negative (got {amplitude})")));
+        }
+        if !(0.0..=1.0).contains(&d.steepness) {
+            return Err(cx.err(f(&g("steepness")), format!("must lie in [0, 1] (got {})", d.steepness)));
+        }
+        out.push(waves::Wave {
+            amplitude,
+            wavelength: cx.positive(&f(&g("wavelength")), d.wavelength)?,
+            direction_deg: finite(&g("direction_deg"), d.direction_deg)?,
+            steepness: d.steepness,
+            phase: finite(&g("phase"), d.phase)?,
+        });
+    }
+    let swing: f32 = out.iter().map(|w| w.amplitude).sum();
+    if surface - swing <= bottom {
+        return Err(cx.err(
+            f("bottom"),
+            format!("must lie below the deepest trough, surface − Σ amplitude = {} (got {bottom})", surface - swing),
+        ));
+    }
+    Ok(waves::Waves { center, size, surface, bottom, grid: w.grid, smooth_normals: w.smooth_normals, waves: out })
 }

@@ -10,6 +10,7 @@ pub mod environment_lights;
 pub(crate) mod format;
 mod load;
 pub mod mesh;
+pub mod waves;
 
 use crate::error::{Error, Result};
 use format::*;
@@ -239,6 +240,9 @@ pub struct Object {
     pub material: usize,
     /// Whether it casts caustics (default: specular materials do).
     pub caustic_caster: bool,
+    /// Animated water (`{"type": "waves"}`): `shape` is its mesh at the scene's time, posed
+    /// again by [`Scene::at_time`] (and `Renderer::set_time`).
+    pub waves: Option<Arc<waves::Waves>>,
 }
 
 /// Phase function of a participating medium.
@@ -336,6 +340,23 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// Whether any object moves with time (`waves`).
+    pub fn is_animated(&self) -> bool {
+        self.objects.iter().any(|o| o.waves.is_some())
+    }
+
+    /// The scene at time `t` (seconds; a file poses it at 0): every `waves` object's mesh posed
+    /// at `t`, the rest unchanged.
+    pub fn at_time(&self, t: f32) -> Scene {
+        let mut s = self.clone();
+        for o in &mut s.objects {
+            if let Some(w) = &o.waves {
+                o.shape = Shape::Mesh(Arc::new(w.mesh(t)));
+            }
+        }
+        s
+    }
+
     /// Load and validate a scene file.
     pub fn load(path: &Path) -> Result<Scene> {
         let file = path.display().to_string();

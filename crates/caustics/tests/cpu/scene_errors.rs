@@ -161,3 +161,35 @@ fn bad_media_name_the_field() {
         assert!(e.contains(field), "error does not name {field}: {e}");
     }
 }
+
+/// A `waves` object (animated water): it loads as a closed mesh posed at time 0 and again at any
+/// time; bad fields are named.
+#[test]
+fn waves_load_pose_in_time_and_name_bad_fields() {
+    let waves = r#"{ "type": "waves", "size": [2, 2], "surface": 0.4, "bottom": 0.0, "grid": 8,
+        "waves": [ { "amplitude": 0.02, "wavelength": 0.5, "direction_deg": 30, "steepness": 0.5 } ],
+        "material": "glass" }"#;
+    let json = with(r#"{ "type": "sphere", "center": [0, 1, 0], "radius": 0.5, "material": "glass" }"#, waves);
+    let s = Scene::from_json(&json, "w.json", Path::new(".")).unwrap();
+    assert!(s.is_animated() && s.objects[0].caustic_caster);
+    let caustics::scene::Shape::Mesh(m0) = &s.objects[0].shape else { panic!("not a mesh") };
+    assert_eq!(m0.boundary_edges(), 0);
+    let later = s.at_time(0.3);
+    let caustics::scene::Shape::Mesh(m1) = &later.objects[0].shape else { panic!("not a mesh") };
+    assert_eq!((m0.positions.len(), m0.indices.len()), (m1.positions.len(), m1.indices.len()));
+    assert_ne!(m0.positions, m1.positions, "time moved nothing");
+    assert_eq!(s.at_time(0.0).objects[0].shape.bounds(), s.objects[0].shape.bounds());
+    let bad = |from: &str, to: &str| err(&json.replacen(from, to, 1));
+    let cases = [
+        (bad("\"grid\": 8", "\"grid\": 1"), "objects[0].grid"),
+        (bad("\"steepness\": 0.5", "\"steepness\": 1.5"), "objects[0].waves[0].steepness"),
+        (bad("\"amplitude\": 0.02", "\"amplitude\": -0.02"), "objects[0].waves[0].amplitude"),
+        (bad("\"wavelength\": 0.5", "\"wavelength\": 0"), "objects[0].waves[0].wavelength"),
+        (bad("\"bottom\": 0.0", "\"bottom\": 0.39"), "objects[0].bottom"),
+        (bad("\"size\": [2, 2]", "\"size\": [2, -2]"), "objects[0].size[1]"),
+        (bad("\"waves\": [", "\"waves\": [], \"w\": ["), "objects[0]"),
+    ];
+    for (e, field) in cases {
+        assert!(e.contains(field), "{field}: {e}");
+    }
+}

@@ -80,6 +80,10 @@ pub enum Action {
     /// Turn the environment light to this many degrees about +Y (its directional lights turn
     /// with it, no re-segmentation).
     SetEnvironmentRotation(f32),
+    /// Pose the animated objects (`waves`) at this time (seconds).
+    SetTime(f32),
+    /// Play the animation (time follows the wall clock from where it is) or pause it.
+    Play(bool),
     /// Write the current image (PNG tone-mapped, EXR linear, by extension).
     Screenshot(PathBuf),
     /// Write the current image as the next numbered PNG + EXR pair in the screenshot folder.

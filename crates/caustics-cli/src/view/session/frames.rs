@@ -15,6 +15,13 @@ impl Session {
     /// Render a frame if anything changed; returns whether it did. Never waits for the GPU
     /// beyond what [`Renderer::encode`](caustics::renderer::Renderer::encode) does.
     pub fn render(&mut self) -> Result<bool> {
+        if self.playing.is_some()
+            && let Err(e) = self.advance()
+        {
+            self.playing = None;
+            self.error = Some(e.to_string());
+            return Err(e);
+        }
         if !self.dirty {
             return Ok(false);
         }

@@ -100,6 +100,10 @@ pub struct Session {
     /// object is looked up in its own frame, so moves keep them).
     pub sphere_args: crate::spheres::SphereArgs,
     sphere_tables: Option<Vec<(usize, Arc<caustics::caustic_spheres::CausticSpheres>)>>,
+    /// The animation's time (seconds; `waves` objects), and while it plays the wall clock of
+    /// the latest step.
+    time: f32,
+    playing: Option<Instant>,
 }
 
 impl Session {
@@ -148,7 +152,43 @@ impl Session {
             screenshots: 0,
             sphere_args: crate::spheres::SphereArgs::default(),
             sphere_tables: None,
+            time: 0.0,
+            playing: None,
         })
+    }
+
+    /// Whether the scene has animated objects (`waves`): the panel then shows play and time.
+    pub fn animated(&self) -> bool {
+        self.base.is_animated()
+    }
+    /// The animation's time (seconds).
+    pub fn time(&self) -> f32 {
+        self.time
+    }
+    /// Whether the animation plays.
+    pub fn playing(&self) -> bool {
+        self.playing.is_some()
+    }
+
+    /// Pose the animated objects at `t` seconds (a change of the view: a new reference
+    /// generation).
+    fn set_time(&mut self, t: f32) -> Result<()> {
+        self.renderer.set_time(t)?;
+        self.time = t;
+        self.geometry_version += 1;
+        self.view_changed();
+        Ok(())
+    }
+
+    /// While playing: the time advanced by the wall clock since the latest step (called before
+    /// each frame).
+    fn advance(&mut self) -> Result<()> {
+        let Some(last) = self.playing else { return Ok(()) };
+        let now = Instant::now();
+        // A long stall (a reference computed, a window dragged) is not made up for.
+        let dt = (now - last).as_secs_f32().min(0.25);
+        self.playing = Some(now);
+        self.set_time(self.time + dt)
     }
 
     pub fn renderer(&self) -> &Renderer {
@@ -187,9 +227,10 @@ impl Session {
     pub fn frames(&self) -> u64 {
         self.frames
     }
-    /// Whether the next [`Session::render`] will render (something changed).
+    /// Whether the next [`Session::render`] will render (something changed, or the animation
+    /// plays).
     pub fn needs_frame(&self) -> bool {
-        self.dirty
+        self.dirty || self.playing.is_some()
     }
     /// The latest frame's display texture (Rgba8Unorm, sRGB-encoded values).
     pub fn display(&self) -> Option<&wgpu::Texture> {
@@ -309,6 +350,17 @@ impl Session {
                 }
                 self.renderer.set_medium(sigma_s, sigma_a, phase)?;
                 self.view_changed();
+                Ok(())
+            }
+            Action::SetTime(t) => {
+                if t == self.time {
+                    return Ok(());
+                }
+                self.set_time(t)
+            }
+            Action::Play(on) => {
+                self.playing = on.then(Instant::now);
+                self.dirty = true;
                 Ok(())
             }
             Action::Screenshot(path) => self.screenshot(&path),

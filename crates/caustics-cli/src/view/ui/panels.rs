@@ -23,6 +23,9 @@ pub(super) fn side_panel(ui: &mut egui::Ui, state: &mut UiState, session: &mut S
     });
     ui.separator();
     egui::CollapsingHeader::new("Rendering").default_open(true).show(ui, |ui| rendering(ui, state, session));
+    if session.animated() {
+        egui::CollapsingHeader::new("Animation").default_open(true).show(ui, |ui| animation(ui, session));
+    }
     egui::CollapsingHeader::new("Selection").default_open(true).show(ui, |ui| selection(ui, session));
     egui::CollapsingHeader::new("Statistics").default_open(true).show(ui, |ui| stats(ui, session));
     egui::CollapsingHeader::new("CPU reference").default_open(true).show(ui, |ui| reference_panel(ui, session));
@@ -50,6 +53,21 @@ pub(super) fn side_panel(ui: &mut egui::Ui, state: &mut UiState, session: &mut S
              Drag the circle at the end of a spot light's axis: aim it\n\
              F12/P: screenshot (PNG + EXR) · B: A/B (GPU ↔ reference) · D: difference · Esc: deselect",
         );
+    });
+}
+
+/// Play and pause the scene's waves, or pick a time.
+fn animation(ui: &mut egui::Ui, session: &mut Session) {
+    ui.horizontal(|ui| {
+        let playing = session.playing();
+        if ui.button(if playing { "⏸ pause" } else { "▶ play" }).clicked() {
+            act(session, Action::Play(!playing));
+        }
+        let mut t = session.time();
+        let slider = egui::Slider::new(&mut t, 0.0..=60.0).suffix(" s").text("time");
+        if ui.add(slider).changed() {
+            act(session, Action::SetTime(t));
+        }
     });
 }
 

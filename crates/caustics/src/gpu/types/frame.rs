@@ -80,7 +80,8 @@ pub struct CompositeParams {
     /// 1 when the scene has specular meshes (the camera's second layer can hold something), 0:
     /// `composite` then skips the march through the (empty) second-layer buffers.
     pub layer2: u32,
-    pub _pad: u32,
+    /// The closed dielectric object the camera is in, plus 1 (a camera under water); 0: none.
+    pub camera_inside: u32,
     /// The medium's box (scenes with one; `composite_medium`): w of `medium_hi` 1 for a density
     /// grid, else 0.
     pub medium_lo: [f32; 4],

@@ -165,7 +165,7 @@ layouts! {
     SphereRecord { to_obj, axes, rot, center, shape, irradiance, base }
     SphereCompileParams { first, count, cells, out_base }
     SphereVolumeParams { clip_to_world, camera, lo, hi, sigma_s, sigma_t, width, height, steps, records }
-    CompositeParams { world_to_clip, clip_to_world, camera, env_rotation, width, height, layer2, _pad, medium_lo, medium_hi, medium_sigma_t }
+    CompositeParams { world_to_clip, clip_to_world, camera, env_rotation, width, height, layer2, camera_inside, medium_lo, medium_hi, medium_sigma_t }
     EyeSegmentGpu as EyeSegment { o, w, dir }
     EmitParams { lo, hi, sigma_s, sigma_t, grid, faces, bins, slices, scale, heterogeneous, vpl_offset, vpl_count, caustic, _pad => [_pad0, _pad1, _pad2] }
     MediumParams { clip_to_world, camera, lo, hi, sigma_s, sigma_t, width, height, steps, flags, shadow_size, grid, light_steps, _pad => _pad0 }

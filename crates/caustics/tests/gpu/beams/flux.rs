@@ -194,6 +194,7 @@ fn two_balls_in_fog(w: u32, h: u32) -> Scene {
     let mut sc = ball_in_fog(14.0, w, h);
     let glass = sc.objects[0].material;
     sc.objects.push(caustics::scene::Object {
+        waves: None,
         shape: caustics::scene::Shape::Sphere { center: Vec3::new(0.0, 0.35, 0.0), radius: 0.3 },
         material: glass,
         caustic_caster: true,
