@@ -456,6 +456,25 @@ fn exit_from_inside(obj: u32, m: MaterialGpu, p: vec3f, d: vec3f, march: bool) -
     return h;
 }
 
+// The shaded radiance of the diffuse point p where the camera sees it (its pixel's receiver
+// within 4 pixels' width there); w = -1 where the camera does not see it.
+fn seen_radiance(p: vec3f) -> vec4f {
+    let q = to_pixel(p);
+    if (q.z > 0.0) {
+        let px = pix(q.xy);
+        let rp = textureLoad(recv_pos, px, 0);
+        // A pixel's width at p: 2 w / (height P11), P11 the length of the clip matrix's y row.
+        let m = cp.world_to_clip;
+        let p11 = length(vec3f(m[0][1], m[1][1], m[2][1]));
+        let w = (m * vec4f(p, 1.0)).w;
+        let tol = 8.0 * w / (f32(cp.height) * p11);
+        if (rp.w >= 0.0 && distance(rp.xyz, p) <= tol) {
+            return vec4f(radiance[u32(px.y) * cp.width + u32(px.x)].rgb, 0.0);
+        }
+    }
+    return vec4f(0.0, 0.0, 0.0, -1.0);
+}
+
 // The radiance of a diffuse surface met by a ray travelling inside the dielectric `obj` (at o,
 // along d) before it leaves it at `exit` (a pool's floor under water, a stone in a glass
 // block); w = -1 where the ray leaves first or no exit was found. Whether something lies there
@@ -470,16 +489,9 @@ fn inner_receiver(obj: u32, o: vec3f, d: vec3f, exit: EyeHit, exact: bool) -> ve
     if (!exit.ok) {
         if (!exact || exit.object == obj || exit.object >= arrayLength(&materials)) { return miss; }
         if (materials[exit.object].kind.x != KIND_DIFFUSE) { return miss; }
-        // The exact point, read where the camera sees it (within 2 % of its distance); else
-        // the screen-space search.
-        let q = to_pixel(exit.p);
-        if (q.z > 0.0) {
-            let px = pix(q.xy);
-            let rp = textureLoad(recv_pos, px, 0);
-            if (rp.w >= 0.0 && distance(rp.xyz, exit.p) <= 0.02 * distance(exit.p, cp.camera.xyz)) {
-                return vec4f(radiance[u32(px.y) * cp.width + u32(px.x)].rgb, distance(o, exit.p));
-            }
-        }
+        // The exact point where the camera sees it; else the screen-space search.
+        let v = seen_radiance(exit.p);
+        if (v.w >= 0.0) { return vec4f(v.rgb, distance(o, exit.p)); }
         let r = trace_receivers_t(o, d);
         if (!(r.w < 1e30)) { return miss; }
         return vec4f(r.rgb, r.w);

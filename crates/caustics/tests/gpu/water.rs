@@ -98,7 +98,7 @@ fn ball_pebble() -> Scene {
 /// the CPU reference in full mode. Before, the surface from below was black: the composite
 /// entered the water where the ray was leaving it. Measured on lavapipe at 64² (8 × 8 HDR-FLIP,
 /// energy, the upper half's energy, where the surface is): before 0.708, 0.500, 0.015; now
-/// 0.369, 0.713, 0.520. Still missing (not the target yet): reflected points the camera does not
+/// 0.247, 0.864, 0.890. Still missing (not the target yet): reflected points the camera does not
 /// see (black) and the pool's interreflection (no diffuse bounce on the GPU). The bounds guard
 /// what works.
 #[test]
@@ -118,7 +118,7 @@ fn a_camera_under_water_sees_the_surface_from_below() {
     let flip = hdr_flip(&boxed(&g.image), &boxed(&cpu.image), None::<&Mask>).unwrap().mean;
     let energy = energy_ratio(&g.image, &cpu.image, None).unwrap();
     eprintln!("pool from under water: 8x8 HDR-FLIP {flip:.3}, energy {energy:.4}, upper half {top:.4}");
-    assert!(top > 0.4, "the surface seen from below is dark: {top} of the reference's light in the upper half");
-    assert!(flip <= 0.45, "8x8 HDR-FLIP {flip}");
-    assert!((0.65..=1.03).contains(&energy), "energy {energy}");
+    assert!(top > 0.75, "the surface seen from below is dark: {top} of the reference's light in the upper half");
+    assert!(flip <= 0.3, "8x8 HDR-FLIP {flip}");
+    assert!((0.8..=1.03).contains(&energy), "energy {energy}");
 }
