@@ -61,25 +61,25 @@ pub fn build_mesh_bvh(positions: &[Vec3], normals: &[Vec3], indices: &[[u32; 3]]
         let (lo, hi) = (Vec3::from(n.aabb.min), Vec3::from(n.aabb.max));
         nodes.push(BvhNode { lo: lo.to_array(), a: n.first_index, hi: hi.to_array(), count: n.prim_count });
     }
-    let out_tris = bvh
-        .primitive_indices
-        .iter()
-        .map(|&pi| {
-            let idx = indices[pi as usize];
-            let p = idx.map(|i| positions[i as usize]);
-            let n = idx.map(|i| normals.get(i as usize).copied().unwrap_or(Vec3::ZERO));
-            BvhTri {
-                p0: p[0].extend(f32::from_bits(pi)).to_array(),
-                p1: p[1].extend(0.0).to_array(),
-                p2: p[2].extend(0.0).to_array(),
-                n0: n[0].extend(0.0).to_array(),
-                n1: n[1].extend(0.0).to_array(),
-                n2: n[2].extend(0.0).to_array(),
-            }
-        })
-        .collect();
+    let out_tris = bvh.primitive_indices.iter().map(|&pi| tri_record(pi, positions, normals, indices)).collect();
     let depth = depth_of(&nodes, 0);
     MeshBvh { nodes, tris: out_tris, depth }
+}
+
+/// The GPU record of the mesh's triangle `pi`: its corners and shading normals, its index kept
+/// in `p0.w`'s bits (a refit finds its vertices by it).
+fn tri_record(pi: u32, positions: &[Vec3], normals: &[Vec3], indices: &[[u32; 3]]) -> BvhTri {
+    let idx = indices[pi as usize];
+    let p = idx.map(|i| positions[i as usize]);
+    let n = idx.map(|i| normals.get(i as usize).copied().unwrap_or(Vec3::ZERO));
+    BvhTri {
+        p0: p[0].extend(f32::from_bits(pi)).to_array(),
+        p1: p[1].extend(0.0).to_array(),
+        p2: p[2].extend(0.0).to_array(),
+        n0: n[0].extend(0.0).to_array(),
+        n1: n[1].extend(0.0).to_array(),
+        n2: n[2].extend(0.0).to_array(),
+    }
 }
 
 fn depth_of(nodes: &[BvhNode], root: usize) -> usize {
@@ -256,18 +256,7 @@ impl SceneBvh {
     pub fn refit(&mut self, k: usize, levels: &[Vec<u32>], positions: &[Vec3], normals: &[Vec3], indices: &[[u32; 3]]) {
         let (_, tris) = self.instance_ranges(k);
         for t in &mut self.tris[tris] {
-            let pi = t.p0[3].to_bits();
-            let idx = indices[pi as usize];
-            let p = idx.map(|i| positions[i as usize]);
-            let n = idx.map(|i| normals.get(i as usize).copied().unwrap_or(Vec3::ZERO));
-            *t = BvhTri {
-                p0: p[0].extend(f32::from_bits(pi)).to_array(),
-                p1: p[1].extend(0.0).to_array(),
-                p2: p[2].extend(0.0).to_array(),
-                n0: n[0].extend(0.0).to_array(),
-                n1: n[1].extend(0.0).to_array(),
-                n2: n[2].extend(0.0).to_array(),
-            };
+            *t = tri_record(t.p0[3].to_bits(), positions, normals, indices);
         }
         for level in levels {
             for &i in level {
