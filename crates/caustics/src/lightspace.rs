@@ -57,6 +57,12 @@ pub struct LightView {
     pub emit_faces: usize,
 }
 
+/// The near plane of a perspective view reaching `far` (m): 1e-4 of it, at least 1 mm, but
+/// never more than 1e-3 of it (a millimetre-sized scene keeps its near plane inside it).
+pub(crate) fn near_plane(far: f32) -> f32 {
+    (far * 1e-4).max((far * 1e-3).min(1e-3))
+}
+
 fn up_for(dir: Vec3) -> Vec3 {
     if dir.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y }
 }
@@ -70,7 +76,7 @@ impl LightView {
         match light {
             Light::Spot { position, direction, cone_angle, .. } if cone_angle.to_degrees() <= MAX_SPOT_FRUSTUM_DEG => {
                 let far = (position.distance(center) + radius) * 1.01;
-                let near = (far * 1e-4).max(1e-3);
+                let near = crate::lightspace::near_plane(far);
                 let view = Mat4::look_at_rh(*position, *position + *direction, up_for(*direction));
                 let proj = Mat4::perspective_rh(2.0 * cone_angle, 1.0, near, far);
                 LightView {
@@ -88,7 +94,7 @@ impl LightView {
             }
             Light::Spot { position, .. } | Light::Point { position, .. } => {
                 let far = (position.distance(center) + radius) * 1.01;
-                let near = (far * 1e-4).max(1e-3);
+                let near = crate::lightspace::near_plane(far);
                 let proj = Mat4::perspective_rh(std::f32::consts::FRAC_PI_2, 1.0, near, far);
                 let faces = CUBE_DIRS
                     .iter()

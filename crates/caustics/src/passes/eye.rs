@@ -22,7 +22,7 @@ pub(crate) fn record_eye(
     let cam = &scene.camera;
     let (lo, hi) = scene.bounds();
     let far = (cam.position.distance((lo + hi) * 0.5) + (hi - lo).length() * 0.5) * 1.05;
-    let near = (far * 1e-4).max(1e-3);
+    let near = crate::lightspace::near_plane(far);
     let cam_clip = cam.view_to_clip(near, far) * cam.world_to_view();
     let (w, h) = (cam.width, cam.height);
     let recv = GBuffer::new(ctx, "eye_receivers", w, h, 1);

@@ -160,3 +160,57 @@ fn check_mirror_image(scene: &Scene, caustic: &caustics::image_io::Image, what: 
     assert!(worst < 0.03, "{what}: worst relative error {worst} at {worst_at:?}");
     assert!(worst_corner < corner_bound, "{what}: worst relative error {worst_corner} at the cube's corners");
 }
+
+/// A millimetre-sized scene: a point light 50 µm over a 3 mm floor with a 0.1 mm glass bead
+/// beside it, whose shadow is what the light's view must hold. Before, the near planes of the
+/// light's and the camera's views kept 1 mm even in a 3 mm scene: the bead lay in front of the
+/// light's near plane and cast no shadow. The shadow's wedge behind the bead (pixels past it,
+/// away from the light) against the same scene without the bead, GPU and CPU reference alike.
+/// Measured on lavapipe: before 1.028 (no shadow), now 0.492; the reference 0.385. The rest of
+/// the gap is not explained yet (the bead's own caustic in its shadow, or the shadow's edge at
+/// this scale), so this asserts the shadow, not the reference's value.
+#[test]
+fn a_millimetre_scene_keeps_its_shadows() {
+    let Some(ctx) = gpu() else { return };
+    let scene = |bead: bool| {
+        let json = format!(
+            r#"{{"schema_version": 1, "name": "near_mm",
+            "camera": {{"position": [0, 0.0015, 0.0006], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_y_deg": 60, "width": 64, "height": 64}},
+            "lights": [{{"type": "point", "position": [0, 5e-5, 0], "intensity": 2e-7}}],
+            "materials": {{"floor": {{"type": "diffuse", "albedo": 0.75}}, "glass": {{"type": "dielectric", "ior": 1.5}}}},
+            "objects": [{{"type": "rectangle", "center": [0, 0, 0], "normal": [0, 1, 0], "size": [0.003, 0.003], "material": "floor"}}
+                        {}]}}"#,
+            if bead {
+                r#", {"type": "sphere", "center": [0.00025, 0.0001, 0], "radius": 0.0001, "material": "glass"}"#
+            } else {
+                ""
+            }
+        );
+        Scene::from_json(&json, "<test>", Path::new(".")).unwrap()
+    };
+    // The wedge: right of the bead (x from 44 to 63 of 64), around its row.
+    let wedge = |img: &caustics::image_io::Image| -> f64 {
+        let mut sum = 0.0;
+        for y in 24..40 {
+            for x in 44..64 {
+                let p = img.pixels[(y * img.width + x) as usize];
+                sum += (p[0] + p[1] + p[2]) as f64;
+            }
+        }
+        sum
+    };
+    let with = render(&ctx, &scene(true), &settings()).unwrap().image;
+    let without = render(&ctx, &scene(false), &settings()).unwrap().image;
+    let gpu_ratio = wedge(&with) / wedge(&without);
+    let rs = caustics_reference::reference::ReferenceSettings {
+        photons_per_light: 200_000,
+        camera_spp: 4,
+        ..Default::default()
+    };
+    let cpu_with = caustics_reference::reference::render(&scene(true), &rs).unwrap().image;
+    let cpu_without = caustics_reference::reference::render(&scene(false), &rs).unwrap().image;
+    let cpu_ratio = wedge(&cpu_with) / wedge(&cpu_without);
+    eprintln!("the bead's shadow wedge keeps {gpu_ratio:.3} of the light on the GPU, {cpu_ratio:.3} in the reference");
+    assert!(cpu_ratio < 0.5, "the reference's bead casts no shadow: {cpu_ratio}");
+    assert!(gpu_ratio < 0.6, "the bead casts no shadow on the GPU: {gpu_ratio} (the reference: {cpu_ratio})");
+}
