@@ -169,7 +169,11 @@ fn trace_edge(f: u32, ndc: vec2f, br: u32) -> Edge {
         let reflect_here = depth < 32u && ((branch >> depth) & 1u) == 1u;
         if (reflect_here && mat.kind.x != KIND_DIELECTRIC) { return e; }
         if (mat.kind.x == KIND_DIFFUSE) {
-            e.ok = !inside && (depth >= 32u || (branch >> depth) == 0u) && (!residual || residual_owns(chosen, count));
+            // A receiver inside a dielectric (a pool's floor under water) takes the beam's light
+            // where the scene has no medium; with one, such beams are dropped (their segment lies
+            // inside the dielectric, where the medium's gather would wrongly scatter it).
+            let landing_ok = !inside || max(max(bp.sigma_t.x, bp.sigma_t.y), bp.sigma_t.z) <= 0.0;
+            e.ok = landing_ok && (depth >= 32u || (branch >> depth) == 0u) && (!residual || residual_owns(chosen, count));
             e.land = h.object;
             e.o = seg_o;
             e.d = dir;
