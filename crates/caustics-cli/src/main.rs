@@ -66,9 +66,6 @@ enum Command {
         /// Also write the caustic light alone (same format as the output) to this file.
         #[arg(long)]
         caustic_output: Option<PathBuf>,
-        /// CPU backend: camera samples per pixel (the `cpu` section: `--set cpu.KEY=VALUE`).
-        #[arg(long)]
-        spp: Option<u32>,
         /// Pose the scene's animated objects (`waves`) at this time, in seconds (default 0).
         #[arg(long)]
         time: Option<f32>,
@@ -199,9 +196,8 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Compare { a, b, mask, heatmap } => Ok(compare::run(&a, &b, mask.as_deref(), heatmap.as_deref())?),
-        Command::Render { scene, output, size, backend, adapter, dump, caustic_output, spp, time, grid, settings } => {
-            let mut resolved = settings.resolve(RenderSettings::default(), Some(&grid))?;
-            resolved.cpu.spp = spp.unwrap_or(resolved.cpu.spp);
+        Command::Render { scene, output, size, backend, adapter, dump, caustic_output, time, grid, settings } => {
+            let resolved = settings.resolve(RenderSettings::default(), Some(&grid))?;
             if settings.print_settings {
                 println!("{}", serde_json::to_string_pretty(&resolved.to_json())?);
                 return Ok(());

@@ -143,7 +143,7 @@ fn settings_come_from_flags_set_and_files_alike() {
 #[test]
 fn an_exr_holds_its_settings() {
     let out = tmp("with_settings.exr");
-    let args = ["render", "--backend", "cpu", "--size", "8x6", "--photons", "16", "--spp", "1"];
+    let args = ["render", "--backend", "cpu", "--size", "8x6", "--photons", "16", "--set", "cpu.spp=1"];
     let o = caustics().args(args).args(["--set", "beams.grid=5", "-o", out.to_str().unwrap()]).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let json = caustics_reference::io::read_exr_settings(&out).unwrap().expect("no settings in the EXR header");
@@ -197,7 +197,7 @@ fn ctrl_c_cancels_the_cpu_reference_cleanly() {
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("cancelled.png");
     let child = caustics()
-        .args(["render", "--backend", "cpu", "--photons", "8192", "--spp", "256", "-o", out.to_str().unwrap()])
+        .args(["render", "--backend", "cpu", "--photons", "8192", "--set", "cpu.spp=256", "-o", out.to_str().unwrap()])
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::piped())
         .spawn()
@@ -402,7 +402,7 @@ fn render_time_poses_the_waves() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/pool_sun.json");
     let render = |t: &str, name: &str| {
         let out = tmp(name);
-        let args = ["render", scene, "--backend", "cpu", "--size", "16x12", "--photons", "64", "--spp", "1"];
+        let args = ["render", scene, "--backend", "cpu", "--size", "16x12", "--photons", "64", "--set", "cpu.spp=1"];
         let o = caustics().args(args).args(["--time", t, "-o", out.to_str().unwrap()]).output().unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         std::fs::read(&out).unwrap()

@@ -93,10 +93,10 @@ impl ReferenceSettings {
             return e("--photons", format!("must be between 1 and 2^40 per light (got {})", self.photons_per_light));
         }
         if self.camera_spp == 0 || self.camera_spp > 1 << 20 {
-            return e("--spp", format!("must be between 1 and 1048576 (got {})", self.camera_spp));
+            return e("cpu.spp", format!("must be between 1 and 1048576 (got {})", self.camera_spp));
         }
         if self.max_depth == 0 || self.max_depth > 1024 {
-            return e("--max-depth", format!("must be between 1 and 1024 (got {})", self.max_depth));
+            return e("cpu.max_depth", format!("must be between 1 and 1024 (got {})", self.max_depth));
         }
         if self.medium_beam_photons > MAX_BEAM_PHOTONS {
             return e(

@@ -358,8 +358,8 @@ fn bad_settings_are_clear_errors() {
         (ReferenceSettings { photons_per_light: 0, ..Default::default() }, "--photons"),
         (ReferenceSettings { photons_per_light: (1 << 40) + 1, ..Default::default() }, "--photons"),
         (ReferenceSettings { caustic_map_size: 0, ..Default::default() }, "--caustic-map-size"),
-        (ReferenceSettings { max_depth: 0, ..Default::default() }, "--max-depth"),
-        (ReferenceSettings { camera_spp: 0, ..Default::default() }, "--spp"),
+        (ReferenceSettings { max_depth: 0, ..Default::default() }, "cpu.max_depth"),
+        (ReferenceSettings { camera_spp: 0, ..Default::default() }, "cpu.spp"),
     ] {
         let e = reference::render(&s, &bad).unwrap_err();
         assert!(e.is_input());
