@@ -18,34 +18,12 @@
 #import medium
 #import scene
 #import medium_multiple
+#import photon_walk
 
 @group(0) @binding(0) var<uniform> light: LightGpu;
 @group(0) @binding(1) var<uniform> mp: MsParams;
 // Per cell, r, g, b as 64-bit fixed-point words (low, high).
 @group(0) @binding(2) var<storage, read_write> sums: array<atomic<u32>>;
-
-var<private> rng_state: u32;
-
-fn rnd() -> f32 {
-    rng_state = rng_state * 747796405u + 2891336453u;
-    var s = rng_state;
-    s = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
-    s = (s >> 22u) ^ s;
-    return f32(s >> 8u) * (1.0 / 16777216.0);
-}
-
-// An orthonormal pair perpendicular to unit a.
-fn ms_basis(a: vec3f) -> mat2x3f {
-    let t = normalize(cross(select(vec3f(1.0, 0.0, 0.0), vec3f(0.0, 1.0, 0.0), abs(a.x) > 0.9), a));
-    return mat2x3f(t, cross(a, t));
-}
-
-// A direction at cosine c to unit a, at azimuth phi.
-fn ms_around(a: vec3f, c: f32, phi: f32) -> vec3f {
-    let b = ms_basis(a);
-    let s = sqrt(max(1.0 - c * c, 0.0));
-    return normalize(a * c + (b[0] * cos(phi) + b[1] * sin(phi)) * s);
-}
 
 fn deposit(x: vec3f, flux: vec3f) {
     let c = ms_cell(x) * 6u;
@@ -64,32 +42,11 @@ fn deposit(x: vec3f, flux: vec3f) {
 fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) nwg: vec3u) {
     let i = gid.y * nwg.x * 64u + gid.x;
     if (i >= mp.photons) { return; }
-    // The photon's stream: its index and the seed through one PCG step.
-    rng_state = (i ^ (mp.seed * 2654435769u)) * 747796405u + 2891336453u;
-    rng_state = ((rng_state >> ((rng_state >> 28u) + 4u)) ^ rng_state) * 277803737u;
-    let n = f32(max(mp.photons, 1u));
-    var o: vec3f;
-    var d: vec3f;
-    var flux: vec3f;
-    if (light.info.y == LIGHT_DIRECTIONAL) {
-        d = normalize(light.axis.xyz);
-        let r = mp.disk.w * sqrt(rnd());
-        let phi = 2.0 * PI * rnd();
-        let b = ms_basis(d);
-        o = mp.disk.xyz - d * (mp.disk.w + 1.0) + (b[0] * cos(phi) + b[1] * sin(phi)) * r;
-        flux = light.power.rgb * (PI * mp.disk.w * mp.disk.w) / n;
-    } else {
-        o = light.faces[0].origin.xyz;
-        if (light.info.y == LIGHT_SPOT) {
-            let cc = cos(light.axis.w);
-            let c = 1.0 - rnd() * (1.0 - cc);
-            d = ms_around(light.axis.xyz, c, 2.0 * PI * rnd());
-            flux = intensity_toward(light, d) * (2.0 * PI * (1.0 - cc)) / n;
-        } else {
-            d = ms_around(vec3f(0.0, 0.0, 1.0), 1.0 - 2.0 * rnd(), 2.0 * PI * rnd());
-            flux = light.power.rgb * (4.0 * PI) / n;
-        }
-    }
+    walk_seed(i, mp.seed);
+    let start = walk_emit(mp.disk, mp.photons);
+    var o = start.o;
+    var d = start.d;
+    var flux = start.flux;
     let lo = mp.lo.xyz;
     let hi = mp.hi.xyz;
     let maj = mp.sigma_t.w;

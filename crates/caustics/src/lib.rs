@@ -63,6 +63,7 @@ pub mod image_io;
 pub mod lightspace;
 pub(crate) mod medium_bounce;
 pub(crate) mod medium_multiple;
+pub(crate) mod indirect;
 pub mod output;
 pub(crate) mod passes;
 pub mod raycast;

@@ -13,6 +13,8 @@
 //! | | `caustic_spheres` | eye | directional lights' caustics from the tables |
 //! | | `beams` | eye, lights | the beams (a product); with `sources.local = beams` the surface caustic |
 //! | | `medium_bounce` | eye, lights, beams | light the medium sends back onto surfaces |
+//! | | `medium_multiple` | eye, lights | multiple scattering: its grid, the surfaces it lights |
+//! | | `indirect` | eye, lights | diffuse interreflection: its cache, the surfaces it lights |
 //! | along rays | `composite` (`passes::composite`) | eye, lights | [`Frame::images`]: refraction, reflection, single scattering |
 //! | | `medium_bounce` | images | the surfaces' light scattered along the camera rays |
 //! | | `beams` | images | the volume caustic |
@@ -102,6 +104,8 @@ pub(crate) struct StatsCopies {
     pub flux: Vec<(wgpu::Buffer, f64)>,
     /// `sphere_gather`'s counters.
     pub spheres: Option<wgpu::Buffer>,
+    /// `indirect_trace`'s counters (deposits a full cache lost), when the cache was rebuilt.
+    pub indirect: Option<wgpu::Buffer>,
 }
 
 /// What changed between frames, for the features that keep work across frames.

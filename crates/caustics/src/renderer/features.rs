@@ -12,13 +12,14 @@ pub(crate) struct Features {
     pub beams: crate::beams::Beams,
     pub bounce: crate::medium_bounce::MediumBounce,
     pub multiple: crate::medium_multiple::MediumMultiple,
+    pub indirect: crate::indirect::Indirect,
     pub composite: crate::passes::Composite,
     pub display: crate::passes::Display,
 }
 
 impl Features {
     /// Before the composite, in order.
-    pub fn surfaces(&mut self) -> [&mut dyn Feature; 7] {
+    pub fn surfaces(&mut self) -> [&mut dyn Feature; 8] {
         [
             &mut self.camera,
             &mut self.photon_maps,
@@ -27,6 +28,7 @@ impl Features {
             &mut self.beams,
             &mut self.bounce,
             &mut self.multiple,
+            &mut self.indirect,
         ]
     }
 

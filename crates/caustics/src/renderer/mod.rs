@@ -115,6 +115,9 @@ pub struct FrameStats {
     /// Caustic spheres: occlusion rays of `sphere_gather` (one per pixel and caustic object)
     /// that overflowed the BVH stack (their pixels got no caustic from that object).
     pub sphere_stack_overflows: u64,
+    /// Interreflection: photon deposits that found no slot in the cache (`indirect.capacity`
+    /// too small; that light is missing from the frame).
+    pub indirect_lost_deposits: u64,
 }
 
 /// What an environment segmentation was made for: D and the split rule.

@@ -28,6 +28,8 @@ pub(super) struct StatsJob {
     pub(super) lights_redone: Vec<bool>,
     /// Offset of `sphere_gather`'s counters, when it ran.
     pub(super) sphere_stats: Option<u64>,
+    /// Offset of `indirect_trace`'s counters, when it ran.
+    pub(super) indirect_stats: Option<u64>,
 }
 
 const STATS_SLOTS: usize = 3;
@@ -101,6 +103,19 @@ impl Renderer {
             if let Some(off) = job.sphere_stats {
                 let c = piece(off, 4);
                 stats.sphere_stack_overflows = u64::from(u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+            }
+            if let Some(off) = job.indirect_stats {
+                let c = piece(off, 4);
+                stats.indirect_lost_deposits = u64::from(u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+            }
+            if stats.indirect_lost_deposits > 0 {
+                let m = format!(
+                    "{} interreflection photon deposits found no slot in the cache (indirect.capacity is too small \
+                     for the scene's surfaces at indirect.grid): that light is missing",
+                    stats.indirect_lost_deposits
+                );
+                self.last_error = Some(m.clone());
+                stats.overflow.get_or_insert(m);
             }
             if stats.sphere_stack_overflows > 0 {
                 let m = format!(
@@ -209,6 +224,9 @@ impl Renderer {
         if let Some(b) = &copies.spheres {
             sources.push((b.clone(), 8));
         }
+        if let Some(b) = &copies.indirect {
+            sources.push((b.clone(), 8));
+        }
         // Offsets in the staging buffer (copies are 4-byte aligned; every size is).
         let mut offsets = Vec::with_capacity(sources.len());
         let mut total = 0u64;
@@ -240,8 +258,17 @@ impl Renderer {
             pend.push((p, pieces.collect()));
         }
         let sphere_stats = copies.spheres.as_ref().map(|_| offsets[k]);
-        self.ring[slot].job =
-            Some(StatsJob { frame: self.frame, timer: timer_job, flux, pendings: pend, lights_redone, sphere_stats });
+        k += usize::from(copies.spheres.is_some());
+        let indirect_stats = copies.indirect.as_ref().map(|_| offsets[k]);
+        self.ring[slot].job = Some(StatsJob {
+            frame: self.frame,
+            timer: timer_job,
+            flux,
+            pendings: pend,
+            lights_redone,
+            sphere_stats,
+            indirect_stats,
+        });
         self.ring[slot].state.store(1, Ordering::Release);
     }
 }

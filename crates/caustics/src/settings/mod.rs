@@ -1,5 +1,5 @@
 //! What a frame is asked to do: the settings of a GPU render, in sections (`photons`,
-//! `adaptive`, `shading`, `medium`, `environment`, `beams`), each with its defaults and its own
+//! `adaptive`, `shading`, `medium`, `environment`, `beams`, `indirect`), each with its defaults and its own
 //! validation, errors named by field path (`beams.grid`). Every section reads and writes as JSON
 //! (serde), so the settings of an image can be stored with it and read back
 //! ([`RenderSettings::to_json`], [`RenderSettings::from_json`], [`RenderSettings::set`]).
@@ -8,6 +8,7 @@
 pub mod adaptive;
 pub mod beams;
 pub mod environment;
+pub mod indirect;
 pub mod medium;
 pub mod photons;
 pub mod shading;
@@ -18,6 +19,7 @@ pub mod testing;
 pub use adaptive::AdaptiveSettings;
 pub use beams::{BeamSettings, BeamVolume};
 pub use environment::{DEFAULT_ENV_LIGHTS, DEFAULT_ENV_TAPS, EnvironmentSettings};
+pub use indirect::IndirectSettings;
 pub use medium::MediumSettings;
 pub use photons::{Emission, PhotonSettings, SplatMode, Tracer};
 pub use shading::{ShadingSettings, SpillFaces};
@@ -50,6 +52,8 @@ pub struct RenderSettings {
     pub environment: EnvironmentSettings,
     /// Volume caustics by adaptive beam tracing in scenes with a medium (`crate::beams`).
     pub beams: BeamSettings,
+    /// Diffuse interreflection from a world-space cache fed by photons (`crate::indirect`).
+    pub indirect: IndirectSettings,
     /// Knobs for tests and comparisons ([`TestingSettings`]).
     #[doc(hidden)]
     pub testing: TestingSettings,
@@ -74,6 +78,7 @@ impl RenderSettings {
         self.medium.validate()?;
         self.environment.validate()?;
         self.beams.validate()?;
+        self.indirect.validate()?;
         Ok(())
     }
 

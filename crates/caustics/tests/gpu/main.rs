@@ -18,6 +18,7 @@ mod caustic_spheres;
 mod environment;
 mod exact;
 mod golden;
+mod indirect;
 mod layers;
 mod lens;
 mod light_layers;

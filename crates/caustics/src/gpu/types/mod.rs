@@ -6,6 +6,7 @@
 
 mod beams;
 mod frame;
+mod indirect;
 mod layout;
 mod medium;
 mod photons;
@@ -13,6 +14,7 @@ mod spheres;
 
 pub use beams::*;
 pub use frame::*;
+pub use indirect::*;
 pub use layout::*;
 pub use medium::*;
 pub use photons::*;

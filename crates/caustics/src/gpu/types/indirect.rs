@@ -1,0 +1,28 @@
+//! The interreflection cache's record (`shaders/shared/indirect.wgsl`, src/indirect/).
+
+use bytemuck::{Pod, Zeroable};
+
+/// `IndirectParams`: one record for `indirect_trace`, `indirect_resolve` and `indirect_gather`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct IndirectParams {
+    /// The grid's corner (m) and its cells' side (w, m).
+    pub origin: [f32; 4],
+    /// A directional light's emission disk: centre, radius (m).
+    pub disk: [f32; 4],
+    /// The medium's box (`lo.w`: 0 none, 1 homogeneous, 2 a density grid).
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+    /// rgb = sigma_t (1/m).
+    pub sigma_t: [f32; 4],
+    pub camera: [f32; 4],
+    pub photons: u32,
+    pub seed: u32,
+    /// Hash table entries (a power of two).
+    pub capacity: u32,
+    pub bounces: u32,
+    pub max_events: u32,
+    pub width: u32,
+    pub height: u32,
+    pub _pad: u32,
+}

@@ -1,0 +1,181 @@
+//! Diffuse interreflection (docs/indirect.md): the light that reaches a diffuse surface after
+//! bouncing off another (a room's walls lit by its floor, a caustic lit by a caustic), which
+//! the rest of the frame leaves out (it draws the light's first diffuse hit only).
+//!
+//! The method, as offline photon mapping stores it and as real-time world caches (NVIDIA's
+//! SHaRC, Bevy Solari's world cache) key it: photons from every light keep going after their
+//! first diffuse hit, and their later diffuse hits fill a world-space hash grid of surface
+//! cells, read back at the surfaces the camera sees as a density estimate in the surface's
+//! plane:
+//! - `indirect_trace` (per light): photons on random walks, exact through every specular
+//!   surface, cosine bounces with Russian roulette by albedo; every diffuse hit after the first
+//!   adds its flux, position and normal to its cell (64-bit fixed point, deterministic);
+//! - `indirect_resolve` (per light): the sums in watts, added to the cells in the lights' order;
+//! - `indirect_gather` (before `composite`): each pixel's diffuse surface, lit by the cells
+//!   near it (radiance albedo / pi times the irradiance), so surfaces seen through glass and in
+//!   mirrors show it too.
+//!
+//! The cache depends on the lights and the objects only: a frame that only moves the camera
+//! keeps it and records the gather. Not modelled yet: light the medium scatters between
+//! surfaces (a photon that scatters in fog ends; the medium's features draw that light), a
+//! progressive update across frames (a moved light rebuilds the cache at once), surfaces under
+//! water seen through the water surface at points the camera does not see directly.
+
+use crate::frame::{Feature, Frame};
+use crate::gpu::pass::Pass;
+use crate::gpu::types::IndirectParams;
+use crate::passes::{DrawCtx, LightFrame, layer_view};
+use crate::settings::RenderSettings;
+
+/// Events (surfaces) per photon path at most.
+const MAX_EVENTS: u32 = 256;
+
+/// Words of one slot's sums (`IC_SUM_WORDS`, shaders/shared/indirect.wgsl).
+const SUM_WORDS: u64 = 20;
+
+/// Whether the frame draws interreflection: the setting on, lights and a diffuse surface.
+pub(crate) fn wanted(scene: &crate::scene::Scene, s: &RenderSettings) -> bool {
+    s.indirect.active()
+        && (!scene.lights.is_empty() || scene.environment.is_some())
+        && scene.objects.iter().any(|o| matches!(scene.material_of(o), crate::scene::Material::Diffuse { .. }))
+}
+
+/// The stages' parameters (the camera's part left zero where `camera` is `None`).
+fn params(dc: &DrawCtx, s: &RenderSettings, camera: bool, (photons, seed): (u32, u32)) -> IndirectParams {
+    let scene = dc.scene;
+    let (mut lo, mut hi) = scene.bounds();
+    if let Some(m) = &scene.medium {
+        (lo, hi) = (lo.min(m.bounds_min), hi.max(m.bounds_max));
+    }
+    let (centre, radius) = (0.5 * (lo + hi), 0.5 * (hi - lo).length());
+    let (olo, ohi) = scene.bounds();
+    let h = ((ohi - olo).max_element() / s.indirect.grid as f32).max(1e-6);
+    let origin = olo - glam::Vec3::splat(2.0 * h);
+    let (mlo, mhi, sigma_t) = match &scene.medium {
+        Some(m) => (
+            m.bounds_min.extend(if m.density.is_some() { 2.0 } else { 1.0 }),
+            m.bounds_max.extend(0.0),
+            (m.sigma_s + m.sigma_a).extend(0.0),
+        ),
+        None => (glam::Vec4::ZERO, glam::Vec4::ZERO, glam::Vec4::ZERO),
+    };
+    let cam = &scene.camera;
+    IndirectParams {
+        origin: origin.extend(h).to_array(),
+        disk: centre.extend(radius.max(1e-3)).to_array(),
+        lo: mlo.to_array(),
+        hi: mhi.to_array(),
+        sigma_t: sigma_t.to_array(),
+        camera: if camera { cam.position.extend(1.0).to_array() } else { [0.0; 4] },
+        photons,
+        seed,
+        capacity: s.indirect.capacity,
+        bounces: s.indirect.bounces,
+        max_events: MAX_EVENTS,
+        width: if camera { cam.width } else { 0 },
+        height: if camera { cam.height } else { 0 },
+        _pad: 0,
+    }
+}
+
+/// The cache: each slot's key and its cells (flux and weight, weighted position, weighted
+/// normal), and the count of deposits a full table lost.
+struct Cache {
+    keys: wgpu::Buffer,
+    cells: wgpu::Buffer,
+    counters: wgpu::Buffer,
+}
+
+/// `indirect_trace` and `indirect_resolve` for every light.
+fn record_lights(
+    dc: &DrawCtx,
+    (lights, own): (&[&LightFrame], usize),
+    s: &RenderSettings,
+    enc: &mut wgpu::CommandEncoder,
+    timer: &mut crate::gpu::PassTimer,
+) -> Option<Cache> {
+    if !wanted(dc.scene, s) || lights.is_empty() {
+        return None;
+    }
+    let ctx = dc.ctx;
+    let capacity = u64::from(s.indirect.capacity);
+    let storage = wgpu::BufferUsages::STORAGE;
+    let keys = ctx.buffer("indirect_keys", capacity * 4, storage);
+    let sums = ctx.buffer("indirect_sums", capacity * SUM_WORDS * 4, storage);
+    let cells = ctx.buffer("indirect_cells", capacity * 48, storage);
+    let counters = ctx.buffer("indirect_counters", 16, storage | wgpu::BufferUsages::COPY_SRC);
+    for (i, lf) in lights.iter().enumerate() {
+        // The environment's directional lights (after the scene's own) share one light's
+        // photons: each is a part of one light.
+        let photons = if i < own {
+            s.indirect.photons
+        } else {
+            (s.indirect.photons / (lights.len() - own) as u32).max(1024)
+        };
+        if i > 0 {
+            enc.clear_buffer(&sums, 0, None);
+        }
+        let groups = photons.div_ceil(64);
+        let gx = groups.min(65535);
+        let p = ctx.uniform("indirect_params", bytemuck::bytes_of(&params(dc, s, false, (photons, i as u32 + 1))));
+        Pass::new(ctx, "indirect_trace")
+            .bind("light", &lf.light_buf)
+            .bind("ip", &p)
+            .bind("keys", &keys)
+            .bind("sums", &sums)
+            .bind("counters", &counters)
+            .shared(&dc.geo.scene)
+            .dispatch(enc, timer, [gx, groups.div_ceil(gx), 1]);
+        let slots = s.indirect.capacity.div_ceil(64);
+        let sx = slots.min(65535);
+        Pass::new(ctx, "indirect_resolve")
+            .bind("light", &lf.light_buf)
+            .bind("ip", &p)
+            .bind("keys", &keys)
+            .bind("sums", &sums)
+            .bind("cells", &cells)
+            .dispatch(enc, timer, [sx, slots.div_ceil(sx), 1]);
+    }
+    Some(Cache { keys, cells, counters })
+}
+
+/// The interreflection feature: the cache (kept while no light is redone) and the surfaces it
+/// lights before the composite.
+#[derive(Default)]
+pub(crate) struct Indirect {
+    cache: Option<Cache>,
+}
+
+impl Feature for Indirect {
+    fn record(&mut self, f: &mut Frame) -> crate::Result<()> {
+        if !wanted(f.dc.scene, f.s) {
+            self.cache = None;
+            return Ok(());
+        }
+        if f.redone.iter().any(|&r| r) || self.cache.is_none() {
+            f.dc.ctx.begin_scope("indirect_lights", f.enc);
+            let lights = crate::frame::light_refs(&f.lights);
+            self.cache = record_lights(&f.dc, (&lights, f.env.own_lights), f.s, f.enc, f.timer);
+            f.dc.ctx.end_scope();
+        }
+        let Some(cache) = &self.cache else { return Ok(()) };
+        let ctx = f.dc.ctx;
+        ctx.begin_scope("indirect", f.enc);
+        let eye = crate::frame::eye(&f.eye);
+        let cam = &f.dc.scene.camera;
+        let p = ctx.uniform("indirect_gather_params", bytemuck::bytes_of(&params(&f.dc, f.s, true, (0, 0))));
+        let (ep, en) = (layer_view(ctx, &eye.recv.pos, 0), layer_view(ctx, &eye.recv.nrm, 0));
+        Pass::new(ctx, "indirect_gather")
+            .bind("ip", &p)
+            .bind("keys", &cache.keys)
+            .bind("cells", &cache.cells)
+            .bind("eye_pos", &ep)
+            .bind("eye_nrm", &en)
+            .shared(&f.dc.geo.scene)
+            .bind("radiance", &eye.radiance)
+            .dispatch(f.enc, f.timer, [cam.width.div_ceil(8), cam.height.div_ceil(8), 1]);
+        ctx.end_scope();
+        f.stats.indirect = Some(cache.counters.clone());
+        Ok(())
+    }
+}
