@@ -152,6 +152,12 @@ pub struct CpuSettings {
     /// first-diffuse (light, specular chain, the first diffuse surface, camera: what the GPU
     /// renders); rest (the others: diffuse interreflection of caustic light, volume caustics).
     pub caustic_paths: String,
+    /// Which diffuse bounce orders of the light the image holds (the number of diffuse surfaces
+    /// on a path from the light to the camera; glass, mirrors and the medium do not count):
+    /// all; N (that order alone: 1 is direct light and the first-hit caustics, what the GPU
+    /// renders; 0 the environment seen directly or through glass, light scattered in the medium
+    /// alone); A-B; A- (A and up: 2- is the light that bounced off diffuse surfaces).
+    pub diffuse_orders: String,
     /// Caustic photons reflect partially at dielectric interfaces; false: they transmit with
     /// weight 1 - F (total internal reflection still reflects): the light the GPU's transmitted
     /// branch carries (`photons.reflection = false`).
@@ -177,6 +183,7 @@ impl Default for CpuSettings {
             single_scattering: false,
             max_depth: 16,
             caustic_paths: "all".into(),
+            diffuse_orders: "all".into(),
             partial_reflections: true,
             medium_beams: 1 << 18,
             medium_beam_radius: 0.0,
