@@ -157,6 +157,7 @@ pub struct CpuSettings {
     /// all; N (that order alone: 1 is direct light and the first-hit caustics, what the GPU
     /// renders; 0 the environment seen directly or through glass, light scattered in the medium
     /// alone); A-B; A- (A and up: 2- is the light that bounced off diffuse surfaces).
+    #[serde(deserialize_with = "string_or_count")]
     pub diffuse_orders: String,
     /// Caustic photons reflect partially at dielectric interfaces; false: they transmit with
     /// weight 1 - F (total internal reflection still reflects): the light the GPU's transmitted
@@ -173,6 +174,25 @@ pub struct CpuSettings {
     pub specular_view_photons: u64,
     /// Their kernel radius in metres (0: a pixel's footprint at the specular objects).
     pub specular_view_radius: f32,
+}
+
+/// The diffuse orders as text, also from a bare count: `--set cpu.diffuse_orders=1` reads `1`
+/// as JSON.
+fn string_or_count<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<String, D::Error> {
+    struct Orders;
+    impl serde::de::Visitor<'_> for Orders {
+        type Value = String;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("all, N, A-B or A- (diffuse bounce orders, 0 and up)")
+        }
+        fn visit_str<E: serde::de::Error>(self, v: &str) -> std::result::Result<String, E> {
+            Ok(v.to_string())
+        }
+        fn visit_u64<E: serde::de::Error>(self, v: u64) -> std::result::Result<String, E> {
+            Ok(v.to_string())
+        }
+    }
+    d.deserialize_any(Orders)
 }
 
 impl Default for CpuSettings {

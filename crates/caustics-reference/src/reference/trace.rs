@@ -13,6 +13,8 @@
 //! specular mask marks those pixels.)
 //! [`CausticPaths`] restricts the photons' camera connections to one class of paths (the
 //! GPU's: the first diffuse hit only) or to the rest.
+//! [`DiffuseOrders`] keeps chosen diffuse bounce orders (the number of diffuse vertices on a path)
+//! on both sides.
 //!
 //! The environment light follows the same split: photons from it (`emit`) whose first surface
 //! is specular are caustic light; the camera paths see it directly or through specular

@@ -66,9 +66,9 @@ fn orders_parse_and_print() {
 fn assert_sum(what: &str, a: &Image, parts: &[&Image]) {
     let peak = a.pixels.iter().flatten().fold(0.0f32, |m, &v| m.max(v.abs()));
     for (i, p) in a.pixels.iter().enumerate() {
-        for k in 0..3 {
+        for (k, &v) in p.iter().enumerate() {
             let s: f32 = parts.iter().map(|q| q.pixels[i][k]).sum();
-            assert!((p[k] - s).abs() <= 1e-5 * p[k].abs() + 1e-6 * peak, "{what}, pixel {i}: {} vs {s}", p[k]);
+            assert!((v - s).abs() <= 1e-5 * v.abs() + 1e-6 * peak, "{what}, pixel {i}: {v} vs {s}");
         }
     }
 }
