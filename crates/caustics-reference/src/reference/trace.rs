@@ -354,7 +354,7 @@ impl<'a> Tracer<'a> {
         let paths = self.caustic_paths;
         let orders = self.diffuse_orders;
         // Whether the photon may stop once no later connection can be kept (photon beams keep
-        // every flight, weighted by whether its order is kept: the same beams in every mode).
+        // every flight, marked with whether its order is kept: the same beams in every mode).
         let may_stop = !t.record_beams;
         for depth in 0..self.max_depth {
             out.rays += 1;
@@ -372,10 +372,9 @@ impl<'a> Tracer<'a> {
                         && let Some((t0, t1)) = m.clip(o, d, t_hit)
                     {
                         // The camera gathers the beam through specular surfaces alone: its
-                        // order is the photon's diffuse hits so far. Outside the kept orders it
-                        // stays, with no flux (the gathers' random draws do not change).
-                        let flux = if orders.keeps(diffuse_seen) { flux } else { Vec3::ZERO };
-                        out.beams.push(PhotonBeam { o: o + d * t0, d, len: t1 - t0, flux });
+                        // order is the photon's diffuse hits so far.
+                        let kept = orders.keeps(diffuse_seen);
+                        out.beams.push(PhotonBeam { o: o + d * t0, d, len: t1 - t0, flux, kept });
                     }
                     match m.sample(o, d, t_hit, rng) {
                         Flight::Pass { weight } => flux *= weight,

@@ -75,11 +75,12 @@ fn assert_sum(what: &str, a: &Image, parts: &[&Image]) {
 
 /// Disjoint ranges covering every order add up to `all`: the glass ball over its floor (camera
 /// paths and caustic photons, and the deposits seen through the ball), in fog (order 0: light
-/// scattered in the medium, and the photon beams), under a sky (order 0: the sky seen directly
-/// and through the ball). The caustic maps do not move.
+/// scattered in the medium, and the photon beams), in a heterogeneous smoke puff (whose
+/// transmittances draw random numbers), under a sky (order 0: the sky seen directly and through
+/// the ball). The caustic maps do not move.
 #[test]
 fn disjoint_orders_add_up_to_all() {
-    for name in ["glass_sphere", "glass_sphere_fog", "glass_sphere_sky"] {
+    for name in ["glass_sphere", "glass_sphere_fog", "glass_sphere_sky", "smoke_puff"] {
         let s = catalogue(name, 32);
         let rs = ReferenceSettings {
             photons_per_light: 1 << 17,
