@@ -316,6 +316,17 @@ fn run(cli: Cli) -> Result<()> {
                                 format!("must be all, first-diffuse or rest (got \"{}\")", cpu.caustic_paths),
                             )
                         })?;
+                    let diffuse_orders = caustics_reference::reference::DiffuseOrders::parse(&cpu.diffuse_orders)
+                        .ok_or_else(|| {
+                            Error::input(
+                                "<command line>",
+                                "cpu.diffuse_orders",
+                                format!(
+                                    "must be all, N, A-B (A <= B) or A- (diffuse bounce orders, 0 and up) (got \"{}\")",
+                                    cpu.diffuse_orders
+                                ),
+                            )
+                        })?;
                     let rs = caustics_reference::reference::ReferenceSettings {
                         photons_per_light: (settings.photons.count as u64).pow(2),
                         camera_spp: cpu.spp,
@@ -323,6 +334,7 @@ fn run(cli: Cli) -> Result<()> {
                         medium_single_scattering_only: cpu.single_scattering,
                         max_depth: cpu.max_depth,
                         caustic_paths,
+                        diffuse_orders,
                         // The caustic maps get a spill face where the GPU's would (at the GPU's
                         // default caustic map size when none is given).
                         spill_faces: scene.lights.iter().any(|l| settings.uses_spill_face(&scene, l)),

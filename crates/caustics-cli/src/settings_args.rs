@@ -152,6 +152,13 @@ pub struct CpuSettings {
     /// first-diffuse (light, specular chain, the first diffuse surface, camera: what the GPU
     /// renders); rest (the others: diffuse interreflection of caustic light, volume caustics).
     pub caustic_paths: String,
+    /// Which diffuse bounce orders of the light the image holds (the number of diffuse surfaces
+    /// on a path from the light to the camera; glass, mirrors and the medium do not count):
+    /// all; N (that order alone: 1 is direct light and the first-hit caustics, what the GPU
+    /// renders; 0 the environment seen directly or through glass, light scattered in the medium
+    /// alone); A-B; A- (A and up: 2- is the light that bounced off diffuse surfaces).
+    #[serde(deserialize_with = "string_or_count")]
+    pub diffuse_orders: String,
     /// Caustic photons reflect partially at dielectric interfaces; false: they transmit with
     /// weight 1 - F (total internal reflection still reflects): the light the GPU's transmitted
     /// branch carries (`photons.reflection = false`).
@@ -169,6 +176,25 @@ pub struct CpuSettings {
     pub specular_view_radius: f32,
 }
 
+/// The diffuse orders as text, also from a bare count: `--set cpu.diffuse_orders=1` reads `1`
+/// as JSON.
+fn string_or_count<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<String, D::Error> {
+    struct Orders;
+    impl serde::de::Visitor<'_> for Orders {
+        type Value = String;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("all, N, A-B or A- (diffuse bounce orders, 0 and up)")
+        }
+        fn visit_str<E: serde::de::Error>(self, v: &str) -> std::result::Result<String, E> {
+            Ok(v.to_string())
+        }
+        fn visit_u64<E: serde::de::Error>(self, v: u64) -> std::result::Result<String, E> {
+            Ok(v.to_string())
+        }
+    }
+    d.deserialize_any(Orders)
+}
+
 impl Default for CpuSettings {
     fn default() -> Self {
         CpuSettings {
@@ -177,6 +203,7 @@ impl Default for CpuSettings {
             single_scattering: false,
             max_depth: 16,
             caustic_paths: "all".into(),
+            diffuse_orders: "all".into(),
             partial_reflections: true,
             medium_beams: 1 << 18,
             medium_beam_radius: 0.0,

@@ -415,3 +415,24 @@ fn render_time_poses_the_waves() {
     assert!(e.contains("--time"), "{e}");
     assert!(!out.exists(), "a refused render wrote {}", out.display());
 }
+
+/// `cpu.diffuse_orders` (the CPU reference's diffuse bounce orders): a bad range exits 2 naming
+/// the key and writes nothing; a bare order (read as a JSON number) and a range render.
+#[test]
+fn cpu_diffuse_orders_are_checked() {
+    let out = tmp("orders.exr");
+    let args = ["render", "--backend", "cpu", "--size", "8x6", "--photons", "16", "--set", "cpu.spp=1"];
+    for bad in ["2-1", "x", "-1", "1.5"] {
+        let set = format!("cpu.diffuse_orders={bad}");
+        let mut a = args.to_vec();
+        a.extend(["--set", &set, "-o", out.to_str().unwrap()]);
+        let e = run_err(&a);
+        assert!(e.contains("cpu.diffuse_orders"), "{bad}: {e}");
+        assert!(!out.exists(), "{bad}: an output file was written");
+    }
+    for good in ["1", "2-", "0-1", "all"] {
+        let set = format!("cpu.diffuse_orders={good}");
+        let o = caustics().args(args).args(["--set", &set, "-o", out.to_str().unwrap()]).output().unwrap();
+        assert!(o.status.success(), "{good}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+}

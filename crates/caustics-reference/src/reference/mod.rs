@@ -44,7 +44,7 @@ pub use settings::{
 };
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
-pub use trace::{CausticPaths, Deposit};
+pub use trace::{CausticPaths, Deposit, DiffuseOrders};
 use trace::{PhotonOut, PhotonTargets, Tracer};
 
 fn check_scene(scene: &Scene) -> Result<()> {
@@ -59,6 +59,7 @@ fn tracer<'a>(scene: &'a Scene, accel: &'a Accel, settings: &ReferenceSettings) 
     let mut t = Tracer::new(scene, accel, settings.max_depth);
     t.single_scattering = settings.medium_single_scattering_only;
     t.caustic_paths = settings.caustic_paths;
+    t.diffuse_orders = settings.diffuse_orders;
     t.partial_reflections = settings.partial_reflections;
     t.gather_direct = settings.gather_direct;
     t

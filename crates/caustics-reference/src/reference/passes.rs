@@ -154,9 +154,13 @@ pub(super) fn beam_pass(
 }
 
 /// Whether a rendering keeps deposits for the surfaces seen through specular surfaces:
-/// specular objects, and that light in the image's class of caustic paths.
+/// specular objects, and that light in the image's class of caustic paths and its diffuse
+/// orders (order 1: the deposits are first diffuse hits).
 pub(super) fn wants_view_photons(scene: &Scene, settings: &ReferenceSettings) -> bool {
-    settings.specular_view_photons > 0 && settings.caustic_paths.keeps(false) && specular_sphere(scene).is_some()
+    settings.specular_view_photons > 0
+        && settings.caustic_paths.keeps(false)
+        && settings.diffuse_orders.keeps(1)
+        && specular_sphere(scene).is_some()
 }
 
 /// Trace [`ReferenceSettings::specular_view_photons`] photons per light (their own samples and

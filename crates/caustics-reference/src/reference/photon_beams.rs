@@ -46,6 +46,10 @@ pub struct PhotonBeam {
     pub d: Vec3,
     pub len: f32,
     pub flux: Vec3,
+    /// Whether the rendering keeps its light (`ReferenceSettings::diffuse_orders`); a beam
+    /// outside the kept orders is indexed and met as the others, its light left out: the
+    /// gathers draw the same random numbers in every mode.
+    pub kept: bool,
 }
 
 /// A length of a beam, indexed by its box grown by the kernel's radius; a crossing is counted
@@ -165,7 +169,9 @@ impl PhotonBeams {
             let sigma_s = m.sigma_s * m.density(x);
             let t_beam = m.transmittance(b.o, b.d, v, rng);
             let t_ray = m.transmittance(o, d, w, rng);
-            sum += b.flux * sigma_s * t_beam * t_ray * (m.phase(b.d, -d) * k / sin.max(MIN_SIN));
+            if b.kept {
+                sum += b.flux * sigma_s * t_beam * t_ray * (m.phase(b.d, -d) * k / sin.max(MIN_SIN));
+            }
             count += 1;
         });
         (sum, count)
@@ -208,6 +214,7 @@ mod tests {
                     d: Vec3::Z,
                     len: 4.0,
                     flux: Vec3::splat(phi / (n * n) as f32),
+                    kept: true,
                 });
             }
         }
@@ -251,7 +258,7 @@ mod tests {
     #[test]
     fn the_medium_attenuates_along_the_beam_and_the_ray() {
         let m = fog(0.2, 0.3);
-        let b = PhotonBeam { o: Vec3::new(0.0, 0.0, -2.0), d: Vec3::Z, len: 4.0, flux: Vec3::ONE };
+        let b = PhotonBeam { o: Vec3::new(0.0, 0.0, -2.0), d: Vec3::Z, len: 4.0, flux: Vec3::ONE, kept: true };
         let pb = PhotonBeams::new(vec![b], 0.1, 1.0);
         let mut rng = PathRng::new(1);
         // Straight through the beam's line at v = 2 (z = 0), w = 3.

@@ -1,7 +1,7 @@
 //! What the reference is asked for and what it returns: [`ReferenceSettings`] (and their
 //! limits), [`ReferenceOutput`] and [`ReferenceStats`].
 
-use super::CausticPaths;
+use super::{CausticPaths, DiffuseOrders};
 use caustics::error::{Error, Result};
 use caustics::image_io::Image;
 
@@ -30,6 +30,13 @@ pub struct ReferenceSettings {
     /// the part the GPU's caustic maps render, or the rest (for measurements). The caustic
     /// maps and the `nocaustic` image do not depend on it. See [`CausticPaths`].
     pub caustic_paths: CausticPaths,
+    /// Which diffuse bounce orders of the light the camera images (`caustic`, `nocaustic` and
+    /// so `image`) hold: every order (the default), or a range, such as order 1 alone (direct
+    /// light and the caustics on their first diffuse surface) or 2 and up (light that bounced
+    /// off a diffuse surface before the one the camera sees). The order of a path is its number
+    /// of diffuse surface vertices; see [`DiffuseOrders`]. The caustic maps do not depend on
+    /// it; the random choices do not either, so disjoint ranges add up to `all` path by path.
+    pub diffuse_orders: DiffuseOrders,
     /// Give spot lights (cone up to 75°) a spill face in their caustic maps
     /// (`LightView::with_spill`), as the GPU does where `RenderSettings::uses_spill_face`; off
     /// by default, so every map keeps one face per spot light. The camera images do not depend
@@ -74,6 +81,7 @@ impl Default for ReferenceSettings {
             caustic_map_size: 512,
             medium_single_scattering_only: false,
             caustic_paths: CausticPaths::All,
+            diffuse_orders: DiffuseOrders::ALL,
             spill_faces: false,
             partial_reflections: true,
             medium_beam_photons: 1 << 18,
@@ -97,6 +105,12 @@ impl ReferenceSettings {
         }
         if self.max_depth == 0 || self.max_depth > 1024 {
             return e("cpu.max_depth", format!("must be between 1 and 1024 (got {})", self.max_depth));
+        }
+        if !self.diffuse_orders.is_valid() {
+            return e(
+                "cpu.diffuse_orders",
+                format!("the lowest order must not exceed the highest (got {})", self.diffuse_orders),
+            );
         }
         if self.medium_beam_photons > MAX_BEAM_PHOTONS {
             return e(

@@ -13,6 +13,8 @@
 //! specular mask marks those pixels.)
 //! [`CausticPaths`] restricts the photons' camera connections to one class of paths (the
 //! GPU's: the first diffuse hit only) or to the rest.
+//! [`DiffuseOrders`] keeps chosen diffuse bounce orders (the number of diffuse vertices on a path)
+//! on both sides.
 //!
 //! The environment light follows the same split: photons from it (`emit`) whose first surface
 //! is specular are caustic light; the camera paths see it directly or through specular
@@ -157,6 +159,95 @@ impl CausticPaths {
     }
 }
 
+/// Which diffuse bounce orders of the light reach the camera images
+/// ([`ReferenceSettings::diffuse_orders`](super::ReferenceSettings::diffuse_orders)).
+///
+/// The order of a path's contribution is the number of diffuse surface vertices on the whole
+/// path from the light to the camera; specular interactions (glass, water, mirrors) and medium
+/// scattering do not count. So order 0 is light that reaches the camera without a diffuse
+/// vertex (the environment seen directly or through specular surfaces, light scattered in the
+/// medium: shafts, volume caustics); order 1 is direct light and the caustics on their first
+/// diffuse surface (what the GPU renders, with order 0); order 2 is light that left one diffuse
+/// surface before the one the camera sees (diffuse interreflection, a caustic lit by a caustic);
+/// and so on. The estimators count it the same way on both sides: next-event estimation at a
+/// camera path's k-th diffuse vertex (lights and environment) is order k, the environment met by
+/// the cosine-sampled bounce from that vertex order k too, a medium scattering point after k
+/// diffuse vertices order k; a caustic photon connected to the camera at its j-th diffuse hit is
+/// order j, at a medium scattering point after j diffuse hits order j; the deposits the camera
+/// gathers through glass order 1, the photon beams the order of their photon's diffuse hits.
+/// Contributions outside the kept orders are computed and dropped (the random choices are the
+/// same in every mode): the image of `all` is the sum of the images of disjoint ranges covering
+/// every order, path by path, to float rounding.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DiffuseOrders {
+    /// Lowest kept order.
+    pub min: u32,
+    /// Highest kept order; `None`: no limit.
+    pub max: Option<u32>,
+}
+
+impl Default for DiffuseOrders {
+    fn default() -> Self {
+        DiffuseOrders::ALL
+    }
+}
+
+impl DiffuseOrders {
+    /// Every order (the default).
+    pub const ALL: DiffuseOrders = DiffuseOrders { min: 0, max: None };
+
+    /// Parse `all`, `N` (that order alone), `A-B` (A to B) or `A-` (A and up).
+    pub fn parse(s: &str) -> Option<DiffuseOrders> {
+        let s = s.trim();
+        if s == "all" {
+            return Some(DiffuseOrders::ALL);
+        }
+        let num = |t: &str| if t.bytes().all(|b| b.is_ascii_digit()) { t.parse::<u32>().ok() } else { None };
+        let o = match s.split_once('-') {
+            None => {
+                let n = num(s)?;
+                DiffuseOrders { min: n, max: Some(n) }
+            }
+            Some((a, "")) => DiffuseOrders { min: num(a)?, max: None },
+            Some((a, b)) => DiffuseOrders { min: num(a)?, max: Some(num(b)?) },
+        };
+        o.is_valid().then_some(o)
+    }
+
+    /// Whether `min ≤ max`.
+    pub fn is_valid(self) -> bool {
+        self.max.is_none_or(|m| self.min <= m)
+    }
+
+    /// Whether every order is kept.
+    pub fn is_all(self) -> bool {
+        self == DiffuseOrders::ALL
+    }
+
+    /// Whether contributions of order `k` are kept.
+    #[inline]
+    pub fn keeps(self, k: u32) -> bool {
+        k >= self.min && self.max.is_none_or(|m| k <= m)
+    }
+
+    /// Whether every order from `k` up is dropped (a path may stop there).
+    #[inline]
+    pub(crate) fn none_from(self, k: u32) -> bool {
+        self.max.is_some_and(|m| k > m)
+    }
+}
+
+impl std::fmt::Display for DiffuseOrders {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match (self.min, self.max) {
+            (0, None) => write!(f, "all"),
+            (a, None) => write!(f, "{a}-"),
+            (a, Some(b)) if a == b => write!(f, "{a}"),
+            (a, Some(b)) => write!(f, "{a}-{b}"),
+        }
+    }
+}
+
 /// What tracing a batch of photons produces.
 #[derive(Default)]
 pub struct PhotonOut {
@@ -192,6 +283,8 @@ pub struct Tracer<'a> {
     pub single_scattering: bool,
     /// Which caustic paths are connected to the camera.
     pub caustic_paths: CausticPaths,
+    /// Which diffuse bounce orders reach the camera images.
+    pub diffuse_orders: DiffuseOrders,
     /// Caustic photons reflect partially at dielectric interfaces (with probability F); off,
     /// they transmit with weight 1 − F (`ReferenceSettings::partial_reflections`).
     pub partial_reflections: bool,
@@ -221,6 +314,7 @@ impl<'a> Tracer<'a> {
             media: scene.medium.as_ref().map(Media::new),
             single_scattering: false,
             caustic_paths: CausticPaths::All,
+            diffuse_orders: DiffuseOrders::ALL,
             partial_reflections: true,
             beams: None,
             view_photons: None,
@@ -258,6 +352,10 @@ impl<'a> Tracer<'a> {
         // Whether the photon has scattered in the medium (its path is not L S+ D then).
         let mut scattered = false;
         let paths = self.caustic_paths;
+        let orders = self.diffuse_orders;
+        // Whether the photon may stop once no later connection can be kept (photon beams keep
+        // every flight, marked with whether its order is kept: the same beams in every mode).
+        let may_stop = !t.record_beams;
         for depth in 0..self.max_depth {
             out.rays += 1;
             let hit = self.accel.intersect(o, d, f32::INFINITY);
@@ -273,7 +371,10 @@ impl<'a> Tracer<'a> {
                     if t.record_beams
                         && let Some((t0, t1)) = m.clip(o, d, t_hit)
                     {
-                        out.beams.push(PhotonBeam { o: o + d * t0, d, len: t1 - t0, flux });
+                        // The camera gathers the beam through specular surfaces alone: its
+                        // order is the photon's diffuse hits so far.
+                        let kept = orders.keeps(diffuse_seen);
+                        out.beams.push(PhotonBeam { o: o + d * t0, d, len: t1 - t0, flux, kept });
                     }
                     match m.sample(o, d, t_hit, rng) {
                         Flight::Pass { weight } => flux *= weight,
@@ -284,7 +385,7 @@ impl<'a> Tracer<'a> {
                             if t.camera {
                                 let n0 = out.cam.len();
                                 self.connect_camera_medium(m, x, d, flux, rng, out);
-                                if !paths.keeps(false) || self.gather_direct {
+                                if !paths.keeps(false) || self.gather_direct || !orders.keeps(diffuse_seen) {
                                     out.cam.truncate(n0);
                                 }
                             }
@@ -339,12 +440,19 @@ impl<'a> Tracer<'a> {
                         // are the same in every mode.
                         let n0 = out.cam.len();
                         self.connect_camera(DiffusePoint { p: h.p, ng, ns, albedo }, flux, rng, out);
-                        if !paths.keeps(first) || (self.gather_direct && diffuse_seen == 0) {
+                        if !paths.keeps(first)
+                            || (self.gather_direct && diffuse_seen == 0)
+                            || !orders.keeps(diffuse_seen + 1)
+                        {
                             out.cam.truncate(n0);
                         }
                     }
                     diffuse_seen += 1;
                     if depth + 1 >= self.max_depth {
+                        break;
+                    }
+                    // Later connections: order `diffuse_seen` in the medium, one more on surfaces.
+                    if may_stop && orders.none_from(diffuse_seen + u32::from(self.media.is_none())) {
                         break;
                     }
                     if paths == CausticPaths::FirstDiffuse || !(t.camera || t.record_beams) {
@@ -484,7 +592,10 @@ impl<'a> Tracer<'a> {
         let mut l = Vec3::ZERO;
         let mut rays = 0u64;
         let env = self.scene.environment.as_deref();
-        let mut seen_diffuse = false;
+        // Diffuse vertices so far: the order of the light sampled at a medium point or met by
+        // the bounce from the last one, and one less than that of the next one's.
+        let mut diffuse = 0u32;
+        let orders = self.diffuse_orders;
         // Density of the cosine sampling that made `d`, when `d` leaves a diffuse vertex.
         let mut bsdf_pdf: Option<f32> = None;
         // Whether the path has scattered in the medium (with single scattering, later flights
@@ -495,7 +606,8 @@ impl<'a> Tracer<'a> {
         let mut lc = Vec3::ZERO;
         let mut specular_only = false;
         let beams = self.beams.as_ref().filter(|_| self.caustic_paths.keeps(false));
-        let view_photons = self.view_photons.as_ref().filter(|_| self.caustic_paths.keeps(false));
+        // (the deposits are first diffuse hits: order 1)
+        let view_photons = self.view_photons.as_ref().filter(|_| self.caustic_paths.keeps(false) && orders.keeps(1));
         for depth in 0..self.max_depth {
             rays += 1;
             // Whether this vertex gathers (the tests' `gather_direct`: also the camera's own).
@@ -523,7 +635,9 @@ impl<'a> Tracer<'a> {
                         let x = o + d * t;
                         let (ls, r) = self.medium_direct(m, x, d, rng);
                         rays += r;
-                        l += beta * ls;
+                        if orders.keeps(diffuse) {
+                            l += beta * ls;
+                        }
                         scattered = true;
                         specular_only = false;
                         if depth + 1 >= self.max_depth {
@@ -545,9 +659,13 @@ impl<'a> Tracer<'a> {
                 if let Some(env) = env {
                     // (after a scattering event in the medium the environment was sampled there:
                     // `medium_direct`; this ray, sampled by the phase function, adds nothing)
-                    if !seen_diffuse && !scattered {
-                        l += beta * env.lookup(d);
-                    } else if let Some(pb) = bsdf_pdf {
+                    if diffuse == 0 && !scattered {
+                        if orders.keeps(0) {
+                            l += beta * env.lookup(d);
+                        }
+                    } else if let Some(pb) = bsdf_pdf
+                        && orders.keeps(diffuse)
+                    {
                         let pl = env.pdf(d);
                         l += beta * env.lookup(d) * (pb * pb / (pb * pb + pl * pl));
                     }
@@ -564,10 +682,18 @@ impl<'a> Tracer<'a> {
                     let last = depth + 1 >= self.max_depth;
                     let (e, r) = self.direct_irradiance(h.p, h.ng, ng, ns, last, rng);
                     rays += r;
-                    l += beta * albedo * e / PI;
-                    seen_diffuse = true;
+                    diffuse += 1;
+                    if orders.keeps(diffuse) {
+                        l += beta * albedo * e / PI;
+                    }
                     specular_only = false;
                     if last {
+                        break;
+                    }
+                    // Later light: order `diffuse` (the environment met by this bounce, the
+                    // medium), one more at the next diffuse vertex.
+                    let same = self.media.is_some() || self.scene.environment.is_some();
+                    if orders.none_from(diffuse + u32::from(!same)) {
                         break;
                     }
                     let q = albedo.max_element().min(1.0);
@@ -582,7 +708,7 @@ impl<'a> Tracer<'a> {
                 m => {
                     let Some((nd, w)) = scatter_specular(m, d, ng, ns, front, rng, true) else { break };
                     beta *= w;
-                    specular_only = !seen_diffuse && !scattered;
+                    specular_only = diffuse == 0 && !scattered;
                     d = nd;
                     bsdf_pdf = None;
                     o = spawn(h.p, h.ng, d);

@@ -11,6 +11,7 @@ mod reference_environment;
 mod reference_heterogeneous;
 mod reference_media;
 mod reference_optics;
+mod reference_orders;
 mod reference_render;
 mod reference_scenes;
 mod scene_density;
