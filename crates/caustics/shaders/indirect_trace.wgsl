@@ -23,7 +23,7 @@
 @group(0) @binding(2) var<storage, read_write> keys: array<atomic<u32>>;
 // Per slot, `IC_SUM_WORDS` fixed-point words.
 @group(0) @binding(3) var<storage, read_write> sums: array<atomic<u32>>;
-// [0]: deposits lost to a full table.
+// The statistics (`IC_COUNTER_BASE`, shared/indirect.wgsl): lost deposits, flux per order.
 @group(0) @binding(4) var<storage, read_write> counters: array<atomic<u32>>;
 
 // Steps of a density grid's transmittance march per path segment.
@@ -55,6 +55,22 @@ fn add_fixed(word: u32, v: f32) {
     if (hi != 0u) { atomicAdd(&sums[word + 1u], hi); }
 }
 
+fn count_fixed(word: u32, v: f32) {
+    if (!(v > 0.0)) { return; }
+    let w = fixed_words(v);
+    let old = atomicAdd(&counters[word], w.x);
+    let hi = w.y + fixed_carry(old, w.x);
+    if (hi != 0u) { atomicAdd(&counters[word + 1u], hi); }
+}
+
+// The photon's flux reaching a diffuse surface at bounce order `order` (2: after one diffuse
+// bounce), for the statistics.
+fn count_order(order: u32, flux: vec3f) {
+    let base = IC_COUNTER_BASE + ip.light_index * IC_LIGHT_WORDS + (min(order, IC_ORDERS + 1u) - 2u) * 6u;
+    let f = flux * ic_scale(light);
+    for (var k = 0u; k < 3u; k++) { count_fixed(base + k * 2u, f[k]); }
+}
+
 fn deposit(x: vec3f, n: vec3f, flux: vec3f) {
     let c = ic_coord(x);
     let s = ic_insert(ic_key(c, ic_bucket(n)));
@@ -78,6 +94,9 @@ fn deposit(x: vec3f, n: vec3f, flux: vec3f) {
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) nwg: vec3u) {
     let i = gid.y * nwg.x * 64u + gid.x;
+    if (i == 0u) {
+        atomicStore(&counters[IC_COUNTER_BASE + ip.light_index * IC_LIGHT_WORDS + IC_ORDERS * 6u], bitcast<u32>(ic_scale(light)));
+    }
     if (i >= ip.photons) { return; }
     walk_seed(i, ip.seed);
     let start = walk_emit(ip.disk, ip.photons);
@@ -107,7 +126,10 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) nwg:
         let ng = select(-h.ng, h.ng, front);
         let ns = select(-h.ns, h.ns, front);
         if (mat.kind.x == KIND_DIFFUSE) {
-            if (diffuse >= 1u) { deposit(h.p, ns, flux); }
+            if (diffuse >= 1u) {
+                deposit(h.p, ns, flux);
+                count_order(diffuse + 1u, flux);
+            }
             if (diffuse >= ip.bounces) { return; }
             // Russian roulette by the albedo's largest channel (at most 0.95).
             let a = mat.a.rgb;

@@ -28,7 +28,8 @@ struct IndirectParams {
     // `indirect_gather`: the image.
     width: u32,
     height: u32,
-    _pad0: u32,
+    // `indirect_trace`: the light's place in the frame's list (its words in `counters`).
+    light_index: u32,
 }
 
 // Words of one entry of `sums`: r, g, b, the weight (their sum), the weighted position in its
@@ -39,6 +40,13 @@ const IC_PROBES: u32 = 64u;
 // Grid cells per axis at most (9 bits of the key).
 const IC_AXIS: i32 = 511;
 const IC_NONE: u32 = 0xffffffffu;
+// Bounce orders the statistics tell apart (2 to 9; the last holds 9 and up).
+const IC_ORDERS: u32 = 8u;
+// `counters`: word 0 the deposits lost to a full table, then per light `IC_LIGHT_WORDS` words
+// from `IC_COUNTER_BASE`: per order r, g, b as 64-bit fixed-point pairs, then the light's
+// fixed-point scale (f32 bits).
+const IC_COUNTER_BASE: u32 = 4u;
+const IC_LIGHT_WORDS: u32 = 52u;
 
 // The cell that holds x, clamped to the grid.
 fn ic_coord(x: vec3f) -> vec3i {

@@ -23,7 +23,7 @@
 
 use crate::frame::{Feature, Frame};
 use crate::gpu::pass::Pass;
-use crate::gpu::types::IndirectParams;
+use crate::gpu::types::{IC_COUNTER_BASE, IC_LIGHT_WORDS, IC_ORDERS, IndirectParams};
 use crate::passes::{DrawCtx, LightFrame, layer_view};
 use crate::settings::RenderSettings;
 
@@ -41,7 +41,7 @@ pub(crate) fn wanted(scene: &crate::scene::Scene, s: &RenderSettings) -> bool {
 }
 
 /// The stages' parameters (the camera's part left zero where `camera` is `None`).
-fn params(dc: &DrawCtx, s: &RenderSettings, camera: bool, (photons, seed): (u32, u32)) -> IndirectParams {
+fn params(dc: &DrawCtx, s: &RenderSettings, camera: bool, (photons, light_index): (u32, u32)) -> IndirectParams {
     let scene = dc.scene;
     let (mut lo, mut hi) = scene.bounds();
     if let Some(m) = &scene.medium {
@@ -68,13 +68,13 @@ fn params(dc: &DrawCtx, s: &RenderSettings, camera: bool, (photons, seed): (u32,
         sigma_t: sigma_t.to_array(),
         camera: if camera { cam.position.extend(1.0).to_array() } else { [0.0; 4] },
         photons,
-        seed,
+        seed: light_index + 1,
         capacity: s.indirect.capacity,
         bounces: s.indirect.bounces,
         max_events: MAX_EVENTS,
         width: if camera { cam.width } else { 0 },
         height: if camera { cam.height } else { 0 },
-        _pad: 0,
+        light_index,
     }
 }
 
@@ -103,21 +103,19 @@ fn record_lights(
     let keys = ctx.buffer("indirect_keys", capacity * 4, storage);
     let sums = ctx.buffer("indirect_sums", capacity * SUM_WORDS * 4, storage);
     let cells = ctx.buffer("indirect_cells", capacity * 48, storage);
-    let counters = ctx.buffer("indirect_counters", 16, storage | wgpu::BufferUsages::COPY_SRC);
+    let words = IC_COUNTER_BASE + lights.len() * IC_LIGHT_WORDS;
+    let counters = ctx.buffer("indirect_counters", words as u64 * 4, storage | wgpu::BufferUsages::COPY_SRC);
     for (i, lf) in lights.iter().enumerate() {
         // The environment's directional lights (after the scene's own) share one light's
         // photons: each is a part of one light.
-        let photons = if i < own {
-            s.indirect.photons
-        } else {
-            (s.indirect.photons / (lights.len() - own) as u32).max(1024)
-        };
+        let photons =
+            if i < own { s.indirect.photons } else { (s.indirect.photons / (lights.len() - own) as u32).max(1024) };
         if i > 0 {
             enc.clear_buffer(&sums, 0, None);
         }
         let groups = photons.div_ceil(64);
         let gx = groups.min(65535);
-        let p = ctx.uniform("indirect_params", bytemuck::bytes_of(&params(dc, s, false, (photons, i as u32 + 1))));
+        let p = ctx.uniform("indirect_params", bytemuck::bytes_of(&params(dc, s, false, (photons, i as u32))));
         Pass::new(ctx, "indirect_trace")
             .bind("light", &lf.light_buf)
             .bind("ip", &p)
@@ -157,6 +155,7 @@ impl Feature for Indirect {
             let lights = crate::frame::light_refs(&f.lights);
             self.cache = record_lights(&f.dc, (&lights, f.env.own_lights), f.s, f.enc, f.timer);
             f.dc.ctx.end_scope();
+            f.stats.indirect = self.cache.as_ref().map(|c| c.counters.clone());
         }
         let Some(cache) = &self.cache else { return Ok(()) };
         let ctx = f.dc.ctx;
@@ -175,7 +174,29 @@ impl Feature for Indirect {
             .bind("radiance", &eye.radiance)
             .dispatch(f.enc, f.timer, [cam.width.div_ceil(8), cam.height.div_ceil(8), 1]);
         ctx.end_scope();
-        f.stats.indirect = Some(cache.counters.clone());
         Ok(())
     }
+}
+
+/// The statistics in `indirect_trace`'s counters (`words`, little-endian): the deposits a full
+/// cache lost, and the flux (W, r, g, b) reaching diffuse surfaces at each bounce order from 2
+/// (the last entry holds order `IC_ORDERS + 1` and up), summed over the lights.
+pub(crate) fn read_counters(bytes: &[u8]) -> (u64, Vec<[f64; 3]>) {
+    let word = |i: usize| u32::from_le_bytes(bytes[i * 4..i * 4 + 4].try_into().expect("4 bytes"));
+    let lights = (bytes.len() / 4).saturating_sub(IC_COUNTER_BASE) / IC_LIGHT_WORDS;
+    let mut orders = vec![[0.0f64; 3]; IC_ORDERS];
+    for l in 0..lights {
+        let base = IC_COUNTER_BASE + l * IC_LIGHT_WORDS;
+        let scale = f64::from(f32::from_bits(word(base + IC_ORDERS * 6)));
+        if !(scale > 0.0) {
+            continue;
+        }
+        for (k, order) in orders.iter_mut().enumerate() {
+            for (c, v) in order.iter_mut().enumerate() {
+                let w = base + k * 6 + c * 2;
+                *v += (u64::from(word(w + 1)) << 32 | u64::from(word(w))) as f64 / scale;
+            }
+        }
+    }
+    (u64::from(word(0)), orders)
 }

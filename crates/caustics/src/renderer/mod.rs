@@ -118,6 +118,10 @@ pub struct FrameStats {
     /// Interreflection: photon deposits that found no slot in the cache (`indirect.capacity`
     /// too small; that light is missing from the frame).
     pub indirect_lost_deposits: u64,
+    /// Interreflection, in frames that rebuilt the cache: the flux (W; r, g, b) reaching
+    /// diffuse surfaces at each bounce order from 2 (after one diffuse bounce; the last entry
+    /// holds order 9 and up), summed over the lights. Empty otherwise.
+    pub indirect_order_flux: Vec<[f64; 3]>,
 }
 
 /// What an environment segmentation was made for: D and the split rule.

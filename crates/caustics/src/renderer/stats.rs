@@ -28,8 +28,8 @@ pub(super) struct StatsJob {
     pub(super) lights_redone: Vec<bool>,
     /// Offset of `sphere_gather`'s counters, when it ran.
     pub(super) sphere_stats: Option<u64>,
-    /// Offset of `indirect_trace`'s counters, when it ran.
-    pub(super) indirect_stats: Option<u64>,
+    /// Offset and size of `indirect_trace`'s counters, when the cache was rebuilt.
+    pub(super) indirect_stats: Option<(u64, u64)>,
 }
 
 const STATS_SLOTS: usize = 3;
@@ -104,9 +104,9 @@ impl Renderer {
                 let c = piece(off, 4);
                 stats.sphere_stack_overflows = u64::from(u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
             }
-            if let Some(off) = job.indirect_stats {
-                let c = piece(off, 4);
-                stats.indirect_lost_deposits = u64::from(u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+            if let Some((off, size)) = job.indirect_stats {
+                (stats.indirect_lost_deposits, stats.indirect_order_flux) =
+                    crate::indirect::read_counters(&piece(off, size));
             }
             if stats.indirect_lost_deposits > 0 {
                 let m = format!(
@@ -225,7 +225,7 @@ impl Renderer {
             sources.push((b.clone(), 8));
         }
         if let Some(b) = &copies.indirect {
-            sources.push((b.clone(), 8));
+            sources.push((b.clone(), b.size()));
         }
         // Offsets in the staging buffer (copies are 4-byte aligned; every size is).
         let mut offsets = Vec::with_capacity(sources.len());
@@ -259,7 +259,7 @@ impl Renderer {
         }
         let sphere_stats = copies.spheres.as_ref().map(|_| offsets[k]);
         k += usize::from(copies.spheres.is_some());
-        let indirect_stats = copies.indirect.as_ref().map(|_| offsets[k]);
+        let indirect_stats = copies.indirect.as_ref().map(|b| (offsets[k], b.size()));
         self.ring[slot].job = Some(StatsJob {
             frame: self.frame,
             timer: timer_job,

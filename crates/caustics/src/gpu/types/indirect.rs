@@ -24,5 +24,13 @@ pub struct IndirectParams {
     pub max_events: u32,
     pub width: u32,
     pub height: u32,
-    pub _pad: u32,
+    /// `indirect_trace`: the light's place in the frame's list.
+    pub light_index: u32,
 }
+
+/// Bounce orders the statistics tell apart (`IC_ORDERS`: 2 to 9, the last 9 and up).
+pub const IC_ORDERS: usize = 8;
+/// `indirect_trace`'s counters: the lost deposits' word, then per light this many words from
+/// `IC_COUNTER_BASE` (per order r, g, b as 64-bit pairs, then the light's scale as f32 bits).
+pub const IC_COUNTER_BASE: usize = 4;
+pub const IC_LIGHT_WORDS: usize = 52;
