@@ -200,6 +200,7 @@ scenes!(
     pool_sun_under,
     two_spheres;
     full: ball_over_bunny,
+    cornell_glass,
     pool,
     bunny_over_ball,
     dragon_spheres,

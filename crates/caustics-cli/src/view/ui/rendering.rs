@@ -100,6 +100,16 @@ pub(super) fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Se
         s2.beams.reflection = reflection;
         act(session, Action::SetSettings(Box::new(s2)));
     }
+    let mut bounce = s.indirect.active();
+    let r = ui.checkbox(&mut bounce, "light that bounces").on_hover_text(
+        "Diffuse interreflection: light reaching a surface after bouncing off another, from a cache photons fill \
+         (indirect.photons; off: the first diffuse hit only)",
+    );
+    if r.changed() {
+        let mut s2 = s.clone();
+        s2.indirect.photons = if bounce { caustics::settings::indirect::VIEWER_PHOTONS } else { 0 };
+        act(session, Action::SetSettings(Box::new(s2)));
+    }
     let mut temporal = session.temporal();
     if ui.checkbox(&mut temporal, "temporal filter").changed() {
         act(session, Action::SetTemporal(temporal));
