@@ -188,7 +188,7 @@ pub(crate) fn read_counters(bytes: &[u8]) -> (u64, Vec<[f64; 3]>) {
     for l in 0..lights {
         let base = IC_COUNTER_BASE + l * IC_LIGHT_WORDS;
         let scale = f64::from(f32::from_bits(word(base + IC_ORDERS * 6)));
-        if !(scale > 0.0) {
+        if scale.is_nan() || scale <= 0.0 {
             continue;
         }
         for (k, order) in orders.iter_mut().enumerate() {
