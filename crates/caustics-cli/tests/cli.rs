@@ -100,7 +100,7 @@ fn print_settings(args: &[&str]) -> serde_json::Value {
 #[test]
 fn settings_come_from_flags_set_and_files_alike() {
     let d = print_settings(&["render"]);
-    for section in ["photons", "adaptive", "shading", "medium", "environment", "beams", "cpu", "spheres"] {
+    for section in ["photons", "adaptive", "shading", "medium", "environment", "beams", "indirect", "cpu", "spheres"] {
         assert!(d[section].is_object(), "no section {section}: {d}");
     }
     assert_eq!(d["photons"]["count"], 1024);

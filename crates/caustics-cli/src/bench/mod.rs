@@ -112,6 +112,14 @@ pub fn run(mut a: BenchArgs) -> Result<()> {
         return Ok(());
     }
     (a.base, a.spheres) = (resolved.render, resolved.spheres);
+    // As `render` and `view`: a caustic map not given is fitted to the adapter's storage-binding
+    // limit (a point light's six faces at 1024² exceed lavapipe's 128 MiB).
+    if !resolved.caustic_map_given && a.technique != "none" {
+        let (_, _, scene) = setup(&a)?;
+        let ctx = caustics::gpu::GpuContext::new(a.adapter.as_deref())?;
+        a.base.photons.caustic_map_size =
+            RenderSettings::fitting_caustic_map_size(&ctx, &scene, a.base.photons.caustic_map_size);
+    }
     let a = &a;
     if a.frames > 0 {
         return crate::bench::frame_loop(a);
