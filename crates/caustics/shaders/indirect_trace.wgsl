@@ -121,43 +121,16 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) nwg:
             }
         }
         if (h.object == INVALID) { return; }
-        let mat = materials[h.object];
-        let front = dot(d, h.ng) < 0.0;
-        let ng = select(-h.ng, h.ng, front);
-        let ns = select(-h.ns, h.ns, front);
-        if (mat.kind.x == KIND_DIFFUSE) {
+        if (materials[h.object].kind.x == KIND_DIFFUSE) {
             if (diffuse >= 1u) {
+                // The normal toward where the photon came from.
+                let ns = select(-h.ns, h.ns, dot(d, h.ng) < 0.0);
                 deposit(h.p, ns, flux);
                 count_order(diffuse + 1u, flux);
             }
             if (diffuse >= ip.bounces) { return; }
-            // Russian roulette by the albedo's largest channel (at most 0.95).
-            let a = mat.a.rgb;
-            let keep = min(max(max(a.r, a.g), a.b), 0.95);
-            if (rnd() >= keep) { return; }
-            flux *= a / keep;
             diffuse++;
-            let u1 = rnd();
-            d = ms_around(ng, sqrt(1.0 - u1), 2.0 * PI * rnd());
-            o = rt_spawn(h.p, h.ng, d);
-            in_medium = true;
-            continue;
         }
-        var n = ns;
-        var eta = 1.0;
-        var reflect_it = true;
-        if (mat.kind.x == KIND_MIRROR || mat.kind.x == KIND_CONDUCTOR) {
-            flux *= rt_metal_weight(mat, d, ns);
-        } else {
-            let fz = rt_dielectric_fresnel(mat, d, ns, ng, front);
-            n = fz.n;
-            eta = fz.eta;
-            reflect_it = rnd() < fz.f;
-        }
-        let bz = rt_bounce(d, n, ng, eta, reflect_it);
-        // Inside a dielectric after entering it, or reflecting inside it: no medium there.
-        in_medium = !(mat.kind.x == KIND_DIELECTRIC && (front != bz.reflected));
-        d = bz.dir;
-        o = rt_spawn(h.p, h.ng, d);
+        if (!walk_surface(h, &o, &d, &flux, &in_medium)) { return; }
     }
 }

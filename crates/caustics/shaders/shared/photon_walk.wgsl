@@ -1,7 +1,8 @@
 // Shared WGSL (`#import photon_walk`): photons on random walks from a light, for the stages
 // that follow light through the whole scene (`medium_ms_trace`, `indirect_trace`): the walk's
 // random numbers (a PCG stream per photon, in `rng_state`) and its start by the light's
-// emission. The importing stage declares `light: LightGpu`.
+// emission, and what a surface does to it. The importing stage declares `light: LightGpu` and
+// imports `raytrace` and `scene` before this module.
 
 var<private> rng_state: u32;
 
@@ -65,4 +66,44 @@ fn walk_emit(disk: vec4f, photons: u32) -> WalkStart {
         }
     }
     return w;
+}
+
+// The photon (at o, along d, carrying flux) meets the surface of hit h: a diffuse surface
+// bounces it by the cosine with Russian roulette by the albedo's largest channel (at most 0.95),
+// a mirror or conductor reflects it with its colour, a dielectric reflects or refracts it by
+// Fresnel; then it leaves the surface. `in_medium`: whether it travels outside the dielectrics
+// after (a medium's part). False: absorbed (the roulette ended it).
+fn walk_surface(h: SceneHit, o: ptr<function, vec3f>, d: ptr<function, vec3f>, flux: ptr<function, vec3f>, in_medium: ptr<function, bool>) -> bool {
+    let mat = materials[h.object];
+    let front = dot(*d, h.ng) < 0.0;
+    let ng = select(-h.ng, h.ng, front);
+    let ns = select(-h.ns, h.ns, front);
+    if (mat.kind.x == KIND_DIFFUSE) {
+        let a = mat.a.rgb;
+        let keep = min(max(max(a.r, a.g), a.b), 0.95);
+        if (rnd() >= keep) { return false; }
+        *flux *= a / keep;
+        let u1 = rnd();
+        *d = ms_around(ng, sqrt(1.0 - u1), 2.0 * PI * rnd());
+        *o = rt_spawn(h.p, h.ng, *d);
+        *in_medium = true;
+        return true;
+    }
+    var n = ns;
+    var eta = 1.0;
+    var reflect_it = true;
+    if (mat.kind.x == KIND_MIRROR || mat.kind.x == KIND_CONDUCTOR) {
+        *flux *= rt_metal_weight(mat, *d, ns);
+    } else {
+        let fz = rt_dielectric_fresnel(mat, *d, ns, ng, front);
+        n = fz.n;
+        eta = fz.eta;
+        reflect_it = rnd() < fz.f;
+    }
+    let bz = rt_bounce(*d, n, ng, eta, reflect_it);
+    // Inside a dielectric after entering it, or reflecting inside it: no medium there.
+    *in_medium = !(mat.kind.x == KIND_DIELECTRIC && (front != bz.reflected));
+    *d = bz.dir;
+    *o = rt_spawn(h.p, h.ng, *d);
+    return true;
 }

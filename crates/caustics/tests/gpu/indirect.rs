@@ -8,6 +8,7 @@
 //! - a Cornell-style room against the CPU reference in full mode (every bounce);
 //! - determinism, and the cache kept by frames that only move the camera.
 
+use crate::water::boxed;
 use crate::{common, temp_scene};
 use caustics::Scene;
 use caustics::render::RenderSettings;
@@ -97,25 +98,6 @@ fn cornell() -> Scene {
     sc.camera.width = 64;
     sc.camera.height = 64;
     sc
-}
-
-/// 8 × 8 box averages (the reference's noise is per pixel; the comparison is of the picture).
-fn boxed(img: &caustics::image_io::Image) -> caustics::image_io::Image {
-    let (w, h) = (img.width / 8, img.height / 8);
-    let mut out = caustics::image_io::Image::new(w, h);
-    for y in 0..h {
-        for x in 0..w {
-            let mut s = [0.0f32; 3];
-            for k in 0..64 {
-                let p = img.pixels[((y * 8 + k / 8) * img.width + x * 8 + k % 8) as usize];
-                for c in 0..3 {
-                    s[c] += p[c] / 64.0;
-                }
-            }
-            out.pixels[(y * w + x) as usize] = s;
-        }
-    }
-    out
 }
 
 /// The Cornell-style room (scenes/cornell_glass.json) at 64 × 64 against the CPU reference in

@@ -21,7 +21,7 @@ fn pool(camera: [f32; 3], look_at: [f32; 3]) -> Scene {
 }
 
 /// 8 × 8 box averages (the reference's noise is per pixel; the comparison is of the picture).
-fn boxed(img: &caustics::image_io::Image) -> caustics::image_io::Image {
+pub(crate) fn boxed(img: &caustics::image_io::Image) -> caustics::image_io::Image {
     let (w, h) = (img.width / 8, img.height / 8);
     let mut out = caustics::image_io::Image::new(w, h);
     for y in 0..h {
