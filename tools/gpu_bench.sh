@@ -79,6 +79,12 @@ run 60 "$B" bench --frames 20 scenes/pool_sun.json "${A[@]}" --technique basic -
     --size 1920x1080 --phases camera,mesh --out "$OUT/pool_sun_loop"
 run 60 "$B" bench --frames 20 scenes/pool_sun_under.json "${A[@]}" --technique basic --photons 1024 \
     --size 1920x1080 --phases camera,mesh --out "$OUT/pool_sun_under_loop"
+# Light that bounces (issue 44): the Cornell room with and without the interreflection cache
+# (targets: at most 2x the first-hit frame; camera-only frames at least 10x cheaper).
+run 60 "$B" bench --frames 12 scenes/cornell_glass.json "${A[@]}" --technique basic --photons 1024 \
+    --size 1920x1080 --phases full,camera,light --out "$OUT/cornell_first_hit"
+run 60 "$B" bench --frames 12 scenes/cornell_glass.json "${A[@]}" --technique basic --photons 1024 \
+    --size 1920x1080 --phases full,camera,light --set indirect.photons=262144 --out "$OUT/cornell_indirect"
 
 log "3. frame loop, built-in scene, 1920x1080"
 run 90 "$B" bench --frames 20 "${A[@]}" --technique basic,adaptive-level --photons 1024,2048 --size 1920x1080 \
