@@ -43,12 +43,11 @@ pub(crate) fn wanted(scene: &crate::scene::Scene, s: &RenderSettings) -> bool {
 /// The stages' parameters (the camera's part left zero where `camera` is `None`).
 fn params(dc: &DrawCtx, s: &RenderSettings, camera: bool, (photons, light_index): (u32, u32)) -> IndirectParams {
     let scene = dc.scene;
-    let (mut lo, mut hi) = scene.bounds();
-    if let Some(m) = &scene.medium {
-        (lo, hi) = (lo.min(m.bounds_min), hi.max(m.bounds_max));
-    }
-    let (centre, radius) = (0.5 * (lo + hi), 0.5 * (hi - lo).length());
     let (olo, ohi) = scene.bounds();
+    // The disk a directional light's photons start from: the bounding sphere of the objects
+    // and the medium's box.
+    let (lo, hi) = scene.medium.as_ref().map_or((olo, ohi), |m| (olo.min(m.bounds_min), ohi.max(m.bounds_max)));
+    let (centre, radius) = (0.5 * (lo + hi), 0.5 * (hi - lo).length());
     let h = ((ohi - olo).max_element() / s.indirect.grid as f32).max(1e-6);
     let origin = olo - glam::Vec3::splat(2.0 * h);
     let (mlo, mhi, sigma_t) = match &scene.medium {
@@ -106,10 +105,7 @@ fn record_lights(
     let words = IC_COUNTER_BASE + lights.len() * IC_LIGHT_WORDS;
     let counters = ctx.buffer("indirect_counters", words as u64 * 4, storage | wgpu::BufferUsages::COPY_SRC);
     for (i, lf) in lights.iter().enumerate() {
-        // The environment's directional lights (after the scene's own) share one light's
-        // photons: each is a part of one light.
-        let photons =
-            if i < own { s.indirect.photons } else { (s.indirect.photons / (lights.len() - own) as u32).max(1024) };
+        let photons = crate::medium_multiple::photons_of_light(s.indirect.photons, i, (lights.len(), own));
         if i > 0 {
             enc.clear_buffer(&sums, 0, None);
         }

@@ -90,6 +90,13 @@ fn params(
     }
 }
 
+/// Photons of light `i` of a photon walk with `photons` per light, among `lights` of which the
+/// scene's `own` come first: the environment's directional lights after them share one light's
+/// photons (each is a part of one light), at least 1024 each.
+pub(crate) fn photons_of_light(photons: u32, i: usize, (lights, own): (usize, usize)) -> u32 {
+    if i < own { photons } else { (photons / (lights - own) as u32).max(1024) }
+}
+
 /// The grid of the lights' multiply scattered power and its emitters.
 struct MsFrame {
     cells: wgpu::Buffer,
@@ -120,13 +127,7 @@ fn record_lights(
     );
     let mut last = None;
     for (i, lf) in lights.iter().enumerate() {
-        // The environment's directional lights (after the scene's own) share one light's
-        // photons: each is a part of one light.
-        let photons = if i < own {
-            s.medium.multiple_photons
-        } else {
-            (s.medium.multiple_photons / (lights.len() - own) as u32).max(1024)
-        };
+        let photons = photons_of_light(s.medium.multiple_photons, i, (lights.len(), own));
         let groups = photons.div_ceil(64);
         let gx = groups.min(65535);
         let p = ctx.uniform("medium_ms_params", bytemuck::bytes_of(&params(dc, s, None, (photons, i as u32 + 1))));
