@@ -85,6 +85,9 @@ run 60 "$B" bench --frames 12 scenes/cornell_glass.json "${A[@]}" --technique ba
     --size 1920x1080 --phases full,camera,light --out "$OUT/cornell_first_hit"
 run 60 "$B" bench --frames 12 scenes/cornell_glass.json "${A[@]}" --technique basic --photons 1024 \
     --size 1920x1080 --phases full,camera,light --set indirect.photons=262144 --out "$OUT/cornell_indirect"
+run 60 "$B" bench --frames 12 scenes/cornell_glass.json "${A[@]}" --technique basic --photons 1024 \
+    --size 1920x1080 --phases light --set indirect.photons=65536 --set indirect.history=8 \
+    --out "$OUT/cornell_indirect_progressive"
 
 log "3. frame loop, built-in scene, 1920x1080"
 run 90 "$B" bench --frames 20 "${A[@]}" --technique basic,adaptive-level --photons 1024,2048 --size 1920x1080 \

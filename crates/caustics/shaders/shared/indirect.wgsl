@@ -30,6 +30,11 @@ struct IndirectParams {
     height: u32,
     // `indirect_trace`: the light's place in the frame's list (its words in `counters`).
     light_index: u32,
+    // `indirect_blend`: the new batch's weight.
+    alpha: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Words of one entry of `sums`: r, g, b, the weight (their sum), the weighted position in its

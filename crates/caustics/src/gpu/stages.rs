@@ -47,6 +47,7 @@ pub const STAGES: &[(&str, &str)] = &[
     ("medium_ms_view", include_str!("../../shaders/medium_ms_view.wgsl")),
     ("indirect_trace", include_str!("../../shaders/indirect_trace.wgsl")),
     ("indirect_resolve", include_str!("../../shaders/indirect_resolve.wgsl")),
+    ("indirect_blend", include_str!("../../shaders/indirect_blend.wgsl")),
     ("indirect_gather", include_str!("../../shaders/indirect_gather.wgsl")),
     ("beam_refine", include_str!("../../shaders/beam_refine.wgsl")),
     ("beam_shrink", include_str!("../../shaders/beam_shrink.wgsl")),

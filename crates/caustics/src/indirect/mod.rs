@@ -16,9 +16,11 @@
 //!   mirrors show it too.
 //!
 //! The cache depends on the lights and the objects only: a frame that only moves the camera
-//! keeps it and records the gather. Not modelled yet: light the medium scatters between
-//! surfaces (a photon that scatters in fog ends; the medium's features draw that light), a
-//! progressive update across frames (a moved light rebuilds the cache at once), surfaces under
+//! keeps it and records the gather. With `indirect.history` N > 1 the cache is progressive
+//! (`indirect_blend`): each frame blends a fresh batch into it for 6N frames after a change, so a
+//! moved light fades in over about N frames instead of rebuilding from one noisy batch. Not
+//! modelled yet: light the medium scatters between surfaces (a photon that scatters in fog
+//! ends; the medium's features draw that light), surfaces under
 //! water seen through the water surface at points the camera does not see directly.
 
 use crate::frame::{Feature, Frame};
@@ -74,6 +76,8 @@ fn params(dc: &DrawCtx, s: &RenderSettings, camera: bool, (photons, light_index)
         width: if camera { cam.width } else { 0 },
         height: if camera { cam.height } else { 0 },
         light_index,
+        alpha: 1.0,
+        _pad: [0; 3],
     }
 }
 
@@ -85,23 +89,34 @@ struct Cache {
     counters: wgpu::Buffer,
 }
 
-/// `indirect_trace` and `indirect_resolve` for every light.
+/// A progressive cache's own state (`indirect.history` > 1): its buffers persist across frames
+/// (not pooled), so every batch's photons find the slots earlier batches keyed.
+struct Progressive {
+    /// What the table's slots mean: the grid (corner and side bits), capacity and lights; a
+    /// change starts a new cache.
+    layout: [u32; 6],
+    /// The cache's keys and cells (what [`Cache`] shares).
+    keys: wgpu::Buffer,
+    cells: wgpu::Buffer,
+    /// Batches blended in so far, and frames left to refine.
+    batches: u32,
+    refine_left: u32,
+}
+
+/// `indirect_trace` and `indirect_resolve` for every light: one batch of photons into `cells`
+/// (zeroed by its owner) under `keys`.
 fn record_lights(
     dc: &DrawCtx,
     (lights, own): (&[&LightFrame], usize),
     s: &RenderSettings,
+    (keys, cells, batch): (&wgpu::Buffer, &wgpu::Buffer, u32),
     enc: &mut wgpu::CommandEncoder,
     timer: &mut crate::gpu::PassTimer,
-) -> Option<Cache> {
-    if !wanted(dc.scene, s) || lights.is_empty() {
-        return None;
-    }
+) -> wgpu::Buffer {
     let ctx = dc.ctx;
     let capacity = u64::from(s.indirect.capacity);
     let storage = wgpu::BufferUsages::STORAGE;
-    let keys = ctx.buffer("indirect_keys", capacity * 4, storage);
     let sums = ctx.buffer("indirect_sums", capacity * SUM_WORDS * 4, storage);
-    let cells = ctx.buffer("indirect_cells", capacity * 48, storage);
     let words = IC_COUNTER_BASE + lights.len() * IC_LIGHT_WORDS;
     let counters = ctx.buffer("indirect_counters", words as u64 * 4, storage | wgpu::BufferUsages::COPY_SRC);
     for (i, lf) in lights.iter().enumerate() {
@@ -111,45 +126,132 @@ fn record_lights(
         }
         let groups = photons.div_ceil(64);
         let gx = groups.min(65535);
-        let p = ctx.uniform("indirect_params", bytemuck::bytes_of(&params(dc, s, false, (photons, i as u32))));
+        let mut ip = params(dc, s, false, (photons, i as u32));
+        // Batch 0 keeps the seeds of a cache built at once; later batches draw new numbers.
+        ip.seed = ip.seed.wrapping_add(batch.wrapping_mul(lights.len() as u32));
+        let p = ctx.uniform("indirect_params", bytemuck::bytes_of(&ip));
         Pass::new(ctx, "indirect_trace")
             .bind("light", &lf.light_buf)
             .bind("ip", &p)
-            .bind("keys", &keys)
+            .bind("keys", keys)
             .bind("sums", &sums)
             .bind("counters", &counters)
             .shared(&dc.geo.scene)
             .dispatch(enc, timer, [gx, groups.div_ceil(gx), 1]);
-        let slots = s.indirect.capacity.div_ceil(64);
-        let sx = slots.min(65535);
         Pass::new(ctx, "indirect_resolve")
             .bind("light", &lf.light_buf)
             .bind("ip", &p)
-            .bind("keys", &keys)
+            .bind("keys", keys)
             .bind("sums", &sums)
-            .bind("cells", &cells)
-            .dispatch(enc, timer, [sx, slots.div_ceil(sx), 1]);
+            .bind("cells", cells)
+            .dispatch(enc, timer, slot_groups(s));
     }
-    Some(Cache { keys, cells, counters })
+    counters
 }
 
-/// The interreflection feature: the cache (kept while no light is redone) and the surfaces it
-/// lights before the composite.
+/// Workgroups of 64 over the table's slots.
+fn slot_groups(s: &RenderSettings) -> [u32; 3] {
+    let slots = s.indirect.capacity.div_ceil(64);
+    let sx = slots.min(65535);
+    [sx, slots.div_ceil(sx), 1]
+}
+
+/// The interreflection feature: the cache (kept while no light is redone, or refined across
+/// frames) and the surfaces it lights before the composite.
 #[derive(Default)]
 pub(crate) struct Indirect {
     cache: Option<Cache>,
+    progressive: Option<Progressive>,
+}
+
+impl Indirect {
+    /// Whether the next frame would refine a progressive cache.
+    pub(crate) fn refining(&self) -> bool {
+        self.progressive.as_ref().is_some_and(|p| p.refine_left > 0)
+    }
+
+    /// The cache built at once from one batch (`indirect.history` = 1).
+    fn rebuild(&mut self, f: &mut Frame) {
+        let ctx = f.dc.ctx;
+        let capacity = u64::from(f.s.indirect.capacity);
+        let storage = wgpu::BufferUsages::STORAGE;
+        let keys = ctx.buffer("indirect_keys", capacity * 4, storage);
+        let cells = ctx.buffer("indirect_cells", capacity * 48, storage);
+        let lights = crate::frame::light_refs(&f.lights);
+        let counters = record_lights(&f.dc, (&lights, f.env.own_lights), f.s, (&keys, &cells, 0), f.enc, f.timer);
+        self.cache = Some(Cache { keys, cells, counters });
+        self.progressive = None;
+    }
+
+    /// One more batch blended into a progressive cache (`indirect.history` > 1); `changed`: a
+    /// light or an object changed this frame.
+    fn refine(&mut self, f: &mut Frame, changed: bool) {
+        let ctx = f.dc.ctx;
+        let s = f.s;
+        let ip = params(&f.dc, s, false, (0, 0));
+        let o = ip.origin.map(f32::to_bits);
+        let layout = [o[0], o[1], o[2], o[3], s.indirect.capacity, f.lights.len() as u32];
+        let capacity = u64::from(s.indirect.capacity);
+        let prog = match self.progressive.take() {
+            Some(p) if p.layout == layout => p,
+            _ => {
+                let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+                Progressive {
+                    layout,
+                    keys: ctx.kept_buffer("indirect_keys (progressive)", capacity * 4, usage),
+                    cells: ctx.kept_buffer("indirect_cells (progressive)", capacity * 48, usage),
+                    batches: 0,
+                    refine_left: s.indirect.refine_frames(),
+                }
+            }
+        };
+        let mut prog = prog;
+        if changed {
+            prog.refine_left = s.indirect.refine_frames();
+        }
+        let lights = crate::frame::light_refs(&f.lights);
+        let own = f.env.own_lights;
+        let counters = if prog.batches == 0 {
+            record_lights(&f.dc, (&lights, own), s, (&prog.keys, &prog.cells, 0), f.enc, f.timer)
+        } else {
+            let fresh = ctx.buffer("indirect_fresh", capacity * 48, wgpu::BufferUsages::STORAGE);
+            let batch = (&prog.keys, &fresh, prog.batches);
+            let counters = record_lights(&f.dc, (&lights, own), s, batch, f.enc, f.timer);
+            let n = prog.batches + 1;
+            let bp = IndirectParams { alpha: 1.0 / n.min(s.indirect.history) as f32, ..ip };
+            let p = ctx.uniform("indirect_blend_params", bytemuck::bytes_of(&bp));
+            Pass::new(ctx, "indirect_blend")
+                .bind("ip", &p)
+                .bind("keys", &prog.keys)
+                .bind("fresh", &fresh)
+                .bind("cells", &prog.cells)
+                .dispatch(f.enc, f.timer, slot_groups(s));
+            counters
+        };
+        prog.batches += 1;
+        prog.refine_left = prog.refine_left.saturating_sub(1);
+        self.cache = Some(Cache { keys: prog.keys.clone(), cells: prog.cells.clone(), counters });
+        self.progressive = Some(prog);
+    }
 }
 
 impl Feature for Indirect {
     fn record(&mut self, f: &mut Frame) -> crate::Result<()> {
-        if !wanted(f.dc.scene, f.s) {
+        if !wanted(f.dc.scene, f.s) || f.lights.is_empty() {
             self.cache = None;
+            self.progressive = None;
             return Ok(());
         }
-        if f.redone.iter().any(|&r| r) || self.cache.is_none() {
+        let changed = f.redone.iter().any(|&r| r);
+        let progressive = f.s.indirect.history > 1;
+        if progressive && (changed || self.refining() || self.progressive.is_none()) {
             f.dc.ctx.begin_scope("indirect_lights", f.enc);
-            let lights = crate::frame::light_refs(&f.lights);
-            self.cache = record_lights(&f.dc, (&lights, f.env.own_lights), f.s, f.enc, f.timer);
+            self.refine(f, changed);
+            f.dc.ctx.end_scope();
+            f.stats.indirect = self.cache.as_ref().map(|c| c.counters.clone());
+        } else if !progressive && (changed || self.cache.is_none() || self.progressive.is_some()) {
+            f.dc.ctx.begin_scope("indirect_lights", f.enc);
+            self.rebuild(f);
             f.dc.ctx.end_scope();
             f.stats.indirect = self.cache.as_ref().map(|c| c.counters.clone());
         }

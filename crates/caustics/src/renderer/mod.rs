@@ -528,6 +528,13 @@ impl Renderer {
         self.features.changed(Change::Lights);
     }
 
+    /// Whether the next frame would still refine a progressive cache (`indirect.history` > 1,
+    /// within its frames after a change of a light or an object): a frame loop that renders
+    /// only on change keeps rendering while this holds, then the image is settled.
+    pub fn refining(&self) -> bool {
+        self.features.indirect.refining()
+    }
+
     /// GPU objects this renderer created so far (read-backs included).
     pub fn created(&self) -> ResourceCounts {
         self.ctx.created()

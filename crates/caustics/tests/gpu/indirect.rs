@@ -258,3 +258,106 @@ fn a_full_cache_reports_what_it_lost() {
     assert!(st.indirect_lost_deposits > 0);
     assert!(st.overflow.as_deref().is_some_and(|m| m.contains("indirect.capacity")), "{:?}", st.overflow);
 }
+
+/// The bounced light alone: the frame's image minus the same frame without the cache (the
+/// rest of the frame is the same), as rgb sums over 8 × 8 blocks (the photons' noise averaged
+/// down, the bounced light's shape kept).
+fn bounced(r: &Renderer, off: &[[f32; 3]]) -> Vec<f64> {
+    let img = r.read_image().unwrap();
+    let (w, h) = (img.width as usize, img.height as usize);
+    let mut blocks = vec![0.0; w.div_ceil(8) * h.div_ceil(8)];
+    for (i, (p, o)) in img.pixels.iter().zip(off).enumerate() {
+        let (x, y) = (i % w, i / w);
+        blocks[y / 8 * w.div_ceil(8) + x / 8] += f64::from(p[0] + p[1] + p[2]) - f64::from(o[0] + o[1] + o[2]);
+    }
+    blocks
+}
+
+fn render_off(ctx: &caustics::gpu::GpuContext, sc: &Scene, s: &RenderSettings) -> Vec<[f32; 3]> {
+    let mut s = s.clone();
+    s.indirect.photons = 0;
+    let mut r = Renderer::with_context(ctx.clone(), sc.clone(), s).unwrap();
+    frame(&mut r);
+    r.read_image().unwrap().pixels
+}
+
+/// A progressive cache (`indirect.history` = 4): it refines for 6 × 4 frames and stops (a
+/// camera-only frame then traces nothing); settled, its bounced light has the energy of a cache
+/// built at once from as many photons; after the light moves, the old light's share of the
+/// bounced light is (1 − 1/4)^k after k frames (measured by projecting the image's change onto
+/// the difference of the two settled caches, over 8 × 8 blocks: the references' noise would
+/// otherwise add its own variance to the share).
+#[test]
+fn a_progressive_cache_settles_and_follows_a_moved_light() {
+    let Some(ctx) = gpu() else { return };
+    let mut sc = cornell();
+    sc.camera.width = 32;
+    sc.camera.height = 32;
+    // 2^15 photons a batch: one batch's bounced energy scatters by about 2 %, the settled
+    // cache's (variance 1/7 of a batch's) by about 0.7 %.
+    let mut s = with_indirect(1 << 15);
+    s.indirect.history = 4;
+    let mut r = Renderer::with_context(ctx.clone(), sc.clone(), s.clone()).unwrap();
+    let mut frames = 0;
+    loop {
+        frame(&mut r);
+        frames += 1;
+        if !r.refining() {
+            break;
+        }
+        assert!(frames < 100, "never settles");
+    }
+    assert_eq!(frames, 24, "frames of refinement");
+    let mut cam = sc.camera.clone();
+    cam.position += Vec3::new(0.05, 0.0, 0.0);
+    r.set_camera(cam).unwrap();
+    let still = frame(&mut r);
+    assert!(still.timings.iter().all(|(n, _)| n != "indirect_trace"), "a settled cache traced photons");
+    r.set_camera(sc.camera.clone()).unwrap();
+    frame(&mut r);
+    let off_old = render_off(&ctx, &sc, &s);
+    let b_old = bounced(&r, &off_old);
+    let at_once = |sc: &Scene| {
+        let mut s1 = s.clone();
+        s1.indirect.history = 1;
+        s1.indirect.photons = 1 << 17;
+        let mut r1 = Renderer::with_context(ctx.clone(), sc.clone(), s1).unwrap();
+        frame(&mut r1);
+        r1
+    };
+    let once_old = bounced(&at_once(&sc), &off_old);
+    let (e_prog, e_once) = (b_old.iter().sum::<f64>(), once_old.iter().sum::<f64>());
+    eprintln!("progressive: settled bounced energy {:.4} of a cache built at once", e_prog / e_once);
+    assert!((e_prog / e_once - 1.0).abs() < 0.02, "settled energy {:.4}", e_prog / e_once);
+
+    // Move the light 0.6 m sideways.
+    let mut moved = sc.clone();
+    let light = match &sc.lights[0] {
+        caustics::scene::Light::Point { position, intensity } => {
+            caustics::scene::Light::Point { position: *position + Vec3::new(0.6, 0.0, 0.0), intensity: *intensity }
+        }
+        l => panic!("the room's light is a point light: {l:?}"),
+    };
+    moved.lights[0] = light.clone();
+    let off_new = render_off(&ctx, &moved, &s);
+    let b_new = bounced(&at_once(&moved), &off_new);
+    let d_old: Vec<f64> = b_old.iter().zip(&b_new).map(|(a, b)| a - b).collect();
+    let norm: f64 = d_old.iter().map(|d| d * d).sum();
+    r.set_light(0, light).unwrap();
+    let mut shares = Vec::new();
+    for _ in 0..8 {
+        frame(&mut r);
+        let bk = bounced(&r, &off_new);
+        shares.push(bk.iter().zip(&b_new).zip(&d_old).map(|((a, b), d)| (a - b) * d).sum::<f64>() / norm);
+    }
+    eprintln!("progressive: the old light's share after 1..8 frames {shares:.3?}");
+    for (k, w) in shares.iter().enumerate() {
+        let expected = 0.75f64.powi(k as i32 + 1);
+        assert!(
+            (w - expected).abs() < 0.08,
+            "after {} frames the old light's share {w:.3}, expected {expected:.3}",
+            k + 1
+        );
+    }
+    assert!(r.refining(), "a moved light refines again");
+}

@@ -47,6 +47,8 @@ impl Session {
             }
         };
         self.queue.submit([enc.finish()]);
+        // A progressive interreflection cache refines over the next frames.
+        self.dirty |= self.renderer.refining();
         let done = self.frame_done.clone();
         if let Ok(mut d) = done.lock() {
             *d = None;

@@ -103,11 +103,12 @@ pub(super) fn rendering(ui: &mut egui::Ui, state: &mut UiState, session: &mut Se
     let mut bounce = s.indirect.active();
     let r = ui.checkbox(&mut bounce, "light that bounces").on_hover_text(
         "Diffuse interreflection: light reaching a surface after bouncing off another, from a cache photons fill \
-         (indirect.photons; off: the first diffuse hit only)",
+         (indirect.photons, refined over indirect.history frames; off: the first diffuse hit only)",
     );
     if r.changed() {
         let mut s2 = s.clone();
         s2.indirect.photons = if bounce { caustics::settings::indirect::VIEWER_PHOTONS } else { 0 };
+        s2.indirect.history = if bounce { caustics::settings::indirect::VIEWER_HISTORY } else { 1 };
         act(session, Action::SetSettings(Box::new(s2)));
     }
     let mut temporal = session.temporal();

@@ -2,7 +2,8 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// `IndirectParams`: one record for `indirect_trace`, `indirect_resolve` and `indirect_gather`.
+/// `IndirectParams`: one record for `indirect_trace`, `indirect_resolve`, `indirect_blend` and
+/// `indirect_gather`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct IndirectParams {
@@ -26,6 +27,9 @@ pub struct IndirectParams {
     pub height: u32,
     /// `indirect_trace`: the light's place in the frame's list.
     pub light_index: u32,
+    /// `indirect_blend`: the new batch's weight.
+    pub alpha: f32,
+    pub _pad: [u32; 3],
 }
 
 /// Bounce orders the statistics tell apart (`IC_ORDERS`: 2 to 9, the last 9 and up).

@@ -173,7 +173,7 @@ layouts! {
     VplGpu as Vpl { pos, nrm, full, caustic }
     BounceParams { clip_to_world, camera, lo, hi, sigma_s, sigma_t, width, height, steps, count, heterogeneous, _pad => [_pad0, _pad1, _pad2] }
     SurfaceBounceParams { lo, hi, sigma_t, camera, width, height, count, heterogeneous, layers, _pad => [_pad0, _pad1, _pad2] }
-    IndirectParams { origin, disk, lo, hi, sigma_t, camera, photons, seed, capacity, bounces, max_events, width, height, light_index }
+    IndirectParams { origin, disk, lo, hi, sigma_t, camera, photons, seed, capacity, bounces, max_events, width, height, light_index, alpha, _pad => [_pad0, _pad1, _pad2] }
     MsParams { clip_to_world, camera, lo, hi, sigma_s, sigma_t, disk, dims, photons, seed, _pad => [_pad0, _pad1], width, height, steps, max_events }
     BeamParams { clip_to_world, camera, lo, hi, sigma_s, sigma_t, grid, levels, faces, max_depth, normal_cos, depth_rel, energy, camera_size, surface_samples, capacity, slots, samples, width, height, flags, pixel_samples, linearity, residual, cut, _pad => _pad2, world_to_clip }
     BeamLevel { level, offset, next_offset, base_count }
