@@ -355,6 +355,25 @@ fn spot_handle_aims_the_light_and_temporal_frames_settle() {
     assert!(n > 1, "{n} frames");
 }
 
+/// A progressive interreflection cache keeps the viewer rendering while it refines (6 frames a
+/// batch of history), then the viewer stops.
+#[test]
+fn a_progressive_cache_keeps_frames_coming_until_it_settles() {
+    let Some(d) = device() else { return };
+    let mut s = session(d);
+    let mut on = s.settings().clone();
+    on.indirect.photons = 4096;
+    on.indirect.history = 2;
+    s.act(Action::SetSettings(Box::new(on))).expect("settings");
+    let mut n = 0;
+    while s.render().expect("frame") {
+        s.update();
+        n += 1;
+        assert!(n < 40, "frames never stop");
+    }
+    assert_eq!(n, 12, "frames of refinement (6 x history)");
+}
+
 /// The window's painting path offscreen: panels plus the renderer's display texture through
 /// egui-wgpu. The view area shows the display texture's values unchanged (no second sRGB
 /// encoding or decoding on the way).
