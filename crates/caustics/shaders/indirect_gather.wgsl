@@ -2,13 +2,16 @@
 // them after at least one diffuse bounce (src/indirect/, docs/indirect.md): per pixel whose
 // first surface is diffuse (point y, normal n turned toward the camera, albedo rho), the
 // cache's irradiance as a density estimate in the surface's plane,
-//   E(y) = sum_c F_c K(r_c),  K(r) = 3 / (pi R^2) (1 - r^2 / R^2)^2  (r < R = 2 h),
+//   E(y) = sum_c F_c K(r_c) / coverage,  K(r) = 3 / (pi R^2) (1 - r^2 / R^2)^2  (r < R = 2 h),
 // over the cells c near y whose mean normal lies within 60 degrees of n and whose mean position
 // lies within R / 2 of y's plane, r_c its distance to y in that plane (a kernel of unit
-// integral over the plane: a flat surface keeps every photon's flux; within R of a surface's
-// edge part of the kernel falls off it and the estimate darkens). Adds rho / pi E to the eye's
-// radiance (not the caustic-only image). Runs before `composite`, so surfaces seen through glass
-// and in mirrors show it.
+// integral over the plane: a flat surface keeps every photon's flux). Near a surface's edge
+// (a room's corners) part of the kernel falls off the surface and would darken the estimate:
+// `coverage` is the share of the kernel, summed over the 5 x 5 columns of cells in the plane
+// at their centres, that the columns holding such a cell carry (1 inside a surface, about
+// 1/2 at an edge, 1/4 in a corner; at least 1/4). Adds rho / pi E to the eye's radiance (not
+// the caustic-only image). Runs before `composite`, so surfaces seen through glass and in
+// mirrors show it.
 
 #import scene
 #import indirect
@@ -48,7 +51,13 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     // Two cells either way in the plane, one across it.
     let a = abs(n);
     var span = vec3i(2);
-    if (a.x >= a.y && a.x >= a.z) { span.x = 1; } else if (a.y >= a.z) { span.y = 1; } else { span.z = 1; }
+    var ax = 2u;
+    if (a.x >= a.y && a.x >= a.z) { ax = 0u; } else if (a.y >= a.z) { ax = 1u; }
+    span[ax] = 1;
+    // The plane's two axes: the columns of cells are (offset along u, offset along v).
+    let u = (ax + 1u) % 3u;
+    let v = (ax + 2u) % 3u;
+    var columns = 0u;
     var e = vec3f(0.0);
     for (var b = 0u; b < 6u; b++) {
         if (dot(ic_axis(b), n) <= 0.3) { continue; }
@@ -67,6 +76,8 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
                     let dv = p - y;
                     let along = dot(dv, n);
                     if (abs(along) > h) { continue; }
+                    let d = vec3i(dx, dy, dz);
+                    columns |= 1u << u32((d[u] + 2) * 5 + d[v] + 2);
                     let r2 = max(dot(dv, dv) - along * along, 0.0);
                     if (r2 >= r2max) { continue; }
                     let t = 1.0 - r2 / r2max;
@@ -75,6 +86,21 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
             }
         }
     }
+    // The kernel's share on the columns that hold the surface, at the columns' centres.
+    var all = 0.0;
+    var held = 0.0;
+    for (var i = 0; i < 5; i++) {
+        for (var j = 0; j < 5; j++) {
+            let cu = ip.origin[u] + (f32(c[u] + i - 2) + 0.5) * h - y[u];
+            let cv = ip.origin[v] + (f32(c[v] + j - 2) + 0.5) * h - y[v];
+            let r2 = cu * cu + cv * cv;
+            if (r2 >= r2max) { continue; }
+            let t = 1.0 - r2 / r2max;
+            all += t * t;
+            if ((columns & (1u << u32(i * 5 + j))) != 0u) { held += t * t; }
+        }
+    }
+    if (all > 0.0 && held > 0.0) { e /= max(held / all, 0.25); }
     let idx = gid.y * ip.width + gid.x;
     radiance[idx] += vec4f(mat.a.rgb / PI * e, 0.0);
 }
