@@ -17,9 +17,10 @@ const GLB_MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
 const CHUNK_BIN: u32 = 0x004E_4942;
 
-/// Parse a `.glb` (by its magic) or a `.gltf` JSON text, and load its buffers.
+/// Parse a `.glb` (by its magic or its extension) or a `.gltf` JSON text, and load its buffers.
 pub(crate) fn parse(cx: &Ctx, bytes: &[u8], base: &Path) -> Result<Document> {
-    let (json, bin) = if bytes.starts_with(GLB_MAGIC) { split_glb(cx, bytes)? } else { (bytes, None) };
+    let glb_name = Path::new(cx.file).extension().is_some_and(|e| e.eq_ignore_ascii_case("glb"));
+    let (json, bin) = if bytes.starts_with(GLB_MAGIC) || glb_name { split_glb(cx, bytes)? } else { (bytes, None) };
     let root = parse_json(cx, json)?;
     let buffers = load_buffers(cx, &root, bin, base)?;
     Ok(Document { root, buffers })
@@ -33,6 +34,10 @@ fn u32_at(b: &[u8], at: usize) -> Option<u32> {
 /// The JSON chunk and the BIN chunk (if any) of a GLB file.
 fn split_glb<'a>(cx: &Ctx, b: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8]>)> {
     let bad = |m: String| cx.err("", format!("not a valid GLB file: {m}"));
+    if !b.starts_with(GLB_MAGIC) {
+        let magic = &b[..b.len().min(4)];
+        return Err(bad(format!("its first bytes are {magic:?}, not \"glTF\"")));
+    }
     let version = u32_at(b, 4).ok_or_else(|| bad("truncated header (12 bytes expected)".into()))?;
     let length = u32_at(b, 8).ok_or_else(|| bad("truncated header (12 bytes expected)".into()))? as usize;
     if version != 2 {

@@ -80,6 +80,12 @@ pub(crate) fn flatten(cx: &mut Ctx, doc: &Document) -> Result<Flat> {
             if c >= root.nodes.len() {
                 return Err(cx.err(format!("/nodes/{n}/children/{k}"), missing("node", c, root.nodes.len())));
             }
+            if seen[c] {
+                return Err(cx.err(
+                    format!("/nodes/{n}/children/{k}"),
+                    format!("node {c} is drawn already (a cycle or a shared child)"),
+                ));
+            }
             stack.push((c, world));
         }
     }
@@ -191,6 +197,9 @@ fn visit_node(
     let mut by_material: BTreeMap<Option<usize>, TriMesh> = BTreeMap::new();
     for local in &cache[&m] {
         let mut placed = place(&local.mesh, world);
+        if !placed.positions.iter().all(|p| p.is_finite()) {
+            return Err(cx.err(&at, format!("{name}: its transform moves {what} beyond the range of numbers")));
+        }
         if !local.has_normals {
             // glTF 3.7.2.1: without normals, flat normals (after the transform, whose winding
             // flip keeps them outward).

@@ -52,9 +52,10 @@ impl Ctx<'_> {
 
 /// A display name for element `i` of a glTF array: `"name" (/kind/i)` or `/kind/i`.
 pub(crate) fn label(kind: &str, i: usize, name: Option<&String>) -> String {
+    let array = if kind == "mesh" { "meshes".to_string() } else { format!("{kind}s") };
     match name {
-        Some(n) if !n.is_empty() => format!("{kind} \"{n}\" (/{kind}s/{i})"),
-        _ => format!("{kind} /{kind}s/{i}"),
+        Some(n) if !n.is_empty() => format!("{kind} \"{n}\" (/{array}/{i})"),
+        _ => format!("{kind} /{array}/{i}"),
     }
 }
 
