@@ -301,7 +301,7 @@ fn read_primitive(
 
 /// Triangles of a triangle list, strip or fan (glTF 2.0, 3.7.2.1); `None` if the count does not
 /// fit the mode.
-fn triangles(v: &[u32], mode: Mode) -> Option<Vec<[u32; 3]>> {
+pub(crate) fn triangles(v: &[u32], mode: Mode) -> Option<Vec<[u32; 3]>> {
     match mode {
         Mode::Triangles if v.len() % 3 == 0 => Some(v.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()),
         Mode::TriangleStrip if v.len() >= 3 => Some(
