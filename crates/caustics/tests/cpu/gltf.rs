@@ -241,9 +241,12 @@ fn unsupported_features_are_named_once_each() {
     assert!(matches!(s.materials[brushed], Material::Diffuse { .. }));
 }
 
+/// A change to a glTF document.
+type Edit = Box<dyn Fn(&mut Value)>;
+
 #[test]
 fn errors_name_the_file_and_the_json_pointer() {
-    let cases: Vec<(&str, Box<dyn Fn(&mut Value)>)> = vec![
+    let cases: Vec<(&str, Edit)> = vec![
         (
             "/meshes/0/primitives/0/attributes/POSITION",
             Box::new(|d| d["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 99.into()),

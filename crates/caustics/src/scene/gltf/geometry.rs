@@ -184,13 +184,12 @@ fn visit_node(
     if node.skin.is_some() {
         cx.warn(&format!("{at}/skin"), format!("{name}: skinning ignored: the mesh is drawn in its bind pose"));
     }
-    if !cache.contains_key(&m) {
-        let locals = read_mesh(cx, doc, m)?;
-        cache.insert(m, locals);
+    if let std::collections::hash_map::Entry::Vacant(e) = cache.entry(m) {
+        e.insert(read_mesh(cx, doc, m)?);
     }
     let what = label("mesh", m, mesh.name.as_ref());
     let det = Mat3::from_mat4(world).determinant();
-    if !(det.abs() > 1e-18) {
+    if det.is_nan() || det.abs() <= 1e-18 {
         cx.warn(&at, format!("{name}: its transform squashes {what} flat (determinant {det}): not drawn"));
         return Ok(());
     }
@@ -303,7 +302,7 @@ fn read_primitive(
 /// fit the mode.
 pub(crate) fn triangles(v: &[u32], mode: Mode) -> Option<Vec<[u32; 3]>> {
     match mode {
-        Mode::Triangles if v.len() % 3 == 0 => Some(v.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()),
+        Mode::Triangles if v.len().is_multiple_of(3) => Some(v.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()),
         Mode::TriangleStrip if v.len() >= 3 => Some(
             (0..v.len() - 2)
                 .map(|i| if i % 2 == 0 { [v[i], v[i + 1], v[i + 2]] } else { [v[i + 1], v[i], v[i + 2]] })
