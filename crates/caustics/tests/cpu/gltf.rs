@@ -34,8 +34,8 @@ fn temp_dir(tag: &str) -> PathBuf {
     dir
 }
 
-/// Load `doc` (glass_ball.gltf edited by `edit`) from a temporary file; the error's field and text.
-fn load_edited(edit: impl Fn(&mut Value)) -> (String, String) {
+/// glass_ball.gltf edited by `edit`, loaded from a temporary file.
+fn try_edited(edit: impl Fn(&mut Value)) -> caustics::Result<Scene> {
     let mut doc: Value = serde_json::from_slice(&std::fs::read(asset("glass_ball.gltf")).unwrap()).unwrap();
     edit(&mut doc);
     let dir = temp_dir("edit");
@@ -43,7 +43,12 @@ fn load_edited(edit: impl Fn(&mut Value)) -> (String, String) {
     std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
     let r = Scene::load(&path);
     std::fs::remove_dir_all(&dir).ok();
-    match r {
+    r
+}
+
+/// The error's field and text of glass_ball.gltf edited by `edit`.
+fn load_edited(edit: impl Fn(&mut Value)) -> (String, String) {
+    match try_edited(edit) {
         Err(e @ Error::Input { .. }) => {
             let text = e.to_string();
             let Error::Input { field, .. } = e else { unreachable!() };
@@ -241,6 +246,19 @@ fn unsupported_features_are_named_once_each() {
     assert!(matches!(s.materials[brushed], Material::Diffuse { .. }));
 }
 
+#[test]
+fn missing_lights_and_orthographic_cameras_are_warnings() {
+    let s = try_edited(|d| {
+        d["nodes"][2].as_object_mut().unwrap().remove("extensions");
+        d["cameras"][0] = serde_json::json!({"type": "orthographic", "orthographic": {"xmag": 1, "ymag": 1, "znear": 0.1, "zfar": 10}});
+    })
+    .unwrap();
+    assert!(matches!(s.lights[..], [Light::Directional { .. }]), "{:?}", s.lights);
+    let hit = |t: &str| s.warnings.iter().filter(|w| w.contains(t)).count();
+    assert_eq!((hit("no light"), hit("only perspective cameras")), (1, 1), "{:#?}", s.warnings);
+    assert_eq!(s.camera.look_at, (s.bounds().0 + s.bounds().1) * 0.5, "the framing view");
+}
+
 /// A change to a glTF document.
 type Edit = Box<dyn Fn(&mut Value)>;
 
@@ -283,6 +301,13 @@ fn errors_name_the_file_and_the_json_pointer() {
             Box::new(|d| d["meshes"][0]["primitives"][0]["attributes"] = serde_json::json!({"NORMAL": 1})),
         ),
         ("/accessors/0/count", Box::new(|d| d["accessors"][0]["count"] = (-1).into())),
+        ("/meshes/0/primitives/0/material", Box::new(|d| d["meshes"][0]["primitives"][0]["material"] = 5.into())),
+        (
+            "/nodes/2/extensions/KHR_lights_punctual/light",
+            Box::new(|d| d["nodes"][2]["extensions"]["KHR_lights_punctual"]["light"] = 3.into()),
+        ),
+        ("/nodes/3/camera", Box::new(|d| d["nodes"][3]["camera"] = 3.into())),
+        ("/scene", Box::new(|d| d["scene"] = 4.into())),
     ];
     for (want, edit) in cases {
         let (field, text) = load_edited(edit);

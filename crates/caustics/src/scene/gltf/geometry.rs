@@ -54,7 +54,7 @@ struct Local {
 }
 
 /// The most elements an accessor without a bufferView (all zeros) may declare.
-const MAX_ZERO_ELEMENTS: u64 = 1 << 24;
+const MAX_ZERO_ELEMENTS: u64 = 1 << 20;
 
 /// Walk the default scene (or scene 0, or every root node where the file has no scene).
 pub(crate) fn flatten(cx: &mut Ctx, doc: &Document) -> Result<Flat> {
@@ -258,6 +258,10 @@ fn read_primitive(
     }
     if prim.attributes.contains_key(&Checked::Valid(Semantic::Colors(0))) {
         cx.warn(&format!("{at}/attributes/COLOR_0"), format!("{what}: vertex colours ignored"));
+    }
+    let n_materials = doc.root.materials.len();
+    if let Some(m) = prim.material.map(|m| m.value()).filter(|&m| m >= n_materials) {
+        return Err(cx.err(format!("{at}/material"), missing("material", m, n_materials)));
     }
     let pos_at = format!("{at}/attributes/POSITION");
     let pos = prim
