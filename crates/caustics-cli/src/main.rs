@@ -47,8 +47,13 @@ enum Backend {
 enum Command {
     /// Render a scene to PNG (tone-mapped) or EXR (linear radiance, W/(m^2 sr)).
     Render {
-        /// Scene file (JSON, see docs/scene-format.md); the built-in glass-ball scene if omitted.
+        /// Scene file (JSON, see docs/scene-format.md, or glTF 2.0 .gltf/.glb, see docs/gltf.md);
+        /// the built-in glass-ball scene if omitted.
         scene: Option<PathBuf>,
+        /// glTF scenes: the camera, by node or camera name or index into the file's cameras
+        /// (default: the scene's first camera, else a view framing the scene).
+        #[arg(long, value_name = "NAME|INDEX")]
+        camera: Option<String>,
         /// Output image (.png or .exr; an EXR's header holds the settings it was rendered with).
         #[arg(short, long, default_value = "caustics.png")]
         output: PathBuf,
@@ -104,6 +109,18 @@ enum Command {
     View(Box<view::ViewArgs>),
     /// List GPU adapters with their features and limits.
     Info,
+}
+
+/// The scene at `path` (the built-in one without), with the glTF camera `camera` chooses
+/// (`--camera`).
+pub(crate) fn load_scene(path: Option<&Path>, camera: Option<&str>) -> Result<Scene, Error> {
+    match (path, camera) {
+        (Some(p), c) => Scene::load_with_camera(p, c),
+        (None, Some(_)) => {
+            Err(Error::input("<command line>", "--camera", "chooses a camera of a glTF scene: name one"))
+        }
+        (None, None) => Ok(Scene::default_scene()),
+    }
 }
 
 /// `--time T`: the scene posed at `t` seconds (a warning where nothing in it moves).
@@ -196,7 +213,19 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Compare { a, b, mask, heatmap } => Ok(compare::run(&a, &b, mask.as_deref(), heatmap.as_deref())?),
-        Command::Render { scene, output, size, backend, adapter, dump, caustic_output, time, grid, settings } => {
+        Command::Render {
+            scene,
+            camera,
+            output,
+            size,
+            backend,
+            adapter,
+            dump,
+            caustic_output,
+            time,
+            grid,
+            settings,
+        } => {
             let resolved = settings.resolve(RenderSettings::default(), Some(&grid))?;
             if settings.print_settings {
                 println!("{}", serde_json::to_string_pretty(&resolved.to_json())?);
@@ -209,10 +238,7 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(c) = &caustic_output {
                 check_output(c)?;
             }
-            let mut scene = match &scene {
-                Some(p) => Scene::load(p)?,
-                None => Scene::default_scene(),
-            };
+            let mut scene = load_scene(scene.as_deref(), camera.as_deref())?;
             for w in &scene.warnings {
                 eprintln!("warning: {w}");
             }

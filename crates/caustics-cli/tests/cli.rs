@@ -32,6 +32,24 @@ fn bad_scene_file_exits_2_and_names_it() {
 }
 
 #[test]
+fn bad_gltf_and_camera_choice_exit_2_and_name_them() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let good = std::fs::read(root.join("scenes/gltf/glass_ball.glb")).unwrap();
+    let bad = tmp("bad.glb");
+    std::fs::write(&bad, &good[..good.len() / 3]).unwrap();
+    let out = tmp("never_gltf.png");
+    let e = run_err(&["render", bad.to_str().unwrap(), "-o", out.to_str().unwrap(), "--backend", "cpu"]);
+    assert!(e.contains("bad.glb") && e.contains("GLB"), "{e}");
+    assert!(!out.exists(), "an output file was written for a bad scene");
+    let glb = root.join("scenes/gltf/glass_ball.glb");
+    let e =
+        run_err(&["render", glb.to_str().unwrap(), "--camera", "7", "-o", out.to_str().unwrap(), "--backend", "cpu"]);
+    assert!(e.contains("--camera") && e.contains("0 main"), "{e}");
+    let e = run_err(&["render", "--camera", "main", "--backend", "cpu"]);
+    assert!(e.contains("--camera"), "{e}");
+}
+
+#[test]
 fn bad_environment_map_exits_2_and_names_it() {
     let scene = tmp("env_scene.json");
     let map = tmp("not_a_map.exr");

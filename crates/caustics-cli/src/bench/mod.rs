@@ -21,8 +21,11 @@ use table::{markdown, to_json};
 
 #[derive(Args)]
 pub struct BenchArgs {
-    /// Scene file (JSON); the built-in glass-ball scene if omitted.
+    /// Scene file (JSON or glTF 2.0 .gltf/.glb); the built-in glass-ball scene if omitted.
     scene: Option<PathBuf>,
+    /// glTF scenes: the camera, by node or camera name or index into the file's cameras.
+    #[arg(long, value_name = "NAME|INDEX")]
+    camera: Option<String>,
     /// Techniques to compare, comma-separated: the names `render --technique` takes (basic,
     /// hierarchical, adaptive-level, adaptive-error, caustic-spheres, beams: basic with the
     /// surface caustics from beams, instead of basic), or none (with --cpu-photons).
@@ -223,10 +226,7 @@ pub fn run(mut a: BenchArgs) -> Result<()> {
 
 /// Photon paths and rays per second of the CPU reference on the bench scene, one thread and all.
 fn cpu_bench(a: &BenchArgs) -> Result<()> {
-    let mut scene = match &a.scene {
-        Some(p) => Scene::load(p)?,
-        None => Scene::default_scene(),
-    };
+    let mut scene = crate::load_scene(a.scene.as_deref(), a.camera.as_deref())?;
     (scene.camera.width, scene.camera.height) = a.size;
     let settings = caustics_reference::reference::ReferenceSettings {
         photons_per_light: a.cpu_photons,
@@ -296,10 +296,7 @@ fn techniques(list: &str) -> Result<Vec<Technique>> {
 fn setup(a: &BenchArgs) -> Result<(Vec<Technique>, Vec<u32>, Scene)> {
     let techniques = techniques(&a.technique)?;
     let grids = parse_grids(&a.photons)?;
-    let mut scene = match &a.scene {
-        Some(p) => Scene::load(p)?,
-        None => Scene::default_scene(),
-    };
+    let mut scene = crate::load_scene(a.scene.as_deref(), a.camera.as_deref())?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }

@@ -28,8 +28,13 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct ViewArgs {
-    /// Scene file (JSON, see docs/scene-format.md); the built-in glass-ball scene if omitted.
+    /// Scene file (JSON, see docs/scene-format.md, or glTF 2.0 .gltf/.glb, see docs/gltf.md);
+    /// the built-in glass-ball scene if omitted.
     pub scene: Option<PathBuf>,
+    /// glTF scenes: the camera, by node or camera name or index into the file's cameras
+    /// (default: the scene's first camera, else a view framing the scene).
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub camera: Option<String>,
     /// Initial window size WxH (logical pixels).
     #[arg(long, value_parser = crate::parse_size, default_value = "1280x800")]
     pub size: (u32, u32),
@@ -68,10 +73,7 @@ pub struct Start {
 
 /// Check the command line and load the scene.
 pub fn prepare(args: ViewArgs) -> Result<Start, Error> {
-    let scene = match &args.scene {
-        Some(p) => Scene::load(p)?,
-        None => Scene::default_scene(),
-    };
+    let scene = crate::load_scene(args.scene.as_deref(), args.camera.as_deref())?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }

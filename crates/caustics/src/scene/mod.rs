@@ -8,6 +8,7 @@ pub mod density;
 pub mod environment;
 pub mod environment_lights;
 pub(crate) mod format;
+mod gltf;
 mod load;
 pub mod mesh;
 pub mod waves;
@@ -20,6 +21,7 @@ use std::sync::Arc;
 
 pub use density::DensityGrid;
 pub use environment::Environment;
+pub use gltf::LUMENS_PER_WATT;
 pub use mesh::TriMesh;
 
 /// The scene embedded in the binary: `caustics render` with no scene renders it.
@@ -357,9 +359,23 @@ impl Scene {
         s
     }
 
-    /// Load and validate a scene file.
+    /// Load and validate a scene file: our JSON (`docs/scene-format.md`), or glTF 2.0 by the
+    /// extension `.gltf` or `.glb` (`docs/gltf.md`, its first camera).
     pub fn load(path: &Path) -> Result<Scene> {
+        Scene::load_with_camera(path, None)
+    }
+
+    /// [`Scene::load`] with the camera of a glTF file chosen by node or camera name, or by index
+    /// into its `cameras` (`None`: its first camera). A choice for a JSON scene, which has one
+    /// camera, is an error.
+    pub fn load_with_camera(path: &Path, camera: Option<&str>) -> Result<Scene> {
+        if is_gltf(path) {
+            return gltf::load(path, camera);
+        }
         let file = path.display().to_string();
+        if camera.is_some() {
+            return Err(Error::input(&file, "--camera", "only glTF scenes (.gltf, .glb) have cameras to choose from"));
+        }
         let text = std::fs::read_to_string(path)
             .map_err(|e| Error::input(&file, "", format!("cannot read scene file: {e}")))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
@@ -415,6 +431,13 @@ impl Scene {
         let casters: Vec<_> = self.objects.iter().filter(|o| o.caustic_caster).collect();
         (!casters.is_empty()).then(|| bounds_of(casters.into_iter()))
     }
+}
+
+/// Whether `path` names a glTF file (`.gltf` or `.glb`, any case).
+fn is_gltf(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
 }
 
 fn bounds_of<'a>(objects: impl Iterator<Item = &'a Object>) -> (Vec3, Vec3) {

@@ -4,6 +4,7 @@
 
 mod budget;
 mod caustic_spheres;
+mod gltf;
 mod module_graph;
 mod reference_caustic_paths;
 mod reference_determinism;
