@@ -208,6 +208,7 @@ scenes!(
     glass_bunny,
     glass_dragon,
     glass_dragon_fog,
+    glass_of_water,
     glass_sphere_fog,
     glass_sphere_fog_sun,
     glass_sphere_studio,
