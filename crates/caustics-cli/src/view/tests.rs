@@ -374,6 +374,25 @@ fn a_progressive_cache_keeps_frames_coming_until_it_settles() {
     assert_eq!(n, 12, "frames of refinement (6 x history)");
 }
 
+/// A dropped file opens its scene (glTF here) at the view's size, its warnings in the status
+/// line; a file that does not load leaves the scene as it was, the error in the panel.
+#[test]
+fn a_dropped_file_opens_its_scene_and_a_bad_one_keeps_the_old() {
+    let Some(d) = device() else { return };
+    let mut s = session(d);
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    s.act(Action::Open(dir.join("gltf/glass_ball.glb"))).expect("open a glb");
+    assert_eq!(s.scene().source, dir.join("gltf/glass_ball.glb").display().to_string());
+    assert_eq!((s.scene().camera.width, s.scene().camera.height), (96, 72));
+    assert!(s.status.starts_with("opened"), "{}", s.status);
+    frame(&mut s);
+    let bad = tmp("broken.glb");
+    std::fs::write(&bad, b"glTF\x02\x00\x00\x00").unwrap();
+    assert!(s.act(Action::Open(bad.clone())).is_err());
+    assert!(s.error.as_deref().is_some_and(|e| e.contains("broken.glb")), "{:?}", s.error);
+    assert_eq!(s.scene().source, dir.join("gltf/glass_ball.glb").display().to_string());
+}
+
 /// The window's painting path offscreen: panels plus the renderer's display texture through
 /// egui-wgpu. The view area shows the display texture's values unchanged (no second sRGB
 /// encoding or decoding on the way).

@@ -235,6 +235,11 @@ impl ApplicationHandler for App {
         let response = r.egui_state.on_window_event(&r.window, &event);
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::DroppedFile(path) => {
+                // A failure stays in the panel (`Session::error`); the scene is kept.
+                let _ = r.session.act(crate::view::session::Action::Open(path));
+                r.window.request_redraw();
+            }
             WindowEvent::Resized(size) => {
                 r.resize(size);
                 r.window.request_redraw();

@@ -94,6 +94,8 @@ pub enum Action {
     CancelReference,
     /// HDR-FLIP of the GPU frame against the reference of this view (blocking, about a second).
     ComputeFlip,
+    /// Open another scene file (JSON, `.gltf`, `.glb`): a file dropped on the window.
+    Open(PathBuf),
 }
 
 /// What the view area shows.

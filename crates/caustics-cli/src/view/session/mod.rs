@@ -261,6 +261,36 @@ impl Session {
         r
     }
 
+    /// Replace the scene with the file at `path` (our JSON, `.gltf` or `.glb`): a fresh
+    /// renderer with the same settings at the view's size; the temporal filter and the caustic
+    /// spheres' arguments carry over, the selection, reference and animation start again. A
+    /// file that does not load leaves the session as it was (the error in the panel); the new
+    /// scene's warnings go to the panel's status line.
+    fn open(&mut self, path: &std::path::Path) -> Result<()> {
+        let scene = Scene::load(path)?;
+        let warnings = scene.warnings.clone();
+        let cam = &self.scene().camera;
+        let (width, height) = (cam.width, cam.height);
+        let mut next =
+            Session::new(&self.device, &self.queue, scene, self.settings().clone(), self.screenshot_dir.clone())?;
+        next.sphere_args = self.sphere_args.clone();
+        next.apply(Action::Resize { width, height })?;
+        if self.temporal {
+            next.apply(Action::SetTemporal(true))?;
+        }
+        next.status = match warnings.len() {
+            0 => format!("opened {}", path.display()),
+            n => format!(
+                "opened {} ({n} warning{}):\n{}",
+                path.display(),
+                if n == 1 { "" } else { "s" },
+                warnings.join("\n")
+            ),
+        };
+        *self = next;
+        Ok(())
+    }
+
     fn apply(&mut self, action: Action) -> Result<()> {
         match action {
             Action::Resize { width, height } => {
@@ -323,6 +353,7 @@ impl Session {
                 self.error = None;
                 Ok(())
             }
+            Action::Open(path) => self.open(&path),
             Action::SetTemporal(on) => {
                 self.renderer.set_temporal(on.then(TemporalSettings::default))?;
                 self.temporal = on;

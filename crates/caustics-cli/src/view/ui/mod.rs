@@ -19,6 +19,8 @@ pub struct UiState {
     split: f32,
     /// Show the light markers and the selection box.
     pub overlays: bool,
+    /// The panel's "Open…" field: a scene file's path.
+    open_path: String,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -31,7 +33,7 @@ enum DragMode {
 
 impl UiState {
     pub fn new(render_scale: f32) -> UiState {
-        UiState { render_scale, mode: None, reference_tex: None, split: 0.5, overlays: true }
+        UiState { render_scale, mode: None, reference_tex: None, split: 0.5, overlays: true, open_path: String::new() }
     }
 }
 

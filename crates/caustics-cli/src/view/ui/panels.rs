@@ -15,6 +15,18 @@ pub(super) fn side_panel(ui: &mut egui::Ui, state: &mut UiState, session: &mut S
         ui.colored_label(Color32::from_rgb(255, 110, 90), e);
     }
     ui.horizontal(|ui| {
+        // Open…: a scene file's path (or drop the file on the window).
+        let field = ui.add(
+            egui::TextEdit::singleline(&mut state.open_path)
+                .hint_text("scene.json, .gltf, .glb (or drop a file)")
+                .desired_width(220.0),
+        );
+        let enter = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+        if (ui.button("Open…").clicked() || enter) && !state.open_path.trim().is_empty() {
+            act(session, Action::Open(std::path::PathBuf::from(state.open_path.trim())));
+        }
+    });
+    ui.horizontal(|ui| {
         for m in ViewMode::ALL {
             if ui.selectable_label(session.view_mode == m, m.name()).clicked() {
                 act(session, Action::SetViewMode(m));
