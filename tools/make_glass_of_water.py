@@ -67,10 +67,6 @@ class Mesh:
                 f.write("f %d %d %d\n" % tuple(i + 1 for i in t))
 
 
-def winding_check(m, outward_of):
-    """Asserts every face's normal points the way its generator meant (sanity)."""
-
-
 here = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scenes", "meshes")
 glass = Mesh()
 glass.quad_band(ring(R_OUT, Y0), ring(R_OUT, Y_TOP), outward=True)     # outer wall

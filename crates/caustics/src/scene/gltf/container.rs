@@ -142,31 +142,13 @@ fn decode_data_uri(uri: &str) -> std::result::Result<Vec<u8>, String> {
 
 /// Standard base64 (RFC 4648, with or without padding).
 pub(crate) fn base64_decode(s: &str) -> std::result::Result<Vec<u8>, String> {
-    let value = |c: u8| -> Option<u32> {
-        Some(match c {
-            b'A'..=b'Z' => c - b'A',
-            b'a'..=b'z' => c - b'a' + 26,
-            b'0'..=b'9' => c - b'0' + 52,
-            b'+' => 62,
-            b'/' => 63,
-            _ => return None,
-        } as u32)
-    };
-    let s = s.trim_end_matches('=').as_bytes();
-    let mut out = Vec::with_capacity(s.len() / 4 * 3 + 3);
-    for (k, group) in s.chunks(4).enumerate() {
-        if group.len() == 1 {
-            return Err("base64 data of a bad length".into());
-        }
-        let mut acc = 0u32;
-        for (j, &c) in group.iter().enumerate() {
-            let v = value(c).ok_or_else(|| format!("bad base64 character at {}", 4 * k + j))?;
-            acc |= v << (18 - 6 * j);
-        }
-        let bytes = acc.to_be_bytes();
-        out.extend_from_slice(&bytes[1..group.len()]);
-    }
-    Ok(out)
+    use base64::Engine;
+    use base64::engine::{DecodePaddingMode, GeneralPurpose, GeneralPurposeConfig};
+    const ENGINE: GeneralPurpose = GeneralPurpose::new(
+        &base64::alphabet::STANDARD,
+        GeneralPurposeConfig::new().with_decode_padding_mode(DecodePaddingMode::Indifferent),
+    );
+    ENGINE.decode(s).map_err(|e| format!("bad base64 data: {e}"))
 }
 
 /// A buffer file named by a relative URI (percent-escapes decoded).
@@ -174,24 +156,13 @@ fn read_relative(base: &Path, uri: &str) -> std::result::Result<Vec<u8>, String>
     if uri.contains("://") || uri.starts_with('/') {
         return Err(format!("\"{uri}\": only relative file URIs and data: URIs are read"));
     }
-    let decoded = percent_decode(uri).ok_or_else(|| format!("\"{uri}\": bad percent-escape"))?;
+    let decoded =
+        percent_decode(uri).ok_or_else(|| format!("\"{uri}\": percent-escapes that do not decode to UTF-8"))?;
     let full = base.join(&decoded);
     std::fs::read(&full).map_err(|e| format!("cannot read {}: {e}", full.display()))
 }
 
+/// A URI's percent-escapes decoded (`None`: not UTF-8 then).
 fn percent_decode(s: &str) -> Option<String> {
-    let b = s.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        if b[i] == b'%' {
-            let hex = std::str::from_utf8(b.get(i + 1..i + 3)?).ok()?;
-            out.push(u8::from_str_radix(hex, 16).ok()?);
-            i += 3;
-        } else {
-            out.push(b[i]);
-            i += 1;
-        }
-    }
-    String::from_utf8(out).ok()
+    percent_encoding::percent_decode_str(s).decode_utf8().ok().map(|c| c.into_owned())
 }
