@@ -233,7 +233,8 @@ def write_glass_ball():
                    "fov_y_deg": to_degrees_f32(to_radians_f32(38.0)), "width": 600, "height": 600},
         "lights": [{"type": "spot", "position": [0.0, 4.0, 0.0], "direction": [0, -1, 0],
                     "cone_angle_deg": to_degrees_f32(to_radians_f32(30.0)),
-                    "falloff_start_deg": to_degrees_f32(to_radians_f32(22.0)), "intensity": [40, 40, 40]}],
+                    "falloff_start_deg": to_degrees_f32(to_radians_f32(22.0)), "intensity": [40, 40, 40],
+                    "falloff": "gltf"}],
         "materials": {"floor": {"type": "diffuse", "albedo": f32(0.8)},
                       "glass": {"type": "dielectric", "ior": 1.5, "ext_ior": 1.0}},
         "objects": [

@@ -19,7 +19,7 @@
 //! the photon `L(ω) · A / (p(ω) N)`.
 
 use super::sampling::{basis, concentric_disc, uniform_cone};
-use caustics::scene::{Environment, Light};
+use caustics::scene::{Environment, Light, SpotProfile};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 use std::sync::Arc;
@@ -172,6 +172,16 @@ impl Emitter {
         match (&self.domain, &self.light) {
             (Domain::Disc { area, .. }, Light::Directional { irradiance, .. }) => *irradiance * *area,
             (Domain::Cone { solid_angle, .. }, Light::Point { intensity, .. }) => *intensity * *solid_angle,
+            (Domain::Cone { .. }, Light::Spot { intensity, cone_angle, falloff_start, profile, .. })
+                if *profile == SpotProfile::Gltf =>
+            {
+                // glTF's curve is t² with t linear in c = cos θ from the outer cone's cosine over
+                // a width w (dΩ = 2π dc): ∫ I f 2π dc = 2π I ((1 − (c_o + w)) + w/3).
+                let (inner, outer) = (*falloff_start as f64, *cone_angle as f64);
+                let w = (inner.cos() - outer.cos()).max(0.001);
+                let s = (1.0 - (outer.cos() + w)).max(0.0) + w / 3.0;
+                *intensity * (2.0 * std::f64::consts::PI * s) as f32
+            }
             (Domain::Cone { .. }, Light::Spot { intensity, cone_angle, falloff_start, .. }) => {
                 // ∫ I f(θ) 2π sin θ dθ over the whole cone (valid for `full` emitters).
                 let n = 100_000;

@@ -27,7 +27,8 @@ struct LightGpu {
     extra: vec4f,
     // x = beam diameters from the lens equations for the splat (0 off, 1 thin lens, 2 thick
     // lens; src/splat.rs), y = SPILL_FACE_PRESENT if the last face is a spot light's spill face
-    // (receives photons, has no caster buffers; else 0), zw unused
+    // (receives photons, has no caster buffers; else 0), z = a spot light's profile (0 linear
+    // in the angle, 1 glTF's curve: `intensity_toward`), w unused
     splat: vec4f,
     // The NDC rectangle (lo.x, lo.y, hi.x, hi.y) photon_trace spreads its N x N grid over: the
     // casters' box for a directional light under the basic technique, else (-1, -1, 1, 1).
@@ -218,9 +219,15 @@ fn to_light(light: LightGpu, p: vec3f) -> vec4f {
 // Radiant intensity (W/sr) of a spot or point light toward unit direction dir (from the light).
 fn intensity_toward(light: LightGpu, dir: vec3f) -> vec3f {
     if (light.info.y == LIGHT_POINT) { return light.power.rgb; }
-    let angle = acos(clamp(dot(dir, light.axis.xyz), -1.0, 1.0));
     let cone = light.axis.w;
     let start = light.params.x;
+    if (light.splat.z > 0.5) {
+        // KHR_lights_punctual's curve (`SpotProfile::Gltf`): t² with t linear in the cosine.
+        let inner = cos(start);
+        let t = clamp((dot(dir, light.axis.xyz) - light.power.w) / max(inner - light.power.w, 0.001), 0.0, 1.0);
+        return light.power.rgb * (t * t);
+    }
+    let angle = acos(clamp(dot(dir, light.axis.xyz), -1.0, 1.0));
     var f = 1.0;
     if (angle >= cone) { f = 0.0; } else if (angle > start) { f = (cone - angle) / (cone - start); }
     return light.power.rgb * f;

@@ -52,7 +52,7 @@ fn light_gpu(
         axis: axis.extend(cone).to_array(),
         params: [start, scale as f32, sigma, g as f32],
         extra: [caster_radius, view.scene_radius, view.tan_half_fov, multi_bounce],
-        splat: [lens, if view.has_spill() { SPILL_FACE_PRESENT as f32 } else { 0.0 }, 0.0, 0.0],
+        splat: [lens, if view.has_spill() { SPILL_FACE_PRESENT as f32 } else { 0.0 }, spot_profile(light), 0.0],
         crop,
         // Photons carry their path's transmittance (w: 1 homogeneous, 2 a density grid marched
         // in `medium_light_steps` steps per segment, in sigma_t's w).
@@ -60,6 +60,14 @@ fn light_gpu(
             .map_or([0.0; 4], |m| m.bounds_min.extend(if m.density.is_some() { 2.0 } else { 1.0 }).to_array()),
         medium_hi: medium.map_or([0.0; 4], |m| m.bounds_max.extend(0.0).to_array()),
         medium_sigma_t: medium.map_or([0.0; 4], |m| (m.sigma_s + m.sigma_a).extend(grid_steps as f32).to_array()),
+    }
+}
+
+/// `LightGpu::splat`'s z: a spot light's profile (0 linear in the angle, 1 glTF's curve).
+fn spot_profile(light: &Light) -> f32 {
+    match light {
+        Light::Spot { profile: crate::scene::SpotProfile::Gltf, .. } => 1.0,
+        _ => 0.0,
     }
 }
 

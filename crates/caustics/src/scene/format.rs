@@ -146,6 +146,9 @@ pub struct SpotDesc {
     #[serde(default)]
     pub falloff_start_deg: Option<f32>,
     pub intensity: Rgb,
+    /// `"linear"` (default) or `"gltf"`.
+    #[serde(default)]
+    pub falloff: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -101,7 +101,7 @@ pub(super) fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
     for (i, l) in d.lights.iter().enumerate() {
         let f = |s: &str| format!("lights[{i}].{s}");
         lights.push(match l {
-            LightDesc::Spot(SpotDesc { position, direction, cone_angle_deg, falloff_start_deg, intensity }) => {
+            LightDesc::Spot(SpotDesc { position, direction, cone_angle_deg, falloff_start_deg, intensity, falloff }) => {
                 let cone = *cone_angle_deg;
                 if !(cone > 0.0 && cone < 180.0) {
                     return Err(cx.err(f("cone_angle_deg"), format!("must lie in (0, 180) degrees (got {cone})")));
@@ -113,12 +113,20 @@ pub(super) fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                         format!("must lie in [0, cone_angle_deg = {cone}] (got {start})"),
                     ));
                 }
+                let profile = match falloff.as_deref() {
+                    None | Some("linear") => SpotProfile::Linear,
+                    Some("gltf") => SpotProfile::Gltf,
+                    Some(other) => {
+                        return Err(cx.err(f("falloff"), format!("must be \"linear\" or \"gltf\" (got \"{other}\")")));
+                    }
+                };
                 Light::Spot {
                     position: cx.finite3(&f("position"), *position)?,
                     direction: cx.dir(&f("direction"), *direction)?,
                     cone_angle: cone.to_radians(),
                     falloff_start: start.to_radians(),
                     intensity: cx.nonneg_rgb(&f("intensity"), *intensity)?,
+                    profile,
                 }
             }
             LightDesc::Point(PointDesc { position, intensity }) => Light::Point {

@@ -86,7 +86,7 @@ impl Camera {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Light {
     /// Radiant intensity `intensity` (W/sr) on the axis, full up to `falloff_start` (radians) off
-    /// the axis, then linear in the angle down to 0 at `cone_angle`.
+    /// the axis, then falling to 0 at `cone_angle` by `profile`.
     Spot {
         /// Position (m).
         position: Vec3,
@@ -98,6 +98,8 @@ pub enum Light {
         falloff_start: f32,
         /// Radiant intensity on the axis (W/sr), per channel.
         intensity: Vec3,
+        /// How the intensity falls from `falloff_start` to `cone_angle`.
+        profile: SpotProfile,
     },
     /// Isotropic radiant intensity (W/sr).
     Point {
@@ -121,8 +123,8 @@ impl Light {
     /// lights, which have none.
     pub fn intensity_toward(&self, dir: Vec3) -> Vec3 {
         match self {
-            Light::Spot { direction, cone_angle, falloff_start, intensity, .. } => {
-                intensity * spot_falloff(direction.dot(dir), *cone_angle, *falloff_start)
+            Light::Spot { direction, cone_angle, falloff_start, intensity, profile, .. } => {
+                intensity * spot_falloff(direction.dot(dir), *cone_angle, *falloff_start, *profile)
             }
             Light::Point { intensity, .. } => *intensity,
             Light::Directional { .. } => Vec3::ZERO,
@@ -145,16 +147,51 @@ impl Light {
     }
 }
 
-/// The spot profile of `docs/scene-format.md`: 1 up to `falloff_start` off the axis, linear in
-/// the angle to 0 at `cone_angle`. `cos_angle` is the cosine of the angle off the axis.
-pub fn spot_falloff(cos_angle: f32, cone_angle: f32, falloff_start: f32) -> f32 {
-    let angle = cos_angle.clamp(-1.0, 1.0).acos();
-    if angle <= falloff_start {
-        1.0
-    } else if angle >= cone_angle {
-        0.0
-    } else {
-        (cone_angle - angle) / (cone_angle - falloff_start)
+/// How a spot light's intensity falls between its core (`falloff_start`) and its edge
+/// (`cone_angle`): `docs/scene-format.md`, "Spot falloff".
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SpotProfile {
+    /// Linear in the angle off the axis (the scene format's default).
+    #[default]
+    Linear,
+    /// `KHR_lights_punctual`'s curve: the square of a ramp linear in the cosine of the angle,
+    /// from 0 at the outer cone (`cone_angle`) to 1 at the inner cone (`falloff_start`).
+    Gltf,
+}
+
+impl SpotProfile {
+    /// The name in the scene file's `falloff` field.
+    pub fn name(self) -> &'static str {
+        match self {
+            SpotProfile::Linear => "linear",
+            SpotProfile::Gltf => "gltf",
+        }
+    }
+}
+
+/// The spot profile of `docs/scene-format.md`: 1 up to `falloff_start` off the axis, 0 from
+/// `cone_angle`, and between them linear in the angle or glTF's curve. `cos_angle` is the cosine
+/// of the angle off the axis.
+pub fn spot_falloff(cos_angle: f32, cone_angle: f32, falloff_start: f32, profile: SpotProfile) -> f32 {
+    match profile {
+        SpotProfile::Linear => {
+            let angle = cos_angle.clamp(-1.0, 1.0).acos();
+            if angle <= falloff_start {
+                1.0
+            } else if angle >= cone_angle {
+                0.0
+            } else {
+                (cone_angle - angle) / (cone_angle - falloff_start)
+            }
+        }
+        SpotProfile::Gltf => {
+            // KHR_lights_punctual's reference implementation, its 0.001 floor included (an inner
+            // cone equal to the outer one is a hard edge).
+            let (inner, outer) = (falloff_start.cos(), cone_angle.cos());
+            let scale = 1.0 / (inner - outer).max(0.001);
+            let t = ((cos_angle - outer) * scale).clamp(0.0, 1.0);
+            t * t
+        }
     }
 }
 

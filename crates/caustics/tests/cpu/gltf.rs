@@ -99,12 +99,13 @@ fn light_units_divide_by_683_lumens_per_watt() {
     assert_eq!(caustics::scene::LUMENS_PER_WATT, 683.0);
     // glass_ball: a white spot of 40 × 683 cd → 40 W/sr, at (0, 4, 0) shining down.
     let s = load("glass_ball.glb");
-    let Light::Spot { position, direction, cone_angle, falloff_start, intensity } = &s.lights[0] else {
+    let Light::Spot { position, direction, cone_angle, falloff_start, intensity, profile } = &s.lights[0] else {
         panic!("{:?}", s.lights)
     };
     assert_eq!(*intensity, Vec3::splat(40.0));
     assert_eq!((*position, *direction), (Vec3::new(0.0, 4.0, 0.0), Vec3::NEG_Y));
     assert_eq!((*cone_angle, *falloff_start), (30f32.to_radians(), 22f32.to_radians()));
+    assert_eq!(*profile, caustics::scene::SpotProfile::Gltf);
     // nested: a directional sun of 2 × 683 lx, colour (1, 0.5, 0.25) → (2, 1, 0.5) W/m², its
     // node turned -60° about x: it travels along -Z turned, (0, -sin 60°, -cos 60°).
     let s = load("nested.gltf");
@@ -230,7 +231,6 @@ fn unsupported_features_are_named_once_each() {
         ("absorption", "tinted"),
         ("thin-walled", "window_glass"),
         ("range ignored", "lamp"),
-        ("falloff is approximated", "lamp"),
         ("not closed", "window"),
         ("no camera", "/cameras"),
     ];

@@ -280,6 +280,7 @@ fn emission_matches_each_light_definition() {
         cone_angle: cone,
         falloff_start: start,
         intensity: Vec3::splat(3.0),
+        profile: Default::default(),
     };
     let em = Emitter::full(&spot, Vec3::ZERO, 10.0);
     let mut hist = vec![0f64; bins];
@@ -369,4 +370,65 @@ fn bad_settings_are_clear_errors() {
     }
     let e = reference::caustic_deposits(&s, &settings(10), 5).unwrap_err();
     assert!(e.to_string().contains("no light 5"), "{e}");
+}
+
+/// glTF's spot curve (`SpotProfile::Gltf`): `spot_falloff` against `KHR_lights_punctual`'s
+/// formula, written out from the extension's text, and the reference's emission against it: the
+/// flux per angular bin and in all (`domain_flux`'s closed form).
+#[test]
+fn a_gltf_spot_emits_by_the_khr_curve() {
+    use caustics::scene::{SpotProfile, spot_falloff};
+    let khr = |cd: f64, inner: f64, outer: f64| {
+        let scale = 1.0 / (inner.cos() - outer.cos()).max(0.001);
+        let t = (cd * scale - outer.cos() * scale).clamp(0.0, 1.0);
+        t * t
+    };
+    for (inner, outer) in [(10f64, 30f64), (0.0, 45.0), (25.0, 25.0), (89.0, 90.0)] {
+        let (i, o) = (inner.to_radians(), outer.to_radians());
+        for k in 0..=200 {
+            let th = k as f64 / 200.0 * (o + 0.1);
+            let got = spot_falloff(th.cos() as f32, o as f32, i as f32, SpotProfile::Gltf) as f64;
+            // f32's rounding of the cosines (some 6e-8), times the ramp's slope 2 · scale.
+            let tol = 2e-7 / (i.cos() - o.cos()).max(0.001) + 1e-6;
+            assert!((got - khr(th.cos(), i, o)).abs() < tol, "({inner}°, {outer}°) at {th}: {got}");
+        }
+    }
+    let (cone, start) = (30f32.to_radians(), 10f32.to_radians());
+    let spot = Light::Spot {
+        position: Vec3::ZERO,
+        direction: Vec3::new(0.0, -1.0, 0.0),
+        cone_angle: cone,
+        falloff_start: start,
+        intensity: Vec3::splat(3.0),
+        profile: SpotProfile::Gltf,
+    };
+    let em = Emitter::full(&spot, Vec3::ZERO, 10.0);
+    let (n, bins) = (1u64 << 18, 32usize);
+    let mut hist = vec![0f64; bins];
+    for i in 0..n {
+        if let Some(e) = em.sample(sobol_2d(i, 5)) {
+            let th = (-e.dir.y).clamp(-1.0, 1.0).acos();
+            hist[((th / cone * bins as f32) as usize).min(bins - 1)] += e.flux_n.x as f64 / n as f64;
+        }
+    }
+    let mut total = 0.0;
+    for (b, h) in hist.iter().enumerate() {
+        let (t0, t1) = (b as f64 / bins as f64 * cone as f64, (b + 1) as f64 / bins as f64 * cone as f64);
+        let m = 200;
+        let exp: f64 = (0..m)
+            .map(|k| {
+                let t = t0 + (k as f64 + 0.5) / m as f64 * (t1 - t0);
+                let f = khr(t.cos(), start as f64, cone as f64);
+                3.0 * f * std::f64::consts::TAU * t.sin() * (t1 - t0) / m as f64
+            })
+            .sum();
+        total += exp;
+        if exp > 1e-4 {
+            assert!((h / exp - 1.0).abs() < 0.01, "bin {b}: {h} vs {exp}");
+        }
+    }
+    let closed = em.domain_flux().x as f64;
+    println!("glTF spot: flux {:.6} (closed form {closed:.6}, integral {total:.6})", hist.iter().sum::<f64>());
+    assert!((closed / total - 1.0).abs() < 1e-4, "domain_flux {closed} vs ∫ I f dΩ {total}");
+    assert!((hist.iter().sum::<f64>() / total - 1.0).abs() < 1e-3);
 }

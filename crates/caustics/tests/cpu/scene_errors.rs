@@ -82,6 +82,7 @@ fn field_errors_name_the_field() {
             with("\"cone_angle_deg\": 30", "\"cone_angle_deg\": 30, \"falloff_start_deg\": 40"),
             "lights[0].falloff_start_deg",
         ),
+        (with("\"cone_angle_deg\": 30", "\"cone_angle_deg\": 30, \"falloff\": \"smooth\""), "lights[0].falloff"),
         (with("\"size\": [4, 4]", "\"size\": [4, -4]"), "objects[1].size[1]"),
         (GOOD.replace("\"fov_y_deg\": 40, ", ""), "fov_y_deg"),
     ];

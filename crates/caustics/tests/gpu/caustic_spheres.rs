@@ -311,6 +311,7 @@ fn technique_adds_spheres_to_basic_caustic_maps_of_spot_lights() {
         cone_angle: 0.35,
         falloff_start: 0.25,
         intensity: Vec3::splat(20.0),
+        profile: Default::default(),
     };
     let mut both = scene(&[dir]);
     both.lights.push(spot.clone());

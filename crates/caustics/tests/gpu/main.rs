@@ -30,6 +30,7 @@ mod sphere_build;
 mod sphere_volume;
 mod spill;
 mod splat;
+mod spot_profile;
 mod temporal;
 mod water;
 mod wide_lights;

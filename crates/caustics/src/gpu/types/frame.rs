@@ -27,7 +27,8 @@ pub struct LightGpu {
     pub extra: [f32; 4],
     /// beam diameters from the lens equations (0 off, 1 thin lens, 2 thick lens),
     /// [`SPILL_FACE_PRESENT`] (as f32) if the last face is a spill face (receives photons, has
-    /// no caster buffers; else 0), unused × 2
+    /// no caster buffers; else 0), a spot light's profile (0 linear in the angle, 1 glTF's
+    /// curve), unused
     pub splat: [f32; 4],
     /// The NDC rectangle (lo.x, lo.y, hi.x, hi.y) that `photon_trace` spreads its N × N grid
     /// over: the casters' box for a directional light traced by the basic technique, else the

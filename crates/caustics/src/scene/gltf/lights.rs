@@ -88,10 +88,15 @@ fn light(cx: &mut Ctx, def: &GltfLight, i: usize, world: Mat4) -> Result<Light> 
                     format!("must lie in [0, outerConeAngle = {outer}] (got {inner})"),
                 ));
             }
-            cx.warn(&format!("{at}/spot"), format!(
-                "{who}: the cone's falloff is approximated: ours is linear in the angle from innerConeAngle to outerConeAngle, glTF's is smooth in the cosine"
-            ));
-            Light::Spot { position, direction, cone_angle: outer, falloff_start: inner, intensity: power }
+            // glTF's own curve, exactly (`SpotProfile::Gltf`).
+            Light::Spot {
+                position,
+                direction,
+                cone_angle: outer,
+                falloff_start: inner,
+                intensity: power,
+                profile: crate::scene::SpotProfile::Gltf,
+            }
         }
     })
 }
