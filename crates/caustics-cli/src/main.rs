@@ -6,6 +6,7 @@ mod bench;
 mod bench_beams;
 mod compare;
 mod progress;
+mod scene_args;
 mod settings_args;
 mod spheres;
 mod view;
@@ -54,6 +55,8 @@ enum Command {
         /// (default: the scene's first camera, else a view framing the scene).
         #[arg(long, value_name = "NAME|INDEX")]
         camera: Option<String>,
+        #[command(flatten)]
+        environment: scene_args::EnvironmentFileArgs,
         /// Output image (.png or .exr; an EXR's header holds the settings it was rendered with).
         #[arg(short, long, default_value = "caustics.png")]
         output: PathBuf,
@@ -216,6 +219,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Render {
             scene,
             camera,
+            environment,
             output,
             size,
             backend,
@@ -238,7 +242,7 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(c) = &caustic_output {
                 check_output(c)?;
             }
-            let mut scene = load_scene(scene.as_deref(), camera.as_deref())?;
+            let mut scene = environment.apply(load_scene(scene.as_deref(), camera.as_deref())?)?;
             for w in &scene.warnings {
                 eprintln!("warning: {w}");
             }

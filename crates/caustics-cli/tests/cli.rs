@@ -69,6 +69,49 @@ fn bad_environment_map_exits_2_and_names_it() {
     assert!(!out.exists());
 }
 
+/// `--environment FILE` adds an environment light to a scene without one (here a glTF file, whose
+/// format has none): the background seen directly is the map times `--environment-scale`; bad
+/// uses exit 2 naming the flag.
+#[test]
+fn an_environment_file_lights_a_scene_without_one() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let glb = root.join("scenes/gltf/glass_ball.glb");
+    let sky = root.join("scenes/envmaps/sky.exr");
+    let (glb, sky) = (glb.to_str().unwrap(), sky.to_str().unwrap());
+    let top_row = |extra: &[&str], name: &str| {
+        let out = tmp(name);
+        let mut args =
+            vec!["render", glb, "--backend", "cpu", "--size", "16x8", "--photons", "16", "--set", "cpu.spp=1"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-o", out.to_str().unwrap()]);
+        let run = caustics().args(&args).output().unwrap();
+        assert!(run.status.success(), "{args:?}: {}", String::from_utf8_lossy(&run.stderr));
+        // (read back through the environment map reader: a linear EXR, twice as wide as high)
+        let img = caustics::scene::Environment::load(&out, glam::Vec3::ONE, 0.0).unwrap();
+        img.texels[..16].iter().map(|t| t.x as f64).collect::<Vec<_>>()
+    };
+    let none = top_row(&[], "env_none.exr");
+    let one = top_row(&["--environment", sky], "env_one.exr");
+    let two = top_row(&["--environment", sky, "--environment-scale", "2", "--environment-rotate", "-0"], "env_two.exr");
+    assert!(none.iter().all(|v| *v == 0.0), "the top row without an environment: {none:?}");
+    assert!(one.iter().all(|v| *v > 0.0), "the top row sees the sky: {one:?}");
+    for (a, b) in one.iter().zip(&two) {
+        assert!((b / a - 2.0).abs() < 1e-5, "scale 2: {b} against {a}");
+    }
+    let out = tmp("never_env_flag.png");
+    let o = out.to_str().unwrap();
+    let has_one = root.join("scenes/glass_sphere_sky.json");
+    let e = run_err(&["render", has_one.to_str().unwrap(), "--environment", sky, "--backend", "cpu", "-o", o]);
+    assert!(e.contains("--environment") && e.contains("already"), "{e}");
+    let e = run_err(&["render", glb, "--environment", sky, "--environment-scale", "-1", "--backend", "cpu", "-o", o]);
+    assert!(e.contains("--environment-scale"), "{e}");
+    let e = run_err(&["render", glb, "--environment", "/nonexistent/sky.exr", "--backend", "cpu", "-o", o]);
+    assert!(e.contains("--environment") && e.contains("/nonexistent/sky.exr"), "{e}");
+    let e = run_err(&["render", glb, "--environment-scale", "2", "--backend", "cpu", "-o", o]);
+    assert!(e.contains("--environment"), "{e}");
+    assert!(!out.exists());
+}
+
 #[test]
 fn bad_output_and_settings_exit_2() {
     let e = run_err(&["render", "-o", "/nonexistent-dir/x.png"]);
@@ -181,8 +224,9 @@ fn render_help_is_short() {
     let text = String::from_utf8_lossy(&out.stdout);
     // Flag lines (`  -o, --output <OUTPUT>`, `      --set ...`), not the lists of values (`- basic: ...`).
     let flags = text.lines().map(str::trim_start).filter(|l| l.starts_with('-') && !l.starts_with("- ")).count();
-    // 22 common flags plus `--camera` (a glTF file's camera, docs/gltf.md).
-    assert!(flags <= 23, "{flags} flags in render --help:\n{text}");
+    // 22 common flags plus `--camera` and `--environment` (a glTF file's camera, docs/gltf.md; an
+    // environment light for a scene without one).
+    assert!(flags <= 24, "{flags} flags in render --help:\n{text}");
     assert!(text.contains("--set") && text.contains("--settings") && text.contains("--print-settings"), "{text}");
 }
 

@@ -26,6 +26,8 @@ pub struct BenchArgs {
     /// glTF scenes: the camera, by node or camera name or index into the file's cameras.
     #[arg(long, value_name = "NAME|INDEX")]
     camera: Option<String>,
+    #[command(flatten)]
+    environment: crate::scene_args::EnvironmentFileArgs,
     /// Techniques to compare, comma-separated: the names `render --technique` takes (basic,
     /// hierarchical, adaptive-level, adaptive-error, caustic-spheres, beams: basic with the
     /// surface caustics from beams, instead of basic), or none (with --cpu-photons).
@@ -226,7 +228,7 @@ pub fn run(mut a: BenchArgs) -> Result<()> {
 
 /// Photon paths and rays per second of the CPU reference on the bench scene, one thread and all.
 fn cpu_bench(a: &BenchArgs) -> Result<()> {
-    let mut scene = crate::load_scene(a.scene.as_deref(), a.camera.as_deref())?;
+    let mut scene = a.environment.apply(crate::load_scene(a.scene.as_deref(), a.camera.as_deref())?)?;
     (scene.camera.width, scene.camera.height) = a.size;
     let settings = caustics_reference::reference::ReferenceSettings {
         photons_per_light: a.cpu_photons,
@@ -296,7 +298,7 @@ fn techniques(list: &str) -> Result<Vec<Technique>> {
 fn setup(a: &BenchArgs) -> Result<(Vec<Technique>, Vec<u32>, Scene)> {
     let techniques = techniques(&a.technique)?;
     let grids = parse_grids(&a.photons)?;
-    let mut scene = crate::load_scene(a.scene.as_deref(), a.camera.as_deref())?;
+    let mut scene = a.environment.apply(crate::load_scene(a.scene.as_deref(), a.camera.as_deref())?)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }

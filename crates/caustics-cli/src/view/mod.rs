@@ -35,6 +35,8 @@ pub struct ViewArgs {
     /// (default: the scene's first camera, else a view framing the scene).
     #[arg(long, value_name = "NAME|INDEX")]
     pub camera: Option<String>,
+    #[command(flatten)]
+    pub environment: crate::scene_args::EnvironmentFileArgs,
     /// Initial window size WxH (logical pixels).
     #[arg(long, value_parser = crate::parse_size, default_value = "1280x800")]
     pub size: (u32, u32),
@@ -73,7 +75,7 @@ pub struct Start {
 
 /// Check the command line and load the scene.
 pub fn prepare(args: ViewArgs) -> Result<Start, Error> {
-    let scene = crate::load_scene(args.scene.as_deref(), args.camera.as_deref())?;
+    let scene = args.environment.apply(crate::load_scene(args.scene.as_deref(), args.camera.as_deref())?)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
