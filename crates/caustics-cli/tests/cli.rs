@@ -112,6 +112,21 @@ fn an_environment_file_lights_a_scene_without_one() {
     assert!(!out.exists());
 }
 
+/// `bench --load` times loading a scene and building its BVHs, CPU only.
+#[test]
+fn bench_load_reports_each_step() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let glb = root.join("scenes/gltf/glass_ball.glb");
+    let out = caustics().args(["bench", glb.to_str().unwrap(), "--load"]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for step in ["triangles", "parse and flatten", "GPU renderer's BVH", "CPU reference's BVH"] {
+        assert!(text.contains(step), "{step}: {text}");
+    }
+    let e = run_err(&["bench", "--load"]);
+    assert!(e.contains("--load"), "{e}");
+}
+
 #[test]
 fn bad_output_and_settings_exit_2() {
     let e = run_err(&["render", "-o", "/nonexistent-dir/x.png"]);

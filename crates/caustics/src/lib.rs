@@ -52,6 +52,12 @@
 
 pub(crate) mod accel;
 pub mod beams;
+/// The GPU renderer's BVH built on the CPU as a renderer does, for `caustics bench --load`.
+#[doc(hidden)]
+pub fn build_scene_bvh(scene: &Scene) -> (usize, usize) {
+    let b = accel::SceneBvh::build(scene);
+    (b.nodes.len(), b.tris.len())
+}
 pub mod budget;
 pub mod caustic_spheres;
 pub(crate) mod env_taps;

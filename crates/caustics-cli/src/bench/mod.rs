@@ -8,6 +8,7 @@
 //! driven frame by frame through the phases `full`, `camera`, `light` and `object`.
 
 mod frames;
+mod load;
 mod table;
 
 use anyhow::{Context, Result, bail};
@@ -64,6 +65,10 @@ pub struct BenchArgs {
     /// without a mesh).
     #[arg(long, default_value = "full,camera,light,object,mesh")]
     phases: String,
+    /// Time loading the scene file (read, parse and flatten) and building its BVHs, with peak
+    /// memory; CPU only, nothing rendered.
+    #[arg(long)]
+    load: bool,
     #[command(flatten)]
     settings: crate::settings_args::SettingsArgs,
     /// The settings every run starts from (`settings` resolved).
@@ -111,6 +116,9 @@ fn is_photon_pass(name: &str) -> bool {
 }
 
 pub fn run(mut a: BenchArgs) -> Result<()> {
+    if a.load {
+        return load::run(&a);
+    }
     let resolved = a.settings.resolve(RenderSettings::default(), None)?;
     if a.settings.print_settings {
         println!("{}", serde_json::to_string_pretty(&resolved.to_json())?);
