@@ -202,6 +202,7 @@ scenes!(
     full: ball_over_bunny,
     cornell_glass,
     pool,
+    pool_walls,
     bunny_over_ball,
     dragon_spheres,
     glass_buddha,

@@ -155,11 +155,12 @@ pub(super) fn beam_pass(
 
 /// Whether a rendering keeps deposits for the surfaces seen through specular surfaces:
 /// specular objects, and that light in the image's class of caustic paths and its diffuse
-/// orders (order 1: the deposits are first diffuse hits).
+/// orders (order 1 and up: the deposits are first diffuse hits, gathered at a camera path's
+/// k-th diffuse vertex as order k).
 pub(super) fn wants_view_photons(scene: &Scene, settings: &ReferenceSettings) -> bool {
     settings.specular_view_photons > 0
         && settings.caustic_paths.keeps(false)
-        && settings.diffuse_orders.keeps(1)
+        && settings.diffuse_orders.max.is_none_or(|m| m >= 1)
         && specular_sphere(scene).is_some()
 }
 

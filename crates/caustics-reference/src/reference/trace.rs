@@ -174,7 +174,8 @@ impl CausticPaths {
 /// the cosine-sampled bounce from that vertex order k too, a medium scattering point after k
 /// diffuse vertices order k; a caustic photon connected to the camera at its j-th diffuse hit is
 /// order j, at a medium scattering point after j diffuse hits order j; the deposits the camera
-/// gathers through glass order 1, the photon beams the order of their photon's diffuse hits.
+/// gathers through glass at its k-th diffuse vertex order k, the photon beams the order of their
+/// photon's diffuse hits.
 /// Contributions outside the kept orders are computed and dropped (the random choices are the
 /// same in every mode): the image of `all` is the sum of the images of disjoint ranges covering
 /// every order, path by path, to float rounding.
@@ -605,9 +606,15 @@ impl<'a> Tracer<'a> {
         // specular surfaces only (at least one) so far.
         let mut lc = Vec3::ZERO;
         let mut specular_only = false;
+        // Whether the camera sees this path's first diffuse vertex (or medium point) through
+        // specular surfaces: then no photon connection reaches any of its vertices (they need
+        // the camera in direct view of the photon's last vertex), so the deposits (L S+ D) are
+        // gathered at every diffuse vertex, not only the first; next-event estimation adds the
+        // light that arrives there directly (L D).
+        let mut eye_specular = false;
         let beams = self.beams.as_ref().filter(|_| self.caustic_paths.keeps(false));
-        // (the deposits are first diffuse hits: order 1)
-        let view_photons = self.view_photons.as_ref().filter(|_| self.caustic_paths.keeps(false) && orders.keeps(1));
+        // (the deposits are first diffuse hits: gathered at the k-th diffuse vertex, order k)
+        let view_photons = self.view_photons.as_ref().filter(|_| self.caustic_paths.keeps(false));
         for depth in 0..self.max_depth {
             rays += 1;
             // Whether this vertex gathers (the tests' `gather_direct`: also the camera's own).
@@ -676,7 +683,10 @@ impl<'a> Tracer<'a> {
             let (ng, ns) = if front { (h.ng, h.ns) } else { (-h.ng, -h.ns) };
             match self.mats[h.object as usize] {
                 Material::Diffuse { albedo } => {
-                    if gathers && let Some(v) = view_photons {
+                    if (gathers || eye_specular)
+                        && orders.keeps(diffuse + 1)
+                        && let Some(v) = view_photons
+                    {
                         lc += beta * albedo / PI * v.irradiance(h.p, ng, h.object);
                     }
                     let last = depth + 1 >= self.max_depth;
@@ -709,6 +719,7 @@ impl<'a> Tracer<'a> {
                     let Some((nd, w)) = scatter_specular(m, d, ng, ns, front, rng, true) else { break };
                     beta *= w;
                     specular_only = diffuse == 0 && !scattered;
+                    eye_specular |= specular_only;
                     d = nd;
                     bsdf_pdf = None;
                     o = spawn(h.p, h.ng, d);

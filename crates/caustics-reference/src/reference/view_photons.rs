@@ -7,7 +7,9 @@
 //! a separate set of caustic photons keeps its first diffuse hits ([`Deposit`]s: the flux that
 //! arrives there, attenuated by any medium on the way), indexed in a uniform grid of cells of the
 //! kernel's radius, and a camera path whose vertices so far are all specular (at least one)
-//! gathers the deposits around its first diffuse vertex: the irradiance
+//! gathers the deposits around its first diffuse vertex, and around every later one (light
+//! that bounced before the surface seen through glass: a pool floor lit by the caustic on the
+//! floor beside it, which no photon connection reaches either): the irradiance
 //! `E = Σ Φ k_r(|x − p|)` with the 2D Epanechnikov kernel `k_r(d) = 2 / (π r²) (1 − d²/r²)`
 //! (integrating to 1 over the disk), deposits on the same object and side only (normals within
 //! 60°), and the vertex's radiance `albedo / π · E`. Density estimation: consistent, not

@@ -177,34 +177,51 @@ fn slab() -> Scene {
 
 /// The wall above the water slab (rows 0–39 of 64) is lit after a diffuse bounce by the floor
 /// outside the water and by the floor under it (through the water's surface: a caustic lit by
-/// a caustic). The GPU's bounced light there (the image with the cache minus without) against
-/// the CPU reference's orders 2 and up (`DiffuseOrders { min: 2 }`, 256 paths per pixel):
-/// measured 0.978; the wall then holds 0.984 of the reference's full energy (0.239 without
-/// the cache). Rows below, where the camera sees the floor through the water, are not compared:
-/// there the reference's full mode has no light of order 2 and up (the light the water's
-/// surface traps and sends back down reaches neither its camera paths nor its photons'
-/// connections, `docs/reference-renderer.md`).
+/// a caustic); the floor the camera sees through the water (rows 40–63) by the light the
+/// water's surface traps and sends back down. The GPU's bounced light in each (the image with
+/// the cache minus without) against the CPU reference's orders 2 and up
+/// (`DiffuseOrders { min: 2 }`, 256 paths per pixel), and each region's energy against the
+/// reference's full mode. Before 2026-12-08 the reference had no light of order 2 and up on
+/// surfaces seen through the water (`docs/reference-renderer.md`); now it has 0.29 of the
+/// floor's light there. Measured on lavapipe: the wall's bounced light 0.990, energy 0.240 ->
+/// 0.995 (without -> with the cache); the floor's bounced light 0.630, energy 0.407 -> 0.592.
+/// The floor falls short in its first-hit light too (0.58 of the reference's order 1): the
+/// camera sees it through the slab's flat top at grazing angles, where the composite's
+/// image-space search loses rays (a known gap, `docs/status.md`); there only the cache's
+/// added light is asserted.
 #[test]
 fn bounce_light_through_a_water_slab_matches_the_reference() {
     let Some(ctx) = gpu() else { return };
     let sc = slab();
-    let wall = |img: &caustics::image_io::Image| -> f64 {
-        img.pixels[..(40 * img.width) as usize].iter().map(|p| f64::from(p[0] + p[1] + p[2])).sum()
+    let rows = |img: &caustics::image_io::Image, r: std::ops::Range<u32>| -> f64 {
+        let w = img.width as usize;
+        img.pixels[r.start as usize * w..r.end as usize * w].iter().map(|p| f64::from(p[0] + p[1] + p[2])).sum()
     };
     let mut rs = ReferenceSettings { photons_per_light: 1_000_000, camera_spp: 256, ..Default::default() };
-    let full = wall(&reference::render(&sc, &rs).unwrap().image);
+    let full = reference::render(&sc, &rs).unwrap().image;
     rs.diffuse_orders = DiffuseOrders { min: 2, max: None };
-    let bounced_cpu = wall(&reference::render(&sc, &rs).unwrap().image);
-    let on = wall(&caustics::render::render(&ctx, &sc, &with_indirect(1 << 18)).unwrap().image);
-    let off = wall(&caustics::render::render(&ctx, &sc, &with_indirect(0)).unwrap().image);
-    let (bounce, energy) = ((on - off) / bounced_cpu, on / full);
-    eprintln!(
-        "slab: the wall's bounced light {bounce:.3} of the reference's orders 2-, its energy {:.3} -> {energy:.3}",
-        off / full
-    );
-    assert!(bounced_cpu > 0.5 * full, "the wall should be lit mostly by bounced light");
-    assert!((bounce - 1.0).abs() < 0.06, "bounced light {bounce:.3} of the reference's");
-    assert!((energy - 1.0).abs() < 0.05, "the wall's energy {energy:.3} of the reference's");
+    let bounced_cpu = reference::render(&sc, &rs).unwrap().image;
+    let on = caustics::render::render(&ctx, &sc, &with_indirect(1 << 18)).unwrap().image;
+    let off = caustics::render::render(&ctx, &sc, &with_indirect(0)).unwrap().image;
+    for (name, r, min_share, exact) in
+        [("the wall", 0..40, 0.5, true), ("the floor under the water", 40..64, 0.1, false)]
+    {
+        let (f, b, on, off) =
+            (rows(&full, r.clone()), rows(&bounced_cpu, r.clone()), rows(&on, r.clone()), rows(&off, r));
+        let (bounce, energy) = ((on - off) / b, on / f);
+        eprintln!(
+            "slab, {name}: bounced light {bounce:.3} of the reference's orders 2- ({:.3} of its light), energy {:.3} -> {energy:.3}",
+            b / f,
+            off / f
+        );
+        assert!(b > min_share * f, "{name}: too little bounced light to compare ({:.3})", b / f);
+        if !exact {
+            assert!(bounce > 0.5, "{name}: the cache adds {bounce:.3} of the reference's bounced light");
+            continue;
+        }
+        assert!((bounce - 1.0).abs() < 0.06, "{name}: bounced light {bounce:.3} of the reference's");
+        assert!((energy - 1.0).abs() < 0.05, "{name}: energy {energy:.3} of the reference's");
+    }
 }
 
 fn frame(r: &mut Renderer) -> FrameStats {
@@ -367,4 +384,69 @@ fn a_progressive_cache_settles_and_follows_a_moved_light() {
         );
     }
     assert!(r.refining(), "a moved light refines again");
+}
+
+/// `scenes/pool_walls.json`: a narrow spot on a pool's wavy water; the walls above the water
+/// are lit almost only by the floor's caustic coming back out through the surface, and the
+/// floor under the water outside the spot by the light the surface traps and sends back down.
+/// At 64 × 48, GPU with the cache against the CPU reference in full mode (256 paths per pixel),
+/// on the walls above y = 0.5 m and on the floor under the water (pixels found by straight
+/// camera rays, 5 cm inside the water's sides). Measured on lavapipe: walls 1.024 of the
+/// reference's energy (0.002 without the cache), floor 0.982 (0.775 without); at 128 × 96
+/// (`docs/indirect.md`) 1.013 and 1.002.
+#[test]
+fn a_pools_floor_pattern_lights_the_walls_above_the_water() {
+    let Some(ctx) = gpu() else { return };
+    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/pool_walls.json"));
+    let mut sc = Scene::load(path).unwrap();
+    (sc.camera.width, sc.camera.height) = (64, 48);
+    let cam = sc.camera.clone();
+    // Per pixel: 1 a wall above the water, 2 the floor under it, 0 anything else.
+    let walls = [
+        (Vec3::new(0.0, 0.6, -1.01), Vec3::Z),
+        (Vec3::new(-1.01, 0.6, 0.0), Vec3::X),
+        (Vec3::new(1.01, 0.6, 0.0), -Vec3::X),
+    ];
+    let mut region = Vec::new();
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let d = cam.ray_dir(x as f32 + 0.5, y as f32 + 0.5);
+            let mut best: Option<(f32, Vec3)> = None;
+            for (c, n) in walls {
+                let t = (c - cam.position).dot(n) / d.dot(n);
+                let p = cam.position + d * t;
+                let q = (p - c).abs();
+                let inside = q.y <= 0.6 && (if n.x != 0.0 { q.z } else { q.x }) <= 1.01;
+                if t > 0.0 && inside && best.is_none_or(|(bt, _)| t < bt) {
+                    best = Some((t, p));
+                }
+            }
+            let floor = (d.y < 0.0).then(|| cam.position + d * (-cam.position.y / d.y));
+            region.push(match (best, floor) {
+                (Some((_, p)), _) if p.y > 0.5 => 1u8,
+                (None, Some(p)) if p.x.abs() < 0.95 && p.z.abs() < 0.95 => 2,
+                _ => 0,
+            });
+        }
+    }
+    let sum = |img: &caustics::image_io::Image, k: u8| -> f64 {
+        img.pixels.iter().zip(&region).filter(|(_, r)| **r == k).map(|(p, _)| f64::from(p[0] + p[1] + p[2])).sum()
+    };
+    let rs = ReferenceSettings { photons_per_light: 1_000_000, camera_spp: 256, ..Default::default() };
+    let cpu = reference::render(&sc, &rs).unwrap().image;
+    let mut s = with_indirect(1 << 18);
+    s.photons.count = 512;
+    let on = caustics::render::render(&ctx, &sc, &s).unwrap().image;
+    s.indirect.photons = 0;
+    let off = caustics::render::render(&ctx, &sc, &s).unwrap().image;
+    for (k, name) in [(1, "the walls above the water"), (2, "the floor under the water")] {
+        let n = region.iter().filter(|r| **r == k).count();
+        let (e_on, e_off) = (sum(&on, k) / sum(&cpu, k), sum(&off, k) / sum(&cpu, k));
+        eprintln!(
+            "pool_walls, {name} ({n} pixels): energy {e_off:.3} -> {e_on:.3} of the reference's (without -> with the cache)"
+        );
+        assert!(n > 300, "{name}: {n} pixels");
+        assert!((e_on - 1.0).abs() < 0.05, "{name}: energy {e_on:.3} of the reference's");
+    }
+    assert!(sum(&off, 1) < 0.05 * sum(&cpu, 1), "the walls above the water have little light but the bounced");
 }
