@@ -285,6 +285,17 @@ pub(super) fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                 shape
             }
         };
+        if matches!(shape, Shape::Rectangle { .. } | Shape::Cylinder { .. })
+            && materials[material].absorption().max_element() > 0.0
+        {
+            return Err(cx.err(
+                f("material"),
+                format!(
+                    "\"{mat_name}\" absorbs (absorption or attenuation_color): it needs a closed object (sphere, mesh, waves), and a {} has no inside",
+                    if matches!(shape, Shape::Rectangle { .. }) { "rectangle" } else { "cylinder" }
+                ),
+            ));
+        }
         let caustic_caster = caster.unwrap_or(materials[material].is_specular());
         objects.push(Object { shape, material, caustic_caster, waves });
     }

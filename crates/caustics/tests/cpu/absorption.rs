@@ -232,3 +232,22 @@ fn bad_absorption_is_an_error_naming_the_field() {
         assert!(s.starts_with("bad.json: ") && s.contains(field) && s.contains(words), "{glass}: {s}");
     }
 }
+
+/// An open rectangle or cylinder has no inside to absorb in: an absorbing material on one is
+/// refused, naming the object.
+#[test]
+fn absorbing_sheets_are_refused() {
+    let json = GOOD.replace("GLASS", r#", "absorption": 1"#).replace(
+        r#""type": "sphere", "center": [0, 1, 0], "radius": 0.5"#,
+        r#""type": "rectangle", "center": [0, 1, 0], "normal": [0, 1, 0], "size": [1, 1]"#,
+    );
+    let e = Scene::from_json(&json, "bad.json", Path::new(".")).expect_err("a rectangle cannot absorb");
+    let s = e.to_string();
+    assert!(s.contains("objects[0].material") && s.contains("no inside"), "{s}");
+    // Clear, it is a thin sheet as before.
+    let clear = GOOD.replace("GLASS", "").replace(
+        r#""type": "sphere", "center": [0, 1, 0], "radius": 0.5"#,
+        r#""type": "rectangle", "center": [0, 1, 0], "normal": [0, 1, 0], "size": [1, 1]"#,
+    );
+    Scene::from_json(&clear, "ok.json", Path::new(".")).unwrap();
+}
