@@ -187,8 +187,9 @@ impl RenderSettings {
         if !absorbing {
             return None;
         }
-        let spheres =
-            self.caustic_spheres() && scene.lights.iter().any(|l| matches!(l, crate::scene::Light::Directional { .. }));
+        let spheres = self.caustic_spheres()
+            && (scene.environment.is_some()
+                || scene.lights.iter().any(|l| matches!(l, crate::scene::Light::Directional { .. })));
         let what = match (self.beams_active(scene), spheres) {
             (false, false) => return None,
             (true, false) => "beams",

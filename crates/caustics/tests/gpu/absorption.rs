@@ -153,4 +153,12 @@ fn beams_warn_that_they_ignore_absorption() {
     let w = s.absorption_warning(&sc).expect("a warning under beams");
     assert!(w.contains("absorption is ignored by beams/caustic spheres") && w.contains("tinted_block.json"), "{w}");
     assert_eq!(s.absorption_warning(&cleared(&sc)), None);
+    // Caustic spheres serve directional lights: none here, then one.
+    let mut s = RenderSettings::default();
+    Technique::CausticSpheres.apply(&mut s);
+    assert_eq!(s.absorption_warning(&sc), None);
+    let mut sun = sc.clone();
+    sun.lights.push(caustics::scene::Light::Directional { direction: Vec3::NEG_Y, irradiance: Vec3::ONE });
+    let w = s.absorption_warning(&sun).expect("a warning under caustic spheres");
+    assert!(w.contains("from caustic spheres"), "{w}");
 }
