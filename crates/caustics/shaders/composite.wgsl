@@ -132,6 +132,13 @@ fn segment(o: vec3f, d: vec3f, t: f32, w: vec3f) -> vec3f {
     return transmittance(o, d, t);
 }
 
+// Beer–Lambert transmittance along a length s inside the dielectric m (its absorption
+// coefficient in b.rgb; exactly 1 where it is clear).
+fn absorbed_in(m: MaterialGpu, s: f32) -> vec3f {
+    if (m.kind.x == KIND_DIELECTRIC && any(m.b.rgb > vec3f(0.0))) { return exp(-m.b.rgb * s); }
+    return vec3f(1.0);
+}
+
 // The radiance the screen-space search finds along o + s d (`trace_receivers_t`), attenuated by
 // the medium; the segment is kept with weight w.
 fn receivers(o: vec3f, d: vec3f, w: vec3f) -> vec3f {
@@ -240,7 +247,7 @@ fn shade_ray(o_in: vec3f, d_in: vec3f, leaving_in: u32, wr: vec3f) -> vec3f {
                 let ne = normalize(pe - c);
                 let t2 = refract_dir(t1.xyz, -ne, ior / ext);
                 if (t2.w < 0.5) { return l; }
-                w *= 1.0 - fresnel_dielectric(dot(t1.xyz, ne), ext / ior);
+                w *= (1.0 - fresnel_dielectric(dot(t1.xyz, ne), ext / ior)) * absorbed_in(m, t_exit);
                 o = pe;
                 d = t2.xyz;
                 leaving = h.object;
@@ -398,6 +405,7 @@ fn mesh_interaction(h: EyeHit, d: vec3f, wr: vec3f) -> MeshResult {
         if (!exit.ok) { return r; }
         var n2 = exit.n;
         if (dot(n2, t_in) < 0.0) { n2 = -n2; }
+        r.w *= absorbed_in(m, distance(exit.p, p_in));
         let t2 = refract_dir(t_in, -n2, ior / ext);
         if (t2.w > 0.5) {
             r.w *= 1.0 - fresnel_dielectric(dot(t_in, n2), ext / ior);
@@ -569,22 +577,24 @@ fn inside_ray(obj: u32, mat: MaterialGpu, p0: vec3f, t0: vec3f, w_in: f32, march
     var l = vec3f(0.0);
     var p_in = p0;
     var t_in = t0;
-    let w = w_in;
+    // (the absorption inside along the segments so far)
+    var w = vec3f(w_in);
     for (var k = 0u; k < 4u; k++) {
         let exit = exit_from_inside(obj, mat, p_in, t_in, march);
         let inner = inner_receiver(obj, p_in, t_in, exit, !march);
         if (inner.w >= 0.0) {
-            l += w * inner.rgb;
+            l += w * absorbed_in(mat, inner.w) * inner.rgb;
             break;
         }
         if (!exit.ok) { break; }
+        w *= absorbed_in(mat, distance(exit.p, p_in));
         var n2 = exit.n;
         if (dot(n2, t_in) < 0.0) { n2 = -n2; }
         let cos2 = dot(t_in, n2);
         let t2 = refract_dir(t_in, -n2, ior / ext);
         if (t2.w > 0.5) {
             let f2 = fresnel_dielectric(cos2, ext / ior);
-            l += w * (1.0 - f2) * shade_ray(exit.p, t2.xyz, obj, vec3f(w * (1.0 - f2)));
+            l += w * (1.0 - f2) * shade_ray(exit.p, t2.xyz, obj, w * (1.0 - f2));
             break;
         }
         p_in = exit.p;

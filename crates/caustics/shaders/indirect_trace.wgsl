@@ -121,6 +121,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) nwg:
             }
         }
         if (h.object == INVALID) { return; }
+        flux *= walk_absorbed(h.t);
         if (materials[h.object].kind.x == KIND_DIFFUSE) {
             if (diffuse >= 1u) {
                 // The normal toward where the photon came from.

@@ -96,6 +96,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) nwg:
         }
         if (scattered) { continue; }
         if (h.object == INVALID) { return; }
+        flux *= walk_absorbed(h.t);
         if (materials[h.object].kind.x == KIND_DIFFUSE) { diffuse++; }
         if (!walk_surface(h, &o, &d, &flux, &in_medium)) { return; }
     }

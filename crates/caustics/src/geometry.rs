@@ -259,7 +259,9 @@ pub(crate) fn material_records(scene: &Scene) -> Vec<MaterialGpu> {
         let caster = u32::from(o.caustic_caster);
         let (kind, a, b) = match *scene.material_of(o) {
             Material::Diffuse { albedo } => (KIND_DIFFUSE, albedo.extend(0.0).to_array(), [0.0; 4]),
-            Material::Dielectric { ior, ext_ior } => (KIND_DIELECTRIC, [ior, ext_ior, 0.0, 0.0], [0.0; 4]),
+            Material::Dielectric { ior, ext_ior, absorption } => {
+                (KIND_DIELECTRIC, [ior, ext_ior, 0.0, 0.0], absorption.extend(0.0).to_array())
+            }
             Material::Mirror { reflectance } => (KIND_MIRROR, reflectance.extend(0.0).to_array(), [0.0; 4]),
             Material::Conductor { eta, k } => (KIND_CONDUCTOR, eta.extend(0.0).to_array(), k.extend(0.0).to_array()),
         };

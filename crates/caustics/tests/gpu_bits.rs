@@ -198,6 +198,7 @@ scenes!(
     mirror_ring,
     pool_sun,
     pool_sun_under,
+    tinted_block,
     two_spheres;
     full: ball_over_bunny,
     cornell_glass,

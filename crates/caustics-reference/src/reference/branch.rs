@@ -113,7 +113,7 @@ pub fn trace_segments(
         let mut refl = true;
         let mut nd = Vec3::ZERO;
         match scene.materials[scene.objects[h.object as usize].material] {
-            Material::Dielectric { ior, ext_ior } => {
+            Material::Dielectric { ior, ext_ior, .. } => {
                 let eta = if front { ior / ext_ior } else { ext_ior / ior };
                 let (f, td) = interface(d, ns, ng, eta);
                 if let Some(td) = td {
@@ -219,7 +219,7 @@ pub fn tree(
             let (ro, next) = (spawn(h.p, h.ng, rd), depth + 1);
             let after = |w: f64| Branch { w, depth: next, ..b };
             match sc.materials[sc.objects[h.object as usize].material] {
-                Material::Dielectric { ior, ext_ior } => {
+                Material::Dielectric { ior, ext_ior, .. } => {
                     let eta = if front { ior / ext_ior } else { ext_ior / ior };
                     let (f, td) = interface(d, ns, ng, eta);
                     if let Some(td) = td {

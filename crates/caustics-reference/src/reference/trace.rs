@@ -357,6 +357,10 @@ impl<'a> Tracer<'a> {
         // Whether the photon may stop once no later connection can be kept (photon beams keep
         // every flight, marked with whether its order is kept: the same beams in every mode).
         let may_stop = !t.record_beams;
+        // Absorption coefficient (1/m) of the dielectric the photon travels in (zero: clear),
+        // and where its segment starts (the surface point, not the offset origin).
+        let mut sigma = Vec3::ZERO;
+        let mut from = o;
         for depth in 0..self.max_depth {
             out.rays += 1;
             let hit = self.accel.intersect(o, d, f32::INFINITY);
@@ -381,8 +385,9 @@ impl<'a> Tracer<'a> {
                         Flight::Pass { weight } => flux *= weight,
                         Flight::Scatter { t: ts, weight } => {
                             // In-medium caustic light (a volume caustic).
-                            flux *= weight;
+                            flux *= weight * absorbed(sigma, ts);
                             let x = o + d * ts;
+                            from = x;
                             if t.camera {
                                 let n0 = out.cam.len();
                                 self.connect_camera_medium(m, x, d, flux, rng, out);
@@ -407,6 +412,8 @@ impl<'a> Tracer<'a> {
                 }
             }
             let Some(h) = hit else { break };
+            flux *= absorbed(sigma, h.p.distance(from));
+            from = h.p;
             let front = d.dot(h.ng) < 0.0;
             let (ng, ns) = if front { (h.ng, h.ns) } else { (-h.ng, -h.ns) };
             match self.mats[h.object as usize] {
@@ -476,6 +483,7 @@ impl<'a> Tracer<'a> {
                     };
                     spec += 1;
                     flux *= w;
+                    sigma = medium_after(m, sigma, nd, h.ng);
                     d = nd;
                     o = spawn(h.p, h.ng, d);
                 }
@@ -615,6 +623,10 @@ impl<'a> Tracer<'a> {
         let beams = self.beams.as_ref().filter(|_| self.caustic_paths.keeps(false));
         // (the deposits are first diffuse hits: gathered at the k-th diffuse vertex, order k)
         let view_photons = self.view_photons.as_ref().filter(|_| self.caustic_paths.keeps(false));
+        // Absorption coefficient (1/m) of the dielectric the ray travels in (zero: clear), and
+        // where its segment starts (the surface point, not the offset origin).
+        let mut sigma = Vec3::ZERO;
+        let mut from = o;
         for depth in 0..self.max_depth {
             rays += 1;
             // Whether this vertex gathers (the tests' `gather_direct`: also the camera's own).
@@ -638,8 +650,9 @@ impl<'a> Tracer<'a> {
                 match flight {
                     Flight::Pass { weight } => beta *= weight,
                     Flight::Scatter { t, weight } => {
-                        beta *= weight;
+                        beta *= weight * absorbed(sigma, t);
                         let x = o + d * t;
+                        from = x;
                         let (ls, r) = self.medium_direct(m, x, d, rng);
                         rays += r;
                         if orders.keeps(diffuse) {
@@ -679,6 +692,8 @@ impl<'a> Tracer<'a> {
                 }
                 break;
             };
+            beta *= absorbed(sigma, h.p.distance(from));
+            from = h.p;
             let front = d.dot(h.ng) < 0.0;
             let (ng, ns) = if front { (h.ng, h.ns) } else { (-h.ng, -h.ns) };
             match self.mats[h.object as usize] {
@@ -718,6 +733,7 @@ impl<'a> Tracer<'a> {
                 m => {
                     let Some((nd, w)) = scatter_specular(m, d, ng, ns, front, rng, true) else { break };
                     beta *= w;
+                    sigma = medium_after(m, sigma, nd, h.ng);
                     specular_only = diffuse == 0 && !scattered;
                     eye_specular |= specular_only;
                     d = nd;
@@ -793,6 +809,31 @@ impl<'a> Tracer<'a> {
     }
 }
 
+/// Beer–Lambert transmittance exp(−σ·s) along a distance `s` in a dielectric with absorption
+/// coefficient `sigma` (exactly 1 where `sigma` is zero: clear paths keep their bits).
+#[inline]
+pub(crate) fn absorbed(sigma: Vec3, s: f32) -> Vec3 {
+    if sigma == Vec3::ZERO { Vec3::ONE } else { (-sigma * s).exp() }
+}
+
+/// The absorption coefficient of what a ray travels in after leaving specular surface `m` along
+/// `nd` (`ng_out` the surface's outward geometric normal), `sigma` before: a dielectric's inside
+/// when the ray goes into it (refracted in or reflected inside), clear when it goes out (the
+/// `ext_ior` side is taken as clear); mirrors and conductors keep it.
+#[inline]
+pub(crate) fn medium_after(m: Material, sigma: Vec3, nd: Vec3, ng_out: Vec3) -> Vec3 {
+    match m {
+        Material::Dielectric { absorption, .. } => {
+            if nd.dot(ng_out) < 0.0 {
+                absorption
+            } else {
+                Vec3::ZERO
+            }
+        }
+        _ => sigma,
+    }
+}
+
 /// Scatter off a specular surface: new direction and throughput weight. `ng`, `ns` face the
 /// incoming side; `front` says whether the ray arrived from the side the normal points to
 /// (outside, for a dielectric). Dielectrics choose reflection with probability F (unbiased,
@@ -818,7 +859,7 @@ pub(crate) fn scatter_specular(
             let cos_i = (-d.dot(ns)).clamp(0.0, 1.0);
             Some((reflect_checked(ns), fresnel_conductor(cos_i, eta, k)))
         }
-        Material::Dielectric { ior, ext_ior } => {
+        Material::Dielectric { ior, ext_ior, .. } => {
             let eta = if front { ior / ext_ior } else { ext_ior / ior };
             let mut n = ns;
             let mut cos_i = -d.dot(n);
@@ -850,7 +891,7 @@ pub(crate) fn scatter_specular(
 mod scatter_tests {
     use super::*;
 
-    const GLASS: Material = Material::Dielectric { ior: 1.5, ext_ior: 1.0 };
+    const GLASS: Material = Material::Dielectric { ior: 1.5, ext_ior: 1.0, absorption: Vec3::ZERO };
 
     /// Without partial reflections a dielectric transmits with weight 1 − F every time and
     /// reflects only totally; with them, it reflects with probability F at weight 1: the same

@@ -90,7 +90,7 @@ struct MaterialGpu {
     kind: vec4u,
     // diffuse: albedo; dielectric: (ior, ext_ior, -, -); mirror: reflectance; conductor: eta
     a: vec4f,
-    // conductor: k
+    // conductor: k; dielectric: absorption coefficient of the inside (1/m, rgb)
     b: vec4f,
     // The object's analytic shape, for exact intersection: sphere (centre, radius); cylinder
     // (base, radius), (axis, height); rectangle (centre, -), (normal, -), (u, size u), (v, size v).

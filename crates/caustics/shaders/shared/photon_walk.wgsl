@@ -68,6 +68,18 @@ fn walk_emit(disk: vec4f, photons: u32) -> WalkStart {
     return w;
 }
 
+// The absorption coefficient (1/m, rgb) of the dielectric the photon travels in: set by
+// walk_surface when it goes into one (refracted in or reflected inside), cleared when it goes out
+// (the ext_ior side is clear), kept by mirrors, conductors and diffuse bounces.
+var<private> walk_sigma: vec3f = vec3f(0.0);
+
+// Beer–Lambert transmittance along a segment of length t inside the current dielectric
+// (exactly 1 where it is clear).
+fn walk_absorbed(t: f32) -> vec3f {
+    if (any(walk_sigma > vec3f(0.0))) { return exp(-walk_sigma * t); }
+    return vec3f(1.0);
+}
+
 // The photon (at o, along d, carrying flux) meets the surface of hit h: a diffuse surface
 // bounces it by the cosine with Russian roulette by the albedo's largest channel (at most 0.95),
 // a mirror or conductor reflects it with its colour, a dielectric reflects or refracts it by
@@ -103,6 +115,7 @@ fn walk_surface(h: SceneHit, o: ptr<function, vec3f>, d: ptr<function, vec3f>, f
     let bz = rt_bounce(*d, n, ng, eta, reflect_it);
     // Inside a dielectric after entering it, or reflecting inside it: no medium there.
     *in_medium = !(mat.kind.x == KIND_DIELECTRIC && (front != bz.reflected));
+    if (mat.kind.x == KIND_DIELECTRIC) { walk_sigma = select(vec3f(0.0), mat.b.rgb, !*in_medium); }
     *d = bz.dir;
     *o = rt_spawn(h.p, h.ng, *d);
     return true;

@@ -438,6 +438,7 @@ fn interact(mat: MaterialGpu, obj: u32, p: vec3f, n_in: vec3f, d: vec3f, flux_in
         let cos2 = dot(t_in, n2);
         let t2 = refract_dir(t_in, -n2, ior / ext);
         if (rd_active()) { rd_transfer(t_in, dot(exit.p - p_in, t_in), n2); }
+        trace_absorb += mat.b.rgb * distance(exit.p, p_in);
         rd_interface(materials[exit.object], exit.p, -n2, t_in, t2.xyz, ior / ext, t2.w < 0.5);
         if (t2.w > 0.5) {
             trace_internal = k;
@@ -816,9 +817,14 @@ fn fog_add(a: vec3f, b: vec3f) {
     }
 }
 
+// The photon's optical depth (rgb) inside absorbing dielectrics: the sum of absorption
+// coefficient times length over its segments inside them (Beer–Lambert); land_photon applies it.
+var<private> trace_absorb: vec3f = vec3f(0.0);
+
 // The first segment: from the light to the first caster point p.
 fn fog_begin(p: vec3f) {
     trace_fog = 0.0;
+    trace_absorb = vec3f(0.0);
     if (light.medium_lo.w > 0.5) { fog_add(light_path_start(light, p, light.medium_lo.xyz, light.medium_hi.xyz), p); }
 }
 
@@ -830,6 +836,7 @@ fn land_photon(layer: u32, p: vec3f, dir: vec3f, flux_in: vec3f, sig: u32, lens:
     let total = flux_in.r + flux_in.g + flux_in.b;
     var flux = flux_in;
     if (light.medium_lo.w > 0.5) { flux *= exp(-light.medium_sigma_t.rgb * trace_fog); }
+    if (any(trace_absorb > vec3f(0.0))) { flux *= exp(-trace_absorb); }
     let m = f32(light.info.w);
     for (var f = 0u; f < light.info.x; f++) {
         let q = project_face(light.faces[f], p, m);
@@ -1042,6 +1049,9 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
     var dir = d;
     var sig = 0u;
     var lens_ready = false;
+    // The absorption coefficient of the dielectric the photon travels in (as the CPU
+    // reference's: set going into a dielectric, cleared going out, kept by mirrors).
+    var sigma = vec3f(0.0);
     lens_exit_p = first.p;
     var depth = 0u;
     loop {
@@ -1119,6 +1129,8 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
         if (flux.r + flux.g + flux.b <= 0.0) { return out; }
         // Inside a dielectric after entering it, or reflecting inside it: no medium there.
         let inside = mat.kind.x == KIND_DIELECTRIC && (front != reflected);
+        if (mat.kind.x == KIND_DIELECTRIC) { sigma = select(vec3f(0.0), mat.b.rgb, inside); }
+        let seg_from = h.p;
         h = scene_hit(o, dir, 1e30);
         if (h.object == INVALID) {
             if (trace_internal_branch && depth <= 1u || residual_covered(chosen)) { return out; }
@@ -1126,6 +1138,7 @@ fn trace_photon_exact(layer: u32, ndc: vec2f, cell: vec2f) -> Photon {
             return out;
         }
         if (!inside) { fog_add(o, h.p); }
+        trace_absorb += sigma * distance(seg_from, h.p);
     }
     if (residual_covered(chosen)) { return out; }
     let total = flux.r + flux.g + flux.b;

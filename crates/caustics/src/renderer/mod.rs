@@ -170,6 +170,9 @@ impl Renderer {
         let ctx = ctx.with_own_pool();
         ctx.check_device()?;
         settings.validate(&ctx, &scene)?;
+        if let Some(w) = settings.absorption_warning(&scene) {
+            eprintln!("warning: {w}");
+        }
         let n = scene.objects.len();
         Ok(Renderer {
             ctx,
@@ -425,8 +428,13 @@ impl Renderer {
         }
         let ok = match material {
             Material::Diffuse { albedo } => albedo.is_finite() && albedo.min_element() >= 0.0,
-            Material::Dielectric { ior, ext_ior } => {
-                ior.is_finite() && ext_ior.is_finite() && ior > 0.0 && ext_ior > 0.0
+            Material::Dielectric { ior, ext_ior, absorption } => {
+                ior.is_finite()
+                    && ext_ior.is_finite()
+                    && ior > 0.0
+                    && ext_ior > 0.0
+                    && absorption.is_finite()
+                    && absorption.min_element() >= 0.0
             }
             Material::Mirror { reflectance } => reflectance.is_finite() && reflectance.min_element() >= 0.0,
             Material::Conductor { eta, k } => eta.is_finite() && k.is_finite() && eta.min_element() > 0.0,
@@ -484,6 +492,12 @@ impl Renderer {
     pub fn set_settings(&mut self, settings: RenderSettings) -> Result<()> {
         settings.validate(&self.ctx, &self.scene)?;
         if settings != self.settings {
+            // (once, when the settings start using beams or caustic spheres)
+            if let Some(w) = settings.absorption_warning(&self.scene)
+                && self.settings.absorption_warning(&self.scene).is_none()
+            {
+                eprintln!("warning: {w}");
+            }
             self.settings = settings;
             self.refresh_env_segments();
             self.invalidate();

@@ -207,6 +207,12 @@ pub struct DielectricDesc {
     pub ior: f32,
     #[serde(default = "one")]
     pub ext_ior: f32,
+    #[serde(default)]
+    pub absorption: Option<Rgb>,
+    #[serde(default)]
+    pub attenuation_color: Option<Rgb>,
+    #[serde(default)]
+    pub attenuation_distance: Option<f32>,
 }
 
 #[derive(Debug, Deserialize)]

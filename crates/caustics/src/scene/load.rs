@@ -173,9 +173,10 @@ pub(super) fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
             MaterialDesc::Diffuse(DiffuseDesc { albedo }) => {
                 Material::Diffuse { albedo: cx.unit_rgb(&f("albedo"), *albedo)? }
             }
-            MaterialDesc::Dielectric(DielectricDesc { ior, ext_ior }) => Material::Dielectric {
-                ior: cx.positive(&f("ior"), *ior)?,
-                ext_ior: cx.positive(&f("ext_ior"), *ext_ior)?,
+            MaterialDesc::Dielectric(d) => Material::Dielectric {
+                ior: cx.positive(&f("ior"), d.ior)?,
+                ext_ior: cx.positive(&f("ext_ior"), d.ext_ior)?,
+                absorption: dielectric_absorption(&cx, &f, d)?,
             },
             MaterialDesc::Mirror(MirrorDesc { reflectance }) => {
                 Material::Mirror { reflectance: cx.unit_rgb(&f("reflectance"), *reflectance)? }
@@ -292,6 +293,17 @@ pub(super) fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
                 shape
             }
         };
+        if matches!(shape, Shape::Rectangle { .. } | Shape::Cylinder { .. })
+            && materials[material].absorption().max_element() > 0.0
+        {
+            return Err(cx.err(
+                f("material"),
+                format!(
+                    "\"{mat_name}\" absorbs (absorption or attenuation_color): it needs a closed object (sphere, mesh, waves), and a {} has no inside",
+                    if matches!(shape, Shape::Rectangle { .. }) { "rectangle" } else { "cylinder" }
+                ),
+            ));
+        }
         let caustic_caster = caster.unwrap_or(materials[material].is_specular());
         objects.push(Object { shape, material, caustic_caster, waves });
     }
@@ -349,6 +361,33 @@ pub(super) fn resolve(d: SceneFile, file: &str, base: &Path) -> Result<Scene> {
         environment: environment.map(|(_, e)| e),
         warnings,
     })
+}
+
+/// A dielectric's absorption coefficient σa (1/m): `absorption` as given, or from the glTF-style
+/// pair, σa = −ln(attenuation_color) / attenuation_distance per channel; zero when neither.
+fn dielectric_absorption(cx: &Ctx, f: &dyn Fn(&str) -> String, d: &DielectricDesc) -> Result<Vec3> {
+    match (d.absorption, d.attenuation_color, d.attenuation_distance) {
+        (None, None, None) => Ok(Vec3::ZERO),
+        (Some(a), None, None) => cx.nonneg_rgb(&f("absorption"), a),
+        (Some(_), _, _) => Err(
+            cx.err(f("absorption"), "give either absorption or attenuation_color with attenuation_distance, not both")
+        ),
+        (None, Some(c), Some(dist)) => {
+            let c = cx.finite3(&f("attenuation_color"), c.0)?;
+            if !(c.min_element() > 0.0 && c.max_element() <= 1.0) {
+                return Err(cx.err(f("attenuation_color"), format!("must lie in (0, 1] (got {:?})", c.to_array())));
+            }
+            let dist = cx.positive(&f("attenuation_distance"), dist)?;
+            // (−ln 1 = −0: a zero channel is +0, as `absorption: 0` gives)
+            Ok(Vec3::from_array(c.to_array().map(|x| (-x.ln() / dist).max(0.0))))
+        }
+        (None, Some(_), None) => {
+            Err(cx.err(f("attenuation_distance"), "is required with attenuation_color (a distance in m)"))
+        }
+        (None, None, Some(_)) => {
+            Err(cx.err(f("attenuation_color"), "is required with attenuation_distance (the colour at that distance)"))
+        }
+    }
 }
 
 fn resolve_path(base: &Path, p: &str) -> PathBuf {

@@ -203,12 +203,15 @@ pub enum Material {
         /// Reflectance per channel, in [0, 1].
         albedo: Vec3,
     },
-    /// Smooth dielectric: Fresnel reflection and refraction, no absorption.
+    /// Smooth dielectric: Fresnel reflection and refraction; light travelling a distance s
+    /// inside it is multiplied by exp(−`absorption`·s) per channel (Beer–Lambert).
     Dielectric {
         /// Index of refraction inside the object (positive).
         ior: f32,
         /// Index of refraction outside the object (positive).
         ext_ior: f32,
+        /// Absorption coefficient σa of the inside (1/m) per channel (non-negative; zero: clear).
+        absorption: Vec3,
     },
     /// Perfect specular reflector, angle-independent, two-sided.
     Mirror {
@@ -225,6 +228,17 @@ pub enum Material {
 }
 
 impl Material {
+    /// A clear dielectric (no absorption).
+    pub fn clear_dielectric(ior: f32, ext_ior: f32) -> Self {
+        Material::Dielectric { ior, ext_ior, absorption: Vec3::ZERO }
+    }
+    /// The absorption coefficient (1/m) of the inside of a dielectric; zero for other materials.
+    pub fn absorption(&self) -> Vec3 {
+        match self {
+            Material::Dielectric { absorption, .. } => *absorption,
+            _ => Vec3::ZERO,
+        }
+    }
     /// Dielectric, mirror and conductor materials are specular: they cast caustics.
     pub fn is_specular(&self) -> bool {
         !matches!(self, Material::Diffuse { .. })

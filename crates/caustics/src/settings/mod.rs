@@ -179,6 +179,28 @@ impl RenderSettings {
     pub fn beams_active(&self, scene: &crate::scene::Scene) -> bool {
         self.beams_volume_active(scene) || self.beams_surface_active(scene)
     }
+
+    /// The warning for a scene with absorbing dielectrics whose caustics (some of them) come
+    /// from beams or caustic spheres, which draw the glass clear; `None` when none applies.
+    pub fn absorption_warning(&self, scene: &crate::scene::Scene) -> Option<String> {
+        let absorbing = scene.objects.iter().any(|o| scene.material_of(o).absorption().max_element() > 0.0);
+        if !absorbing {
+            return None;
+        }
+        let spheres = self.caustic_spheres()
+            && (scene.environment.is_some()
+                || scene.lights.iter().any(|l| matches!(l, crate::scene::Light::Directional { .. })));
+        let what = match (self.beams_active(scene), spheres) {
+            (false, false) => return None,
+            (true, false) => "beams",
+            (false, true) => "caustic spheres",
+            (true, true) => "beams and caustic spheres",
+        };
+        Some(format!(
+            "{}: absorption is ignored by beams/caustic spheres: the caustics from {what} are drawn as through clear glass",
+            scene.source
+        ))
+    }
 }
 
 /// What a frame also copies out for inspection (tests and tools that look inside the photon

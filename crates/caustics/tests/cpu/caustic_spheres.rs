@@ -310,7 +310,7 @@ fn cache_round_trip_and_rebuild() {
     assert!(matches!(&origin, Origin::Built(r) if r.contains("other settings")), "{origin:?}");
     // Another material: another key.
     let mut ior = scene.clone();
-    ior.materials[ior.objects[0].material] = caustics::scene::Material::Dielectric { ior: 1.33, ext_ior: 1.0 };
+    ior.materials[ior.objects[0].material] = caustics::scene::Material::clear_dielectric(1.33, 1.0);
     assert_ne!(cache::key(&ior, &ior.objects[0], &s), key);
     // Truncated, or a byte changed: rebuilt, and the rebuilt table is the original.
     let bytes = std::fs::read(&path).unwrap();

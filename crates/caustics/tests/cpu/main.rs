@@ -2,6 +2,7 @@
 //! controller's model, the module graph), one module per subject, in one test binary. Run one
 //! with `cargo test --release -p caustics --test cpu -- MODULE::TEST --exact`.
 
+mod absorption;
 mod budget;
 mod caustic_spheres;
 mod gltf;

@@ -11,6 +11,7 @@ mod common;
 #[path = "../common/temp_scene.rs"]
 mod temp_scene;
 
+mod absorption;
 mod adaptive;
 mod basic;
 mod beams;

@@ -236,7 +236,7 @@ fn a_changed_material_matches_a_fresh_renderer() {
     let mut r = Renderer::with_context(ctx.clone(), scene.clone(), settings()).unwrap();
     frame(&mut r);
     let before = bits(&r);
-    let denser = caustics::scene::Material::Dielectric { ior: 1.7, ext_ior: 1.0 };
+    let denser = caustics::scene::Material::clear_dielectric(1.7, 1.0);
     r.set_material(glass, denser).unwrap();
     let (stats, created) = frame(&mut r);
     assert_eq!(stats.lights_redone, [true]);
@@ -248,7 +248,7 @@ fn a_changed_material_matches_a_fresh_renderer() {
     let (a, b) = (bits(&r), bits(&fresh));
     assert!(a == b, "a changed material differs from a fresh renderer's");
     assert!(a.1 != before.1, "the caustic did not change with the index of refraction");
-    let bad = caustics::scene::Material::Dielectric { ior: f32::NAN, ext_ior: 1.0 };
+    let bad = caustics::scene::Material::clear_dielectric(f32::NAN, 1.0);
     assert!(r.set_material(glass, bad).unwrap_err().is_input());
 }
 

@@ -175,13 +175,13 @@ impl Session {
 
     /// A new index of refraction for a dielectric material (every light is redone).
     pub(super) fn set_ior(&mut self, material: usize, ior: f32) -> Result<()> {
-        let Some(Material::Dielectric { ext_ior, .. }) = self.base.materials.get(material).copied() else {
+        let Some(Material::Dielectric { ext_ior, absorption, .. }) = self.base.materials.get(material).copied() else {
             return Err(Error::input("<viewer>", format!("materials[{material}].ior"), "not a dielectric material"));
         };
         if !(ior.is_finite() && (1.0..=4.0).contains(&ior)) {
             return Err(Error::input("<viewer>", format!("materials[{material}].ior"), "must lie in [1, 4]"));
         }
-        let m = Material::Dielectric { ior, ext_ior };
+        let m = Material::Dielectric { ior, ext_ior, absorption };
         self.renderer.set_material(material, m)?;
         self.base.materials[material] = m;
         // The caustic spheres were traced through the old material (their cache key has it).

@@ -47,7 +47,9 @@ pub struct LightGpu {
 pub struct MaterialGpu {
     /// material kind, caster, analytic shape (0 mesh, 1 sphere, 2 cylinder, 3 rectangle), -
     pub kind: [u32; 4],
+    /// diffuse: albedo; dielectric: ior, ext_ior; mirror: reflectance; conductor: eta
     pub a: [f32; 4],
+    /// conductor: k; dielectric: absorption coefficient of the inside (1/m)
     pub b: [f32; 4],
     /// The analytic shape's parameters (see `common.wgsl`).
     pub shape: [[f32; 4]; 4],

@@ -127,13 +127,23 @@ fn glass(cx: &mut Ctx, mat: &gltf::json::Material, at: &str, who: &str, t: f32, 
         );
     }
     let vat = format!("{at}/extensions/KHR_materials_volume");
+    let mut absorption = glam::Vec3::ZERO;
     match ext.and_then(|e| e.volume.as_ref()) {
         Some(v) if v.thickness_factor.0 > 0.0 => {
             let (d, c) = (v.attenuation_distance.0, v.attenuation_color.0);
-            if d.is_finite() || c != [1.0; 3] {
-                cx.warn(&vat, format!(
-                    "{who}: absorption (attenuationColor {c:?}, attenuationDistance {d}) is not modelled yet: drawn clear"
-                ));
+            // Beer–Lambert: σa = −ln(c) / d per channel; no distance (infinite): clear.
+            if d.is_finite() && d > 0.0 {
+                if !c.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)) {
+                    return Err(cx.err(format!("{vat}/attenuationColor"), format!("must lie in [0, 1] (got {c:?})")));
+                }
+                if c.contains(&0.0) {
+                    cx.warn(&format!("{vat}/attenuationColor"), format!(
+                        "{who}: attenuationColor {c:?} has a zero channel: drawn as 1e-6 of the light left after attenuationDistance"
+                    ));
+                }
+                absorption = glam::Vec3::from_array(c.map(|x| (-x.max(1e-6).ln() / d).max(0.0)));
+            } else if !(d.is_infinite() && d > 0.0) {
+                return Err(cx.err(format!("{vat}/attenuationDistance"), format!("must be a positive number (got {d})")));
             }
             if v.thickness_texture.is_some() {
                 cx.warn(&format!("{vat}/thicknessTexture"), format!("{who}: thicknessTexture ignored"));
@@ -143,7 +153,7 @@ fn glass(cx: &mut Ctx, mat: &gltf::json::Material, at: &str, who: &str, t: f32, 
             "{who}: thin-walled glass (no KHR_materials_volume or thicknessFactor 0) is not modelled yet: drawn as a closed refracting solid"
         )),
     }
-    Ok(Material::Dielectric { ior, ext_ior: 1.0 })
+    Ok(Material::Dielectric { ior, ext_ior: 1.0, absorption })
 }
 
 /// One warning per feature of the material that changes the picture and is not read.
