@@ -5,6 +5,7 @@
 mod budget;
 mod caustic_spheres;
 mod gltf;
+mod gltf_export;
 mod module_graph;
 mod reference_caustic_paths;
 mod reference_determinism;
