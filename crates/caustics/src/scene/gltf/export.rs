@@ -103,10 +103,9 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<()> {
 
 /// The scene as `.glb` bytes.
 pub fn to_glb(scene: &Scene) -> Result<Vec<u8>> {
-    let (doc, bin) = document(scene)?;
+    let (doc, mut bin) = document(scene)?;
     let mut json = serde_json::to_vec(&doc).map_err(|e| internal(scene, e))?;
     pad(&mut json, b' ');
-    let mut bin = bin;
     pad(&mut bin, 0);
     let total = 12 + 8 + json.len() + 8 + bin.len();
     let total = u32::try_from(total).map_err(|_| {

@@ -228,7 +228,7 @@ pub(crate) fn load(cx: &mut Ctx, doc: &Document, ext: &serde_json::Value, source
     if camera.position.distance(camera.look_at) < 1e-9 || camera.forward().cross(camera.up).length() < 1e-6 {
         return Err(cx.err(f("camera"), "look_at must differ from position, and up must not be parallel to the view"));
     }
-    if !(e.exposure > 0.0) {
+    if e.exposure <= 0.0 {
         return Err(cx.err(f("exposure"), format!("must be positive (got {})", e.exposure)));
     }
     let mut lights = Vec::new();
