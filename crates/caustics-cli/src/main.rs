@@ -28,6 +28,7 @@ use std::process::ExitCode;
   caustics render --print-settings > my.json; caustics render --settings my.json
   caustics render scenes/glass_bunny.json --dump dump/   also writes the light-space buffers
   caustics render scenes/glass_sphere.json --backend cpu -o reference.exr
+  caustics convert scenes/glass_bunny.json -o bunny.glb   the scene as glTF 2.0
   caustics compare out.exr references/a_glass_sphere_caustic.exr --mask references/a_glass_sphere_specmask.png
   caustics view scenes/two_spheres.json             the interactive viewer
   caustics info                                     adapters, features and limits")]
@@ -92,6 +93,16 @@ enum Command {
         /// Where the tables are built: the GPU's exact tracer, or the CPU reference (its check).
         #[arg(long, value_enum, default_value_t = spheres::On::Gpu)]
         on: spheres::On,
+    },
+    /// Write a scene as glTF 2.0 (.glb, or .gltf with the buffer embedded): meshes, materials,
+    /// lights and camera for other programs, and the exact scene in the CAUSTICS_scene
+    /// extension, which `caustics render` reads back bit for bit (docs/gltf.md, "Export").
+    Convert {
+        /// Scene file (JSON, or glTF); the built-in glass-ball scene if omitted.
+        scene: Option<PathBuf>,
+        /// Output file, .glb or .gltf (written whole, then renamed into place).
+        #[arg(short, long)]
+        output: PathBuf,
     },
     /// Compare two images (EXR or PNG): RMSE, relative MSE, PSNR, FLIP, energy ratio.
     Compare {
@@ -213,6 +224,15 @@ fn run(cli: Cli) -> Result<()> {
             if built.is_empty() {
                 println!("{}: no caustic object, nothing to precompute", scene.source);
             }
+            Ok(())
+        }
+        Command::Convert { scene, output } => {
+            let scene = load_scene(scene.as_deref(), None)?;
+            for w in &scene.warnings {
+                eprintln!("warning: {w}");
+            }
+            caustics::scene::write_gltf(&scene, &output)?;
+            println!("wrote {}", output.display());
             Ok(())
         }
         Command::Compare { a, b, mask, heatmap } => Ok(compare::run(&a, &b, mask.as_deref(), heatmap.as_deref())?),

@@ -514,3 +514,20 @@ fn cpu_diffuse_orders_are_checked() {
         assert!(o.status.success(), "{good}: {}", String::from_utf8_lossy(&o.stderr));
     }
 }
+
+#[test]
+fn convert_writes_gltf_that_renders_and_exits_2_on_bad_output() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/glass_sphere.json");
+    let out = tmp("converted.glb");
+    let r = caustics().args(["convert", scene, "-o", out.to_str().unwrap()]).output().unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let loaded = caustics::Scene::load(&out).unwrap();
+    assert_eq!(loaded.name, "glass_sphere");
+    let e = run_err(&["convert", scene, "-o", tmp("converted.obj").to_str().unwrap()]);
+    assert!(e.contains("converted.obj") && e.contains(".glb or .gltf"), "{e}");
+    let missing = tmp("no such folder").join("x.gltf");
+    let e = run_err(&["convert", scene, "-o", missing.to_str().unwrap()]);
+    assert!(e.contains("x.gltf"), "{e}");
+    let e = run_err(&["convert", "no_such_scene.json", "-o", out.to_str().unwrap()]);
+    assert!(e.contains("no_such_scene.json"), "{e}");
+}

@@ -21,7 +21,7 @@ use std::sync::Arc;
 
 pub use density::DensityGrid;
 pub use environment::Environment;
-pub use gltf::LUMENS_PER_WATT;
+pub use gltf::{LUMENS_PER_WATT, to_glb, to_gltf, write_gltf};
 pub use mesh::TriMesh;
 
 /// The scene embedded in the binary: `caustics render` with no scene renders it.

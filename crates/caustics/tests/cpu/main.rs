@@ -6,6 +6,7 @@ mod absorption;
 mod budget;
 mod caustic_spheres;
 mod gltf;
+mod gltf_export;
 mod module_graph;
 mod reference_caustic_paths;
 mod reference_determinism;

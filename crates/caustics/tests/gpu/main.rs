@@ -18,6 +18,7 @@ mod beams;
 mod caustic_spheres;
 mod environment;
 mod exact;
+mod gltf_roundtrip;
 mod golden;
 mod indirect;
 mod layers;

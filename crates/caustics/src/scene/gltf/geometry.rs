@@ -416,7 +416,7 @@ fn layout<'a>(
 }
 
 /// A VEC3 float accessor (positions, normals); every number finite.
-fn read_vec3(cx: &Ctx, doc: &Document, index: Index<gltf::json::Accessor>, at: &str) -> Result<Vec<Vec3>> {
+pub(crate) fn read_vec3(cx: &Ctx, doc: &Document, index: Index<gltf::json::Accessor>, at: &str) -> Result<Vec<Vec3>> {
     let (l, _) = layout(cx, doc, index, at, &[(Type::Vec3, ComponentType::F32)])?;
     let mut out = Vec::with_capacity(l.count);
     for i in 0..l.count {
@@ -434,8 +434,26 @@ fn read_vec3(cx: &Ctx, doc: &Document, index: Index<gltf::json::Accessor>, at: &
     Ok(out)
 }
 
+/// A SCALAR float accessor; every number finite.
+pub(crate) fn read_scalars(cx: &Ctx, doc: &Document, index: Index<gltf::json::Accessor>, at: &str) -> Result<Vec<f32>> {
+    let (l, _) = layout(cx, doc, index, at, &[(Type::Scalar, ComponentType::F32)])?;
+    let mut out = Vec::with_capacity(l.count);
+    for i in 0..l.count {
+        let e = l.element(i);
+        let x = f32::from_le_bytes([e[0], e[1], e[2], e[3]]);
+        if !x.is_finite() {
+            return Err(cx.err(
+                format!("/accessors/{}", index.value()),
+                format!("element {i} is not finite ({x}), read by {at}"),
+            ));
+        }
+        out.push(x);
+    }
+    Ok(out)
+}
+
 /// A SCALAR unsigned-integer accessor (indices).
-fn read_indices(cx: &Ctx, doc: &Document, index: Index<gltf::json::Accessor>, at: &str) -> Result<Vec<u32>> {
+pub(crate) fn read_indices(cx: &Ctx, doc: &Document, index: Index<gltf::json::Accessor>, at: &str) -> Result<Vec<u32>> {
     let want =
         [(Type::Scalar, ComponentType::U8), (Type::Scalar, ComponentType::U16), (Type::Scalar, ComponentType::U32)];
     let (l, ct) = layout(cx, doc, index, at, &want)?;

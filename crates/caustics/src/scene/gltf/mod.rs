@@ -9,9 +9,13 @@
 
 mod camera;
 mod container;
+mod export;
 mod geometry;
 mod lights;
 mod materials;
+mod vendor;
+
+pub use export::{to_glb, to_gltf, write_gltf};
 
 use super::Scene;
 use crate::error::{Error, Result};
@@ -74,6 +78,15 @@ fn from_bytes(bytes: &[u8], file: &str, base: &Path, name: &str, camera: Option<
     let mut cx = Ctx { file, warnings: Vec::new() };
     let doc = container::parse(&cx, bytes, base)?;
     check_extensions(&mut cx, &doc.root)?;
+    if let Some(ext) = doc.root.extensions.as_ref().and_then(|e| e.others.get(vendor::NAME)) {
+        let mut scene = vendor::load(&mut cx, &doc, ext, file)?;
+        if camera.is_some() {
+            let flat = geometry::flatten(&mut cx, &doc)?;
+            scene.camera = camera::choose(&mut cx, &doc.root, &flat.cameras, camera, scene.bounds())?;
+            scene.warnings.append(&mut cx.warnings);
+        }
+        return Ok(scene);
+    }
     let flat = geometry::flatten(&mut cx, &doc)?;
     let (materials, material_names, remap) = materials::convert(&mut cx, &doc.root, &flat.used_materials)?;
     let objects = geometry::objects(&mut cx, flat.meshes, &remap, &materials);
@@ -109,6 +122,7 @@ const READ_EXTENSIONS: &[&str] = &[
     "KHR_materials_dispersion",
     "KHR_materials_emissive_strength",
     "KHR_texture_transform",
+    vendor::NAME,
 ];
 
 /// Refuse files that require an extension we do not read; warn once about each extension used
