@@ -16,7 +16,7 @@ fn scenes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
 }
 
-/// Every `scenes/*.json`, sorted.
+/// Every `scenes/*.json`, sorted, and `scenes/gltf/glass_ball.json` (a spot with glTF's falloff).
 fn catalogue() -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(scenes_dir())
         .unwrap()
@@ -24,6 +24,7 @@ fn catalogue() -> Vec<PathBuf> {
         .filter(|p| p.extension().is_some_and(|e| e == "json"))
         .collect();
     v.sort();
+    v.push(scenes_dir().join("gltf/glass_ball.json"));
     assert!(v.len() >= 20, "the catalogue: {v:?}");
     v
 }
@@ -51,7 +52,10 @@ fn bits(v: Vec3) -> [u32; 3] {
     v.to_array().map(f32::to_bits)
 }
 
-fn mesh_bits(m: &TriMesh) -> (Vec<[u32; 3]>, Vec<[u32; 3]>, &[[u32; 3]]) {
+/// Positions and normals as f32 bits, and the indices.
+type MeshBits<'a> = (Vec<[u32; 3]>, Vec<[u32; 3]>, &'a [[u32; 3]]);
+
+fn mesh_bits(m: &TriMesh) -> MeshBits<'_> {
     (m.positions.iter().map(|p| bits(*p)).collect(), m.normals.iter().map(|p| bits(*p)).collect(), &m.indices)
 }
 

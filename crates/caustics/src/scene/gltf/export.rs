@@ -176,23 +176,37 @@ fn material(name: &str, m: &Material) -> Value {
             let f0 = ((*eta - 1.0).powf(2.0) + *k * *k) / ((*eta + 1.0).powf(2.0) + *k * *k);
             json!({ "name": name, "pbrMetallicRoughness": pbr(f0.clamp(Vec3::ZERO, Vec3::ONE), 1.0, 0.0) })
         }
-        Material::Dielectric { ior, ext_ior } => json!({
-            "name": name,
-            "pbrMetallicRoughness": pbr(Vec3::ONE, 0.0, 0.0),
-            "extensions": {
-                "KHR_materials_transmission": { "transmissionFactor": 1.0 },
-                // glTF's IOR is relative to air and at least 1; the exact pair is in CAUSTICS_scene.
-                "KHR_materials_ior": { "ior": (ior / ext_ior).max(1.0) },
-                "KHR_materials_volume": { "thicknessFactor": 1.0 },
-            }
-        }),
+        Material::Dielectric { ior, ext_ior, absorption } => {
+            // Absorption as glTF's colour left after 1 m (σa = −ln(c) / d); the exact σa is in
+            // CAUSTICS_scene.
+            let volume = if *absorption == Vec3::ZERO {
+                json!({ "thicknessFactor": 1.0 })
+            } else {
+                let c = (-*absorption).exp().max(Vec3::splat(1e-6));
+                json!({ "thicknessFactor": 1.0, "attenuationColor": c.to_array(), "attenuationDistance": 1.0 })
+            };
+            json!({
+                "name": name,
+                "pbrMetallicRoughness": pbr(Vec3::ONE, 0.0, 0.0),
+                "extensions": {
+                    "KHR_materials_transmission": { "transmissionFactor": 1.0 },
+                    // glTF's IOR is relative to air and at least 1; the exact pair is in CAUSTICS_scene.
+                    "KHR_materials_ior": { "ior": (ior / ext_ior).max(1.0) },
+                    "KHR_materials_volume": volume,
+                }
+            })
+        }
     }
 }
 
 fn material_ext(name: &str, m: &Material) -> MaterialExt {
     let kind = match *m {
         Material::Diffuse { albedo } => MaterialKind::Diffuse { albedo: albedo.to_array() },
-        Material::Dielectric { ior, ext_ior } => MaterialKind::Dielectric { ior, ext_ior },
+        Material::Dielectric { ior, ext_ior, absorption } => MaterialKind::Dielectric {
+            ior,
+            ext_ior,
+            absorption: (absorption != Vec3::ZERO).then_some(absorption.to_array()),
+        },
         Material::Mirror { reflectance } => MaterialKind::Mirror { reflectance: reflectance.to_array() },
         Material::Conductor { eta, k } => MaterialKind::Conductor { eta: eta.to_array(), k: k.to_array() },
     };
@@ -213,7 +227,7 @@ fn light(l: &Light) -> (Value, LightExt, Option<Vec3>, Quat) {
             let ext = LightExt::Directional { direction: direction.to_array(), irradiance: irradiance.to_array() };
             (json!({ "type": "directional", "color": color, "intensity": lux }), ext, None, aim(direction))
         }
-        Light::Spot { position, direction, cone_angle, falloff_start, intensity } => {
+        Light::Spot { position, direction, cone_angle, falloff_start, intensity, profile } => {
             let (color, cd) = photometric(intensity);
             // glTF cones open at most π/2, the inner one strictly inside the outer one.
             let outer = cone_angle.min(std::f32::consts::FRAC_PI_2);
@@ -224,6 +238,7 @@ fn light(l: &Light) -> (Value, LightExt, Option<Vec3>, Quat) {
                 cone_angle,
                 falloff_start,
                 intensity: intensity.to_array(),
+                falloff: (profile == crate::scene::SpotProfile::Gltf).then(|| "gltf".to_string()),
             };
             let def = json!({ "type": "spot", "color": color, "intensity": cd,
                               "spot": { "innerConeAngle": inner, "outerConeAngle": outer } });

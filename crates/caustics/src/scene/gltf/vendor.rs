@@ -52,9 +52,24 @@ pub(crate) struct CameraExt {
 #[derive(Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub(crate) enum LightExt {
-    Spot { position: [f32; 3], direction: [f32; 3], cone_angle: f32, falloff_start: f32, intensity: [f32; 3] },
-    Point { position: [f32; 3], intensity: [f32; 3] },
-    Directional { direction: [f32; 3], irradiance: [f32; 3] },
+    Spot {
+        position: [f32; 3],
+        direction: [f32; 3],
+        cone_angle: f32,
+        falloff_start: f32,
+        intensity: [f32; 3],
+        /// `"gltf"` for glTF's falloff curve; absent: ours, linear in the angle.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        falloff: Option<String>,
+    },
+    Point {
+        position: [f32; 3],
+        intensity: [f32; 3],
+    },
+    Directional {
+        direction: [f32; 3],
+        irradiance: [f32; 3],
+    },
 }
 
 #[derive(Serialize, Deserialize)]
@@ -67,10 +82,23 @@ pub(crate) struct MaterialExt {
 #[derive(Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub(crate) enum MaterialKind {
-    Diffuse { albedo: [f32; 3] },
-    Dielectric { ior: f32, ext_ior: f32 },
-    Mirror { reflectance: [f32; 3] },
-    Conductor { eta: [f32; 3], k: [f32; 3] },
+    Diffuse {
+        albedo: [f32; 3],
+    },
+    Dielectric {
+        ior: f32,
+        ext_ior: f32,
+        /// Beer–Lambert absorption inside (1/m per channel); absent: clear.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        absorption: Option<[f32; 3]>,
+    },
+    Mirror {
+        reflectance: [f32; 3],
+    },
+    Conductor {
+        eta: [f32; 3],
+        k: [f32; 3],
+    },
 }
 
 #[derive(Serialize, Deserialize)]
@@ -195,7 +223,7 @@ pub(crate) fn load(cx: &mut Ctx, doc: &Document, ext: &serde_json::Value, source
         return Err(cx.err(&at, "holds a number beyond the range of 32-bit floats"));
     }
     let e: Ext = serde_path_to_error::deserialize(ext).map_err(|err| {
-        let path = err.path().to_string().replace('.', "/").replace('[', "/").replace(']', "");
+        let path = err.path().to_string().replace(['.', '['], "/").replace(']', "");
         cx.err(format!("{at}/{path}"), format!("not a valid {NAME} extension: {}", err.into_inner()))
     })?;
     if e.version != VERSION {
@@ -238,19 +266,27 @@ pub(crate) fn load(cx: &mut Ctx, doc: &Document, ext: &serde_json::Value, source
             if a.iter().all(|x| *x >= 0.0) { Ok(v3(a)) } else { Err(cx.err(field, "must not be negative")) }
         };
         lights.push(match l {
-            LightExt::Spot { position, direction, cone_angle, falloff_start, intensity } => {
+            LightExt::Spot { position, direction, cone_angle, falloff_start, intensity, falloff } => {
                 if !(*cone_angle > 0.0 && *cone_angle < std::f32::consts::PI) {
                     return Err(cx.err(lf("cone_angle"), "must lie in (0, π)"));
                 }
                 if !(*falloff_start >= 0.0 && falloff_start <= cone_angle) {
                     return Err(cx.err(lf("falloff_start"), "must lie in [0, cone_angle]"));
                 }
+                let profile = match falloff.as_deref() {
+                    None => crate::scene::SpotProfile::Linear,
+                    Some("gltf") => crate::scene::SpotProfile::Gltf,
+                    Some(other) => {
+                        return Err(cx.err(lf("falloff"), format!("must be \"gltf\" or absent (got \"{other}\")")));
+                    }
+                };
                 Light::Spot {
                     position: v3(*position),
                     direction: nonzero(lf("direction"), *direction)?,
                     cone_angle: *cone_angle,
                     falloff_start: *falloff_start,
                     intensity: nonneg(lf("intensity"), *intensity)?,
+                    profile,
                 }
             }
             LightExt::Point { position, intensity } => {
@@ -279,10 +315,14 @@ pub(crate) fn load(cx: &mut Ctx, doc: &Document, ext: &serde_json::Value, source
         materials.push(match m.material {
             MaterialKind::Diffuse { albedo } => Material::Diffuse { albedo: unit("albedo", albedo)? },
             MaterialKind::Mirror { reflectance } => Material::Mirror { reflectance: unit("reflectance", reflectance)? },
-            MaterialKind::Dielectric { ior, ext_ior } => {
+            MaterialKind::Dielectric { ior, ext_ior, absorption } => {
                 positive("ior", &[ior])?;
                 positive("ext_ior", &[ext_ior])?;
-                Material::Dielectric { ior, ext_ior }
+                let absorption = absorption.unwrap_or([0.0; 3]);
+                if !absorption.iter().all(|x| x.is_finite() && *x >= 0.0) {
+                    return Err(cx.err(mf("absorption"), "must be finite and not negative"));
+                }
+                Material::Dielectric { ior, ext_ior, absorption: v3(absorption) }
             }
             MaterialKind::Conductor { eta, k } => {
                 positive("eta", &eta)?;
